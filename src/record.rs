@@ -1,0 +1,456 @@
+//! Ground-acceleration records read from files: PEER NGA `.AT2` and CSV.
+//!
+//! A [`Record`] is a uniformly sampled acceleration time history in SI units:
+//! `horizontal_mps2[i]` is the horizontal ground acceleration (m/s², + towards the block's
+//! +x axis, "to the right") at `t = i·dt_s`, and `vertical_mps2`, when present, the vertical
+//! ground acceleration (m/s², + up) at the same instants.
+//!
+//! Readers never panic on bad input: every problem is a [`RecordError`] whose message names
+//! the file, the line where it applies, and what is wrong.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Standard gravity (m/s²), used to convert AT2 values (in g) to m/s² and as `g` in the
+/// block dynamics.
+pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;
+
+/// A uniformly sampled ground-acceleration record (SI units).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Record {
+    /// Where the record came from (file path, or a description for synthetic records).
+    pub source: String,
+    /// Sampling interval (s), > 0.
+    pub dt_s: f64,
+    /// Horizontal ground acceleration (m/s², + to the right / along the block's +x axis).
+    pub horizontal_mps2: Vec<f64>,
+    /// Vertical ground acceleration (m/s², + up), same length as `horizontal_mps2`.
+    pub vertical_mps2: Option<Vec<f64>>,
+}
+
+impl Record {
+    /// Number of samples.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.horizontal_mps2.len()
+    }
+
+    /// True when the record has no samples.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.horizontal_mps2.is_empty()
+    }
+
+    /// Duration from the first to the last sample (s).
+    #[must_use]
+    pub fn duration_s(&self) -> f64 {
+        self.len().saturating_sub(1) as f64 * self.dt_s
+    }
+
+    /// Multiplies every sample (both components) by `factor`.
+    pub fn scale(&mut self, factor: f64) {
+        self.horizontal_mps2.iter_mut().for_each(|a| *a *= factor);
+        if let Some(v) = &mut self.vertical_mps2 {
+            v.iter_mut().for_each(|a| *a *= factor);
+        }
+    }
+
+    /// Reads a horizontal record from `path`, choosing the format by extension
+    /// (`.at2` → PEER NGA AT2, `.csv` → CSV; case-insensitive).
+    pub fn read(path: &Path) -> Result<Record, RecordError> {
+        match extension_lowercase(path).as_deref() {
+            Some("at2") => read_at2(path).map(|at2| at2.into_record(path)),
+            Some("csv") => read_csv(path),
+            _ => Err(RecordError::new(
+                path,
+                None,
+                "unknown record format: expected a .AT2 or .csv file",
+            )),
+        }
+    }
+
+    /// Attaches a vertical component read from a second file (AT2 or a CSV `t,ax` whose
+    /// single column is taken as vertical). The sampling interval and length must match.
+    pub fn attach_vertical(&mut self, path: &Path) -> Result<(), RecordError> {
+        let vertical = Record::read(path)?;
+        if vertical.vertical_mps2.is_some() {
+            return Err(RecordError::new(
+                path,
+                None,
+                "a vertical record must have a single component",
+            ));
+        }
+        if (vertical.dt_s - self.dt_s).abs() > 1e-9 * self.dt_s {
+            return Err(RecordError::new(
+                path,
+                None,
+                format!(
+                    "sampling interval {} s differs from the horizontal record's {} s",
+                    vertical.dt_s, self.dt_s
+                ),
+            ));
+        }
+        if vertical.len() != self.len() {
+            return Err(RecordError::new(
+                path,
+                None,
+                format!(
+                    "{} samples, but the horizontal record has {}",
+                    vertical.len(),
+                    self.len()
+                ),
+            ));
+        }
+        self.vertical_mps2 = Some(vertical.horizontal_mps2);
+        Ok(())
+    }
+}
+
+/// A problem reading a record file: which file, which line (1-based) if known, and what.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RecordError {
+    pub path: PathBuf,
+    pub line: Option<usize>,
+    pub problem: String,
+}
+
+impl RecordError {
+    pub fn new(path: &Path, line: Option<usize>, problem: impl Into<String>) -> Self {
+        RecordError {
+            path: path.to_path_buf(),
+            line,
+            problem: problem.into(),
+        }
+    }
+}
+
+impl fmt::Display for RecordError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(
+                f,
+                "{}: line {}: {}",
+                self.path.display(),
+                line,
+                self.problem
+            ),
+            None => write!(f, "{}: {}", self.path.display(), self.problem),
+        }
+    }
+}
+
+impl std::error::Error for RecordError {}
+
+fn extension_lowercase(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
+fn read_text(path: &Path) -> Result<String, RecordError> {
+    let bytes = std::fs::read(path).map_err(|e| RecordError::new(path, None, e.to_string()))?;
+    String::from_utf8(bytes).map_err(|e| {
+        RecordError::new(
+            path,
+            None,
+            format!(
+                "not a text file (invalid UTF-8 at byte {})",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}
+
+/// A PEER NGA AT2 file: three free-text header lines, an `NPTS`/`DT` line, then values in g.
+#[derive(Debug, Clone, PartialEq)]
+pub struct At2 {
+    /// The three free-text header lines (event, station, component, units).
+    pub header: [String; 3],
+    /// Sampling interval (s).
+    pub dt_s: f64,
+    /// Accelerations in units of g, exactly as in the file.
+    pub values_g: Vec<f64>,
+}
+
+impl At2 {
+    /// Converts to a [`Record`] in m/s² (g = [`STANDARD_GRAVITY_MPS2`]).
+    #[must_use]
+    pub fn into_record(self, path: &Path) -> Record {
+        Record {
+            source: path.display().to_string(),
+            dt_s: self.dt_s,
+            horizontal_mps2: self
+                .values_g
+                .into_iter()
+                .map(|a| a * STANDARD_GRAVITY_MPS2)
+                .collect(),
+            vertical_mps2: None,
+        }
+    }
+}
+
+/// Reads a PEER NGA `.AT2` file. Accepts both header forms found in the wild
+/// (`NPTS=  1559, DT= .02000 SEC, <filter text>` and `3000   0.0100   NPTS, DT`),
+/// free-format or fixed-width values (including fields that run together, such as
+/// `-.1234567E-02-.2345678E-02`) and Fortran `D` exponents.
+pub fn read_at2(path: &Path) -> Result<At2, RecordError> {
+    let text = read_text(path)?;
+    parse_at2(&text).map_err(|(line, problem)| RecordError::new(path, line, problem))
+}
+
+type ParseError = (Option<usize>, String);
+
+fn parse_at2(text: &str) -> Result<At2, ParseError> {
+    let mut lines = text.lines().enumerate();
+    let mut header: [String; 3] = Default::default();
+    for slot in header.iter_mut() {
+        let (_, line) = lines
+            .next()
+            .ok_or_else(|| (None, "truncated header: fewer than 4 lines".to_string()))?;
+        *slot = line.trim_end().to_string();
+    }
+    let (index, npts_line) = lines
+        .next()
+        .ok_or_else(|| (None, "truncated header: no NPTS/DT line".to_string()))?;
+    let (npts, dt_s) = parse_npts_dt(npts_line).map_err(|p| (Some(index + 1), p))?;
+
+    let mut values_g = Vec::with_capacity(npts);
+    let mut extra_nonzero = false;
+    for (index, line) in lines {
+        for token in split_fortran_numbers(line) {
+            let value = parse_fortran_float(token)
+                .ok_or_else(|| (Some(index + 1), format!("not a number: {token:?}")))?;
+            if !value.is_finite() {
+                return Err((Some(index + 1), format!("non-finite value {token:?}")));
+            }
+            if values_g.len() < npts {
+                values_g.push(value);
+            } else if value != 0.0 {
+                extra_nonzero = true;
+            }
+        }
+    }
+    if values_g.len() < npts {
+        return Err((
+            None,
+            format!(
+                "header says NPTS={npts} but the file has only {} values",
+                values_g.len()
+            ),
+        ));
+    }
+    if extra_nonzero {
+        return Err((
+            None,
+            format!("header says NPTS={npts} but the file has more (non-zero) values"),
+        ));
+    }
+    Ok(At2 {
+        header,
+        dt_s,
+        values_g,
+    })
+}
+
+/// Parses the AT2 `NPTS`/`DT` line in either of its two forms.
+fn parse_npts_dt(line: &str) -> Result<(usize, f64), String> {
+    let upper = line.to_ascii_uppercase();
+    let (npts_text, dt_text) = if let (Some(n), Some(d)) = (upper.find("NPTS="), upper.find("DT="))
+    {
+        (first_token(&line[n + 5..]), first_token(&line[d + 3..]))
+    } else if upper.contains("NPTS") && upper.contains("DT") {
+        // Old form: "3000   0.0100   NPTS, DT"
+        let mut numbers = line
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|t| !t.is_empty());
+        (numbers.next().unwrap_or(""), numbers.next().unwrap_or(""))
+    } else {
+        return Err(format!("expected an NPTS/DT line, found {:?}", line.trim()));
+    };
+    let npts: usize = npts_text
+        .parse()
+        .map_err(|_| format!("NPTS is not a whole number: {npts_text:?}"))?;
+    let dt_s =
+        parse_fortran_float(dt_text).ok_or_else(|| format!("DT is not a number: {dt_text:?}"))?;
+    if npts == 0 {
+        return Err("NPTS is 0".into());
+    }
+    if !(dt_s.is_finite() && dt_s > 0.0) {
+        return Err(format!(
+            "DT must be a positive number of seconds, found {dt_text:?}"
+        ));
+    }
+    Ok((npts, dt_s))
+}
+
+fn first_token(s: &str) -> &str {
+    s.split(|c: char| c.is_whitespace() || c == ',')
+        .find(|t| !t.is_empty())
+        .unwrap_or("")
+}
+
+/// Splits a line of Fortran-formatted numbers on white space, and also where a sign follows
+/// a digit or a decimal point (fixed-width fields that run together), but not inside an
+/// exponent (`E-02`).
+fn split_fortran_numbers(line: &str) -> impl Iterator<Item = &str> {
+    line.split_whitespace().flat_map(|word| {
+        let bytes = word.as_bytes();
+        let mut pieces = Vec::new();
+        let mut start = 0;
+        for i in 1..bytes.len() {
+            let sign = bytes[i] == b'-' || bytes[i] == b'+';
+            let prev = bytes[i - 1];
+            if sign && (prev.is_ascii_digit() || prev == b'.') {
+                pieces.push(&word[start..i]);
+                start = i;
+            }
+        }
+        pieces.push(&word[start..]);
+        pieces
+    })
+}
+
+fn parse_fortran_float(token: &str) -> Option<f64> {
+    let token = token.trim();
+    if token.is_empty() {
+        return None;
+    }
+    if token.contains(['d', 'D']) {
+        token.replace(['d', 'D'], "E").parse().ok()
+    } else {
+        token.parse().ok()
+    }
+}
+
+/// Reads a CSV record with a header row `t,ax` or `t,ax,ay` (s, m/s², m/s²). Time must be
+/// uniform (to 1e-6 of a step). Blank lines and lines starting with `#` are ignored.
+pub fn read_csv(path: &Path) -> Result<Record, RecordError> {
+    let text = read_text(path)?;
+    let err = |line: Option<usize>, problem: String| RecordError::new(path, line, problem);
+    let mut rows = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    let (header_index, header) = rows
+        .next()
+        .ok_or_else(|| err(None, "empty file: expected a header row t,ax[,ay]".into()))?;
+    let columns: Vec<String> = header
+        .split(',')
+        .map(|c| c.trim().to_ascii_lowercase())
+        .collect();
+    let has_vertical = match columns.iter().map(String::as_str).collect::<Vec<_>>()[..] {
+        ["t", "ax"] => false,
+        ["t", "ax", "ay"] => true,
+        _ => {
+            return Err(err(
+                Some(header_index + 1),
+                format!("header must be t,ax or t,ax,ay, found {:?}", header.trim()),
+            ))
+        }
+    };
+    let (mut t, mut ax, mut ay) = (Vec::new(), Vec::new(), Vec::new());
+    for (index, line) in rows {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != columns.len() {
+            return Err(err(
+                Some(index + 1),
+                format!("{} fields, expected {}", fields.len(), columns.len()),
+            ));
+        }
+        let mut values = [0.0; 3];
+        for (slot, field) in values.iter_mut().zip(&fields) {
+            *slot = field
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| err(Some(index + 1), format!("not a finite number: {field:?}")))?;
+        }
+        t.push((values[0], index + 1));
+        ax.push(values[1]);
+        if has_vertical {
+            ay.push(values[2]);
+        }
+    }
+    if t.len() < 2 {
+        return Err(err(None, "need at least two samples".into()));
+    }
+    let (t0, _) = t[0];
+    let (t_last, _) = t[t.len() - 1];
+    let dt_s = (t_last - t0) / (t.len() - 1) as f64;
+    if !(dt_s > 0.0) {
+        return Err(err(None, "time must increase".into()));
+    }
+    for (i, &(ti, line)) in t.iter().enumerate() {
+        let expected = t0 + i as f64 * dt_s;
+        if (ti - expected).abs() > 1e-6 * dt_s {
+            return Err(err(
+                Some(line),
+                format!("non-uniform time: t = {ti} s, expected {expected} s (dt = {dt_s} s)"),
+            ));
+        }
+    }
+    Ok(Record {
+        source: path.display().to_string(),
+        dt_s,
+        horizontal_mps2: ax,
+        vertical_mps2: has_vertical.then_some(ay),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn npts_dt_new_form_with_filter_text() {
+        let line =
+            "NPTS=   1991, DT=   .0100 SEC,   0 POLE @    30.00000 HZ,  -5 POLE @      .05000";
+        assert_eq!(parse_npts_dt(line), Ok((1991, 0.01)));
+    }
+
+    #[test]
+    fn npts_dt_old_form() {
+        assert_eq!(parse_npts_dt("3000   0.0100   NPTS, DT"), Ok((3000, 0.01)));
+    }
+
+    #[test]
+    fn npts_dt_rejects_garbage() {
+        assert!(parse_npts_dt("hello world").is_err());
+        assert!(parse_npts_dt("NPTS= abc, DT= .01").is_err());
+        assert!(parse_npts_dt("NPTS= 10, DT= -0.01").is_err());
+    }
+
+    #[test]
+    fn run_together_fixed_width_fields_split() {
+        let got: Vec<&str> =
+            split_fortran_numbers("  -.1234567E-02-.2345678E-02 1.5 2.0-3.0").collect();
+        assert_eq!(
+            got,
+            vec!["-.1234567E-02", "-.2345678E-02", "1.5", "2.0", "-3.0"]
+        );
+    }
+
+    #[test]
+    fn fortran_d_exponent() {
+        assert_eq!(parse_fortran_float("0.25D-01"), Some(0.025));
+    }
+
+    #[test]
+    fn short_file_is_an_error_naming_counts() {
+        let text = "a\nb\nc\nNPTS= 4, DT= 0.01 SEC\n 0.1 0.2\n 0.3\n";
+        let (_, msg) = parse_at2(text).unwrap_err();
+        assert!(msg.contains("NPTS=4") && msg.contains("only 3"), "{msg}");
+    }
+
+    #[test]
+    fn non_numeric_token_names_line() {
+        let text = "a\nb\nc\nNPTS= 3, DT= 0.01 SEC\n 0.1 x 0.3\n";
+        assert_eq!(parse_at2(text).unwrap_err().0, Some(5));
+    }
+
+    #[test]
+    fn nan_value_rejected() {
+        let text = "a\nb\nc\nNPTS= 2, DT= 0.01 SEC\n 0.1 NaN\n";
+        assert!(parse_at2(text).unwrap_err().1.contains("non-finite"));
+    }
+}
