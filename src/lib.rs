@@ -3,4 +3,11 @@
 //! The library is the functional core: pure, deterministic and transport-free.
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
+pub mod dynamics;
+pub mod ode;
+pub mod plot;
 pub mod record;
+pub mod simulate;
+
+/// Standard gravity g (m/s²): the unit of AT2 records and the gravity of the block dynamics.
+pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;

@@ -11,9 +11,8 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-/// Standard gravity (m/s²), used to convert AT2 values (in g) to m/s² and as `g` in the
-/// block dynamics.
-pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;
+/// Re-exported: AT2 values (in g) are converted to m/s² with this value.
+pub use crate::STANDARD_GRAVITY_MPS2;
 
 /// A uniformly sampled ground-acceleration record (SI units).
 #[derive(Debug, Clone, PartialEq)]
@@ -377,7 +376,7 @@ pub fn read_csv(path: &Path) -> Result<Record, RecordError> {
     let (t0, _) = t[0];
     let (t_last, _) = t[t.len() - 1];
     let dt_s = (t_last - t0) / (t.len() - 1) as f64;
-    if !(dt_s > 0.0) {
+    if dt_s.is_nan() || dt_s <= 0.0 {
         return Err(err(None, "time must increase".into()));
     }
     for (i, &(ti, line)) in t.iter().enumerate() {

@@ -2,8 +2,10 @@
 //! Every subcommand lives in its own file; errors end the process with a one-line reason
 //! on stderr and a non-zero exit code.
 
-use clap::{Parser, Subcommand};
+use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
+
+mod simulate;
 
 /// rockwatch: seismic monitoring of precariously balanced rocks and other freestanding blocks.
 #[derive(Debug, Parser)]
@@ -14,12 +16,24 @@ struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    /// Simulate one rigid block under a ground-motion record.
+    Simulate(simulate::SimulateArgs),
+}
+
+/// Output format for people (`text`) or programs (`json`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum OutputFormat {
+    Text,
+    Json,
+}
 
 /// Parses the command line, runs the subcommand, and maps errors to a one-line message.
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
-    let result: anyhow::Result<()> = match cli.command {};
+    let result = match cli.command {
+        Command::Simulate(args) => simulate::run(args),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {

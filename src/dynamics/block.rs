@@ -1,0 +1,802 @@
+//! The real-time block stepper: a [`RigidBlock`] advances across one input interval at a
+//! time, given the ground acceleration at the interval's two ends (linearly interpolated in
+//! between), with bounded work and no heap allocation.
+//!
+//! Inside an interval the active mode's equations are integrated by Dormand–Prince 5(4); every
+//! mode change, impact, lift-off and overturn is located as a root of its event function on
+//! the dense output (spec §8), not as a sign change at a step end. Rest is handled in closed
+//! form: the rest-consistent set {g' > 0, |ẍg| ≤ min(μs, tan α) g'} is convex and the input is
+//! linear, so rest holds over an interval iff it holds at the end, and the exit time is the
+//! root of a linear function.
+//!
+//! State vector `y = [θ (rad), θ̇ (rad/s), u (m), u̇ (m/s)]`; see spec §1 for the signs.
+
+use nalgebra::Vector4;
+
+use super::equations::{effective_gravity, rocking, slide_rocking, sliding, GroundAccel};
+use super::impact::{impact, ImpactKind};
+use super::params::BlockParams;
+use crate::ode::{locate_root, Dopri5, OdeError, OdeSystem, Tolerance};
+
+/// The response mode of a block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    /// Flat on the ground, moving with it.
+    Rest,
+    /// Flat, slipping (both corners in contact).
+    Slide,
+    /// Rotating about one corner without slip.
+    Rock,
+    /// Rotating about one corner while that corner slips.
+    SlideRock,
+    /// Fallen over (terminal).
+    Overturned,
+    /// Lost contact with the ground (terminal: reported, integration stops).
+    Flight,
+}
+
+impl Mode {
+    /// The name used in JSON and text output (`"slide-rock"` etc.).
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Mode::Rest => "rest",
+            Mode::Slide => "slide",
+            Mode::Rock => "rock",
+            Mode::SlideRock => "slide-rock",
+            Mode::Overturned => "overturned",
+            Mode::Flight => "flight",
+        }
+    }
+}
+
+impl std::fmt::Display for Mode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A mode with its discrete variables: pivot corner σ and slip direction s (±1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Rest,
+    Slide { s: f64 },
+    Rock { sigma: f64 },
+    SlideRock { sigma: f64, s: f64 },
+    Overturned,
+    Flight,
+}
+
+impl Phase {
+    fn mode(self) -> Mode {
+        match self {
+            Phase::Rest => Mode::Rest,
+            Phase::Slide { .. } => Mode::Slide,
+            Phase::Rock { .. } => Mode::Rock,
+            Phase::SlideRock { .. } => Mode::SlideRock,
+            Phase::Overturned => Mode::Overturned,
+            Phase::Flight => Mode::Flight,
+        }
+    }
+}
+
+/// Numerical and modelling options of the stepper.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlockOptions {
+    /// Integrator error tolerance (θ in rad, u in m).
+    pub tolerance: Tolerance,
+    /// Zeno cutoff (spec §9.3): an impact whose post-impact free-rocking excursion would be
+    /// below `zeno_fraction·α` lands the block flat.
+    pub zeno_fraction: f64,
+    /// Impacts whose pre-impact velocity corresponds to an excursion ≥ this fraction of α are
+    /// counted as significant.
+    pub significant_fraction: f64,
+    /// Offset (s) of the right limit at which a new mode is selected (spec §7).
+    pub right_limit_s: f64,
+    /// First trial step (s) after a mode change.
+    pub initial_step_s: f64,
+    /// Bound on integrator steps plus events within one input interval.
+    pub max_work_per_interval: u32,
+}
+
+impl Default for BlockOptions {
+    fn default() -> Self {
+        BlockOptions {
+            tolerance: Tolerance::default(),
+            zeno_fraction: 1e-7,
+            significant_fraction: 0.01,
+            right_limit_s: 1e-9,
+            initial_step_s: 1e-4,
+            max_work_per_interval: 20_000,
+        }
+    }
+}
+
+/// Something that happened inside an interval, at data time `t_s` (s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BlockEvent {
+    /// The mode changed.
+    ModeChange { t_s: f64, from: Mode, to: Mode },
+    /// The block returned to θ = 0 and struck the ground with the other corner.
+    Impact {
+        t_s: f64,
+        kind: ImpactKind,
+        theta_dot_before: f64,
+        theta_dot_after: f64,
+        slip_dot_before: f64,
+        slip_dot_after: f64,
+        /// Pre-impact excursion ≥ `significant_fraction`·α.
+        significant: bool,
+        /// The impact ended rocking (Zeno cutoff or flat landing).
+        landed: bool,
+    },
+    /// A peak of |θ| (θ̇ = 0 while rotating outward stops).
+    Peak { t_s: f64, theta_rad: f64 },
+    /// |θ| crossed α, upward (`true`) or downward.
+    AlphaCrossing { t_s: f64, upward: bool },
+}
+
+/// Why an interval could not be completed.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum AdvanceError {
+    #[error("non-finite ground acceleration")]
+    NonFiniteInput,
+    #[error("interval length must be positive and finite, got {0} s")]
+    BadInterval(f64),
+    #[error("integrator failed: {0}")]
+    Ode(#[from] OdeError),
+    #[error("work budget of one interval exhausted at t = {t_s} s (chattering between modes?)")]
+    WorkBudget { t_s: f64 },
+}
+
+/// Response extremes and counters accumulated since the block was created.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct ResponseStats {
+    /// max |θ| (rad) before any overturn.
+    pub max_abs_theta_rad: f64,
+    /// max |u| (m), slip of the contact point relative to the ground, before any overturn.
+    pub max_abs_slide_m: f64,
+    /// |θ| exceeded α at some time.
+    pub exceeded_alpha: bool,
+    pub n_impacts: u32,
+    pub n_impacts_significant: u32,
+    pub n_flat_landings: u32,
+    pub n_zeno_landings: u32,
+    /// Mode selections where no candidate passed every consistency check (should stay 0).
+    pub n_inconsistent_selections: u32,
+    /// Last upward crossing of |θ| = α (s).
+    pub last_alpha_upcrossing_s: Option<f64>,
+    /// Time of overturn, defined as the last upward crossing of |θ| = α before the fall (s).
+    pub overturn_time_s: Option<f64>,
+}
+
+/// A rigid block and its full dynamic state.
+#[derive(Debug, Clone)]
+pub struct RigidBlock {
+    params: BlockParams,
+    options: BlockOptions,
+    phase: Phase,
+    time_s: f64,
+    y: Vector4<f64>,
+    integrator: Dopri5<4>,
+    stats: ResponseStats,
+    zeno_theta_dot_sq: f64,
+    significant_theta_dot_sq: f64,
+}
+
+// Indices of the event functions; the first four are terminal. Every event function is
+// positive while the current mode is valid.
+const EV_IMPACT: usize = 0; // σθ
+const EV_SLIP: usize = 1; // rock: μs N − |F|; slide, slide-rock: s u̇
+const EV_CONTACT: usize = 2; // N (pivot modes) or g' (slide)
+const EV_OVERTURN: usize = 3; // π/2 − σθ
+const EV_ALPHA: usize = 4; // σθ − α (non-terminal, both directions)
+const EV_PEAK: usize = 5; // σθ̇ (non-terminal, + → −)
+const N_TERMINAL: usize = 4;
+
+/// The active mode's equations with the interval's linear input, in local time t ∈ [0, dt].
+struct ModeSystem {
+    params: BlockParams,
+    phase: Phase,
+    start: GroundAccel,
+    slope: GroundAccel,
+}
+
+impl ModeSystem {
+    #[inline]
+    fn ground(&self, t: f64) -> GroundAccel {
+        GroundAccel {
+            horizontal_mps2: self.start.horizontal_mps2 + self.slope.horizontal_mps2 * t,
+            vertical_mps2: self.start.vertical_mps2 + self.slope.vertical_mps2 * t,
+        }
+    }
+
+    #[inline]
+    fn events(&self, t: f64, y: &Vector4<f64>) -> [f64; 6] {
+        let p = &self.params;
+        let ground = self.ground(t);
+        match self.phase {
+            Phase::Slide { s } => [1.0, s * y[3], effective_gravity(p, ground), 1.0, 0.0, 0.0],
+            Phase::Rock { sigma } => {
+                let d = rocking(p, sigma, y[0], y[1], ground);
+                pivot_events(
+                    p,
+                    sigma,
+                    y,
+                    p.mu_s * d.normal_per_mass - d.friction_per_mass.abs(),
+                    d.normal_per_mass,
+                )
+            }
+            Phase::SlideRock { sigma, s } => {
+                let d = slide_rocking(p, sigma, s, y[0], y[1], ground);
+                pivot_events(p, sigma, y, s * y[3], d.normal_per_mass)
+            }
+            Phase::Rest | Phase::Overturned | Phase::Flight => [1.0; 6],
+        }
+    }
+}
+
+#[inline]
+fn pivot_events(p: &BlockParams, sigma: f64, y: &Vector4<f64>, slip: f64, normal: f64) -> [f64; 6] {
+    let st = sigma * y[0];
+    [
+        st,
+        slip,
+        normal,
+        std::f64::consts::FRAC_PI_2 - st,
+        st - p.alpha_rad,
+        sigma * y[1],
+    ]
+}
+
+impl OdeSystem<4> for ModeSystem {
+    #[inline]
+    fn derivative(&self, t: f64, y: &Vector4<f64>) -> Vector4<f64> {
+        let p = &self.params;
+        let ground = self.ground(t);
+        match self.phase {
+            Phase::Slide { s } => Vector4::new(0.0, 0.0, y[3], sliding(p, s, ground)),
+            Phase::Rock { sigma } => {
+                let d = rocking(p, sigma, y[0], y[1], ground);
+                Vector4::new(y[1], d.theta_ddot, 0.0, 0.0)
+            }
+            Phase::SlideRock { sigma, s } => {
+                let d = slide_rocking(p, sigma, s, y[0], y[1], ground);
+                Vector4::new(y[1], d.theta_ddot, y[3], d.slip_ddot)
+            }
+            Phase::Rest | Phase::Overturned | Phase::Flight => Vector4::zeros(),
+        }
+    }
+}
+
+#[inline]
+fn sign(x: f64) -> f64 {
+    if x < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+impl RigidBlock {
+    /// A block at rest at time 0.
+    #[must_use]
+    pub fn new(params: BlockParams, options: BlockOptions) -> Self {
+        RigidBlock {
+            params,
+            options,
+            phase: Phase::Rest,
+            time_s: 0.0,
+            y: Vector4::zeros(),
+            integrator: Dopri5::new(options.tolerance, options.initial_step_s),
+            stats: ResponseStats::default(),
+            zeno_theta_dot_sq: params.theta_dot_sq_for_excursion(options.zeno_fraction),
+            significant_theta_dot_sq: params
+                .theta_dot_sq_for_excursion(options.significant_fraction),
+        }
+    }
+
+    /// A block released at time 0 rotated by `theta_rad` about corner sgn θ with angular
+    /// velocity `theta_dot` and no slip (for free-vibration studies and tests).
+    #[must_use]
+    pub fn released(
+        params: BlockParams,
+        options: BlockOptions,
+        theta_rad: f64,
+        theta_dot: f64,
+    ) -> Self {
+        let mut block = RigidBlock::new(params, options);
+        if theta_rad != 0.0 || theta_dot != 0.0 {
+            let sigma = if theta_rad != 0.0 {
+                sign(theta_rad)
+            } else {
+                sign(theta_dot)
+            };
+            block.phase = Phase::Rock { sigma };
+            block.y = Vector4::new(theta_rad, theta_dot, 0.0, 0.0);
+            block.stats.max_abs_theta_rad = theta_rad.abs();
+        }
+        block
+    }
+
+    pub fn params(&self) -> &BlockParams {
+        &self.params
+    }
+    /// Current mode.
+    #[must_use]
+    pub fn mode(&self) -> Mode {
+        self.phase.mode()
+    }
+    /// Data time of the state (s), the sum of all interval lengths advanced.
+    #[must_use]
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+    /// θ (rad), + = clockwise about the right corner.
+    #[must_use]
+    pub fn theta_rad(&self) -> f64 {
+        self.y[0]
+    }
+    /// θ̇ (rad/s).
+    #[must_use]
+    pub fn theta_dot(&self) -> f64 {
+        self.y[1]
+    }
+    /// u (m): cumulative slip of the contact point relative to the ground, + to the right.
+    #[must_use]
+    pub fn slide_m(&self) -> f64 {
+        self.y[2]
+    }
+    /// u̇ (m/s).
+    #[must_use]
+    pub fn slide_velocity_mps(&self) -> f64 {
+        self.y[3]
+    }
+    /// Extremes and counters so far.
+    #[must_use]
+    pub fn stats(&self) -> &ResponseStats {
+        &self.stats
+    }
+    /// Integrator step counters (accepted, rejected).
+    #[must_use]
+    pub fn step_counts(&self) -> (u64, u64) {
+        (
+            self.integrator.accepted_steps,
+            self.integrator.rejected_steps,
+        )
+    }
+
+    /// Advances the block across one input interval of length `dt_s`, the ground acceleration
+    /// going linearly from `from` (at the current time) to `to` (at time + `dt_s`). Every
+    /// event inside the interval is passed to `on_event` in time order. Does not allocate.
+    ///
+    /// On error the state is left at the point of failure (time may lag the input).
+    pub fn advance(
+        &mut self,
+        dt_s: f64,
+        from: GroundAccel,
+        to: GroundAccel,
+        mut on_event: impl FnMut(BlockEvent),
+    ) -> Result<(), AdvanceError> {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return Err(AdvanceError::BadInterval(dt_s));
+        }
+        if !(from.is_finite() && to.is_finite()) {
+            return Err(AdvanceError::NonFiniteInput);
+        }
+        // Fast path: a block at rest that stays at rest (the common case in a live network).
+        if self.phase == Phase::Rest && self.rest_holds(to) && self.rest_holds(from) {
+            self.time_s += dt_s;
+            return Ok(());
+        }
+        let t0_abs = self.time_s;
+        let system_slope = GroundAccel {
+            horizontal_mps2: (to.horizontal_mps2 - from.horizontal_mps2) / dt_s,
+            vertical_mps2: (to.vertical_mps2 - from.vertical_mps2) / dt_s,
+        };
+        let mut tau = 0.0;
+        let mut work = 0u32;
+        while tau < dt_s {
+            work += 1;
+            if work > self.options.max_work_per_interval {
+                self.time_s = t0_abs + tau;
+                return Err(AdvanceError::WorkBudget { t_s: self.time_s });
+            }
+            let system = ModeSystem {
+                params: self.params,
+                phase: self.phase,
+                start: from,
+                slope: system_slope,
+            };
+            tau = match self.phase {
+                Phase::Overturned | Phase::Flight => dt_s,
+                Phase::Rest => self.advance_rest(&system, tau, dt_s, t0_abs, &mut on_event),
+                _ => {
+                    match self.integrate_until_event(
+                        &system,
+                        tau,
+                        dt_s,
+                        t0_abs,
+                        &mut on_event,
+                        &mut work,
+                    ) {
+                        Ok(t) => t,
+                        Err(e) => {
+                            self.time_s = t0_abs + tau;
+                            return Err(e);
+                        }
+                    }
+                }
+            };
+        }
+        self.time_s = t0_abs + dt_s;
+        Ok(())
+    }
+
+    /// Rest is consistent for this ground acceleration (spec §7).
+    #[inline]
+    fn rest_holds(&self, ground: GroundAccel) -> bool {
+        let p = &self.params;
+        let gp = effective_gravity(p, ground);
+        let limit = p.mu_s.min(p.tan_alpha) * gp;
+        gp > 0.0 && ground.horizontal_mps2.abs() <= limit
+    }
+
+    /// Rest from local time `tau`: returns the local time at which rest ends (or `dt`).
+    fn advance_rest(
+        &mut self,
+        system: &ModeSystem,
+        tau: f64,
+        dt: f64,
+        t0_abs: f64,
+        on_event: &mut impl FnMut(BlockEvent),
+    ) -> f64 {
+        let c = self.params.mu_s.min(self.params.tan_alpha);
+        // Margins c·g' ∓ ẍg, linear in t; rest holds while both are ≥ 0.
+        let margins = |t: f64| {
+            let g = system.ground(t);
+            let cg = c * effective_gravity(&self.params, g);
+            [cg - g.horizontal_mps2, cg + g.horizontal_mps2]
+        };
+        let (m_start, m_end) = (margins(tau), margins(dt));
+        let mut exit = f64::INFINITY;
+        for i in 0..2 {
+            if m_end[i] < 0.0 {
+                let t = if m_start[i] < 0.0 {
+                    tau
+                } else {
+                    tau + (dt - tau) * m_start[i] / (m_start[i] - m_end[i])
+                };
+                exit = exit.min(t);
+            }
+        }
+        if exit > dt {
+            return dt;
+        }
+        let selection_t = exit + self.options.right_limit_s;
+        let new_phase = self.select_flat(system.ground(selection_t), 0.0);
+        if new_phase == Phase::Rest {
+            // Rest still consistent just after the computed exit (rounding): move past it.
+            return selection_t.min(dt);
+        }
+        self.enter(new_phase, t0_abs + exit, on_event);
+        exit
+    }
+
+    /// Integrates the current pivot or slide mode from local time `tau` until the next
+    /// terminal event or the end of the interval; returns the local time reached.
+    fn integrate_until_event(
+        &mut self,
+        system: &ModeSystem,
+        mut tau: f64,
+        dt: f64,
+        t0_abs: f64,
+        on_event: &mut impl FnMut(BlockEvent),
+        work: &mut u32,
+    ) -> Result<f64, AdvanceError> {
+        let root_tol = 1e-13 * dt.max(1.0);
+        let mut g_start = system.events(tau, &self.y);
+        let pivoting = matches!(self.phase, Phase::Rock { .. } | Phase::SlideRock { .. });
+        while tau < dt {
+            *work += 1;
+            if *work > self.options.max_work_per_interval {
+                return Err(AdvanceError::WorkBudget { t_s: t0_abs + tau });
+            }
+            let step = self.integrator.step(system, tau, &self.y, dt)?;
+            let t1 = step.t1();
+            let g_end = system.events(t1, &step.y1);
+            let event_at = |i: usize| move |t: f64| system.events(t, &step.eval(t))[i];
+
+            // Earliest terminal event in (tau, t1].
+            let mut terminal: Option<(f64, usize)> = None;
+            for i in 0..N_TERMINAL {
+                let t_hit = if g_start[i] > 0.0 && g_end[i] <= 0.0 {
+                    locate_root(event_at(i), tau, g_start[i], t1, g_end[i], root_tol)
+                } else if g_start[i] < 0.0 || (g_start[i] == 0.0 && g_end[i] < 0.0) {
+                    tau // already violated: act at once
+                } else {
+                    continue;
+                };
+                if terminal.is_none_or(|(t, _)| t_hit < t) {
+                    terminal = Some((t_hit, i));
+                }
+            }
+            let t_stop = terminal.map_or(t1, |(t, _)| t);
+
+            // Non-terminal events before the stop.
+            if pivoting {
+                let (a0, a1) = (g_start[EV_ALPHA], g_end[EV_ALPHA]);
+                if (a0 > 0.0) != (a1 > 0.0) {
+                    let t_cross = if a0 > 0.0 {
+                        locate_root(event_at(EV_ALPHA), tau, a0, t1, a1, root_tol)
+                    } else {
+                        locate_root(|t| -event_at(EV_ALPHA)(t), tau, -a0, t1, -a1, root_tol)
+                    };
+                    if t_cross <= t_stop {
+                        let upward = a1 > 0.0;
+                        if upward {
+                            self.stats.exceeded_alpha = true;
+                            self.stats.last_alpha_upcrossing_s = Some(t0_abs + t_cross);
+                        }
+                        on_event(BlockEvent::AlphaCrossing {
+                            t_s: t0_abs + t_cross,
+                            upward,
+                        });
+                    }
+                }
+                if g_start[EV_PEAK] > 0.0 && g_end[EV_PEAK] <= 0.0 {
+                    let t_peak = locate_root(
+                        event_at(EV_PEAK),
+                        tau,
+                        g_start[EV_PEAK],
+                        t1,
+                        g_end[EV_PEAK],
+                        root_tol,
+                    );
+                    if t_peak <= t_stop {
+                        let theta = step.eval(t_peak)[0];
+                        self.record_extremes(theta, self.y[2]);
+                        on_event(BlockEvent::Peak {
+                            t_s: t0_abs + t_peak,
+                            theta_rad: theta,
+                        });
+                    }
+                }
+            }
+
+            match terminal {
+                None => {
+                    self.y = step.y1;
+                    self.record_extremes(self.y[0], self.y[2]);
+                    tau = t1;
+                    g_start = g_end;
+                }
+                Some((t_hit, index)) => {
+                    self.y = step.eval(t_hit);
+                    self.record_extremes(self.y[0], self.y[2]);
+                    let ground = system.ground(t_hit + self.options.right_limit_s);
+                    self.on_terminal(index, t0_abs + t_hit, ground, on_event);
+                    return Ok(t_hit);
+                }
+            }
+        }
+        Ok(tau)
+    }
+
+    fn record_extremes(&mut self, theta: f64, slide: f64) {
+        let s = &mut self.stats;
+        s.max_abs_theta_rad = s.max_abs_theta_rad.max(theta.abs());
+        s.max_abs_slide_m = s.max_abs_slide_m.max(slide.abs());
+    }
+
+    /// Switches to `phase` at absolute time `t_s`, reporting the change.
+    fn enter(&mut self, phase: Phase, t_s: f64, on_event: &mut impl FnMut(BlockEvent)) {
+        let from = self.phase.mode();
+        self.phase = phase;
+        match phase {
+            Phase::Rest => {
+                self.y[0] = 0.0;
+                self.y[1] = 0.0;
+                self.y[3] = 0.0;
+            }
+            Phase::Slide { .. } => {
+                self.y[0] = 0.0;
+                self.y[1] = 0.0;
+            }
+            Phase::Rock { .. } => self.y[3] = 0.0,
+            Phase::Overturned => {
+                self.stats.overturn_time_s =
+                    Some(self.stats.last_alpha_upcrossing_s.unwrap_or(t_s));
+            }
+            Phase::SlideRock { .. } | Phase::Flight => {}
+        }
+        self.integrator.reset(self.options.initial_step_s);
+        if from != phase.mode() {
+            on_event(BlockEvent::ModeChange {
+                t_s,
+                from,
+                to: phase.mode(),
+            });
+        }
+    }
+
+    /// Handles terminal event `index` at absolute time `t_s`; `ground` is the input just after.
+    fn on_terminal(
+        &mut self,
+        index: usize,
+        t_s: f64,
+        ground: GroundAccel,
+        on_event: &mut impl FnMut(BlockEvent),
+    ) {
+        let p = self.params;
+        match (index, self.phase) {
+            (EV_OVERTURN, _) => self.enter(Phase::Overturned, t_s, on_event),
+            (EV_CONTACT, phase) => {
+                let outward_beyond_alpha = match phase {
+                    Phase::Rock { sigma } | Phase::SlideRock { sigma, .. } => {
+                        sigma * self.y[0] > p.alpha_rad && sigma * self.y[1] > 0.0
+                    }
+                    _ => false,
+                };
+                let next = if outward_beyond_alpha {
+                    Phase::Overturned
+                } else {
+                    Phase::Flight
+                };
+                self.enter(next, t_s, on_event);
+            }
+            (EV_IMPACT, Phase::Rock { sigma } | Phase::SlideRock { sigma, .. }) => {
+                self.on_impact(sigma, t_s, ground, on_event);
+            }
+            (EV_SLIP, Phase::Slide { .. }) => {
+                self.y[3] = 0.0;
+                let next = self.select_flat(ground, 0.0);
+                self.enter(next, t_s, on_event);
+            }
+            (EV_SLIP, Phase::Rock { sigma }) => {
+                // Friction demand reached μs N: the pivot starts to slip (spec §8). Rock is
+                // not re-tested here: the demand is rising through the limit.
+                let next = self.select_slip_direction(sigma, ground);
+                self.enter(next, t_s, on_event);
+            }
+            (EV_SLIP, Phase::SlideRock { sigma, .. }) => {
+                // The pivot's slip stopped: rock if friction holds it, else slip reverses.
+                self.y[3] = 0.0;
+                let next = self.select_pivot(sigma, ground);
+                self.enter(next, t_s, on_event);
+            }
+            _ => {}
+        }
+    }
+
+    fn on_impact(
+        &mut self,
+        sigma: f64,
+        t_s: f64,
+        ground: GroundAccel,
+        on_event: &mut impl FnMut(BlockEvent),
+    ) {
+        let (w0, v0) = (self.y[1], self.y[3]);
+        let out = impact(&self.params, sigma, w0, v0);
+        self.stats.n_impacts += 1;
+        let significant = w0 * w0 >= self.significant_theta_dot_sq;
+        if significant {
+            self.stats.n_impacts_significant += 1;
+        }
+        let zeno = out.kind != ImpactKind::FlatLanding
+            && out.theta_dot * out.theta_dot < self.zeno_theta_dot_sq;
+        let landed = zeno || out.kind == ImpactKind::FlatLanding;
+        self.y[0] = 0.0;
+        self.y[3] = out.slip_dot;
+        on_event(BlockEvent::Impact {
+            t_s,
+            kind: out.kind,
+            theta_dot_before: w0,
+            theta_dot_after: if landed { 0.0 } else { out.theta_dot },
+            slip_dot_before: v0,
+            slip_dot_after: out.slip_dot,
+            significant,
+            landed,
+        });
+        let next = if landed {
+            if zeno {
+                self.stats.n_zeno_landings += 1;
+            } else {
+                self.stats.n_flat_landings += 1;
+            }
+            self.y[1] = 0.0;
+            self.select_flat(ground, out.slip_dot)
+        } else {
+            self.y[1] = out.theta_dot;
+            if out.slip_dot == 0.0 {
+                self.select_pivot(out.sigma_new, ground)
+            } else {
+                Phase::SlideRock {
+                    sigma: out.sigma_new,
+                    s: sign(out.slip_dot),
+                }
+            }
+        };
+        // The pivot changed even when the mode did not: always restart the integrator.
+        self.enter(next, t_s, on_event);
+    }
+
+    /// Mode selection for a flat block (θ = θ̇ = 0) with slip velocity `slip_dot` (spec §7):
+    /// the first consistent of rest → rock → slide → slide-rock.
+    fn select_flat(&mut self, ground: GroundAccel, slip_dot: f64) -> Phase {
+        let p = self.params;
+        let gp = effective_gravity(&p, ground);
+        if gp <= 0.0 {
+            return Phase::Flight;
+        }
+        let slide_possible = p.mu_k <= p.tan_alpha;
+        if slip_dot != 0.0 {
+            let s = sign(slip_dot);
+            return if slide_possible {
+                Phase::Slide { s }
+            } else {
+                Phase::SlideRock { sigma: s, s }
+            };
+        }
+        if self.rest_holds(ground) {
+            return Phase::Rest;
+        }
+        let sigma = -sign(ground.horizontal_mps2);
+        let rock = rocking(&p, sigma, 0.0, 0.0, ground);
+        if sigma * rock.theta_ddot > 0.0
+            && rock.normal_per_mass > 0.0
+            && rock.friction_per_mass.abs() <= p.mu_s * rock.normal_per_mass
+        {
+            return Phase::Rock { sigma };
+        }
+        let s = sigma;
+        if slide_possible && s * sliding(&p, s, ground) > 0.0 {
+            return Phase::Slide { s };
+        }
+        for (sg, sl) in [(sigma, s), (sigma, -s), (-sigma, s), (-sigma, -s)] {
+            let d = slide_rocking(&p, sg, sl, 0.0, 0.0, ground);
+            if sg * d.theta_ddot > 0.0 && sl * d.slip_ddot > 0.0 && d.normal_per_mass > 0.0 {
+                return Phase::SlideRock { sigma: sg, s: sl };
+            }
+        }
+        self.stats.n_inconsistent_selections += 1;
+        if sigma * rock.theta_ddot > 0.0 {
+            Phase::Rock { sigma }
+        } else {
+            Phase::Slide { s }
+        }
+    }
+
+    /// Mode selection for a block on corner `sigma` whose pivot has no slip velocity:
+    /// rock if the friction demand |F| ≤ μs N, else slide-rock against the friction force.
+    fn select_pivot(&mut self, sigma: f64, ground: GroundAccel) -> Phase {
+        let p = self.params;
+        let (theta, theta_dot) = (self.y[0], self.y[1]);
+        let rock = rocking(&p, sigma, theta, theta_dot, ground);
+        if rock.normal_per_mass <= 0.0 {
+            return Phase::Flight;
+        }
+        if rock.friction_per_mass.abs() <= p.mu_s * rock.normal_per_mass {
+            return Phase::Rock { sigma };
+        }
+        self.select_slip_direction(sigma, ground)
+    }
+
+    /// Slide-rock on corner `sigma` for a pivot that starts to slip: the slip direction is
+    /// opposite to the friction force the pivot needed (s = −sgn F), checked by s ü > 0.
+    fn select_slip_direction(&mut self, sigma: f64, ground: GroundAccel) -> Phase {
+        let p = self.params;
+        let (theta, theta_dot) = (self.y[0], self.y[1]);
+        let rock = rocking(&p, sigma, theta, theta_dot, ground);
+        let s_first = -sign(rock.friction_per_mass);
+        for s in [s_first, -s_first] {
+            let d = slide_rocking(&p, sigma, s, theta, theta_dot, ground);
+            if d.normal_per_mass > 0.0 && s * d.slip_ddot > 0.0 {
+                return Phase::SlideRock { sigma, s };
+            }
+        }
+        self.stats.n_inconsistent_selections += 1;
+        Phase::SlideRock { sigma, s: s_first }
+    }
+}

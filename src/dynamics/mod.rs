@@ -1,0 +1,21 @@
+//! Planar rigid-block dynamics (spec: shared/spec/block-dynamics.md): a block that rests,
+//! slides, rocks, slide-rocks, overturns or lifts off under horizontal and vertical ground
+//! acceleration.
+//!
+//! - [`params`]: geometry and friction, validated;
+//! - [`equations`]: the equations of motion and contact forces as pure functions;
+//! - [`impact`]: the impact map of §9.1;
+//! - [`block`]: the real-time stepper [`RigidBlock`] (modes, events, transitions).
+//!
+//! Architecture invariant: this module does no I/O and never allocates in
+//! [`RigidBlock::advance`].
+
+pub mod block;
+pub mod equations;
+pub mod impact;
+pub mod params;
+
+pub use block::{AdvanceError, BlockEvent, BlockOptions, Mode, ResponseStats, RigidBlock};
+pub use equations::GroundAccel;
+pub use impact::ImpactKind;
+pub use params::{BlockParams, ParamError};

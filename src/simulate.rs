@@ -1,0 +1,187 @@
+//! Offline simulation of one block under a whole record, through exactly the real-time
+//! stepping API ([`RigidBlock::advance`], one call per input interval), followed by
+//! `t_extra_s` of free vibration with zero ground acceleration (many blocks fall only after
+//! the record ends).
+
+use crate::dynamics::{
+    AdvanceError, BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock,
+};
+use crate::record::Record;
+
+/// Options of an offline simulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimulationOptions {
+    /// Seconds of zero ground acceleration appended after the last sample (the input ramps
+    /// from the last sample to zero over one sampling interval, then stays zero).
+    pub t_extra_s: f64,
+    /// Numerical options of the block stepper.
+    pub block: BlockOptions,
+    /// Keep the per-sample time history (for plots).
+    pub keep_trace: bool,
+}
+
+impl Default for SimulationOptions {
+    fn default() -> Self {
+        SimulationOptions {
+            t_extra_s: 10.0,
+            block: BlockOptions::default(),
+            keep_trace: false,
+        }
+    }
+}
+
+/// How a simulation ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Status {
+    /// The block is standing (at rest or still moving) at the end.
+    Ok,
+    Overturned,
+    /// The block lost contact with the ground without overturning; the run was stopped there.
+    Flight,
+}
+
+/// The response summary of one simulation (SI units). Serialises to the JSON of
+/// `rockwatch simulate --format json`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Summary {
+    pub status: Status,
+    pub overturned: bool,
+    /// Last upward crossing of |θ| = α before the fall (s), if overturned.
+    pub overturn_time: Option<f64>,
+    pub exceeded_alpha: bool,
+    /// Slenderness α (rad).
+    pub alpha: f64,
+    /// max |θ| (rad) before any overturn.
+    pub max_abs_theta: f64,
+    pub max_abs_theta_over_alpha: f64,
+    /// max |u| (m), slip of the contact point relative to the ground, before any overturn.
+    pub max_abs_slide: f64,
+    /// u at the end of the run (m).
+    pub residual_slide: f64,
+    pub n_impacts: u32,
+    pub n_impacts_significant: u32,
+    pub n_flat_landings: u32,
+    /// `[t (s), mode]` at the start and at every mode change.
+    pub modes: Vec<(f64, Mode)>,
+    /// Simulated duration including `t_extra` (s).
+    pub duration: f64,
+}
+
+/// The per-sample time history of a simulation.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trace {
+    pub t_s: Vec<f64>,
+    pub horizontal_mps2: Vec<f64>,
+    pub theta_rad: Vec<f64>,
+    pub slide_m: Vec<f64>,
+    pub mode: Vec<Mode>,
+}
+
+/// A finished simulation.
+#[derive(Debug, Clone)]
+pub struct Simulation {
+    pub summary: Summary,
+    pub trace: Option<Trace>,
+    /// Every event, in time order.
+    pub events: Vec<BlockEvent>,
+}
+
+/// Why a simulation failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimulateError {
+    #[error("the record has fewer than two samples")]
+    TooShort,
+    #[error("t_extra must be a finite number of seconds ≥ 0, got {0}")]
+    BadExtra(f64),
+    #[error("at t = {t_s} s: {reason}")]
+    Advance { t_s: f64, reason: AdvanceError },
+}
+
+/// Simulates `params` under `record` (horizontal and optional vertical components).
+pub fn simulate(
+    params: BlockParams,
+    record: &Record,
+    options: &SimulationOptions,
+) -> Result<Simulation, SimulateError> {
+    if record.len() < 2 {
+        return Err(SimulateError::TooShort);
+    }
+    if !(options.t_extra_s.is_finite() && options.t_extra_s >= 0.0) {
+        return Err(SimulateError::BadExtra(options.t_extra_s));
+    }
+    let dt = record.dt_s;
+    let n_extra = (options.t_extra_s / dt).ceil() as usize;
+    let ground_at = |i: usize| -> GroundAccel {
+        if i < record.len() {
+            GroundAccel {
+                horizontal_mps2: record.horizontal_mps2[i],
+                vertical_mps2: record.vertical_mps2.as_ref().map_or(0.0, |v| v[i]),
+            }
+        } else {
+            GroundAccel::default()
+        }
+    };
+
+    let mut block = RigidBlock::new(params, options.block);
+    let mut events = Vec::new();
+    let mut modes = vec![(0.0, Mode::Rest)];
+    let mut trace = options.keep_trace.then(Trace::default);
+    let push_trace = |trace: &mut Option<Trace>, block: &RigidBlock, a: f64| {
+        if let Some(tr) = trace {
+            tr.t_s.push(block.time_s());
+            tr.horizontal_mps2.push(a);
+            tr.theta_rad.push(block.theta_rad());
+            tr.slide_m.push(block.slide_m());
+            tr.mode.push(block.mode());
+        }
+    };
+    push_trace(&mut trace, &block, ground_at(0).horizontal_mps2);
+    let n_intervals = record.len() - 1 + n_extra;
+    for i in 0..n_intervals {
+        let (from, to) = (ground_at(i), ground_at(i + 1));
+        block
+            .advance(dt, from, to, |e| {
+                if let BlockEvent::ModeChange { t_s, to, .. } = e {
+                    modes.push((t_s, to));
+                }
+                events.push(e);
+            })
+            .map_err(|reason| SimulateError::Advance {
+                t_s: block.time_s(),
+                reason,
+            })?;
+        push_trace(&mut trace, &block, to.horizontal_mps2);
+        if matches!(block.mode(), Mode::Overturned | Mode::Flight) {
+            break;
+        }
+    }
+
+    let stats = *block.stats();
+    let status = match block.mode() {
+        Mode::Overturned => Status::Overturned,
+        Mode::Flight => Status::Flight,
+        _ => Status::Ok,
+    };
+    let alpha = params.alpha_rad;
+    Ok(Simulation {
+        summary: Summary {
+            status,
+            overturned: status == Status::Overturned,
+            overturn_time: stats.overturn_time_s,
+            exceeded_alpha: stats.exceeded_alpha,
+            alpha,
+            max_abs_theta: stats.max_abs_theta_rad,
+            max_abs_theta_over_alpha: stats.max_abs_theta_rad / alpha,
+            max_abs_slide: stats.max_abs_slide_m,
+            residual_slide: block.slide_m(),
+            n_impacts: stats.n_impacts,
+            n_impacts_significant: stats.n_impacts_significant,
+            n_flat_landings: stats.n_flat_landings,
+            modes,
+            duration: n_intervals as f64 * dt,
+        },
+        trace,
+        events,
+    })
+}
