@@ -194,7 +194,12 @@ impl At2 {
 /// `-.1234567E-02-.2345678E-02`) and Fortran `D` exponents.
 pub fn read_at2(path: &Path) -> Result<At2, RecordError> {
     let text = read_text(path)?;
-    parse_at2(&text).map_err(|(line, problem)| RecordError::new(path, line, problem))
+    parse_at2_text(&text, path)
+}
+
+/// Parses the text of an AT2 file (see [`read_at2`]); `source` names it in errors.
+pub fn parse_at2_text(text: &str, source: &Path) -> Result<At2, RecordError> {
+    parse_at2(text).map_err(|(line, problem)| RecordError::new(source, line, problem))
 }
 
 type ParseError = (Option<usize>, String);

@@ -5,6 +5,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
 
+mod demo;
 mod simulate;
 
 /// rockwatch: seismic monitoring of precariously balanced rocks and other freestanding blocks.
@@ -17,6 +18,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run the built-in demonstration on a bundled earthquake record (no arguments needed).
+    Demo(demo::DemoArgs),
     /// Simulate one rigid block under a ground-motion record.
     Simulate(simulate::SimulateArgs),
 }
@@ -32,6 +35,7 @@ pub enum OutputFormat {
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Demo(args) => demo::run(args),
         Command::Simulate(args) => simulate::run(args),
     };
     match result {

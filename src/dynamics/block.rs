@@ -629,23 +629,13 @@ impl RigidBlock {
         ground: GroundAccel,
         on_event: &mut impl FnMut(BlockEvent),
     ) {
-        let p = self.params;
         match (index, self.phase) {
             (EV_OVERTURN, _) => self.enter(Phase::Overturned, t_s, on_event),
-            (EV_CONTACT, phase) => {
-                let outward_beyond_alpha = match phase {
-                    Phase::Rock { sigma } | Phase::SlideRock { sigma, .. } => {
-                        sigma * self.y[0] > p.alpha_rad && sigma * self.y[1] > 0.0
-                    }
-                    _ => false,
-                };
-                let next = if outward_beyond_alpha {
-                    Phase::Overturned
-                } else {
-                    Phase::Flight
-                };
+            (EV_CONTACT, Phase::Rock { sigma } | Phase::SlideRock { sigma, .. }) => {
+                let next = self.lost_contact(sigma);
                 self.enter(next, t_s, on_event);
             }
+            (EV_CONTACT, _) => self.enter(Phase::Flight, t_s, on_event),
             (EV_IMPACT, Phase::Rock { sigma } | Phase::SlideRock { sigma, .. }) => {
                 self.on_impact(sigma, t_s, ground, on_event);
             }
@@ -722,6 +712,16 @@ impl RigidBlock {
         self.enter(next, t_s, on_event);
     }
 
+    /// The block on corner `sigma` loses contact (N → 0): overturned if it is beyond α and
+    /// rotating outward (no restoring moment in flight, spec §10), else free flight.
+    fn lost_contact(&self, sigma: f64) -> Phase {
+        if sigma * self.y[0] > self.params.alpha_rad && sigma * self.y[1] > 0.0 {
+            Phase::Overturned
+        } else {
+            Phase::Flight
+        }
+    }
+
     /// Mode selection for a flat block (θ = θ̇ = 0) with slip velocity `slip_dot` (spec §7):
     /// the first consistent of rest → rock → slide → slide-rock.
     fn select_flat(&mut self, ground: GroundAccel, slip_dot: f64) -> Phase {
@@ -775,7 +775,7 @@ impl RigidBlock {
         let (theta, theta_dot) = (self.y[0], self.y[1]);
         let rock = rocking(&p, sigma, theta, theta_dot, ground);
         if rock.normal_per_mass <= 0.0 {
-            return Phase::Flight;
+            return self.lost_contact(sigma);
         }
         if rock.friction_per_mass.abs() <= p.mu_s * rock.normal_per_mass {
             return Phase::Rock { sigma };
