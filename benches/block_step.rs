@@ -1,0 +1,109 @@
+//! ns per block per input sample at 100 Hz for (a) a block at rest under weak motion,
+//! (b) a rocking block, (c) a slide-rocking block. Run: `cargo bench --bench block_step`.
+//! Criterion reports the time of one `advance` call (one input sample) and the throughput.
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
+use rockwatch::dynamics::{BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock};
+
+const DT: f64 = 0.01; // 100 Hz
+const N: usize = 1000; // samples per measured batch (10 s)
+
+/// A sine ground acceleration (m/s²) of `amp_g` g at `f_hz`, sampled at 100 Hz.
+fn sine(amp_g: f64, f_hz: f64, n: usize) -> Vec<GroundAccel> {
+    (0..=n)
+        .map(|i| {
+            let t = i as f64 * DT;
+            GroundAccel::horizontal(amp_g * 9.80665 * (2.0 * std::f64::consts::PI * f_hz * t).sin())
+        })
+        .collect()
+}
+
+fn run(block: &mut RigidBlock, input: &[GroundAccel]) {
+    for w in input.windows(2) {
+        block
+            .advance(DT, w[0], w[1], |e| {
+                black_box(e);
+            })
+            .expect("benchmark input is valid");
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let mut group = c.benchmark_group("block_step_100hz");
+    group.throughput(Throughput::Elements(N as u64));
+
+    // (a) At rest: a 1 m × 2 m block under 0.02 g at 2 Hz (threshold ≈ 0.5 g).
+    let rest = RigidBlock::new(
+        BlockParams::from_width_height(1.0, 2.0, 0.7, 0.5, None).expect("valid"),
+        BlockOptions::default(),
+    );
+    let weak = sine(0.02, 2.0, N);
+    group.bench_function("a_rest_weak_motion", |b| {
+        b.iter_batched_ref(
+            || rest.clone(),
+            |blk| run(blk, &weak),
+            criterion::BatchSize::SmallInput,
+        )
+    });
+
+    // (b) Rocking: the seed's rocking block (R = 3.29 m, α = 11.31°) with perfectly elastic
+    // impacts (restitution 1) released at 0.5 α under a 0.05 g, 0.5 Hz sine: it rocks all along.
+    let rocking_params =
+        BlockParams::from_width_height(1.2904, 6.4520, 1.5, 1.0, Some(1.0)).expect("valid");
+    let rocking = RigidBlock::released(
+        rocking_params,
+        BlockOptions::default(),
+        0.5 * rocking_params.alpha_rad,
+        0.0,
+    );
+    let mild = sine(0.05, 0.5, N);
+    {
+        let mut check = rocking.clone();
+        run(&mut check, &mild);
+        assert_eq!(check.mode(), Mode::Rock, "benchmark (b) must stay rocking");
+    }
+    group.bench_function("b_rocking", |b| {
+        b.iter_batched_ref(
+            || rocking.clone(),
+            |blk| run(blk, &mild),
+            criterion::BatchSize::SmallInput,
+        )
+    });
+
+    // (c) Slide-rocking: a block with friction just above tan α = 0.3 (μs = 0.32, μk = 0.31)
+    // under a 0.4 g, 1 Hz sine: it rocks with repeated slide-rock episodes (about 2 % of the
+    // samples; slide-rock decelerates the rotation for μk ≈ tan α, spec §5, so it never lasts).
+    // The figure is the mean over the whole 10 s window.
+    let sr_params = BlockParams::from_width_height(0.6, 2.0, 0.32, 0.31, None).expect("valid");
+    let sr = RigidBlock::new(sr_params, BlockOptions::default());
+    let strong = sine(0.4, 1.0, N);
+    let mut visited_slide_rock = false;
+    {
+        let mut check = sr.clone();
+        for w in strong.windows(2) {
+            check.advance(DT, w[0], w[1], |_| {}).expect("valid");
+            visited_slide_rock |= check.mode() == Mode::SlideRock;
+        }
+        assert!(
+            visited_slide_rock,
+            "benchmark (c) must slide-rock (ended {:?})",
+            check.mode()
+        );
+        assert_ne!(
+            check.mode(),
+            Mode::Overturned,
+            "benchmark (c) must not overturn"
+        );
+    }
+    group.bench_function("c_slide_rocking", |b| {
+        b.iter_batched_ref(
+            || sr.clone(),
+            |blk| run(blk, &strong),
+            criterion::BatchSize::SmallInput,
+        )
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
