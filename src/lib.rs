@@ -4,8 +4,10 @@
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
 pub mod dynamics;
+pub mod lhs;
 pub mod ode;
 pub mod plot;
+pub mod pulse;
 pub mod record;
 pub mod simulate;
 

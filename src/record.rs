@@ -401,6 +401,108 @@ pub fn read_csv(path: &Path) -> Result<Record, RecordError> {
     })
 }
 
+/// Checks that `record` can be written: positive finite `dt_s`, at least one sample, finite
+/// values, and a vertical component (if any) of the same length.
+fn check_writable(path: &Path, record: &Record) -> Result<(), RecordError> {
+    let err = |problem: String| Err(RecordError::new(path, None, problem));
+    if !(record.dt_s.is_finite() && record.dt_s > 0.0) {
+        return err(format!(
+            "cannot write a record with sampling interval {} s (must be > 0)",
+            record.dt_s
+        ));
+    }
+    if record.is_empty() {
+        return err("cannot write an empty record".into());
+    }
+    if let Some(i) = record.horizontal_mps2.iter().position(|a| !a.is_finite()) {
+        return err(format!("horizontal sample {i} is not finite"));
+    }
+    if let Some(vertical) = &record.vertical_mps2 {
+        if vertical.len() != record.len() {
+            return err(format!(
+                "vertical component has {} samples, horizontal {}",
+                vertical.len(),
+                record.len()
+            ));
+        }
+        if let Some(i) = vertical.iter().position(|a| !a.is_finite()) {
+            return err(format!("vertical sample {i} is not finite"));
+        }
+    }
+    Ok(())
+}
+
+fn write_text(path: &Path, text: &str) -> Result<(), RecordError> {
+    std::fs::write(path, text).map_err(|e| RecordError::new(path, None, e.to_string()))
+}
+
+/// Writes the horizontal component of `record` as a PEER NGA `.AT2` file readable by
+/// [`read_at2`]: the three free-text `header_lines` (by PEER convention: source, event and
+/// station, then units — e.g. `"ACCELERATION TIME SERIES IN UNITS OF G"`), the line
+/// `NPTS= n, DT= dt SEC`, then the accelerations in g (m/s² ÷ [`STANDARD_GRAVITY_MPS2`]),
+/// five per line with 10 significant digits (relative rounding ≤ 5e−10).
+///
+/// AT2 holds one component: a record with a vertical component is refused (write the
+/// components as two records). Header lines must not contain line breaks. Errors name the
+/// file.
+pub fn write_at2(path: &Path, record: &Record, header_lines: [&str; 3]) -> Result<(), RecordError> {
+    use std::fmt::Write as _;
+    check_writable(path, record)?;
+    if record.vertical_mps2.is_some() {
+        return Err(RecordError::new(
+            path,
+            None,
+            "an AT2 file holds one component, but this record also has a vertical one",
+        ));
+    }
+    if let Some(line) = header_lines.iter().find(|l| l.contains(['\n', '\r'])) {
+        return Err(RecordError::new(
+            path,
+            None,
+            format!("AT2 header line contains a line break: {line:?}"),
+        ));
+    }
+    let mut text = String::with_capacity(80 * 4 + record.len() * 17);
+    for line in header_lines {
+        text.push_str(line);
+        text.push('\n');
+    }
+    // `{}` prints the shortest decimal that reads back as the same f64.
+    let _ = writeln!(text, "NPTS= {}, DT= {} SEC", record.len(), record.dt_s);
+    for chunk in record.horizontal_mps2.chunks(5) {
+        for &a in chunk {
+            let _ = write!(text, " {:>16.9E}", a / STANDARD_GRAVITY_MPS2);
+        }
+        text.push('\n');
+    }
+    write_text(path, &text)
+}
+
+/// Writes `record` as CSV readable by [`read_csv`]: header `t,ax` (or `t,ax,ay` with the
+/// vertical component as `ay`), then one row per sample with `t = i·dt_s` (s) and the
+/// accelerations (m/s²) in shortest round-trip notation, so values read back exactly.
+/// Errors name the file.
+pub fn write_csv(path: &Path, record: &Record) -> Result<(), RecordError> {
+    use std::fmt::Write as _;
+    check_writable(path, record)?;
+    let mut text = String::with_capacity(16 + record.len() * 48);
+    match &record.vertical_mps2 {
+        None => {
+            text.push_str("t,ax\n");
+            for (i, a) in record.horizontal_mps2.iter().enumerate() {
+                let _ = writeln!(text, "{},{:e}", i as f64 * record.dt_s, a);
+            }
+        }
+        Some(vertical) => {
+            text.push_str("t,ax,ay\n");
+            for (i, (a, v)) in record.horizontal_mps2.iter().zip(vertical).enumerate() {
+                let _ = writeln!(text, "{},{:e},{:e}", i as f64 * record.dt_s, a, v);
+            }
+        }
+    }
+    write_text(path, &text)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
 
 mod demo;
+mod pulses;
 mod simulate;
 
 /// rockwatch: seismic monitoring of precariously balanced rocks and other freestanding blocks.
@@ -22,6 +23,9 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Simulate one rigid block under a ground-motion record.
     Simulate(simulate::SimulateArgs),
+    /// Generate synthetic near-fault pulses (Mavroeidis & Papageorgiou 2003) and write one
+    /// record file per pulse.
+    Pulses(pulses::PulsesArgs),
 }
 
 /// Output format for people (`text`) or programs (`json`).
@@ -37,6 +41,7 @@ pub fn run() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => demo::run(args),
         Command::Simulate(args) => simulate::run(args),
+        Command::Pulses(args) => pulses::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
