@@ -2,8 +2,9 @@
 //! (b) a rocking block, (c) a slide-rocking block. Run: `cargo bench --bench block_step`.
 //! Criterion reports the time of one `advance` call (one input sample) and the throughput.
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rockwatch::dynamics::{BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock};
+use std::hint::black_box;
 
 const DT: f64 = 0.01; // 100 Hz
 const N: usize = 1000; // samples per measured batch (10 s)
