@@ -36,7 +36,8 @@ fn mode_runs(trace: &Trace) -> Vec<(f64, f64, Mode)> {
 
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values.fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
-    let pad = 0.05 * (hi - lo).max(1e-9);
+    // A flat series (e.g. no slide) still gets a readable axis of ±1e-3 units.
+    let pad = (0.05 * (hi - lo)).max(1e-3);
     (lo - pad, hi + pad)
 }
 
@@ -49,7 +50,7 @@ pub fn plot_simulation(
 ) -> Result<(), Box<dyn std::error::Error>> {
     let root = SVGBackend::new(path, (1000, 800)).into_drawing_area();
     root.fill(&WHITE)?;
-    let (head, body) = root.split_vertically(40);
+    let (head, body) = root.split_vertically(48);
     head.titled(
         &format!(
             "{title} — B = {} m, H = {} m, α = {:.3} rad, μs = {}, μk = {}",
@@ -101,7 +102,7 @@ pub fn plot_simulation(
             colour.stroke_width(1),
         ))?;
     }
-    // Legend of the mode colours along the bottom panel.
+    // Legend of the mode colours, under the title.
     let legend = [
         Mode::Slide,
         Mode::Rock,
@@ -111,9 +112,9 @@ pub fn plot_simulation(
     ];
     for (i, mode) in legend.iter().enumerate() {
         if let Some(fill) = mode_colour(*mode) {
-            let x = 80 + 150 * i as i32;
-            root.draw(&Rectangle::new([(x, 785), (x + 14, 797)], fill.filled()))?;
-            root.draw(&Text::new(mode.as_str(), (x + 18, 785), ("sans-serif", 12)))?;
+            let x = 250 + 110 * i as i32;
+            root.draw(&Rectangle::new([(x, 30), (x + 14, 42)], fill.filled()))?;
+            root.draw(&Text::new(mode.as_str(), (x + 18, 30), ("sans-serif", 12)))?;
         }
     }
     root.present()?;
