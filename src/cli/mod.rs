@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
 
 mod demo;
+mod ims;
 mod pulses;
 mod simulate;
 
@@ -19,6 +20,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Intensity measures of a record (PGA, PGV, CAV, Arias, durations, SA, ASI/SI/VSI, …).
+    Ims(ims::ImsArgs),
     /// Run the built-in demonstration on a bundled earthquake record (no arguments needed).
     Demo(demo::DemoArgs),
     /// Simulate one rigid block under a ground-motion record.
@@ -31,7 +34,9 @@ enum Command {
 /// Output format for people (`text`) or programs (`json`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum OutputFormat {
+    /// A readable summary or table with units.
     Text,
+    /// One JSON object, SI units.
     Json,
 }
 
@@ -42,6 +47,7 @@ pub fn run() -> ExitCode {
         Command::Demo(args) => demo::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Pulses(args) => pulses::run(args),
+        Command::Ims(args) => ims::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
