@@ -4,6 +4,7 @@
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
 pub mod dynamics;
+pub mod engine;
 pub mod ims;
 pub mod lhs;
 pub mod ode;

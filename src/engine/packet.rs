@@ -1,0 +1,212 @@
+//! Acceleration packets as the engine receives them from any transport, and their validation.
+
+use std::fmt;
+
+/// Largest number of samples accepted in one packet (≈ 8 min at 200 Hz).
+pub const MAX_SAMPLES_PER_PACKET: usize = 100_000;
+/// Accepted sample rates (Hz).
+pub const SAMPLE_RATE_RANGE_HZ: (f64, f64) = (1.0, 10_000.0);
+
+/// A SEED station identifier `NET.STA.LOC` (LOC may be empty: `NET.STA.`).
+#[derive(
+    Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+#[serde(try_from = "String", into = "String")]
+pub struct StationId(String);
+
+impl StationId {
+    /// Validates `NET.STA.LOC`: NET 1–2, STA 1–5, LOC 0–2 ASCII alphanumeric characters.
+    pub fn parse(text: &str) -> Result<StationId, String> {
+        let parts: Vec<&str> = text.split('.').collect();
+        let ok = |s: &str, min: usize, max: usize| {
+            (min..=max).contains(&s.len()) && s.bytes().all(|b| b.is_ascii_alphanumeric())
+        };
+        match parts[..] {
+            [net, sta, loc] if ok(net, 1, 2) && ok(sta, 1, 5) && ok(loc, 0, 2) => {
+                Ok(StationId(text.to_string()))
+            }
+            _ => Err(format!(
+                "station id {text:?} is not NET.STA.LOC (NET 1-2, STA 1-5, LOC 0-2 alphanumerics)"
+            )),
+        }
+    }
+
+    #[must_use]
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl TryFrom<String> for StationId {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, Self::Error> {
+        StationId::parse(&value)
+    }
+}
+
+impl From<StationId> for String {
+    fn from(value: StationId) -> Self {
+        value.0
+    }
+}
+
+impl fmt::Display for StationId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// Three-component acceleration from one station, as sent by a transport.
+///
+/// `east`, `north`, `up` are in m/s² (or counts, when the station has a gain) at
+/// `t = start_time_ns + i / sample_rate_hz`; `up` may be empty. For stations whose horizontal
+/// channels are oriented 1/2, `east` carries channel 1 and `north` channel 2 (the station
+/// configuration rotates them).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AccelPacket {
+    pub station: String,
+    /// UTC time of the first sample (ns since the Unix epoch).
+    pub start_time_ns: i64,
+    pub sample_rate_hz: f64,
+    /// Per-station sequence number, incremented by one per packet by the sender.
+    pub sequence: u64,
+    pub east: Vec<f32>,
+    pub north: Vec<f32>,
+    pub up: Vec<f32>,
+}
+
+/// Why a packet was rejected as a whole.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PacketError {
+    #[error("{0}")]
+    Station(String),
+    #[error("empty packet")]
+    Empty,
+    #[error("{got} samples exceed the limit of {MAX_SAMPLES_PER_PACKET}")]
+    TooLarge { got: usize },
+    #[error("component lengths differ: east {east}, north {north}, up {up} (up may be empty)")]
+    LengthMismatch {
+        east: usize,
+        north: usize,
+        up: usize,
+    },
+    #[error("sample rate {0} Hz outside [1, 10000] Hz")]
+    SampleRate(f64),
+    #[error("non-finite sample ({component}[{index}] = {value})")]
+    NonFinite {
+        component: &'static str,
+        index: usize,
+        value: f32,
+    },
+}
+
+impl AccelPacket {
+    /// Number of samples.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.east.len()
+    }
+
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.east.is_empty()
+    }
+
+    /// Checks the packet's structure and values (not its place in the stream).
+    pub fn validate(&self) -> Result<StationId, PacketError> {
+        let station = StationId::parse(&self.station).map_err(PacketError::Station)?;
+        let n = self.east.len();
+        if n == 0 {
+            return Err(PacketError::Empty);
+        }
+        if n > MAX_SAMPLES_PER_PACKET {
+            return Err(PacketError::TooLarge { got: n });
+        }
+        if self.north.len() != n || !(self.up.is_empty() || self.up.len() == n) {
+            return Err(PacketError::LengthMismatch {
+                east: n,
+                north: self.north.len(),
+                up: self.up.len(),
+            });
+        }
+        let (lo, hi) = SAMPLE_RATE_RANGE_HZ;
+        if !(self.sample_rate_hz.is_finite()
+            && self.sample_rate_hz >= lo
+            && self.sample_rate_hz <= hi)
+        {
+            return Err(PacketError::SampleRate(self.sample_rate_hz));
+        }
+        for (component, values) in [
+            ("east", &self.east),
+            ("north", &self.north),
+            ("up", &self.up),
+        ] {
+            if let Some((index, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(PacketError::NonFinite {
+                    component,
+                    index,
+                    value,
+                });
+            }
+        }
+        Ok(station)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn packet(n: usize) -> AccelPacket {
+        AccelPacket {
+            station: "CI.RRS.00".into(),
+            start_time_ns: 0,
+            sample_rate_hz: 100.0,
+            sequence: 0,
+            east: vec![0.0; n],
+            north: vec![0.0; n],
+            up: vec![],
+        }
+    }
+
+    #[test]
+    fn station_ids_follow_seed_lengths() {
+        assert!(StationId::parse("CI.RRS.00").is_ok());
+        assert!(StationId::parse("BK.CMB.").is_ok());
+        assert!(StationId::parse("CI.RRS").is_err());
+        assert!(StationId::parse("CIX.RRS.00").is_err());
+        assert!(StationId::parse("CI.TOOLONG.00").is_err());
+        assert!(StationId::parse("CI.R-S.00").is_err());
+    }
+
+    #[test]
+    fn each_malformation_is_named() {
+        assert_eq!(packet(0).validate(), Err(PacketError::Empty));
+        let mut p = packet(3);
+        p.up = vec![0.0; 2];
+        assert!(matches!(
+            p.validate(),
+            Err(PacketError::LengthMismatch { .. })
+        ));
+        let mut p = packet(3);
+        p.sample_rate_hz = 1e9;
+        assert_eq!(p.validate(), Err(PacketError::SampleRate(1e9)));
+        let mut p = packet(3);
+        p.north[2] = f32::NAN;
+        assert!(matches!(
+            p.validate(),
+            Err(PacketError::NonFinite {
+                component: "north",
+                index: 2,
+                ..
+            })
+        ));
+        assert!(matches!(
+            packet(MAX_SAMPLES_PER_PACKET + 1).validate(),
+            Err(PacketError::TooLarge { .. })
+        ));
+        let mut p = packet(1);
+        p.station = "nope".into();
+        assert!(matches!(p.validate(), Err(PacketError::Station(_))));
+    }
+}

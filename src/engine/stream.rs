@@ -1,0 +1,381 @@
+//! Per-station stream sequencing: places each packet on the station's sample grid and decides
+//! what of it is new data — contiguous, after a gap, overlapping, duplicate, early (held in a
+//! small reorder window), or at a new sample rate.
+//!
+//! The grid: sample `k` of a station is at `anchor_ns + k / rate`. A packet's first sample is
+//! placed at the nearest grid index (timing off-grid by more than a quarter sample is counted
+//! as misaligned). Decisions depend only on the order of packets, never on wall time, so the
+//! same packets give the same output (the reorder window counts packets, not seconds).
+
+use super::packet::AccelPacket;
+
+/// Stream-sequencing options.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StreamConfig {
+    /// Gaps up to this length (s) are bridged by linear interpolation; longer gaps break the
+    /// stream (data-gap flag).
+    pub max_bridge_s: f64,
+    /// How many early packets may wait for missing data before the gap is accepted.
+    pub reorder_window_packets: usize,
+}
+
+impl Default for StreamConfig {
+    fn default() -> Self {
+        StreamConfig {
+            max_bridge_s: 0.5,
+            reorder_window_packets: 4,
+        }
+    }
+}
+
+/// What precedes a released packet's new samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Gap {
+    /// Contiguous with the previous data.
+    None,
+    /// `n` missing samples, to be bridged by linear interpolation.
+    Bridge(u64),
+    /// `n` missing samples, too many to bridge: the stream breaks.
+    Break(u64),
+    /// The sample rate changed: a new grid starts with this packet.
+    RateChange,
+    /// First packet of the stream.
+    Start,
+}
+
+/// A packet released for processing: its samples `skip..` are new, preceded by `gap`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Released {
+    pub packet: AccelPacket,
+    pub skip: usize,
+    pub gap: Gap,
+    /// Grid index of the packet's first new sample.
+    pub first_index: i64,
+}
+
+/// Counters of stream irregularities (cumulative).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct StreamCounters {
+    /// Packets whose every sample had been processed already.
+    pub duplicate_packets: u64,
+    /// Samples dropped because they had been processed already (overlaps, late packets).
+    pub overlap_samples: u64,
+    /// Packets that arrived after later data had been processed (dropped wholly or partly).
+    pub late_packets: u64,
+    /// Early packets that waited in the reorder window and were then put in order.
+    pub reordered_packets: u64,
+    pub gaps_bridged: u64,
+    pub bridged_samples: u64,
+    pub gaps_broken: u64,
+    pub missing_samples: u64,
+    pub rate_changes: u64,
+    /// Packets whose start time was more than a quarter sample off the grid.
+    pub misaligned_packets: u64,
+}
+
+/// The sequencer of one station.
+#[derive(Debug, Clone)]
+pub struct Sequencer {
+    config: StreamConfig,
+    anchor_ns: i64,
+    rate_hz: f64,
+    /// Grid index of the next expected sample; `None` before the first packet.
+    next_index: Option<i64>,
+    max_sequence: Option<u64>,
+    held: Vec<(i64, AccelPacket)>,
+    pub counters: StreamCounters,
+}
+
+impl Sequencer {
+    #[must_use]
+    pub fn new(config: StreamConfig) -> Self {
+        Sequencer {
+            config,
+            anchor_ns: 0,
+            rate_hz: 0.0,
+            next_index: None,
+            max_sequence: None,
+            held: Vec::with_capacity(config.reorder_window_packets + 1),
+            counters: StreamCounters::default(),
+        }
+    }
+
+    /// Sample rate of the current grid (Hz); 0 before the first packet.
+    #[must_use]
+    pub fn rate_hz(&self) -> f64 {
+        self.rate_hz
+    }
+
+    /// UTC time (ns) of grid index `k`.
+    #[must_use]
+    pub fn time_ns(&self, k: i64) -> i64 {
+        self.anchor_ns + (k as f64 * 1e9 / self.rate_hz).round() as i64
+    }
+
+    /// Packets held in the reorder window.
+    #[must_use]
+    pub fn held(&self) -> usize {
+        self.held.len()
+    }
+
+    fn grid_index(&mut self, start_ns: i64) -> i64 {
+        let exact = (start_ns - self.anchor_ns) as f64 * self.rate_hz * 1e-9;
+        let k = exact.round();
+        if (exact - k).abs() > 0.25 {
+            self.counters.misaligned_packets += 1;
+        }
+        k as i64
+    }
+
+    /// Offers a validated packet; appends to `out` every packet now ready, in stream order.
+    pub fn offer(&mut self, packet: AccelPacket, out: &mut Vec<Released>) {
+        // Sent before a packet we already have?
+        let out_of_order = self.max_sequence.is_some_and(|max| packet.sequence < max);
+        self.max_sequence = Some(
+            self.max_sequence
+                .map_or(packet.sequence, |m| m.max(packet.sequence)),
+        );
+        let Some(next) = self.next_index else {
+            self.start_grid(packet, Gap::Start, out);
+            return;
+        };
+        if (packet.sample_rate_hz - self.rate_hz).abs() > 1e-9 * self.rate_hz {
+            self.flush(out);
+            self.counters.rate_changes += 1;
+            self.start_grid(packet, Gap::RateChange, out);
+            return;
+        }
+        let k = self.grid_index(packet.start_time_ns);
+        if out_of_order {
+            if k < next {
+                self.counters.late_packets += 1;
+            } else {
+                self.counters.reordered_packets += 1;
+            }
+        }
+        if k > next && self.config.reorder_window_packets > 0 {
+            let position = self.held.partition_point(|(hk, _)| *hk <= k);
+            self.held.insert(position, (k, packet));
+            if self.held.len() > self.config.reorder_window_packets {
+                let (hk, p) = self.held.remove(0);
+                self.release(hk, p, out);
+            }
+        } else {
+            self.release(k, packet, out);
+        }
+        self.release_ready(out);
+    }
+
+    /// Releases every held packet (gaps accepted), e.g. when the stream has gone quiet.
+    pub fn flush(&mut self, out: &mut Vec<Released>) {
+        while !self.held.is_empty() {
+            let (k, p) = self.held.remove(0);
+            self.release(k, p, out);
+        }
+    }
+
+    fn start_grid(&mut self, packet: AccelPacket, gap: Gap, out: &mut Vec<Released>) {
+        self.anchor_ns = packet.start_time_ns;
+        self.rate_hz = packet.sample_rate_hz;
+        self.next_index = Some(packet.len() as i64);
+        out.push(Released {
+            packet,
+            skip: 0,
+            gap,
+            first_index: 0,
+        });
+    }
+
+    fn release_ready(&mut self, out: &mut Vec<Released>) {
+        while let (Some(next), Some((k, _))) = (self.next_index, self.held.first()) {
+            if *k > next {
+                break;
+            }
+            let (k, p) = self.held.remove(0);
+            self.release(k, p, out);
+        }
+    }
+
+    /// Places packet `p` starting at grid index `k` relative to the next expected sample.
+    fn release(&mut self, k: i64, packet: AccelPacket, out: &mut Vec<Released>) {
+        let next = self.next_index.unwrap_or(k);
+        let n = packet.len() as i64;
+        if k + n <= next {
+            self.counters.duplicate_packets += 1;
+            self.counters.overlap_samples += n as u64;
+            return;
+        }
+        let (skip, gap) = if k < next {
+            self.counters.overlap_samples += (next - k) as u64;
+            ((next - k) as usize, Gap::None)
+        } else if k == next {
+            (0, Gap::None)
+        } else {
+            let missing = (k - next) as u64;
+            self.counters.missing_samples += missing;
+            if missing as f64 / self.rate_hz <= self.config.max_bridge_s {
+                self.counters.gaps_bridged += 1;
+                self.counters.bridged_samples += missing;
+                (0, Gap::Bridge(missing))
+            } else {
+                self.counters.gaps_broken += 1;
+                (0, Gap::Break(missing))
+            }
+        };
+        self.next_index = Some(k + n);
+        out.push(Released {
+            packet,
+            skip,
+            gap,
+            first_index: k + skip as i64,
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const RATE: f64 = 100.0;
+
+    /// A packet of `n` samples starting at grid index `k` (10 ms grid), values = index.
+    fn packet(k: i64, n: usize, sequence: u64) -> AccelPacket {
+        let values: Vec<f32> = (0..n).map(|i| (k + i as i64) as f32).collect();
+        AccelPacket {
+            station: "CI.RRS.00".into(),
+            start_time_ns: 1_000_000_000 + k * 10_000_000,
+            sample_rate_hz: RATE,
+            sequence,
+            east: values.clone(),
+            north: values,
+            up: vec![],
+        }
+    }
+
+    fn offer_all(seq: &mut Sequencer, packets: Vec<AccelPacket>) -> Vec<(i64, usize, Gap)> {
+        let mut out = Vec::new();
+        for p in packets {
+            seq.offer(p, &mut out);
+        }
+        seq.flush(&mut out);
+        out.iter()
+            .map(|r| (r.first_index, r.packet.len() - r.skip, r.gap))
+            .collect()
+    }
+
+    #[test]
+    fn contiguous_packets_pass_in_order() {
+        let mut s = Sequencer::new(StreamConfig::default());
+        let got = offer_all(
+            &mut s,
+            vec![packet(0, 10, 0), packet(10, 10, 1), packet(20, 5, 2)],
+        );
+        assert_eq!(
+            got,
+            vec![(0, 10, Gap::Start), (10, 10, Gap::None), (20, 5, Gap::None)]
+        );
+        assert_eq!(s.counters, StreamCounters::default());
+    }
+
+    #[test]
+    fn duplicate_and_overlap_drop_only_old_samples() {
+        let mut s = Sequencer::new(StreamConfig::default());
+        let got = offer_all(
+            &mut s,
+            vec![packet(0, 10, 0), packet(0, 10, 0), packet(5, 10, 1)],
+        );
+        assert_eq!(got, vec![(0, 10, Gap::Start), (10, 5, Gap::None)]);
+        assert_eq!(s.counters.duplicate_packets, 1);
+        assert_eq!(s.counters.overlap_samples, 10 + 5);
+    }
+
+    #[test]
+    fn out_of_order_within_window_is_put_back_in_order() {
+        let mut s = Sequencer::new(StreamConfig::default());
+        let got = offer_all(
+            &mut s,
+            vec![
+                packet(0, 10, 0),
+                packet(20, 10, 2),
+                packet(10, 10, 1),
+                packet(30, 10, 3),
+            ],
+        );
+        assert_eq!(
+            got,
+            vec![
+                (0, 10, Gap::Start),
+                (10, 10, Gap::None),
+                (20, 10, Gap::None),
+                (30, 10, Gap::None)
+            ]
+        );
+        assert_eq!(s.counters.reordered_packets, 1);
+        assert_eq!(s.counters.missing_samples, 0);
+    }
+
+    #[test]
+    fn late_packet_beyond_window_is_dropped_and_gap_accepted() {
+        let cfg = StreamConfig {
+            reorder_window_packets: 1,
+            max_bridge_s: 0.5,
+        };
+        let mut s = Sequencer::new(cfg);
+        // Packet 1 (samples 10..20) is missing while 2 and 3 arrive: the window of one
+        // releases packet 2 after a bridged 10-sample gap; packet 1 then arrives late.
+        let got = offer_all(
+            &mut s,
+            vec![
+                packet(0, 10, 0),
+                packet(20, 10, 2),
+                packet(30, 10, 3),
+                packet(10, 10, 1),
+            ],
+        );
+        assert_eq!(
+            got,
+            vec![
+                (0, 10, Gap::Start),
+                (20, 10, Gap::Bridge(10)),
+                (30, 10, Gap::None)
+            ]
+        );
+        assert_eq!(s.counters.late_packets, 1);
+        assert_eq!(s.counters.duplicate_packets, 1);
+        assert_eq!(s.counters.bridged_samples, 10);
+    }
+
+    #[test]
+    fn long_gap_breaks_the_stream() {
+        let mut s = Sequencer::new(StreamConfig {
+            max_bridge_s: 0.5,
+            reorder_window_packets: 0,
+        });
+        let got = offer_all(&mut s, vec![packet(0, 10, 0), packet(110, 10, 1)]);
+        assert_eq!(got[1], (110, 10, Gap::Break(100)));
+        assert_eq!(s.counters.gaps_broken, 1);
+        assert_eq!(s.counters.missing_samples, 100);
+    }
+
+    #[test]
+    fn rate_change_starts_a_new_grid() {
+        let mut s = Sequencer::new(StreamConfig::default());
+        let mut p = packet(10, 20, 1);
+        p.sample_rate_hz = 200.0;
+        let got = offer_all(&mut s, vec![packet(0, 10, 0), p]);
+        assert_eq!(got[1], (0, 20, Gap::RateChange));
+        assert_eq!(s.counters.rate_changes, 1);
+        assert_eq!(s.rate_hz(), 200.0);
+    }
+
+    #[test]
+    fn off_grid_start_is_rounded_and_counted() {
+        let mut s = Sequencer::new(StreamConfig::default());
+        let mut p = packet(10, 10, 1);
+        p.start_time_ns += 4_000_000; // 0.4 sample late
+        let got = offer_all(&mut s, vec![packet(0, 10, 0), p]);
+        assert_eq!(got[1], (10, 10, Gap::None));
+        assert_eq!(s.counters.misaligned_packets, 1);
+    }
+}
