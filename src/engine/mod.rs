@@ -3,7 +3,190 @@
 //! catalogued block bound to each station sample by sample, and emits states and alerts.
 //!
 //! - [`packet`]: packets and their validation;
-//! - [`stream`]: per-station sequencing (gaps, overlaps, duplicates, reordering, rate changes).
+//! - [`stream`]: per-station sequencing (gaps, overlaps, duplicates, reordering, rate changes);
+//! - [`config`]: stations, thresholds, blocks;
+//! - [`output`]: alerts, states, intensities, notices;
+//! - `station`: one station's runtime (sample-by-sample processing).
+//!
+//! Architecture invariant: deterministic — the same packets in the same order give the same
+//! outputs. The engine reads no clock: the caller passes each packet's arrival time, which is
+//! copied into alerts so that the shell can compute the processing latency on emission.
+//!
+//! Bad data never stops the engine. A packet that fails validation is rejected whole
+//! (counted, with a notice naming the station); a packet for a station that is neither
+//! configured nor named by the catalogue is counted and ignored. Gaps up to
+//! `stream.max_bridge_s` are bridged by linear interpolation; longer gaps set the data-gap
+//! flag of the station's blocks, and integration resumes at the first sample after the gap from
+//! the blocks' last state (the motion during the gap is unknown; the flag says so).
 
+pub mod config;
+pub mod output;
 pub mod packet;
+mod station;
 pub mod stream;
+
+use std::collections::BTreeMap;
+
+pub use config::{AlertConfig, EngineConfig, Orientation, PbrSpec, StationConfig};
+pub use output::{Alert, AlertLevel, Notice, Output, PbrState, StationIntensity};
+pub use packet::{AccelPacket, PacketError, StationId};
+pub use station::{PbrSummary, StationCounters};
+pub use stream::{StreamConfig, StreamCounters};
+
+use station::StationRuntime;
+
+/// Engine-wide counters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct EngineCounters {
+    pub packets: u64,
+    /// Packets whose station id is malformed (no station to charge them to).
+    pub malformed_station_packets: u64,
+    /// Packets from stations neither configured nor in the catalogue.
+    pub unknown_station_packets: u64,
+}
+
+/// The monitoring engine.
+#[derive(Debug)]
+pub struct Engine {
+    config: EngineConfig,
+    stations: BTreeMap<StationId, StationRuntime>,
+    counters: EngineCounters,
+    scratch: Vec<stream::Released>,
+}
+
+impl Engine {
+    /// Builds an engine for `stations` and the blocks `pbrs`. A station named by a block but not
+    /// configured gets the defaults (east/north/up in m/s², no clipping level).
+    pub fn new(
+        config: EngineConfig,
+        stations: Vec<StationConfig>,
+        pbrs: &[PbrSpec],
+    ) -> Result<Engine, String> {
+        let mut configs: BTreeMap<StationId, StationConfig> = BTreeMap::new();
+        for s in stations {
+            s.validate()?;
+            if configs.insert(s.id.clone(), s.clone()).is_some() {
+                return Err(format!("station {} is configured twice", s.id));
+            }
+        }
+        for p in pbrs {
+            configs
+                .entry(p.station.clone())
+                .or_insert_with(|| StationConfig::default_for(p.station.clone()));
+        }
+        if !(config.state_interval_s.is_finite() && config.state_interval_s > 0.0) {
+            return Err(format!(
+                "state_interval_s must be > 0, got {}",
+                config.state_interval_s
+            ));
+        }
+        let stations = configs
+            .into_iter()
+            .map(|(id, c)| {
+                let bound: Vec<&PbrSpec> = pbrs.iter().filter(|p| p.station == id).collect();
+                (id, StationRuntime::new(c, &bound, config.stream))
+            })
+            .collect();
+        Ok(Engine {
+            config,
+            stations,
+            counters: EngineCounters::default(),
+            scratch: Vec::new(),
+        })
+    }
+
+    /// The configuration in force.
+    #[must_use]
+    pub fn config(&self) -> &EngineConfig {
+        &self.config
+    }
+
+    /// Changes the alert thresholds (e.g. from a ROS 2 parameter); effective immediately.
+    pub fn set_alert_config(&mut self, alerts: AlertConfig) {
+        self.config.alerts = alerts;
+    }
+
+    /// Processes one packet that arrived at wall time `arrival_ns`; appends the outputs.
+    pub fn process(&mut self, packet: AccelPacket, arrival_ns: i64, out: &mut Vec<Output>) {
+        self.counters.packets += 1;
+        let station_id = match StationId::parse(&packet.station) {
+            Ok(id) => id,
+            Err(message) => {
+                self.counters.malformed_station_packets += 1;
+                out.push(Output::Notice(Notice {
+                    station: packet.station.clone(),
+                    kind: "rejected",
+                    message,
+                }));
+                return;
+            }
+        };
+        let Some(station) = self.stations.get_mut(&station_id) else {
+            self.counters.unknown_station_packets += 1;
+            out.push(Output::Notice(Notice {
+                station: packet.station.clone(),
+                kind: "unknown_station",
+                message:
+                    "packet from a station that is neither configured nor in the catalogue: ignored"
+                        .into(),
+            }));
+            return;
+        };
+        if let Err(error) = packet.validate() {
+            station.counters.rejected_packets += 1;
+            station.counters.rejected_samples += packet.len() as u64;
+            out.push(Output::Notice(Notice {
+                station: packet.station.clone(),
+                kind: "rejected",
+                message: format!("packet {} rejected: {error}", packet.sequence),
+            }));
+            return;
+        }
+        station.offer(
+            packet,
+            &self.config.alerts,
+            self.config.state_interval_s,
+            arrival_ns,
+            &mut self.scratch,
+            out,
+        );
+    }
+
+    /// Releases every packet held for reordering (call when streams go quiet, and at the end
+    /// of an offline run).
+    pub fn flush(&mut self, arrival_ns: i64, out: &mut Vec<Output>) {
+        for station in self.stations.values_mut() {
+            station.flush(
+                &self.config.alerts,
+                self.config.state_interval_s,
+                arrival_ns,
+                &mut self.scratch,
+                out,
+            );
+        }
+    }
+
+    /// Engine-wide counters.
+    #[must_use]
+    pub fn counters(&self) -> EngineCounters {
+        self.counters
+    }
+
+    /// Per-station counters: (station, own counters, stream counters).
+    pub fn station_counters(
+        &self,
+    ) -> impl Iterator<Item = (&StationId, StationCounters, StreamCounters)> {
+        self.stations
+            .iter()
+            .map(|(id, s)| (id, s.counters, s.sequencer().counters))
+    }
+
+    /// Response summaries of every block, by station then catalogue order.
+    #[must_use]
+    pub fn summaries(&self) -> Vec<PbrSummary> {
+        self.stations
+            .values()
+            .flat_map(|s| s.pbrs.iter().map(|p| p.summary(&s.name)))
+            .collect()
+    }
+}

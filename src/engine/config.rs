@@ -1,0 +1,145 @@
+//! Engine configuration: stations, thresholds, and the blocks to integrate.
+
+use super::packet::StationId;
+use super::stream::StreamConfig;
+use crate::dynamics::BlockParams;
+
+/// How a station's horizontal channels are oriented.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Orientation {
+    /// `east` carries east, `north` carries north.
+    EastNorth,
+    /// `east` carries channel 1 and `north` channel 2, whose directions are given as
+    /// azimuths (degrees clockwise from north).
+    Azimuths { h1_deg: f64, h2_deg: f64 },
+}
+
+/// One station as configured.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StationConfig {
+    pub id: StationId,
+    #[serde(default = "default_orientation")]
+    pub orientation: Orientation,
+    /// Counts per m/s²; when set, packet values are counts and are divided by it.
+    #[serde(default)]
+    pub gain_counts_per_mps2: Option<f64>,
+    /// Full-scale value of the sensor in packet units (counts or m/s²); samples at or beyond
+    /// 99.9 % of it are flagged as clipped.
+    #[serde(default)]
+    pub full_scale: Option<f64>,
+    #[serde(default)]
+    pub lat: Option<f64>,
+    #[serde(default)]
+    pub lon: Option<f64>,
+}
+
+fn default_orientation() -> Orientation {
+    Orientation::EastNorth
+}
+
+impl StationConfig {
+    /// A station with data in m/s² on east/north/up and no clipping level.
+    #[must_use]
+    pub fn default_for(id: StationId) -> Self {
+        StationConfig {
+            id,
+            orientation: Orientation::EastNorth,
+            gain_counts_per_mps2: None,
+            full_scale: None,
+            lat: None,
+            lon: None,
+        }
+    }
+
+    /// Checks gains, full scale, azimuths and coordinates; the message names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        let id = &self.id;
+        if let Some(g) = self.gain_counts_per_mps2 {
+            if !(g.is_finite() && g > 0.0) {
+                return Err(format!(
+                    "station {id}: gain_counts_per_mps2 must be > 0, got {g}"
+                ));
+            }
+        }
+        if let Some(f) = self.full_scale {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(format!("station {id}: full_scale must be > 0, got {f}"));
+            }
+        }
+        if let Orientation::Azimuths { h1_deg, h2_deg } = self.orientation {
+            let d = (h2_deg - h1_deg).rem_euclid(180.0);
+            if !(h1_deg.is_finite() && h2_deg.is_finite()) || (d - 90.0).abs() > 1.0 {
+                return Err(format!(
+                    "station {id}: horizontal azimuths {h1_deg}° and {h2_deg}° must be orthogonal"
+                ));
+            }
+        }
+        if self.lat.is_some_and(|v| !(-90.0..=90.0).contains(&v))
+            || self.lon.is_some_and(|v| !(-180.0..=180.0).contains(&v))
+        {
+            return Err(format!("station {id}: lat/lon out of range"));
+        }
+        Ok(())
+    }
+}
+
+/// Alert and episode thresholds.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AlertConfig {
+    /// `overturn_imminent` when |θ|/α reaches this ratio.
+    pub imminent_theta_ratio: f64,
+    /// `overturn_imminent` when the ensemble overturn probability reaches this value.
+    pub imminent_probability: f64,
+    /// A station is quiet while every horizontal and vertical |a| stays below this (m/s²).
+    pub quiet_threshold_mps2: f64,
+    /// An episode ends when the block is at rest and its station has been quiet this long (s).
+    pub quiet_s: f64,
+}
+
+impl Default for AlertConfig {
+    fn default() -> Self {
+        AlertConfig {
+            imminent_theta_ratio: 0.8,
+            imminent_probability: 0.5,
+            quiet_threshold_mps2: 0.05,
+            quiet_s: 30.0,
+        }
+    }
+}
+
+/// Engine-wide options.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EngineConfig {
+    pub stream: StreamConfig,
+    pub alerts: AlertConfig,
+    /// Each block's state is published on every mode change and at least this often (s of
+    /// data time); station intensities at the same rate.
+    pub state_interval_s: f64,
+}
+
+impl Default for EngineConfig {
+    fn default() -> Self {
+        EngineConfig {
+            stream: StreamConfig::default(),
+            alerts: AlertConfig::default(),
+            state_interval_s: 1.0,
+        }
+    }
+}
+
+/// A block bound to a station, ready to integrate: the nominal block and, for an uncertainty
+/// ensemble, its members.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PbrSpec {
+    pub id: String,
+    pub station: StationId,
+    /// Direction of the block's +x axis, degrees clockwise from north.
+    pub azimuth_deg: f64,
+    pub nominal: BlockParams,
+    /// Ensemble members (empty: nominal only).
+    pub members: Vec<BlockParams>,
+}

@@ -1,0 +1,137 @@
+//! What the engine emits: alerts, block states, station intensities and notices.
+
+use crate::dynamics::Mode;
+
+/// Alert levels, in increasing severity (numbering as in `msg/PbrAlert.msg`).
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum AlertLevel {
+    /// The block left rest: rocking or sliding began.
+    MotionOnset = 1,
+    /// |θ|/α or the overturn probability reached its threshold.
+    OverturnImminent = 2,
+    /// The block fell.
+    Overturned = 3,
+}
+
+impl AlertLevel {
+    pub const ALL: [AlertLevel; 3] = [
+        AlertLevel::MotionOnset,
+        AlertLevel::OverturnImminent,
+        AlertLevel::Overturned,
+    ];
+
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            AlertLevel::MotionOnset => "motion_onset",
+            AlertLevel::OverturnImminent => "overturn_imminent",
+            AlertLevel::Overturned => "overturned",
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize - 1
+    }
+}
+
+/// An alert, emitted once per block per episode and level.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Alert {
+    pub pbr_id: String,
+    pub station: String,
+    pub level: AlertLevel,
+    /// Episode number of this block (1 for the first), part of the alert's identity.
+    pub episode: u32,
+    pub mode: Mode,
+    pub theta_over_alpha: f64,
+    /// Slip of the contact point u (m).
+    pub slide_m: f64,
+    pub overturn_probability: f64,
+    /// Station's running PGA and PGV, larger horizontal component (m/s², m/s).
+    pub pga_mps2: f64,
+    pub pgv_mps: f64,
+    /// UTC time of the triggering sample (ns).
+    pub data_time_ns: i64,
+    /// Wall time at which the triggering packet arrived (ns; the caller's clock).
+    pub arrival_ns: i64,
+}
+
+impl Alert {
+    /// The identity under which an alert is stored and de-duplicated.
+    #[must_use]
+    pub fn key(&self) -> (String, u32, AlertLevel) {
+        (self.pbr_id.clone(), self.episode, self.level)
+    }
+}
+
+/// A block's state, published on every mode change and at the state rate.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PbrState {
+    pub pbr_id: String,
+    pub station: String,
+    pub mode: Mode,
+    pub theta_rad: f64,
+    pub theta_over_alpha: f64,
+    pub slide_m: f64,
+    pub overturned: bool,
+    pub overturn_probability: f64,
+    /// The block's prediction is uncertain: data were missing (a gap too long to bridge).
+    pub data_gap: bool,
+    /// UTC time of the latest sample integrated (ns).
+    pub data_time_ns: i64,
+}
+
+/// A station's running intensity measures over the current event window.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct StationIntensity {
+    pub station: String,
+    pub data_time_ns: i64,
+    /// Larger of the two horizontal components (m/s², m/s, m, m/s, m/s).
+    pub pga_mps2: f64,
+    pub pgv_mps: f64,
+    pub pgd_m: f64,
+    pub cav_mps: f64,
+    pub arias_mps: f64,
+    pub asi_mps: f64,
+    pub d5_95_s: f64,
+    pub sa_periods_s: Vec<f64>,
+    pub sa_mps2: Vec<f64>,
+    pub rejected_samples: u64,
+    pub gap_samples: u64,
+    pub late_samples: u64,
+}
+
+/// A noteworthy irregularity, for the shell to log (rate-limited) and count.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Notice {
+    /// Station id as received (may be malformed).
+    pub station: String,
+    pub kind: &'static str,
+    pub message: String,
+}
+
+/// One engine output.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    Alert(Alert),
+    State(PbrState),
+    Intensity(StationIntensity),
+    Notice(Notice),
+}
+
+/// Which alert levels a block has raised in its current episode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RaisedLevels([bool; 3]);
+
+impl RaisedLevels {
+    #[must_use]
+    pub fn contains(self, level: AlertLevel) -> bool {
+        self.0[level.index()]
+    }
+    pub fn insert(&mut self, level: AlertLevel) {
+        self.0[level.index()] = true;
+    }
+}

@@ -1,0 +1,499 @@
+//! One station's runtime: its stream sequencer, running intensity measures, and the blocks
+//! bound to it, advanced sample by sample.
+
+use super::config::{AlertConfig, Orientation, PbrSpec, StationConfig};
+use super::output::{Alert, AlertLevel, Notice, Output, PbrState, RaisedLevels, StationIntensity};
+use super::stream::{Gap, Released, Sequencer, StreamConfig};
+use crate::dynamics::{BlockEvent, BlockOptions, GroundAccel, Mode, RigidBlock};
+use crate::ims::{RunningConfig, RunningIms};
+
+/// Per-station counters of data problems (cumulative).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct StationCounters {
+    pub packets: u64,
+    pub samples: u64,
+    /// Packets rejected by validation (NaN/Inf, bad lengths, absurd rates, …).
+    pub rejected_packets: u64,
+    pub rejected_samples: u64,
+    /// Samples at or beyond 99.9 % of the sensor's full scale (used, but flagged).
+    pub clipped_samples: u64,
+    /// Intervals the block integrator could not complete (should stay 0).
+    pub integration_errors: u64,
+}
+
+/// A block's response summary (the last line of `rockwatch monitor`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PbrSummary {
+    pub pbr_id: String,
+    pub station: String,
+    pub max_theta_over_alpha: f64,
+    pub max_slide_m: f64,
+    pub overturned: bool,
+    pub overturn_probability: f64,
+    pub data_gap: bool,
+    pub episodes: u32,
+}
+
+/// One catalogued block in the engine.
+#[derive(Debug, Clone)]
+pub(crate) struct PbrRuntime {
+    id: String,
+    sin_az: f64,
+    cos_az: f64,
+    nominal: RigidBlock,
+    members: Vec<RigidBlock>,
+    members_overturned: usize,
+    episode: u32,
+    in_episode: bool,
+    raised: RaisedLevels,
+    data_gap: bool,
+    last_state_ns: Option<i64>,
+}
+
+impl PbrRuntime {
+    fn new(spec: &PbrSpec) -> Self {
+        let (sin_az, cos_az) = spec.azimuth_deg.to_radians().sin_cos();
+        let options = BlockOptions::default();
+        PbrRuntime {
+            id: spec.id.clone(),
+            sin_az,
+            cos_az,
+            nominal: RigidBlock::new(spec.nominal, options),
+            members: spec
+                .members
+                .iter()
+                .map(|p| RigidBlock::new(*p, options))
+                .collect(),
+            members_overturned: 0,
+            episode: 0,
+            in_episode: false,
+            raised: RaisedLevels::default(),
+            data_gap: false,
+            last_state_ns: None,
+        }
+    }
+
+    fn theta_over_alpha(&self) -> f64 {
+        self.nominal.theta_rad().abs() / self.nominal.params().alpha_rad
+    }
+
+    fn overturn_probability(&self) -> f64 {
+        if self.members.is_empty() {
+            f64::from(u8::from(self.nominal.mode() == Mode::Overturned))
+        } else {
+            self.members_overturned as f64 / self.members.len() as f64
+        }
+    }
+
+    fn at_rest(&self) -> bool {
+        let still = |b: &RigidBlock| matches!(b.mode(), Mode::Rest | Mode::Overturned);
+        still(&self.nominal) && self.members.iter().all(still)
+    }
+
+    fn state(&self, station: &str, data_time_ns: i64) -> PbrState {
+        PbrState {
+            pbr_id: self.id.clone(),
+            station: station.to_string(),
+            mode: self.nominal.mode(),
+            theta_rad: self.nominal.theta_rad(),
+            theta_over_alpha: self.nominal.theta_rad() / self.nominal.params().alpha_rad,
+            slide_m: self.nominal.slide_m(),
+            overturned: self.nominal.mode() == Mode::Overturned,
+            overturn_probability: self.overturn_probability(),
+            data_gap: self.data_gap,
+            data_time_ns,
+        }
+    }
+
+    pub(crate) fn summary(&self, station: &str) -> PbrSummary {
+        let stats = self.nominal.stats();
+        PbrSummary {
+            pbr_id: self.id.clone(),
+            station: station.to_string(),
+            max_theta_over_alpha: stats.max_abs_theta_rad / self.nominal.params().alpha_rad,
+            max_slide_m: stats.max_abs_slide_m,
+            overturned: self.nominal.mode() == Mode::Overturned,
+            overturn_probability: self.overturn_probability(),
+            data_gap: self.data_gap,
+            episodes: self.episode,
+        }
+    }
+}
+
+/// Ground acceleration of one sample at a station, rotated to east/north/up, in m/s².
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sample {
+    east: f64,
+    north: f64,
+    up: f64,
+}
+
+/// Everything the engine keeps for one station.
+#[derive(Debug)]
+pub(crate) struct StationRuntime {
+    pub(crate) config: StationConfig,
+    pub(crate) name: String,
+    sequencer: Sequencer,
+    ims: Option<[RunningIms; 3]>,
+    has_up: bool,
+    last: Option<Sample>,
+    pub(crate) pbrs: Vec<PbrRuntime>,
+    quiet_since_ns: Option<i64>,
+    last_intensity_ns: Option<i64>,
+    pub(crate) counters: StationCounters,
+}
+
+/// Context of one released packet, shared by its samples.
+struct PacketContext<'a> {
+    alerts: &'a AlertConfig,
+    state_interval_ns: i64,
+    arrival_ns: i64,
+}
+
+impl StationRuntime {
+    pub(crate) fn new(config: StationConfig, pbrs: &[&PbrSpec], stream: StreamConfig) -> Self {
+        StationRuntime {
+            name: config.id.to_string(),
+            config,
+            sequencer: Sequencer::new(stream),
+            ims: None,
+            has_up: false,
+            last: None,
+            pbrs: pbrs.iter().map(|s| PbrRuntime::new(s)).collect(),
+            quiet_since_ns: None,
+            last_intensity_ns: None,
+            counters: StationCounters::default(),
+        }
+    }
+
+    pub(crate) fn sequencer(&self) -> &Sequencer {
+        &self.sequencer
+    }
+
+    /// Places a validated packet in the stream and processes whatever is ready.
+    pub(crate) fn offer(
+        &mut self,
+        packet: super::packet::AccelPacket,
+        alerts: &AlertConfig,
+        state_interval_s: f64,
+        arrival_ns: i64,
+        scratch: &mut Vec<Released>,
+        out: &mut Vec<Output>,
+    ) {
+        self.counters.packets += 1;
+        scratch.clear();
+        self.sequencer.offer(packet, scratch);
+        self.process_released(scratch, alerts, state_interval_s, arrival_ns, out);
+    }
+
+    /// Releases and processes every packet held for reordering.
+    pub(crate) fn flush(
+        &mut self,
+        alerts: &AlertConfig,
+        state_interval_s: f64,
+        arrival_ns: i64,
+        scratch: &mut Vec<Released>,
+        out: &mut Vec<Output>,
+    ) {
+        scratch.clear();
+        self.sequencer.flush(scratch);
+        self.process_released(scratch, alerts, state_interval_s, arrival_ns, out);
+    }
+
+    fn process_released(
+        &mut self,
+        released: &mut Vec<Released>,
+        alerts: &AlertConfig,
+        state_interval_s: f64,
+        arrival_ns: i64,
+        out: &mut Vec<Output>,
+    ) {
+        let ctx = PacketContext {
+            alerts,
+            state_interval_ns: (state_interval_s * 1e9) as i64,
+            arrival_ns,
+        };
+        for r in released.drain(..) {
+            self.process_packet(&r, &ctx, out);
+        }
+    }
+
+    fn notice(&self, kind: &'static str, message: String, out: &mut Vec<Output>) {
+        out.push(Output::Notice(Notice {
+            station: self.name.clone(),
+            kind,
+            message,
+        }));
+    }
+
+    fn process_packet(&mut self, r: &Released, ctx: &PacketContext<'_>, out: &mut Vec<Output>) {
+        let dt_s = 1.0 / self.sequencer.rate_hz();
+        match r.gap {
+            Gap::Start | Gap::RateChange => {
+                if r.gap == Gap::RateChange {
+                    self.notice(
+                        "rate_change",
+                        format!("sample rate changed to {} Hz: intensity window restarted, blocks resume", r.packet.sample_rate_hz),
+                        out,
+                    );
+                }
+                let config = RunningConfig::live_default();
+                self.ims = match (
+                    RunningIms::new(dt_s, &config),
+                    RunningIms::new(dt_s, &config),
+                    RunningIms::new(dt_s, &config),
+                ) {
+                    (Ok(e), Ok(n), Ok(u)) => Some([e, n, u]),
+                    _ => None,
+                };
+                self.last = None;
+            }
+            Gap::None => {}
+            Gap::Bridge(n) => {
+                if let (Some(prev), Some(next)) = (self.last, self.sample(&r.packet, r.skip)) {
+                    self.notice(
+                        "gap_bridged",
+                        format!("{n} missing samples bridged by linear interpolation"),
+                        out,
+                    );
+                    for j in 1..=n {
+                        let w = j as f64 / (n + 1) as f64;
+                        let s = Sample {
+                            east: prev.east + (next.east - prev.east) * w,
+                            north: prev.north + (next.north - prev.north) * w,
+                            up: prev.up + (next.up - prev.up) * w,
+                        };
+                        let t = self.sequencer.time_ns(r.first_index - (n - j + 1) as i64);
+                        self.feed(s, t, dt_s, ctx, out);
+                    }
+                }
+            }
+            Gap::Break(n) => {
+                self.notice(
+                    "gap",
+                    format!("{n} missing samples ({:.3} s): blocks flagged data_gap, integration resumes from the last state", n as f64 * dt_s),
+                    out,
+                );
+                self.last = None;
+                for p in &mut self.pbrs {
+                    p.data_gap = true;
+                }
+            }
+        }
+        if !r.packet.up.is_empty() {
+            self.has_up = true;
+        }
+        for i in r.skip..r.packet.len() {
+            if let Some(s) = self.sample(&r.packet, i) {
+                let t = self.sequencer.time_ns(r.first_index + (i - r.skip) as i64);
+                self.feed(s, t, dt_s, ctx, out);
+            }
+        }
+        self.counters.samples += (r.packet.len() - r.skip) as u64;
+    }
+
+    /// Sample `i` of a packet in m/s², rotated to east/north; flags clipping.
+    fn sample(&mut self, p: &super::packet::AccelPacket, i: usize) -> Option<Sample> {
+        let raw = [
+            f64::from(*p.east.get(i)?),
+            f64::from(*p.north.get(i)?),
+            p.up.get(i).map_or(0.0, |v| f64::from(*v)),
+        ];
+        if let Some(full) = self.config.full_scale {
+            if raw.iter().any(|v| v.abs() >= 0.999 * full) {
+                self.counters.clipped_samples += 1;
+            }
+        }
+        let scale = self.config.gain_counts_per_mps2.map_or(1.0, |g| 1.0 / g);
+        let [c1, c2, up] = raw.map(|v| v * scale);
+        let (east, north) = match self.config.orientation {
+            Orientation::EastNorth => (c1, c2),
+            Orientation::Azimuths { h1_deg, h2_deg } => {
+                let (s1, k1) = h1_deg.to_radians().sin_cos();
+                let (s2, k2) = h2_deg.to_radians().sin_cos();
+                (c1 * s1 + c2 * s2, c1 * k1 + c2 * k2)
+            }
+        };
+        Some(Sample { east, north, up })
+    }
+
+    /// Larger of the horizontal components' running PGA and PGV.
+    fn horizontal_pga_pgv(&self) -> (f64, f64) {
+        self.ims.as_ref().map_or((0.0, 0.0), |[e, n, _]| {
+            (e.pga_mps2().max(n.pga_mps2()), e.pgv_mps().max(n.pgv_mps()))
+        })
+    }
+
+    /// One new sample at data time `t_ns`.
+    fn feed(
+        &mut self,
+        s: Sample,
+        t_ns: i64,
+        dt_s: f64,
+        ctx: &PacketContext<'_>,
+        out: &mut Vec<Output>,
+    ) {
+        if let Some([e, n, u]) = &mut self.ims {
+            e.push(s.east);
+            n.push(s.north);
+            if self.has_up {
+                u.push(s.up);
+            }
+        }
+        let loud =
+            s.east.abs().max(s.north.abs()).max(s.up.abs()) > ctx.alerts.quiet_threshold_mps2;
+        if loud {
+            self.quiet_since_ns = None;
+        } else if self.quiet_since_ns.is_none() {
+            self.quiet_since_ns = Some(t_ns);
+        }
+        let quiet_long = self
+            .quiet_since_ns
+            .is_some_and(|since| (t_ns - since) as f64 * 1e-9 >= ctx.alerts.quiet_s);
+
+        let prev = self.last;
+        self.last = Some(s);
+        let (pga, pgv) = self.horizontal_pga_pgv();
+        let t_prev_ns = t_ns - (dt_s * 1e9).round() as i64;
+        for index in 0..self.pbrs.len() {
+            let pbr = &mut self.pbrs[index];
+            let project = |x: Sample| GroundAccel {
+                horizontal_mps2: x.east * pbr.sin_az + x.north * pbr.cos_az,
+                vertical_mps2: x.up,
+            };
+            let mut first_change_ns: Option<i64> = None;
+            let mut failed = false;
+            if let Some(prev) = prev {
+                let (from, to) = (project(prev), project(s));
+                let t_before = pbr.nominal.time_s();
+                let result = pbr.nominal.advance(dt_s, from, to, |e| {
+                    if let BlockEvent::ModeChange { t_s, .. } = e {
+                        first_change_ns
+                            .get_or_insert(t_prev_ns + ((t_s - t_before) * 1e9).round() as i64);
+                    }
+                });
+                failed |= result.is_err();
+                let mut overturned = 0;
+                for m in &mut pbr.members {
+                    failed |= m.advance(dt_s, from, to, |_| {}).is_err();
+                    overturned += usize::from(m.mode() == Mode::Overturned);
+                }
+                pbr.members_overturned = overturned;
+            }
+            if failed {
+                self.counters.integration_errors += 1;
+            }
+            let pbr = &mut self.pbrs[index];
+            let mode_changed = first_change_ns.is_some();
+            // Alerts, each once per episode.
+            let ratio = pbr.theta_over_alpha();
+            let probability = pbr.overturn_probability();
+            let mode = pbr.nominal.mode();
+            let conditions = [
+                (AlertLevel::MotionOnset, mode != Mode::Rest),
+                (
+                    AlertLevel::OverturnImminent,
+                    ratio >= ctx.alerts.imminent_theta_ratio
+                        || (!pbr.members.is_empty()
+                            && probability >= ctx.alerts.imminent_probability),
+                ),
+                (AlertLevel::Overturned, mode == Mode::Overturned),
+            ];
+            for (level, holds) in conditions {
+                if holds && !pbr.raised.contains(level) {
+                    if !pbr.in_episode {
+                        pbr.in_episode = true;
+                        pbr.episode += 1;
+                    }
+                    pbr.raised.insert(level);
+                    let data_time_ns = if level == AlertLevel::MotionOnset {
+                        first_change_ns.unwrap_or(t_ns)
+                    } else {
+                        t_ns
+                    };
+                    out.push(Output::Alert(Alert {
+                        pbr_id: pbr.id.clone(),
+                        station: self.name.clone(),
+                        level,
+                        episode: pbr.episode,
+                        mode,
+                        theta_over_alpha: pbr.nominal.theta_rad() / pbr.nominal.params().alpha_rad,
+                        slide_m: pbr.nominal.slide_m(),
+                        overturn_probability: probability,
+                        pga_mps2: pga,
+                        pgv_mps: pgv,
+                        data_time_ns,
+                        arrival_ns: ctx.arrival_ns,
+                    }));
+                }
+            }
+            // Episode end: back at rest on a quiet station (a fallen block stays fallen).
+            if pbr.in_episode && quiet_long && pbr.at_rest() && mode != Mode::Overturned {
+                pbr.in_episode = false;
+                pbr.raised = RaisedLevels::default();
+            }
+            // States: on mode change and at the state rate.
+            let due = pbr
+                .last_state_ns
+                .is_none_or(|last| t_ns - last >= ctx.state_interval_ns);
+            if mode_changed || due {
+                pbr.last_state_ns = Some(t_ns);
+                out.push(Output::State(pbr.state(&self.name, t_ns)));
+            }
+        }
+        // Station intensities at the state rate; the window restarts when all is quiet.
+        if self
+            .last_intensity_ns
+            .is_none_or(|last| t_ns - last >= ctx.state_interval_ns)
+        {
+            self.last_intensity_ns = Some(t_ns);
+            out.push(Output::Intensity(self.intensity(t_ns)));
+        }
+        if quiet_long && self.pbrs.iter().all(|p| !p.in_episode) {
+            if let Some(ims) = &mut self.ims {
+                if ims[0].npts() as f64 * dt_s > 2.0 * ctx.alerts.quiet_s {
+                    ims.iter_mut().for_each(RunningIms::reset);
+                }
+            }
+        }
+    }
+
+    pub(crate) fn intensity(&self, t_ns: i64) -> StationIntensity {
+        let stream = self.sequencer.counters;
+        let (pga, pgv) = self.horizontal_pga_pgv();
+        let mut out = StationIntensity {
+            station: self.name.clone(),
+            data_time_ns: t_ns,
+            pga_mps2: pga,
+            pgv_mps: pgv,
+            pgd_m: 0.0,
+            cav_mps: 0.0,
+            arias_mps: 0.0,
+            asi_mps: 0.0,
+            d5_95_s: 0.0,
+            sa_periods_s: Vec::new(),
+            sa_mps2: Vec::new(),
+            rejected_samples: self.counters.rejected_samples,
+            gap_samples: stream.missing_samples,
+            late_samples: stream.overlap_samples,
+        };
+        if let Some([e, n, _]) = &self.ims {
+            // Each value is the larger horizontal component's.
+            out.pgd_m = e.pgd_m().max(n.pgd_m());
+            out.cav_mps = e.cav_mps().max(n.cav_mps());
+            out.arias_mps = e.arias_mps().max(n.arias_mps());
+            out.d5_95_s = e.d5_95_s().max(n.d5_95_s());
+            out.asi_mps = e
+                .intensities()
+                .zip(n.intensities())
+                .map(|(a, b)| a.asi_mps.max(b.asi_mps))
+                .next()
+                .unwrap_or(0.0);
+            for (a, b) in e.spectral().zip(n.spectral()) {
+                out.sa_periods_s.push(a.period_s);
+                out.sa_mps2.push(a.sa_mps2.max(b.sa_mps2));
+            }
+        }
+        out
+    }
+}
