@@ -6,6 +6,7 @@
 pub mod dynamics;
 pub mod engine;
 pub mod ims;
+pub mod journal;
 pub mod lhs;
 pub mod ode;
 pub mod plot;

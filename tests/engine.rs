@@ -393,3 +393,133 @@ fn duplicates_and_reordered_packets_do_not_change_the_result() {
         "{stream:?}"
     );
 }
+
+/// Alerts of a run, keyed by identity.
+fn alert_keys(out: &[Output]) -> Vec<(String, u32, AlertLevel)> {
+    out.iter()
+        .filter_map(|o| {
+            if let Output::Alert(a) = o {
+                Some(a.key())
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn restart_from_the_journal_neither_loses_nor_duplicates_alerts() {
+    use rockwatch::engine::JournalRecord;
+    let record = rinaldi_f32();
+    let zeros = vec![0.0; record.len()];
+    let pbrs = [
+        spec("slender", "CI.RRS.00", 90.0, slender()),
+        spec("stocky", "CI.RRS.00", 90.0, stocky()),
+    ];
+    let all = packets(
+        "CI.RRS.00",
+        &record.horizontal_mps2,
+        &zeros,
+        record.dt_s,
+        25,
+    );
+    let uninterrupted = alert_keys(&run(
+        &mut Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap(),
+        all.clone(),
+    ));
+    assert_eq!(uninterrupted.len(), 4, "{uninterrupted:?}");
+
+    for crash_after in [0, 20, 60, 100, all.len()] {
+        // First life: journal every alert (as the shell does before publishing), then crash.
+        let mut first = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+        let mut out = Vec::new();
+        for p in all.iter().take(crash_after) {
+            first.process(p.clone(), 0, &mut out);
+        }
+        let journal: Vec<JournalRecord> = out
+            .iter()
+            .filter_map(|o| {
+                if let Output::Alert(a) = o {
+                    Some(JournalRecord::Alert(a.clone()))
+                } else {
+                    None
+                }
+            })
+            .collect();
+        // Second life: restore, and the stream is replayed from its start.
+        let mut second = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+        second.restore(&journal);
+        let after = alert_keys(&run(&mut second, all.clone()));
+        let mut history: Vec<_> = journal
+            .iter()
+            .filter_map(|r| {
+                if let JournalRecord::Alert(a) = r {
+                    Some(a.key())
+                } else {
+                    None
+                }
+            })
+            .collect();
+        history.extend(after);
+        history.sort();
+        let mut expected = uninterrupted.clone();
+        expected.sort();
+        assert_eq!(history, expected, "crash after {crash_after} packets");
+    }
+}
+
+#[test]
+fn a_fallen_block_stays_fallen_after_restart_until_reset() {
+    use rockwatch::engine::JournalRecord;
+    let record = rinaldi_f32();
+    let zeros = vec![0.0; record.len()];
+    let pbrs = [spec("slender", "CI.RRS.00", 90.0, slender())];
+    let out = run(
+        &mut Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap(),
+        packets(
+            "CI.RRS.00",
+            &record.horizontal_mps2,
+            &zeros,
+            record.dt_s,
+            100,
+        ),
+    );
+    let mut journal: Vec<JournalRecord> = out
+        .iter()
+        .filter_map(|o| {
+            if let Output::Alert(a) = o {
+                Some(JournalRecord::Alert(a.clone()))
+            } else {
+                None
+            }
+        })
+        .collect();
+    let mut restored = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    restored.restore(&journal);
+    assert!(restored.summaries()[0].overturned);
+    // Quiet data: no new alert, still fallen.
+    let quiet = packets("CI.RRS.00", &vec![0.0; 500], &vec![0.0; 500], 0.01, 100);
+    assert!(alert_keys(&run(&mut restored, quiet.clone())).is_empty());
+    assert!(restored.summaries()[0].overturned);
+    // After an operator reset the block stands, and the record topples it again (episode 2).
+    journal.push(JournalRecord::Reset {
+        pbr_id: "slender".into(),
+    });
+    let mut reset = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    reset.restore(&journal);
+    assert!(!reset.summaries()[0].overturned);
+    let again = alert_keys(&run(
+        &mut reset,
+        packets(
+            "CI.RRS.00",
+            &record.horizontal_mps2,
+            &zeros,
+            record.dt_s,
+            100,
+        ),
+    ));
+    assert_eq!(
+        again.last(),
+        Some(&("slender".to_string(), 2, AlertLevel::Overturned))
+    );
+}

@@ -358,6 +358,15 @@ impl RigidBlock {
     pub fn stats(&self) -> &ResponseStats {
         &self.stats
     }
+    /// Puts the block in the overturned state (restoring a persisted fallen block: a rock
+    /// that fell stays fallen); θ is set to ±π/2 on the side it was leaning, + if upright.
+    pub fn set_overturned(&mut self) {
+        self.y[0] = sign(self.y[0]) * std::f64::consts::FRAC_PI_2;
+        self.y[1] = 0.0;
+        self.y[3] = 0.0;
+        self.phase = Phase::Overturned;
+    }
+
     /// Integrator step counters (accepted, rejected).
     #[must_use]
     pub fn step_counts(&self) -> (u64, u64) {

@@ -25,15 +25,17 @@ pub mod packet;
 mod station;
 pub mod stream;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashSet};
 
 pub use config::{AlertConfig, EngineConfig, Orientation, PbrSpec, StationConfig};
-pub use output::{Alert, AlertLevel, Notice, Output, PbrState, StationIntensity};
+pub use output::{
+    Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, PbrState, StationIntensity,
+};
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use station::{PbrSummary, StationCounters};
 pub use stream::{StreamConfig, StreamCounters};
 
-use station::StationRuntime;
+use station::{PacketContext, StationRuntime};
 
 /// Engine-wide counters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -51,6 +53,7 @@ pub struct Engine {
     config: EngineConfig,
     stations: BTreeMap<StationId, StationRuntime>,
     counters: EngineCounters,
+    journaled: HashSet<AlertKey>,
     scratch: Vec<stream::Released>,
 }
 
@@ -91,6 +94,7 @@ impl Engine {
             config,
             stations,
             counters: EngineCounters::default(),
+            journaled: HashSet::new(),
             scratch: Vec::new(),
         })
     }
@@ -142,27 +146,44 @@ impl Engine {
             }));
             return;
         }
-        station.offer(
-            packet,
-            &self.config.alerts,
-            self.config.state_interval_s,
+        let ctx = PacketContext {
+            alerts: &self.config.alerts,
+            journaled: &self.journaled,
+            state_interval_s: self.config.state_interval_s,
             arrival_ns,
-            &mut self.scratch,
-            out,
-        );
+        };
+        station.offer(packet, &ctx, &mut self.scratch, out);
+    }
+
+    /// Restores alerts, episodes and fallen blocks from the journal of a previous run. Alerts
+    /// already journaled are never emitted again.
+    pub fn restore(&mut self, records: &[JournalRecord]) {
+        for record in records {
+            if let JournalRecord::Alert(a) = record {
+                self.journaled.insert(a.key());
+            }
+        }
+        for station in self.stations.values_mut() {
+            station.restore(records);
+        }
+    }
+
+    /// An operator reset of block `pbr_id` (it stands again); false if no such block.
+    pub fn reset_pbr(&mut self, pbr_id: &str) -> bool {
+        self.stations.values_mut().any(|s| s.reset_pbr(pbr_id))
     }
 
     /// Releases every packet held for reordering (call when streams go quiet, and at the end
     /// of an offline run).
     pub fn flush(&mut self, arrival_ns: i64, out: &mut Vec<Output>) {
+        let ctx = PacketContext {
+            alerts: &self.config.alerts,
+            journaled: &self.journaled,
+            state_interval_s: self.config.state_interval_s,
+            arrival_ns,
+        };
         for station in self.stations.values_mut() {
-            station.flush(
-                &self.config.alerts,
-                self.config.state_interval_s,
-                arrival_ns,
-                &mut self.scratch,
-                out,
-            );
+            station.flush(&ctx, &mut self.scratch, out);
         }
     }
 

@@ -62,7 +62,7 @@ pub struct Alert {
 impl Alert {
     /// The identity under which an alert is stored and de-duplicated.
     #[must_use]
-    pub fn key(&self) -> (String, u32, AlertLevel) {
+    pub fn key(&self) -> AlertKey {
         (self.pbr_id.clone(), self.episode, self.level)
     }
 }
@@ -120,7 +120,26 @@ pub enum Output {
     State(PbrState),
     Intensity(StationIntensity),
     Notice(Notice),
+    /// A block's episode ended (back at rest on a quiet station): journal it.
+    EpisodeEnd {
+        pbr_id: String,
+        episode: u32,
+    },
 }
+
+/// A durable record of the state directory's journal (see `crate::journal`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum JournalRecord {
+    /// An alert, written before it is published.
+    Alert(Alert),
+    /// The end of a block's episode.
+    EpisodeEnd { pbr_id: String, episode: u32 },
+    /// An operator reset a (fallen) block: it stands again, its episode is closed.
+    Reset { pbr_id: String },
+}
+
+/// Identity of an alert: block, episode, level.
+pub type AlertKey = (String, u32, AlertLevel);
 
 /// Which alert levels a block has raised in its current episode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -133,5 +152,11 @@ impl RaisedLevels {
     }
     pub fn insert(&mut self, level: AlertLevel) {
         self.0[level.index()] = true;
+    }
+
+    /// Every level raised.
+    #[must_use]
+    pub fn all() -> Self {
+        RaisedLevels([true; 3])
     }
 }

@@ -2,7 +2,12 @@
 //! bound to it, advanced sample by sample.
 
 use super::config::{AlertConfig, Orientation, PbrSpec, StationConfig};
-use super::output::{Alert, AlertLevel, Notice, Output, PbrState, RaisedLevels, StationIntensity};
+use std::collections::HashSet;
+
+use super::output::{
+    Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, PbrState, RaisedLevels,
+    StationIntensity,
+};
 use super::stream::{Gap, Released, Sequencer, StreamConfig};
 use crate::dynamics::{BlockEvent, BlockOptions, GroundAccel, Mode, RigidBlock};
 use crate::ims::{RunningConfig, RunningIms};
@@ -144,10 +149,12 @@ pub(crate) struct StationRuntime {
 }
 
 /// Context of one released packet, shared by its samples.
-struct PacketContext<'a> {
-    alerts: &'a AlertConfig,
-    state_interval_ns: i64,
-    arrival_ns: i64,
+pub(crate) struct PacketContext<'a> {
+    pub(crate) alerts: &'a AlertConfig,
+    /// Alerts already in the journal (published before a restart): not emitted again.
+    pub(crate) journaled: &'a HashSet<AlertKey>,
+    pub(crate) state_interval_s: f64,
+    pub(crate) arrival_ns: i64,
 }
 
 impl StationRuntime {
@@ -174,48 +181,85 @@ impl StationRuntime {
     pub(crate) fn offer(
         &mut self,
         packet: super::packet::AccelPacket,
-        alerts: &AlertConfig,
-        state_interval_s: f64,
-        arrival_ns: i64,
+        ctx: &PacketContext<'_>,
         scratch: &mut Vec<Released>,
         out: &mut Vec<Output>,
     ) {
         self.counters.packets += 1;
         scratch.clear();
         self.sequencer.offer(packet, scratch);
-        self.process_released(scratch, alerts, state_interval_s, arrival_ns, out);
+        for r in scratch.drain(..) {
+            self.process_packet(&r, ctx, out);
+        }
     }
 
     /// Releases and processes every packet held for reordering.
     pub(crate) fn flush(
         &mut self,
-        alerts: &AlertConfig,
-        state_interval_s: f64,
-        arrival_ns: i64,
+        ctx: &PacketContext<'_>,
         scratch: &mut Vec<Released>,
         out: &mut Vec<Output>,
     ) {
         scratch.clear();
         self.sequencer.flush(scratch);
-        self.process_released(scratch, alerts, state_interval_s, arrival_ns, out);
+        for r in scratch.drain(..) {
+            self.process_packet(&r, ctx, out);
+        }
     }
 
-    fn process_released(
-        &mut self,
-        released: &mut Vec<Released>,
-        alerts: &AlertConfig,
-        state_interval_s: f64,
-        arrival_ns: i64,
-        out: &mut Vec<Output>,
-    ) {
-        let ctx = PacketContext {
-            alerts,
-            state_interval_ns: (state_interval_s * 1e9) as i64,
-            arrival_ns,
-        };
-        for r in released.drain(..) {
-            self.process_packet(&r, &ctx, out);
+    /// Restores a block's alerts, episodes and fallen state from the journal.
+    pub(crate) fn restore(&mut self, records: &[JournalRecord]) {
+        for pbr in &mut self.pbrs {
+            let (mut last_episode, mut ended, mut overturned) = (0, 0, false);
+            for record in records {
+                match record {
+                    JournalRecord::Alert(a) if a.pbr_id == pbr.id => {
+                        last_episode = last_episode.max(a.episode);
+                        overturned |= a.level == AlertLevel::Overturned;
+                    }
+                    JournalRecord::EpisodeEnd { pbr_id, episode } if *pbr_id == pbr.id => {
+                        ended = ended.max(*episode);
+                    }
+                    JournalRecord::Reset { pbr_id } if *pbr_id == pbr.id => {
+                        overturned = false;
+                        ended = last_episode;
+                    }
+                    _ => {}
+                }
+            }
+            if overturned {
+                pbr.nominal.set_overturned();
+                pbr.members.iter_mut().for_each(RigidBlock::set_overturned);
+                pbr.members_overturned = pbr.members.len();
+                pbr.episode = last_episode;
+                pbr.in_episode = true;
+                pbr.raised = RaisedLevels::all();
+            } else {
+                // An open episode is re-entered under its own number, so that its journaled
+                // alerts are recognised and not emitted twice.
+                pbr.episode = if ended >= last_episode {
+                    last_episode
+                } else {
+                    last_episode - 1
+                };
+            }
         }
+    }
+
+    /// An operator reset: the block stands again at rest, its episode closed.
+    pub(crate) fn reset_pbr(&mut self, id: &str) -> bool {
+        let Some(pbr) = self.pbrs.iter_mut().find(|p| p.id == id) else {
+            return false;
+        };
+        let options = BlockOptions::default();
+        pbr.nominal = RigidBlock::new(*pbr.nominal.params(), options);
+        for m in &mut pbr.members {
+            *m = RigidBlock::new(*m.params(), options);
+        }
+        pbr.members_overturned = 0;
+        pbr.in_episode = false;
+        pbr.raised = RaisedLevels::default();
+        true
     }
 
     fn notice(&self, kind: &'static str, message: String, out: &mut Vec<Output>) {
@@ -406,6 +450,12 @@ impl StationRuntime {
                         pbr.episode += 1;
                     }
                     pbr.raised.insert(level);
+                    if ctx
+                        .journaled
+                        .contains(&(pbr.id.clone(), pbr.episode, level))
+                    {
+                        continue; // published before a restart
+                    }
                     let data_time_ns = if level == AlertLevel::MotionOnset {
                         first_change_ns.unwrap_or(t_ns)
                     } else {
@@ -431,11 +481,15 @@ impl StationRuntime {
             if pbr.in_episode && quiet_long && pbr.at_rest() && mode != Mode::Overturned {
                 pbr.in_episode = false;
                 pbr.raised = RaisedLevels::default();
+                out.push(Output::EpisodeEnd {
+                    pbr_id: pbr.id.clone(),
+                    episode: pbr.episode,
+                });
             }
             // States: on mode change and at the state rate.
             let due = pbr
                 .last_state_ns
-                .is_none_or(|last| t_ns - last >= ctx.state_interval_ns);
+                .is_none_or(|last| (t_ns - last) as f64 * 1e-9 >= ctx.state_interval_s);
             if mode_changed || due {
                 pbr.last_state_ns = Some(t_ns);
                 out.push(Output::State(pbr.state(&self.name, t_ns)));
@@ -444,7 +498,7 @@ impl StationRuntime {
         // Station intensities at the state rate; the window restarts when all is quiet.
         if self
             .last_intensity_ns
-            .is_none_or(|last| t_ns - last >= ctx.state_interval_ns)
+            .is_none_or(|last| (t_ns - last) as f64 * 1e-9 >= ctx.state_interval_s)
         {
             self.last_intensity_ns = Some(t_ns);
             out.push(Output::Intensity(self.intensity(t_ns)));
