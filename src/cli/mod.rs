@@ -5,6 +5,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
 
+mod alerts;
 mod demo;
 mod ims;
 mod pulses;
@@ -20,6 +21,10 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// List the alert history of a state directory.
+    Alerts(alerts::AlertsArgs),
+    /// Reset a fallen block in a state directory.
+    Reset(alerts::ResetArgs),
     /// Intensity measures of a record (PGA, PGV, CAV, Arias, durations, SA, ASI/SI/VSI, …).
     Ims(ims::ImsArgs),
     /// Run the built-in demonstration on a bundled earthquake record (no arguments needed).
@@ -44,6 +49,8 @@ pub enum OutputFormat {
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Alerts(args) => alerts::run_alerts(args),
+        Command::Reset(args) => alerts::run_reset(args),
         Command::Demo(args) => demo::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Pulses(args) => pulses::run(args),
