@@ -3,4 +3,5 @@
 //! The library is the functional core: pure, deterministic and transport-free.
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
+pub mod mseed;
 pub mod record;

@@ -56,15 +56,20 @@ impl Record {
     }
 
     /// Reads a horizontal record from `path`, choosing the format by extension
-    /// (`.at2` → PEER NGA AT2, `.csv` → CSV; case-insensitive).
+    /// (`.at2` → PEER NGA AT2, `.csv` → CSV, `.mseed`/`.ms`/`.miniseed` → MiniSEED;
+    /// case-insensitive). A MiniSEED file must hold exactly one channel of floating-point
+    /// samples in m/s² (see [`crate::mseed::read_single_channel_record`]; counts need a gain
+    /// and go through [`crate::mseed::read_mseed`]).
     pub fn read(path: &Path) -> Result<Record, RecordError> {
         match extension_lowercase(path).as_deref() {
             Some("at2") => read_at2(path).map(|at2| at2.into_record(path)),
             Some("csv") => read_csv(path),
+            Some("mseed" | "ms" | "miniseed") => crate::mseed::read_single_channel_record(path),
             _ => Err(RecordError::new(
                 path,
                 None,
-                "unknown record format: expected a .AT2 or .csv file",
+                "unknown record format: expected a .AT2, .csv or MiniSEED (.mseed, .ms, \
+                 .miniseed) file",
             )),
         }
     }
@@ -377,7 +382,7 @@ pub fn read_csv(path: &Path) -> Result<Record, RecordError> {
     let (t0, _) = t[0];
     let (t_last, _) = t[t.len() - 1];
     let dt_s = (t_last - t0) / (t.len() - 1) as f64;
-    if !(dt_s > 0.0) {
+    if dt_s.is_nan() || dt_s <= 0.0 {
         return Err(err(None, "time must increase".into()));
     }
     for (i, &(ti, line)) in t.iter().enumerate() {
