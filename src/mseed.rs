@@ -587,6 +587,7 @@ fn scan_records(bytes: &[u8], warnings: &mut Warnings) -> Result<Vec<DecodedReco
     let mut control_headers = 0usize;
     let mut text_ids: Vec<String> = Vec::new();
     let mut empty_records = 0usize;
+    let mut index = 0usize; // 1-based number of the record being read
     while offset < bytes.len() {
         let rest = &bytes[offset..];
         let kind = signature(rest);
@@ -608,7 +609,7 @@ fn scan_records(bytes: &[u8], warnings: &mut Warnings) -> Result<Vec<DecodedReco
                 offset - from
             ));
         }
-        let index = records.len() + 1;
+        index += 1;
         let at = |problem: String| format!("record {index} at byte {offset}: {problem}");
         let header = match kind {
             Signature::V3 => parse_v3(rest).map_err(at)?,
