@@ -8,6 +8,7 @@ pub mod engine;
 pub mod ims;
 pub mod journal;
 pub mod lhs;
+pub mod mseed;
 pub mod ode;
 pub mod plot;
 pub mod pulse;

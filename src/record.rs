@@ -55,15 +55,20 @@ impl Record {
     }
 
     /// Reads a horizontal record from `path`, choosing the format by extension
-    /// (`.at2` → PEER NGA AT2, `.csv` → CSV; case-insensitive).
+    /// (`.at2` → PEER NGA AT2, `.csv` → CSV, `.mseed`/`.ms`/`.miniseed` → MiniSEED;
+    /// case-insensitive). A MiniSEED file must hold exactly one channel of floating-point
+    /// samples in m/s² (see [`crate::mseed::read_single_channel_record`]; counts need a gain
+    /// and go through [`crate::mseed::read_mseed`]).
     pub fn read(path: &Path) -> Result<Record, RecordError> {
         match extension_lowercase(path).as_deref() {
             Some("at2") => read_at2(path).map(|at2| at2.into_record(path)),
             Some("csv") => read_csv(path),
+            Some("mseed" | "ms" | "miniseed") => crate::mseed::read_single_channel_record(path),
             _ => Err(RecordError::new(
                 path,
                 None,
-                "unknown record format: expected a .AT2 or .csv file",
+                "unknown record format: expected a .AT2, .csv or MiniSEED (.mseed, .ms, \
+                 .miniseed) file",
             )),
         }
     }
