@@ -22,9 +22,10 @@ pub struct StationConfig {
     pub id: StationId,
     #[serde(default = "default_orientation")]
     pub orientation: Orientation,
-    /// Counts per m/s²; when set, packet values are counts and are divided by it.
+    /// Sensitivity in (m/s²)/count (the convention of the MiniSEED reader); when set, packet
+    /// values are counts and are multiplied by it.
     #[serde(default)]
-    pub gain_counts_per_mps2: Option<f64>,
+    pub gain_mps2_per_count: Option<f64>,
     /// Full-scale value of the sensor in packet units (counts or m/s²); samples at or beyond
     /// 99.9 % of it are flagged as clipped.
     #[serde(default)]
@@ -46,7 +47,7 @@ impl StationConfig {
         StationConfig {
             id,
             orientation: Orientation::EastNorth,
-            gain_counts_per_mps2: None,
+            gain_mps2_per_count: None,
             full_scale: None,
             lat: None,
             lon: None,
@@ -56,10 +57,10 @@ impl StationConfig {
     /// Checks gains, full scale, azimuths and coordinates; the message names the field.
     pub fn validate(&self) -> Result<(), String> {
         let id = &self.id;
-        if let Some(g) = self.gain_counts_per_mps2 {
+        if let Some(g) = self.gain_mps2_per_count {
             if !(g.is_finite() && g > 0.0) {
                 return Err(format!(
-                    "station {id}: gain_counts_per_mps2 must be > 0, got {g}"
+                    "station {id}: gain_mps2_per_count must be > 0, got {g}"
                 ));
             }
         }

@@ -348,7 +348,7 @@ impl StationRuntime {
                 self.counters.clipped_samples += 1;
             }
         }
-        let scale = self.config.gain_counts_per_mps2.map_or(1.0, |g| 1.0 / g);
+        let scale = self.config.gain_mps2_per_count.unwrap_or(1.0);
         let [c1, c2, up] = raw.map(|v| v * scale);
         let (east, north) = match self.config.orientation {
             Orientation::EastNorth => (c1, c2),
