@@ -9,6 +9,7 @@ pub mod ims;
 pub mod journal;
 pub mod lhs;
 pub mod mseed;
+pub mod node_config;
 pub mod ode;
 pub mod plot;
 pub mod pulse;
