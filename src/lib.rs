@@ -3,6 +3,7 @@
 //! The library is the functional core: pure, deterministic and transport-free.
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
+pub mod catalogue;
 pub mod dynamics;
 pub mod lhs;
 pub mod ode;
