@@ -3,6 +3,7 @@
 //! The library is the functional core: pure, deterministic and transport-free.
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
+pub mod catalogue;
 pub mod dynamics;
 pub mod engine;
 pub mod ims;
@@ -15,6 +16,7 @@ pub mod plot;
 pub mod pulse;
 pub mod record;
 pub mod simulate;
+pub mod station_id;
 
 /// Standard gravity g (m/s²): the unit of AT2 records and the gravity of the block dynamics.
 pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;

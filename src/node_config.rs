@@ -89,7 +89,7 @@ mod tests {
             "{e}"
         );
         let e = load("[[station]]\nid = \"CI.R-S.00\"\n").unwrap_err();
-        assert!(e.contains("NET.STA.LOC"), "{e}");
+        assert!(e.contains("node.toml") && e.contains("R-S"), "{e}");
         let e = load("[[station]]\nid = \"CI.RRS.00\"\norientation = { kind = \"azimuths\", h1_deg = 0.0, h2_deg = 45.0 }\n").unwrap_err();
         assert!(e.contains("orthogonal"), "{e}");
     }

@@ -1,60 +1,11 @@
 //! Acceleration packets as the engine receives them from any transport, and their validation.
 
-use std::fmt;
-
 /// Largest number of samples accepted in one packet (≈ 8 min at 200 Hz).
 pub const MAX_SAMPLES_PER_PACKET: usize = 100_000;
 /// Accepted sample rates (Hz).
 pub const SAMPLE_RATE_RANGE_HZ: (f64, f64) = (1.0, 10_000.0);
 
-/// A SEED station identifier `NET.STA.LOC` (LOC may be empty: `NET.STA.`).
-#[derive(
-    Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
-)]
-#[serde(try_from = "String", into = "String")]
-pub struct StationId(String);
-
-impl StationId {
-    /// Validates `NET.STA.LOC`: NET 1–2, STA 1–5, LOC 0–2 ASCII alphanumeric characters.
-    pub fn parse(text: &str) -> Result<StationId, String> {
-        let parts: Vec<&str> = text.split('.').collect();
-        let ok = |s: &str, min: usize, max: usize| {
-            (min..=max).contains(&s.len()) && s.bytes().all(|b| b.is_ascii_alphanumeric())
-        };
-        match parts[..] {
-            [net, sta, loc] if ok(net, 1, 2) && ok(sta, 1, 5) && ok(loc, 0, 2) => {
-                Ok(StationId(text.to_string()))
-            }
-            _ => Err(format!(
-                "station id {text:?} is not NET.STA.LOC (NET 1-2, STA 1-5, LOC 0-2 alphanumerics)"
-            )),
-        }
-    }
-
-    #[must_use]
-    pub fn as_str(&self) -> &str {
-        &self.0
-    }
-}
-
-impl TryFrom<String> for StationId {
-    type Error = String;
-    fn try_from(value: String) -> Result<Self, Self::Error> {
-        StationId::parse(&value)
-    }
-}
-
-impl From<StationId> for String {
-    fn from(value: StationId) -> Self {
-        value.0
-    }
-}
-
-impl fmt::Display for StationId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
+pub use crate::station_id::StationId;
 
 /// Three-component acceleration from one station, as sent by a transport.
 ///
@@ -167,16 +118,6 @@ mod tests {
             north: vec![0.0; n],
             up: vec![],
         }
-    }
-
-    #[test]
-    fn station_ids_follow_seed_lengths() {
-        assert!(StationId::parse("CI.RRS.00").is_ok());
-        assert!(StationId::parse("BK.CMB.").is_ok());
-        assert!(StationId::parse("CI.RRS").is_err());
-        assert!(StationId::parse("CIX.RRS.00").is_err());
-        assert!(StationId::parse("CI.TOOLONG.00").is_err());
-        assert!(StationId::parse("CI.R-S.00").is_err());
     }
 
     #[test]
