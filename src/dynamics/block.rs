@@ -92,7 +92,8 @@ pub struct BlockOptions {
     /// Impacts whose pre-impact velocity corresponds to an excursion ≥ this fraction of α are
     /// counted as significant.
     pub significant_fraction: f64,
-    /// Offset (s) of the right limit at which a new mode is selected (spec §7).
+    /// Offset (s) of the right limit at which a new mode is selected (spec §7); never taken
+    /// past the end of the current input interval.
     pub right_limit_s: f64,
     /// First trial step (s) after a mode change.
     pub initial_step_s: f64,
@@ -452,6 +453,21 @@ impl RigidBlock {
         gp > 0.0 && ground.horizontal_mps2.abs() <= limit
     }
 
+    /// Local time at which the input's right limit after an event at local time `t` is taken
+    /// (spec §7): `t + right_limit_s`, but not past the end `dt` of the interval when the event
+    /// lies inside it. The linear input is known only on this interval; extrapolating its
+    /// slope beyond `dt` invents accelerations that never occur (across a near-step's 1e-9 s
+    /// ramp, up to twice the step). Only an event exactly at `dt` looks ahead along the slope.
+    #[inline]
+    fn right_limit_time(&self, t: f64, dt: f64) -> f64 {
+        let t_right = t + self.options.right_limit_s;
+        if t < dt {
+            t_right.min(dt)
+        } else {
+            t_right
+        }
+    }
+
     /// Rest from local time `tau`: returns the local time at which rest ends (or `dt`).
     fn advance_rest(
         &mut self,
@@ -483,7 +499,7 @@ impl RigidBlock {
         if exit > dt {
             return dt;
         }
-        let selection_t = exit + self.options.right_limit_s;
+        let selection_t = self.right_limit_time(exit, dt);
         let new_phase = self.select_flat(system.ground(selection_t), 0.0);
         if new_phase == Phase::Rest {
             // Rest still consistent just after the computed exit (rounding): move past it.
@@ -584,7 +600,7 @@ impl RigidBlock {
                 Some((t_hit, index)) => {
                     self.y = step.eval(t_hit);
                     self.record_extremes(self.y[0], self.y[2]);
-                    let ground = system.ground(t_hit + self.options.right_limit_s);
+                    let ground = system.ground(self.right_limit_time(t_hit, dt));
                     self.on_terminal(index, t0_abs + t_hit, ground, on_event);
                     return Ok(t_hit);
                 }
