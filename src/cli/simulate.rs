@@ -49,8 +49,9 @@ pub struct SimulateArgs {
     #[arg(long = "t-extra", default_value_t = 10.0, value_name = "S")]
     t_extra: f64,
     /// Relative tolerance of the integrator (absolute tolerance is 1e-3 of it, in rad and m).
-    #[arg(long, default_value_t = Tolerance::default().rtol, value_name = "TOL")]
-    rtol: f64,
+    /// Default: the library's, rtol 1e-9 and atol 1e-12.
+    #[arg(long, value_name = "TOL")]
+    rtol: Option<f64>,
     /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     format: OutputFormat,
@@ -63,8 +64,10 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     if !(args.scale.is_finite()) {
         bail!("--scale must be a finite number, got {}", args.scale);
     }
-    if !(args.rtol.is_finite() && args.rtol > 0.0 && args.rtol < 1e-2) {
-        bail!("--rtol must be in (0, 0.01), got {}", args.rtol);
+    if let Some(rtol) = args.rtol {
+        if !(rtol.is_finite() && rtol > 0.0 && rtol < 1e-2) {
+            bail!("--rtol must be in (0, 0.01), got {rtol}");
+        }
     }
     let params = BlockParams::from_width_height(
         args.width,
@@ -84,10 +87,12 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         keep_trace: args.plot.is_some(),
         ..SimulationOptions::default()
     };
-    options.block.tolerance = Tolerance {
-        rtol: args.rtol,
-        atol: args.rtol * 1e-3,
-    };
+    if let Some(rtol) = args.rtol {
+        options.block.tolerance = Tolerance {
+            rtol,
+            atol: rtol * 1e-3,
+        };
+    }
     let sim = simulate(params, &record, &options)
         .with_context(|| format!("simulating {}", args.record.display()))?;
     if let (Some(path), Some(trace)) = (&args.plot, &sim.trace) {
