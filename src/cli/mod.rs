@@ -8,6 +8,7 @@ use std::process::ExitCode;
 mod alerts;
 mod demo;
 mod ims;
+mod monitor;
 mod pulses;
 mod simulate;
 
@@ -29,6 +30,8 @@ enum Command {
     Ims(ims::ImsArgs),
     /// Run the built-in demonstration on a bundled earthquake record (no arguments needed).
     Demo(demo::DemoArgs),
+    /// Run the monitoring engine over a record: which catalogued blocks move or fall.
+    Monitor(monitor::MonitorArgs),
     /// Simulate one rigid block under a ground-motion record.
     Simulate(simulate::SimulateArgs),
     /// Generate synthetic near-fault pulses (Mavroeidis & Papageorgiou 2003) and write one
@@ -52,6 +55,7 @@ pub fn run() -> ExitCode {
         Command::Alerts(args) => alerts::run_alerts(args),
         Command::Reset(args) => alerts::run_reset(args),
         Command::Demo(args) => demo::run(args),
+        Command::Monitor(args) => monitor::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Pulses(args) => pulses::run(args),
         Command::Ims(args) => ims::run(args),

@@ -144,3 +144,23 @@ pub struct PbrSpec {
     /// Ensemble members (empty: nominal only).
     pub members: Vec<BlockParams>,
 }
+
+impl PbrSpec {
+    /// The engine's view of a catalogue entry: its nominal block, and its Latin-hypercube
+    /// members when it declares an ensemble of more than one.
+    pub fn from_catalogue(pbr: &crate::catalogue::Pbr) -> Result<PbrSpec, String> {
+        let members = if pbr.ensemble_size() > 1 {
+            pbr.members()
+                .map_err(|e| format!("pbr {:?}: ensemble: {e}", pbr.id()))?
+        } else {
+            Vec::new()
+        };
+        Ok(PbrSpec {
+            id: pbr.id().to_string(),
+            station: pbr.station().clone(),
+            azimuth_deg: pbr.azimuth_deg(),
+            nominal: pbr.nominal(),
+            members,
+        })
+    }
+}

@@ -1,0 +1,242 @@
+//! `rockwatch monitor`, `alerts` and `reset` end to end through the binary.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn rockwatch(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_rockwatch"));
+    cmd.args(args);
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("runs")
+}
+
+fn monitor_rinaldi(state_dir: Option<&Path>, env: &[(&str, &str)]) -> Output {
+    let mut args = vec![
+        "monitor",
+        "--config",
+        "config/node.toml",
+        "--record",
+        "tests/data/records/Rinaldi228.AT2",
+        "--vertical",
+        "tests/data/records/RinaldiUP.AT2",
+        "--azimuth",
+        "228",
+        "--station",
+        "CI.RRS.00",
+        "--format",
+        "jsonl",
+    ];
+    let dir;
+    if let Some(d) = state_dir {
+        dir = d.to_str().unwrap().to_string();
+        args.extend(["--state-dir", &dir]);
+    }
+    rockwatch(&args, env)
+}
+
+fn lines(out: &Output) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn alert_ids(values: &[serde_json::Value]) -> Vec<String> {
+    values
+        .iter()
+        .filter(|v| v["type"] == "alert")
+        .map(|v| format!("{} {} {}", v["pbr_id"], v["episode"], v["level"]))
+        .collect()
+}
+
+#[test]
+fn jsonl_reports_alerts_then_a_summary_that_matches_the_catalogue_claims() {
+    let out = monitor_rinaldi(None, &[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let values = lines(&out);
+    let summary = values.last().unwrap();
+    assert_eq!(summary["type"], "summary");
+    let pbr = |id: &str| {
+        summary["pbrs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["pbr_id"] == id)
+            .unwrap()
+            .clone()
+    };
+    // config/catalogue.toml documents: the slender pillar falls, the stocky boulder does not
+    // rock, the slab slides tens of cm without rocking.
+    assert_eq!(pbr("rrs-slender-pillar")["overturned"], true);
+    assert_eq!(pbr("rrs-stocky-boulder")["max_theta_over_alpha"], 0.0);
+    assert!(pbr("rrs-sliding-slab")["max_slide_m"].as_f64().unwrap() > 0.1);
+    let levels: Vec<_> = values
+        .iter()
+        .filter(|v| v["type"] == "alert" && v["pbr_id"] == "rrs-slender-pillar")
+        .map(|v| v["level"].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(levels, ["motion_onset", "overturn_imminent", "overturned"]);
+    for key in [
+        "pbr_id",
+        "station",
+        "level",
+        "mode",
+        "theta_over_alpha",
+        "slide_m",
+        "overturn_probability",
+        "pga_mps2",
+        "pgv_mps",
+        "data_time",
+    ] {
+        assert!(values[0].get(key).is_some(), "alert lacks {key}");
+    }
+}
+
+#[test]
+fn state_dir_keeps_history_and_a_second_run_adds_no_duplicates() {
+    let dir = tempfile::tempdir().unwrap();
+    let first = monitor_rinaldi(Some(dir.path()), &[]);
+    assert!(first.status.success());
+    let first_alerts = alert_ids(&lines(&first));
+    assert!(!first_alerts.is_empty());
+    let second = monitor_rinaldi(Some(dir.path()), &[]);
+    assert!(second.status.success());
+    assert!(
+        alert_ids(&lines(&second)).is_empty(),
+        "replaying the same record re-alerted"
+    );
+    let history = rockwatch(
+        &[
+            "alerts",
+            "--state-dir",
+            dir.path().to_str().unwrap(),
+            "--format",
+            "json",
+        ],
+        &[],
+    );
+    assert!(history.status.success());
+    let records: Vec<serde_json::Value> = serde_json::from_slice(&history.stdout).unwrap();
+    assert_eq!(
+        records.iter().filter(|r| r.get("Alert").is_some()).count(),
+        first_alerts.len()
+    );
+}
+
+#[test]
+fn crash_between_journal_and_report_loses_and_duplicates_nothing() {
+    let uninterrupted = alert_ids(&lines(&monitor_rinaldi(None, &[])));
+    for crash_at in ["1", "3"] {
+        let dir = tempfile::tempdir().unwrap();
+        let crashed = monitor_rinaldi(
+            Some(dir.path()),
+            &[("ROCKWATCH_FAULT_ABORT_AFTER_JOURNAL", crash_at)],
+        );
+        assert!(!crashed.status.success(), "fault injection must abort");
+        let restarted = monitor_rinaldi(Some(dir.path()), &[]);
+        assert!(restarted.status.success());
+        // The history in the state directory equals the uninterrupted run's alerts.
+        let history = rockwatch(
+            &[
+                "alerts",
+                "--state-dir",
+                dir.path().to_str().unwrap(),
+                "--format",
+                "json",
+            ],
+            &[],
+        );
+        let records: Vec<serde_json::Value> = serde_json::from_slice(&history.stdout).unwrap();
+        let mut journaled: Vec<String> = records
+            .iter()
+            .filter_map(|r| r.get("Alert"))
+            .map(|a| format!("{} {} {}", a["pbr_id"], a["episode"], a["level"]))
+            .collect();
+        journaled.sort();
+        let mut expected = uninterrupted.clone();
+        expected.sort();
+        assert_eq!(journaled, expected, "crash after alert {crash_at}");
+    }
+}
+
+#[test]
+fn reset_lets_a_fallen_block_fall_again_in_a_new_episode() {
+    let dir = tempfile::tempdir().unwrap();
+    assert!(monitor_rinaldi(Some(dir.path()), &[]).status.success());
+    let d = dir.path().to_str().unwrap();
+    let reset = rockwatch(
+        &["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"],
+        &[],
+    );
+    assert!(
+        reset.status.success(),
+        "{}",
+        String::from_utf8_lossy(&reset.stderr)
+    );
+    let again = lines(&monitor_rinaldi(Some(dir.path()), &[]));
+    let pillar: Vec<_> = again
+        .iter()
+        .filter(|v| v["type"] == "alert" && v["pbr_id"] == "rrs-slender-pillar")
+        .map(|v| {
+            (
+                v["episode"].as_u64().unwrap(),
+                v["level"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(pillar.last(), Some(&(2, "overturned".to_string())));
+    let unknown = rockwatch(&["reset", "--state-dir", d, "--pbr", "no-such-rock"], &[]);
+    assert!(!unknown.status.success());
+}
+
+#[test]
+fn bad_invocations_fail_with_one_line() {
+    let cases: [&[&str]; 4] = [
+        &[
+            "monitor",
+            "--catalogue",
+            "config/catalogue.toml",
+            "--record",
+            "tests/data/records/Rinaldi228.AT2",
+            "--station",
+            "XX.NONE.00",
+        ],
+        &[
+            "monitor",
+            "--catalogue",
+            "missing.toml",
+            "--record",
+            "tests/data/records/Rinaldi228.AT2",
+            "--station",
+            "CI.RRS.00",
+        ],
+        &[
+            "monitor",
+            "--catalogue",
+            "config/catalogue.toml",
+            "--record",
+            "nope.AT2",
+            "--station",
+            "CI.RRS.00",
+        ],
+        &[
+            "monitor",
+            "--record",
+            "tests/data/records/Rinaldi228.AT2",
+            "--station",
+            "CI.RRS.00",
+        ],
+    ];
+    for args in cases {
+        let out = rockwatch(args, &[]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
+    }
+}
