@@ -523,3 +523,72 @@ fn a_fallen_block_stays_fallen_after_restart_until_reset() {
         Some(&("slender".to_string(), 2, AlertLevel::Overturned))
     );
 }
+
+/// An uncertain slender block: width uniform in [0.28, 0.40] m, as a catalogue ensemble.
+fn uncertain_catalogue(k: usize) -> rockwatch::catalogue::Catalogue {
+    let text = format!(
+        "[[pbr]]\nid = \"u\"\nname = \"uncertain pillar\"\nlat = 34.0\nlon = -118.0\nstation = \"CI.RRS.00\"\n\
+         azimuth_deg = 90.0\nwidth_m = {{ min = 0.28, max = 0.40 }}\nheight_m = 1.5\nmu_s = 0.8\nmu_k = 0.6\n\
+         source = \"test\"\nensemble = {k}\nseed = 7\n"
+    );
+    rockwatch::catalogue::Catalogue::from_toml_str(&text, "test.toml").unwrap()
+}
+
+/// A one-sine acceleration pulse of amplitude `a` (m/s²) and period 1 s, then 5 s of quiet.
+fn sine_pulse(a: f64) -> Vec<f64> {
+    (0..600)
+        .map(|i| {
+            let t = i as f64 * 0.01;
+            if t < 1.0 {
+                a * (2.0 * std::f64::consts::PI * t).sin()
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn ensemble_of_one_equals_the_nominal_block() {
+    let catalogue = uncertain_catalogue(1);
+    let spec = PbrSpec::from_catalogue(&catalogue.pbrs()[0]).unwrap();
+    assert!(
+        spec.members.is_empty(),
+        "K = 1 integrates the nominal block only"
+    );
+    let mut explicit = spec.clone();
+    explicit.members = vec![spec.nominal];
+    let input = sine_pulse(4.0);
+    let zeros = vec![0.0; input.len()];
+    let mut a = Engine::new(EngineConfig::default(), vec![], &[spec]).unwrap();
+    let mut b = Engine::new(EngineConfig::default(), vec![], &[explicit]).unwrap();
+    run(&mut a, packets("CI.RRS.00", &input, &zeros, 0.01, 10));
+    run(&mut b, packets("CI.RRS.00", &input, &zeros, 0.01, 10));
+    assert_eq!(a.summaries(), b.summaries());
+}
+
+#[test]
+fn overturn_probability_grows_with_the_scale_of_the_record() {
+    // A single one-sine pulse and a slender block: stronger shaking topples more members.
+    // Fixed seed (catalogue seed 7), so the result is deterministic; K = 40.
+    let spec = PbrSpec::from_catalogue(&uncertain_catalogue(40).pbrs()[0]).unwrap();
+    assert_eq!(spec.members.len(), 40);
+    let mut probabilities = Vec::new();
+    for a in [1.0, 2.0, 3.0, 3.5, 4.0, 5.0, 7.0, 9.0] {
+        let input = sine_pulse(a);
+        let zeros = vec![0.0; input.len()];
+        let mut engine = Engine::new(EngineConfig::default(), vec![], &[spec.clone()]).unwrap();
+        run(&mut engine, packets("CI.RRS.00", &input, &zeros, 0.01, 10));
+        probabilities.push(engine.summaries()[0].overturn_probability);
+    }
+    assert_eq!(probabilities[0], 0.0, "{probabilities:?}");
+    assert_eq!(*probabilities.last().unwrap(), 1.0, "{probabilities:?}");
+    assert!(
+        probabilities.windows(2).all(|w| w[0] <= w[1]),
+        "{probabilities:?}"
+    );
+    assert!(
+        probabilities.iter().any(|p| *p > 0.0 && *p < 1.0),
+        "no partial probability: {probabilities:?}"
+    );
+}
