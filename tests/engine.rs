@@ -592,3 +592,54 @@ fn overturn_probability_grows_with_the_scale_of_the_record() {
         "no partial probability: {probabilities:?}"
     );
 }
+
+#[test]
+fn sharded_engine_gives_each_station_the_same_results_as_one_engine() {
+    use rockwatch::engine::ShardedEngine;
+    let record = rinaldi_f32();
+    let zeros = vec![0.0; record.len()];
+    let stations = [
+        "CI.RRS.00",
+        "CI.SYL.00",
+        "CI.PAS.00",
+        "BK.CMB.00",
+        "XX.A1.",
+        "XX.B2.",
+    ];
+    let pbrs: Vec<PbrSpec> = stations
+        .iter()
+        .enumerate()
+        .flat_map(|(i, s)| {
+            [
+                spec(&format!("slender-{i}"), s, 30.0 * i as f64, slender()),
+                spec(&format!("stocky-{i}"), s, 90.0, stocky()),
+            ]
+        })
+        .collect();
+    let all: Vec<AccelPacket> = stations
+        .iter()
+        .flat_map(|s| packets(s, &record.horizontal_mps2, &zeros, record.dt_s, 50))
+        .collect();
+    let mut single = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    let single_out = run(&mut single, all.clone());
+    let pool = ShardedEngine::start(EngineConfig::default(), &[], &pbrs, &[], 3).unwrap();
+    for p in all {
+        pool.submit(p, 0);
+    }
+    pool.flush(0);
+    let (engines, outputs) = pool.shutdown();
+    let mut sharded: Vec<_> = engines.iter().flat_map(Engine::summaries).collect();
+    sharded.sort_by(|a, b| a.pbr_id.cmp(&b.pbr_id));
+    let mut expected = single.summaries();
+    expected.sort_by(|a, b| a.pbr_id.cmp(&b.pbr_id));
+    assert_eq!(sharded, expected);
+    let mut a = alert_keys(&single_out);
+    let mut b = alert_keys(&outputs);
+    a.sort();
+    b.sort();
+    assert_eq!(a, b);
+    assert!(
+        engines.iter().filter(|e| !e.summaries().is_empty()).count() > 1,
+        "work was not spread"
+    );
+}

@@ -6,7 +6,8 @@
 //! - [`stream`]: per-station sequencing (gaps, overlaps, duplicates, reordering, rate changes);
 //! - [`config`]: stations, thresholds, blocks;
 //! - [`output`]: alerts, states, intensities, notices;
-//! - `station`: one station's runtime (sample-by-sample processing).
+//! - `station`: one station's runtime (sample-by-sample processing);
+//! - [`sharded`]: stations spread over worker threads.
 //!
 //! Architecture invariant: deterministic — the same packets in the same order give the same
 //! outputs. The engine reads no clock: the caller passes each packet's arrival time, which is
@@ -22,6 +23,7 @@
 pub mod config;
 pub mod output;
 pub mod packet;
+pub mod sharded;
 mod station;
 pub mod stream;
 
@@ -32,6 +34,7 @@ pub use output::{
     Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, PbrState, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
+pub use sharded::ShardedEngine;
 pub use station::{PbrSummary, StationCounters};
 pub use stream::{StreamConfig, StreamCounters};
 

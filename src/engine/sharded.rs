@@ -1,0 +1,149 @@
+//! Stations are independent, so the engine scales by sharding them over worker threads: each
+//! worker owns a plain [`Engine`] for its stations (chosen by a hash of the station id), fed
+//! through a bounded channel. There is no shared lock on the hot path, and each station's
+//! outputs stay in order and deterministic (outputs of different stations interleave).
+
+use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
+use std::thread::JoinHandle;
+
+use super::{
+    AccelPacket, AlertConfig, Engine, EngineConfig, JournalRecord, Output, PbrSpec, StationConfig,
+};
+
+/// Messages to a worker.
+enum Command {
+    Packet(AccelPacket, i64),
+    Flush(i64),
+    SetAlerts(AlertConfig),
+    Reset(String),
+}
+
+/// Packets a worker's queue holds before `submit` waits (back-pressure on the transport).
+const QUEUE_PACKETS: usize = 4096;
+
+/// A pool of engine shards on worker threads.
+pub struct ShardedEngine {
+    senders: Vec<SyncSender<Command>>,
+    outputs: Receiver<Vec<Output>>,
+    workers: Vec<JoinHandle<Engine>>,
+}
+
+/// The shard of a station: FNV-1a of its id (stable across runs and platforms).
+fn shard_of(station: &str, shards: usize) -> usize {
+    (crate::catalogue::default_seed(station) % shards as u64) as usize
+}
+
+impl ShardedEngine {
+    /// Starts `shards` workers (≥ 1), each restored from `journal`.
+    pub fn start(
+        config: EngineConfig,
+        stations: &[StationConfig],
+        pbrs: &[PbrSpec],
+        journal: &[JournalRecord],
+        shards: usize,
+    ) -> Result<ShardedEngine, String> {
+        let shards = shards.max(1);
+        let (out_tx, outputs): (Sender<Vec<Output>>, _) = mpsc::channel();
+        let mut senders = Vec::with_capacity(shards);
+        let mut workers = Vec::with_capacity(shards);
+        for shard in 0..shards {
+            let mine = |id: &str| shard_of(id, shards) == shard;
+            let my_stations: Vec<StationConfig> = stations
+                .iter()
+                .filter(|s| mine(s.id.as_str()))
+                .cloned()
+                .collect();
+            let my_pbrs: Vec<PbrSpec> = pbrs
+                .iter()
+                .filter(|p| mine(p.station.as_str()))
+                .cloned()
+                .collect();
+            let mut engine = Engine::new(config, my_stations, &my_pbrs)?;
+            engine.restore(journal);
+            let (tx, rx) = mpsc::sync_channel::<Command>(QUEUE_PACKETS);
+            let out_tx = out_tx.clone();
+            let handle = std::thread::Builder::new()
+                .name(format!("rockwatch-shard-{shard}"))
+                .spawn(move || {
+                    let mut out = Vec::new();
+                    while let Ok(command) = rx.recv() {
+                        match command {
+                            Command::Packet(p, arrival) => engine.process(p, arrival, &mut out),
+                            Command::Flush(arrival) => engine.flush(arrival, &mut out),
+                            Command::SetAlerts(a) => engine.set_alert_config(a),
+                            Command::Reset(id) => {
+                                engine.reset_pbr(&id);
+                            }
+                        }
+                        if !out.is_empty() && out_tx.send(std::mem::take(&mut out)).is_err() {
+                            break; // nobody listens any more
+                        }
+                    }
+                    engine
+                })
+                .map_err(|e| format!("cannot start engine worker: {e}"))?;
+            senders.push(tx);
+            workers.push(handle);
+        }
+        Ok(ShardedEngine {
+            senders,
+            outputs,
+            workers,
+        })
+    }
+
+    /// Number of shards.
+    #[must_use]
+    pub fn shards(&self) -> usize {
+        self.senders.len()
+    }
+
+    fn send(&self, shard: usize, command: Command) {
+        // A worker only stops when the pool is dropped; a failed send cannot happen before.
+        let _ = self.senders[shard].send(command);
+    }
+
+    /// Queues a packet for its station's shard (waits if that shard's queue is full).
+    pub fn submit(&self, packet: AccelPacket, arrival_ns: i64) {
+        let shard = shard_of(&packet.station, self.shards());
+        self.send(shard, Command::Packet(packet, arrival_ns));
+    }
+
+    /// Releases packets held for reordering on every shard.
+    pub fn flush(&self, arrival_ns: i64) {
+        (0..self.shards()).for_each(|s| self.send(s, Command::Flush(arrival_ns)));
+    }
+
+    /// New alert thresholds on every shard (effective for the next packet).
+    pub fn set_alert_config(&self, alerts: AlertConfig) {
+        (0..self.shards()).for_each(|s| self.send(s, Command::SetAlerts(alerts)));
+    }
+
+    /// Operator reset of a block on every shard (only its own shard knows it).
+    pub fn reset_pbr(&self, pbr_id: &str) {
+        (0..self.shards()).for_each(|s| self.send(s, Command::Reset(pbr_id.to_string())));
+    }
+
+    /// Outputs produced so far, without waiting.
+    pub fn try_outputs(&self) -> impl Iterator<Item = Output> + '_ {
+        self.outputs.try_iter().flatten()
+    }
+
+    /// Waits for the next batch of outputs (None once every worker has stopped).
+    pub fn recv_outputs(&self) -> Option<Vec<Output>> {
+        self.outputs.recv().ok()
+    }
+
+    /// Stops the workers after they have processed everything queued; returns their engines
+    /// (for summaries and counters) and the outputs not yet taken.
+    pub fn shutdown(self) -> (Vec<Engine>, Vec<Output>) {
+        drop(self.senders);
+        let engines: Vec<Engine> = self
+            .workers
+            .into_iter()
+            .filter_map(|w| w.join().ok())
+            .collect();
+        let rest = self.outputs.try_iter().flatten().collect();
+        (engines, rest)
+    }
+}
