@@ -577,7 +577,8 @@ fn overturn_probability_grows_with_the_scale_of_the_record() {
     for a in [1.0, 2.0, 3.0, 3.5, 4.0, 5.0, 7.0, 9.0] {
         let input = sine_pulse(a);
         let zeros = vec![0.0; input.len()];
-        let mut engine = Engine::new(EngineConfig::default(), vec![], std::slice::from_ref(&spec)).unwrap();
+        let mut engine =
+            Engine::new(EngineConfig::default(), vec![], std::slice::from_ref(&spec)).unwrap();
         run(&mut engine, packets("CI.RRS.00", &input, &zeros, 0.01, 10));
         probabilities.push(engine.summaries()[0].overturn_probability);
     }
