@@ -25,12 +25,26 @@
 //!   order (the SEED default, as libmseed does). Steim's built-in checks (sample count and the
 //!   reverse integration constant) must pass, so a wrong guess is an error, not wrong
 //!   samples. A warning says so.
+//!
+//! Writing: [`write_mseed`] / [`encode_mseed`] write MiniSEED 2.4 (FLOAT32, FLOAT64,
+//! Steim-2); they live in `src/mseed/writer.rs` and are re-exported here (see that module's
+//! documentation and docs/mseed-writer.md).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::record::{Record, RecordError};
+
+// ---------------------------------------------------------------------------------------
+// Writing (MiniSEED 2.4): see src/mseed/writer.rs
+// ---------------------------------------------------------------------------------------
+
+pub mod writer;
+pub use writer::{
+    encode_mseed, write_mseed, Blockette1001, ChannelData, FloatEncoding, RecordLength,
+    SampleRateFactors, Samples, SeedId, WriteOptions, MAX_WRITE_RATE_HZ,
+};
 
 /// Nanoseconds per second.
 pub const NS_PER_S: i64 = 1_000_000_000;

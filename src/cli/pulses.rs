@@ -1,8 +1,12 @@
 //! `rockwatch pulses`: synthetic near-fault pulses (Mavroeidis & Papageorgiou 2003 with
-//! Rupakhety et al. 2011 parameters, Latin-hypercube sampled), one record file per pulse.
+//! Rupakhety et al. 2011 parameters, Latin-hypercube sampled), one record file per pulse
+//! (AT2, CSV or MiniSEED).
 
 use super::OutputFormat;
 use anyhow::{bail, Context};
+use rockwatch::mseed::{
+    write_mseed, ChannelData, FloatEncoding, SampleRateFactors, Samples, WriteOptions,
+};
 use rockwatch::pulse::{sample_pulses, PulseScenario};
 use rockwatch::record::{write_at2, write_csv};
 use std::path::PathBuf;
@@ -14,6 +18,17 @@ pub enum FileFormat {
     At2,
     /// CSV with header `t,ax` (s, m/s²).
     Csv,
+    /// MiniSEED 2.4, samples in m/s² (see --mseed-encoding).
+    Mseed,
+}
+
+/// Sample encoding of MiniSEED record files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MseedEncoding {
+    /// IEEE double precision: the samples exactly.
+    Float64,
+    /// IEEE single precision: half the size, relative rounding <= 6e-8.
+    Float32,
 }
 
 /// Generate synthetic near-fault velocity pulses and write their acceleration records.
@@ -54,14 +69,29 @@ pub struct PulsesArgs {
     pub pad_s: f64,
 
     /// Directory for the record files (created if missing; existing files of the same name
-    /// are overwritten). Files are named pulse_M<mw>_R<r>_<id>.AT2 (or .csv), id from 1.
+    /// are overwritten). Files are named pulse_M<mw>_R<r>_<id>.AT2 (or .csv, .mseed), id
+    /// from 1.
     #[arg(long)]
     pub out: PathBuf,
 
-    /// Format of the record FILES: at2 (PEER NGA .AT2 in g, readable by any AT2 reader) or
-    /// csv (header t,ax; time in s, acceleration in m/s²). MiniSEED is not offered here.
+    /// Format of the record FILES: at2 (PEER NGA .AT2 in g, readable by any AT2 reader),
+    /// csv (header t,ax; time in s, acceleration in m/s²) or mseed (MiniSEED 2.4, one
+    /// channel of acceleration in m/s², 4096-byte big-endian records, quality D). MiniSEED
+    /// files are timed from the Unix epoch (sample 0 at 1970-01-01T00:00:00Z) and named
+    /// XX.P<id>..<B>NX: network XX (synthetic data), station P + the pulse id's last four
+    /// digits (P0001 ...; ids from 10000 also put id / 10000 mod 100 as a two-digit
+    /// location code), channel band code by sampling rate per the SEED manual (F >= 1000 Hz,
+    /// C >= 250, H >= 80, B >= 10, M > 1, L >= 0.1, V >= 0.01, U below), instrument N
+    /// (accelerometer) and orientation X (the block's +x axis, not a compass direction).
+    /// The sampling rate 1/--dt must be one MiniSEED 2 can represent exactly (e.g. 200,
+    /// 100, 1000/3 Hz).
     #[arg(long = "file-format", value_enum, default_value_t = FileFormat::At2)]
     pub file_format: FileFormat,
+
+    /// Sample encoding of --file-format mseed files: float64 (exact) or float32 (half the
+    /// size, relative rounding <= 6e-8).
+    #[arg(long = "mseed-encoding", value_enum, default_value_t = MseedEncoding::Float64)]
+    pub mseed_encoding: MseedEncoding,
 
     /// Format of the summary printed on STANDARD OUTPUT (not of the files): text (a table)
     /// or json: {"pulses": [{"id", "mw", "r_km", "tp_s", "vp_mps", "gamma", "nu_rad",
@@ -106,6 +136,11 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
             args.pad_s
         );
     }
+    if args.file_format == FileFormat::Mseed {
+        SampleRateFactors::from_rate_hz(1.0 / args.dt).map_err(|e| {
+            anyhow::anyhow!("--dt {} s cannot be written as MiniSEED: {e}", args.dt)
+        })?;
+    }
     let count = args.count as usize;
     let sampled = sample_pulses(&scenario, count, args.seed).context("generating pulses")?;
     std::fs::create_dir_all(&args.out)
@@ -115,6 +150,7 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
     let extension = match args.file_format {
         FileFormat::At2 => "AT2",
         FileFormat::Csv => "csv",
+        FileFormat::Mseed => "mseed",
     };
     let mut pulses = Vec::with_capacity(count);
     for (index, item) in sampled.iter().enumerate() {
@@ -151,6 +187,22 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
                 )?;
             }
             FileFormat::Csv => write_csv(&path, &record)?,
+            FileFormat::Mseed => {
+                let options = WriteOptions {
+                    float_encoding: match args.mseed_encoding {
+                        MseedEncoding::Float64 => FloatEncoding::Float64,
+                        MseedEncoding::Float32 => FloatEncoding::Float32,
+                    },
+                    ..WriteOptions::default()
+                };
+                let channel = ChannelData {
+                    id: pulse_seed_id(id, 1.0 / args.dt),
+                    start_time_ns: 0,
+                    sample_rate_hz: 1.0 / args.dt,
+                    samples: Samples::Float(&record.horizontal_mps2),
+                };
+                write_mseed(&path, &[channel], options)?;
+            }
         }
         let pga_mps2 = record
             .horizontal_mps2
@@ -180,6 +232,29 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// SEED id of pulse `id` (from 1) sampled at `rate_hz`: `XX.P<last four digits of id>.<loc>.
+/// <band>NX`, with loc empty for ids below 10000 and otherwise the two digits of
+/// id / 10000 mod 100 (unique for ids 1 to 1 000 000); band per the SEED manual's rate
+/// ranges (broadband family).
+fn pulse_seed_id(id: usize, rate_hz: f64) -> String {
+    let location = if id < 10_000 {
+        String::new()
+    } else {
+        format!("{:02}", (id / 10_000) % 100)
+    };
+    let band = match rate_hz {
+        r if r >= 1000.0 => 'F',
+        r if r >= 250.0 => 'C',
+        r if r >= 80.0 => 'H',
+        r if r >= 10.0 => 'B',
+        r if r > 1.0 => 'M',
+        r if r >= 0.1 => 'L',
+        r if r >= 0.01 => 'V',
+        _ => 'U',
+    };
+    format!("XX.P{:04}.{location}.{band}NX", id % 10_000)
+}
+
 fn print_table(pulses: &[PulseSummary]) {
     println!(
         "{:>6} {:>8} {:>9} {:>7} {:>8} {:>9} {:>8} {:>10}  file",
@@ -198,5 +273,27 @@ fn print_table(pulses: &[PulseSummary]) {
             first.mw,
             first.r_km
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pulse_seed_id;
+
+    #[test]
+    fn pulse_seed_ids_follow_the_documented_scheme() {
+        assert_eq!(pulse_seed_id(1, 200.0), "XX.P0001..HNX");
+        assert_eq!(pulse_seed_id(9999, 100.0), "XX.P9999..HNX");
+        assert_eq!(pulse_seed_id(12_345, 50.0), "XX.P2345.01.BNX");
+        assert_eq!(pulse_seed_id(1_000_000, 500.0), "XX.P0000.00.CNX");
+        assert_eq!(pulse_seed_id(7, 0.05), "XX.P0007..VNX");
+    }
+
+    #[test]
+    fn pulse_seed_ids_are_unique_over_the_allowed_count() {
+        let mut seen = std::collections::HashSet::new();
+        for id in 1..=1_000_000 {
+            assert!(seen.insert(pulse_seed_id(id, 200.0)), "duplicate at {id}");
+        }
     }
 }
