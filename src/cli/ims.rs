@@ -16,12 +16,13 @@ use super::OutputFormat as Format;
 /// over the 0.10–3.00 s grid (step 0.01 s) for the eight ranges of the seed's study.
 #[derive(Debug, clap::Args)]
 pub struct ImsArgs {
-    /// Record file: PEER NGA .AT2 (values in g) or CSV `t,ax[,ay]` (s, m/s²). Its (first)
-    /// component is the horizontal one.
+    /// Record file: PEER NGA .AT2 (values in g), CSV `t,ax[,ay]` (s, m/s²), or MiniSEED
+    /// (.mseed/.ms/.miniseed) with one floating-point channel in m/s². Its (first) component
+    /// is the horizontal one.
     #[arg(long, value_name = "FILE")]
     pub record: PathBuf,
 
-    /// Vertical component (AT2, or CSV `t,ax`), same sampling interval and length as the
+    /// Vertical component (AT2, CSV `t,ax` or MiniSEED), same sampling interval and length as the
     /// record; its IMs are reported too (JSON key `vertical`).
     #[arg(long, value_name = "FILE")]
     pub vertical: Option<PathBuf>,
