@@ -10,11 +10,13 @@ pub mod ims;
 pub mod journal;
 pub mod lhs;
 pub mod mseed;
+pub mod node;
 pub mod node_config;
 pub mod ode;
 pub mod plot;
 pub mod pulse;
 pub mod record;
+pub mod replay;
 pub mod simulate;
 pub mod station_id;
 

@@ -240,3 +240,62 @@ fn bad_invocations_fail_with_one_line() {
         assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
     }
 }
+
+#[test]
+fn mseed_in_counts_with_station_gain_matches_the_file_in_mps2() {
+    // K-NET AKT013 (E-W) as MiniSEED, once in counts and once in m/s² (tests/data/mseed/README.md:
+    // gain 2.384185791015625e-06 (m/s²)/count). Its PGA is only 0.044 m/s², so the block is an
+    // extremely slender one (tan α = 0.002) that rocks under it.
+    let dir = tempfile::tempdir().unwrap();
+    let catalogue = dir.path().join("cat.toml");
+    std::fs::write(
+        &catalogue,
+        "[[pbr]]\nid = \"needle\"\nname = \"needle\"\nlat = 39.6\nlon = 140.3\nstation = \"BO.AKT01.\"\n\
+         azimuth_deg = 90.0\nwidth_m = 0.01\nheight_m = 5.0\nmu_s = 0.8\nmu_k = 0.6\nsource = \"test\"\n",
+    )
+    .unwrap();
+    let config = dir.path().join("node.toml");
+    std::fs::write(
+        &config,
+        "catalogue = \"cat.toml\"\n[[station]]\nid = \"BO.AKT01.\"\ngain_mps2_per_count = 2.384185791015625e-06\n",
+    )
+    .unwrap();
+    let summary = |args: &[&str]| {
+        let out = rockwatch(args, &[]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        lines(&out).last().unwrap()["pbrs"][0].clone()
+    };
+    let counts = summary(&[
+        "monitor",
+        "--config",
+        config.to_str().unwrap(),
+        "--mseed",
+        "tests/data/mseed/knet_AKT013_HNE_counts.mseed",
+        "--station",
+        "BO.AKT01.",
+        "--format",
+        "jsonl",
+    ]);
+    let mps2 = summary(&[
+        "monitor",
+        "--catalogue",
+        catalogue.to_str().unwrap(),
+        "--mseed",
+        "tests/data/mseed/knet_AKT013_HNE_ms2.mseed",
+        "--station",
+        "BO.AKT01.",
+        "--format",
+        "jsonl",
+    ]);
+    let (a, b) = (
+        counts["max_theta_over_alpha"].as_f64().unwrap(),
+        mps2["max_theta_over_alpha"].as_f64().unwrap(),
+    );
+    assert!(a > 0.01, "the block must rock: {counts}");
+    // Packets carry f32: the two paths round differently (counts exact, m/s² to 2^-24).
+    assert!((a - b).abs() <= 1e-4 * a.max(b), "{a} vs {b}");
+}

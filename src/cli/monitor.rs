@@ -2,17 +2,16 @@
 //! `--tail` seconds of quiet, through the same engine as the live node, as fast as it can.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use rockwatch::catalogue::Catalogue;
-use rockwatch::engine::{
-    AccelPacket, Alert, Engine, EngineConfig, JournalRecord, Output, PbrSpec, StationId,
-};
+use rockwatch::engine::{Alert, Engine, EngineConfig, JournalRecord, Output, PbrSpec, StationId};
 use rockwatch::journal::Journal;
-use rockwatch::mseed::{format_time_ns, read_mseed, GapFill};
+use rockwatch::mseed::format_time_ns;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::record::Record;
+use rockwatch::replay::Traces;
 
 /// Run the monitoring engine over a record: "which of my rocks should have toppled?".
 ///
@@ -67,121 +66,6 @@ pub enum MonitorFormat {
     Jsonl,
 }
 
-/// Three aligned components (m/s² or counts) with their timing.
-struct Traces {
-    start_ns: i64,
-    rate_hz: f64,
-    east: Vec<f64>,
-    north: Vec<f64>,
-    up: Option<Vec<f64>>,
-}
-
-fn traces_from_record(args: &MonitorArgs, path: &Path) -> anyhow::Result<Traces> {
-    let mut record = Record::read(path)?;
-    if let Some(v) = &args.vertical {
-        record.attach_vertical(v)?;
-    }
-    if !args.azimuth.is_finite() {
-        bail!(
-            "--azimuth must be a finite number of degrees, got {}",
-            args.azimuth
-        );
-    }
-    let (s, c) = args.azimuth.to_radians().sin_cos();
-    Ok(Traces {
-        start_ns: 0,
-        rate_hz: 1.0 / record.dt_s,
-        east: record.horizontal_mps2.iter().map(|a| a * s).collect(),
-        north: record.horizontal_mps2.iter().map(|a| a * c).collect(),
-        up: record.vertical_mps2,
-    })
-}
-
-fn traces_from_mseed(path: &Path, station: &StationId) -> anyhow::Result<Traces> {
-    let file = read_mseed(path)?;
-    let mine: Vec<_> = file
-        .channels
-        .iter()
-        .filter(|c| format!("{}.{}.{}", c.net, c.sta, c.loc) == station.as_str())
-        .collect();
-    if mine.is_empty() {
-        let ids: Vec<String> = file.channels.iter().map(|c| c.id()).collect();
-        bail!(
-            "{}: no channel of station {station} (channels: {})",
-            path.display(),
-            ids.join(", ")
-        );
-    }
-    let pick = |codes: [char; 2]| mine.iter().find(|c| c.cha.ends_with(codes)).copied();
-    let (east, north, up) = (pick(['E', '1']), pick(['N', '2']), pick(['Z', '3']));
-    let Some(first) = east.or(north) else {
-        bail!(
-            "{}: station {station} has no horizontal channel (…E/…N or …1/…2)",
-            path.display()
-        );
-    };
-    let (start_ns, rate_hz) = (first.start_time_ns, first.sample_rate_hz);
-    let samples = |c: Option<&rockwatch::mseed::Channel>| -> anyhow::Result<Option<Vec<f64>>> {
-        let Some(c) = c else { return Ok(None) };
-        if (c.sample_rate_hz - rate_hz).abs() > 1e-9 * rate_hz
-            || (c.start_time_ns - start_ns).abs() as f64 > 0.5e9 / rate_hz
-        {
-            bail!(
-                "{}: channel {} is not aligned with {} (rate or start time)",
-                path.display(),
-                c.id(),
-                first.id()
-            );
-        }
-        Ok(Some(c.contiguous_samples(GapFill::Linear)?))
-    };
-    let (e, n, u) = (samples(east)?, samples(north)?, samples(up)?);
-    let len = [&e, &n, &u]
-        .iter()
-        .filter_map(|c| c.as_ref().map(Vec::len))
-        .min()
-        .unwrap_or(0);
-    let cut = |v: Option<Vec<f64>>| {
-        v.map(|mut v| {
-            v.truncate(len);
-            v
-        })
-    };
-    Ok(Traces {
-        start_ns,
-        rate_hz,
-        east: cut(e).unwrap_or_else(|| vec![0.0; len]),
-        north: cut(n).unwrap_or_else(|| vec![0.0; len]),
-        up: cut(u),
-    })
-}
-
-/// Cuts traces (plus `tail_s` of zeros) into packets of `packet_ms`.
-fn packets(station: &StationId, t: &Traces, packet_ms: u32, tail_s: f64) -> Vec<AccelPacket> {
-    let per_packet = ((f64::from(packet_ms) * 1e-3 * t.rate_hz).round() as usize).max(1);
-    let total = t.east.len() + (tail_s * t.rate_hz).round() as usize;
-    let at = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(0.0) as f32;
-    (0..total)
-        .step_by(per_packet)
-        .enumerate()
-        .map(|(sequence, first)| {
-            let range = first..(first + per_packet).min(total);
-            AccelPacket {
-                station: station.to_string(),
-                start_time_ns: t.start_ns + (first as f64 * 1e9 / t.rate_hz).round() as i64,
-                sample_rate_hz: t.rate_hz,
-                sequence: sequence as u64,
-                east: range.clone().map(|i| at(&t.east, i)).collect(),
-                north: range.clone().map(|i| at(&t.north, i)).collect(),
-                up: t
-                    .up
-                    .as_ref()
-                    .map_or_else(Vec::new, |u| range.map(|i| at(u, i)).collect()),
-            }
-        })
-        .collect()
-}
-
 fn alert_json(a: &Alert, t0_ns: i64) -> serde_json::Value {
     serde_json::json!({
         "type": "alert",
@@ -232,8 +116,14 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
         bail!("--tail must be a number of seconds ≥ 0, got {}", args.tail);
     }
     let traces = match (&args.record, &args.mseed) {
-        (Some(path), _) => traces_from_record(&args, path)?,
-        (None, Some(path)) => traces_from_mseed(path, &station)?,
+        (Some(path), _) => {
+            let mut record = Record::read(path)?;
+            if let Some(v) = &args.vertical {
+                record.attach_vertical(v)?;
+            }
+            Traces::from_record(&record, args.azimuth).map_err(anyhow::Error::msg)?
+        }
+        (None, Some(path)) => Traces::from_mseed(path, &station)?,
         (None, None) => bail!("give --record FILE or --mseed FILE"),
     };
     let engine_config: EngineConfig = config.engine;
@@ -311,7 +201,7 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
         }
         Ok(())
     };
-    for packet in packets(&station, &traces, args.packet_ms, args.tail) {
+    for packet in traces.packets(&station, args.packet_ms, args.tail) {
         engine.process(packet, 0, &mut out);
         handle(&mut out, &mut journal)?;
     }

@@ -134,6 +134,11 @@ impl ShardedEngine {
         self.outputs.recv().ok()
     }
 
+    /// Waits up to `timeout` for the next batch of outputs.
+    pub fn recv_outputs_timeout(&self, timeout: std::time::Duration) -> Option<Vec<Output>> {
+        self.outputs.recv_timeout(timeout).ok()
+    }
+
     /// Stops the workers after they have processed everything queued; returns their engines
     /// (for summaries and counters) and the outputs not yet taken.
     pub fn shutdown(self) -> (Vec<Engine>, Vec<Output>) {

@@ -1,0 +1,275 @@
+//! The live node's transport-independent runtime (shell): the sharded engine, the state
+//! directory, arrival time stamps, rate-limited logging. Transports (ROS 2, iceoryx2) are thin
+//! adapters around it: they `submit` packets as they arrive and `poll` for publications.
+//!
+//! Ordering guarantee: an alert is appended to the journal and synced before `poll` hands it
+//! to the transport, so a published alert is never lost; on restart the journal is restored
+//! into the engine, so an alert is never published twice.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+
+use crate::catalogue::Catalogue;
+use crate::engine::{
+    AccelPacket, Alert, AlertConfig, Engine, JournalRecord, Output, PbrSpec, PbrState, PbrSummary,
+    ShardedEngine, StationIntensity,
+};
+use crate::journal::Journal;
+use crate::node_config::NodeConfig;
+
+/// What a transport publishes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Publication {
+    /// An alert, already journaled; `latency_ns` = wall time now − arrival of the packet that
+    /// triggered it.
+    Alert {
+        alert: Alert,
+        latency_ns: i64,
+    },
+    State(PbrState),
+    Intensity(StationIntensity),
+}
+
+/// Where the runtime's settings come from: the configuration file, overridden by flags.
+#[derive(Debug, Clone, Default)]
+pub struct NodeOptions {
+    pub config: NodeConfig,
+    pub catalogue: Option<PathBuf>,
+    pub state_dir: Option<PathBuf>,
+    /// Engine worker threads (0: one per core).
+    pub shards: usize,
+}
+
+/// Counts of what the runtime did (for logs and tests).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NodeStats {
+    pub packets: u64,
+    pub alerts: u64,
+    pub states: u64,
+    pub intensities: u64,
+    pub notices: u64,
+}
+
+/// Logs at most one line per (station, kind) every `interval`, with the count suppressed.
+#[derive(Debug)]
+struct RateLimitedLog {
+    interval: Duration,
+    last: HashMap<(String, &'static str), (Instant, u64)>,
+}
+
+impl RateLimitedLog {
+    fn log(&mut self, station: &str, kind: &'static str, message: &str) {
+        let now = Instant::now();
+        let entry = self
+            .last
+            .entry((station.to_string(), kind))
+            .or_insert((now - self.interval, 0));
+        if now.duration_since(entry.0) >= self.interval {
+            let suppressed = std::mem::take(&mut entry.1);
+            let more = if suppressed > 0 {
+                format!(" (+{suppressed} more since last report)")
+            } else {
+                String::new()
+            };
+            eprintln!("rockwatch: {station}: {kind}: {message}{more}");
+            entry.0 = now;
+        } else {
+            entry.1 += 1;
+        }
+    }
+}
+
+/// The running node minus its transports.
+pub struct NodeRuntime {
+    /// Always `Some` until `shutdown`.
+    engine: Option<ShardedEngine>,
+    journal: Option<Journal>,
+    epoch: Instant,
+    log: RateLimitedLog,
+    pub stats: NodeStats,
+    pbr_ids: Vec<String>,
+}
+
+impl NodeRuntime {
+    /// Loads the catalogue, restores the state directory, and starts the engine workers.
+    pub fn start(options: &NodeOptions) -> anyhow::Result<NodeRuntime> {
+        let catalogue_path = options
+            .catalogue
+            .clone()
+            .or(options.config.catalogue.clone())
+            .context("no catalogue: give --catalogue FILE or a --config that names one")?;
+        let catalogue = Catalogue::load(&catalogue_path)?;
+        let specs = catalogue
+            .pbrs()
+            .iter()
+            .map(PbrSpec::from_catalogue)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| anyhow::anyhow!("{}: {e}", catalogue_path.display()))?;
+        let (journal, records) = match options
+            .state_dir
+            .clone()
+            .or(options.config.state_dir.clone())
+        {
+            Some(dir) => {
+                let (journal, records, report) = Journal::open(&dir)?;
+                if !report.corrupt_lines.is_empty() || report.truncated_tail {
+                    eprintln!(
+                        "rockwatch: warning: {}: journal repaired ({report:?})",
+                        dir.display()
+                    );
+                }
+                (Some(journal), records)
+            }
+            None => (None, Vec::new()),
+        };
+        let shards = if options.shards == 0 {
+            std::thread::available_parallelism().map_or(1, usize::from)
+        } else {
+            options.shards
+        };
+        let engine = ShardedEngine::start(
+            options.config.engine,
+            &options.config.stations,
+            &specs,
+            &records,
+            shards,
+        )
+        .map_err(anyhow::Error::msg)?;
+        Ok(NodeRuntime {
+            engine: Some(engine),
+            journal,
+            epoch: Instant::now(),
+            log: RateLimitedLog {
+                interval: Duration::from_secs(10),
+                last: HashMap::new(),
+            },
+            stats: NodeStats::default(),
+            pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+        })
+    }
+
+    /// Monotonic wall time since start (ns): arrival and emission stamps.
+    #[must_use]
+    pub fn now_ns(&self) -> i64 {
+        self.epoch.elapsed().as_nanos() as i64
+    }
+
+    /// Ids of the catalogued blocks.
+    #[must_use]
+    pub fn pbr_ids(&self) -> &[String] {
+        &self.pbr_ids
+    }
+
+    /// Hands a packet to the engine, stamped with its arrival time.
+    pub fn submit(&mut self, packet: AccelPacket) {
+        self.stats.packets += 1;
+        let arrival = self.now_ns();
+        if let Some(engine) = &self.engine {
+            engine.submit(packet, arrival);
+        }
+    }
+
+    /// New alert thresholds, effective for the next packet.
+    pub fn set_alert_config(&self, alerts: AlertConfig) {
+        if let Some(engine) = &self.engine {
+            engine.set_alert_config(alerts);
+        }
+    }
+
+    /// Operator reset of a fallen block: journaled, then applied.
+    pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
+        if let Some(j) = &mut self.journal {
+            j.append(&JournalRecord::Reset {
+                pbr_id: pbr_id.to_string(),
+            })?;
+        }
+        if let Some(engine) = &self.engine {
+            engine.reset_pbr(pbr_id);
+        }
+        Ok(())
+    }
+
+    fn handle(
+        &mut self,
+        outputs: Vec<Output>,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<()> {
+        for output in outputs {
+            match output {
+                Output::Alert(alert) => {
+                    if let Some(j) = &mut self.journal {
+                        j.append(&JournalRecord::Alert(alert.clone()))?;
+                    }
+                    self.stats.alerts += 1;
+                    let latency_ns = self.now_ns() - alert.arrival_ns;
+                    publish(Publication::Alert { alert, latency_ns });
+                }
+                Output::EpisodeEnd { pbr_id, episode } => {
+                    if let Some(j) = &mut self.journal {
+                        j.append(&JournalRecord::EpisodeEnd { pbr_id, episode })?;
+                    }
+                }
+                Output::State(s) => {
+                    self.stats.states += 1;
+                    publish(Publication::State(s));
+                }
+                Output::Intensity(i) => {
+                    self.stats.intensities += 1;
+                    publish(Publication::Intensity(i));
+                }
+                Output::Notice(n) => {
+                    self.stats.notices += 1;
+                    self.log.log(&n.station, n.kind, &n.message);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Publishes everything the engine has produced so far, without waiting. Alerts are
+    /// journaled first; an error means the state directory failed (the alert was not
+    /// published).
+    pub fn poll(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
+        let outputs: Vec<Output> = self
+            .engine
+            .as_ref()
+            .map_or_else(Vec::new, |e| e.try_outputs().collect());
+        self.handle(outputs, publish)
+    }
+
+    /// Waits up to `timeout` for outputs, then publishes them (for transports without their
+    /// own event loop).
+    pub fn poll_wait(
+        &mut self,
+        timeout: Duration,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<()> {
+        if let Some(first) = self
+            .engine
+            .as_ref()
+            .and_then(|e| e.recv_outputs_timeout(timeout))
+        {
+            self.handle(first, publish)?;
+        }
+        self.poll(publish)
+    }
+
+    /// Stops intake: releases held packets, lets the workers finish, publishes what remains
+    /// and returns every block's summary.
+    pub fn shutdown(
+        mut self,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<Vec<PbrSummary>> {
+        let now = self.now_ns();
+        let Some(engine) = self.engine.take() else {
+            return Ok(Vec::new());
+        };
+        engine.flush(now);
+        let (engines, rest) = engine.shutdown();
+        self.handle(rest, publish)?;
+        Ok(engines.iter().flat_map(Engine::summaries).collect())
+    }
+}
