@@ -1,0 +1,103 @@
+//! The live node's runtime without transports: packets in, publications out, journal kept.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use rockwatch::catalogue::Catalogue;
+use rockwatch::engine::{Engine, EngineConfig, Output, PbrSpec, StationId};
+use rockwatch::journal::read_journal;
+use rockwatch::node::{NodeOptions, NodeRuntime, Publication};
+use rockwatch::record::Record;
+use rockwatch::replay::Traces;
+
+fn rinaldi_packets() -> Vec<rockwatch::engine::AccelPacket> {
+    let mut record = Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).unwrap();
+    record
+        .attach_vertical(Path::new("tests/data/records/RinaldiUP.AT2"))
+        .unwrap();
+    let station = StationId::parse("CI.RRS.00").unwrap();
+    Traces::from_record(&record, 228.0)
+        .unwrap()
+        .packets(&station, 100, 10.0)
+}
+
+#[test]
+fn runtime_publishes_the_engines_alerts_journaled_with_latencies() {
+    let dir = tempfile::tempdir().unwrap();
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        state_dir: Some(dir.path().to_path_buf()),
+        shards: 2,
+        ..NodeOptions::default()
+    };
+    let mut node = NodeRuntime::start(&options).unwrap();
+    let mut published = Vec::new();
+    let mut publish = |p: Publication| published.push(p);
+    for packet in rinaldi_packets() {
+        node.submit(packet);
+        node.poll(&mut publish).unwrap();
+    }
+    node.poll_wait(Duration::from_millis(10), &mut publish)
+        .unwrap();
+    let summaries = node.shutdown(&mut publish).unwrap();
+    assert_eq!(
+        summaries.len(),
+        Catalogue::load("config/catalogue.toml").unwrap().len()
+    );
+
+    // The same alerts as the single-threaded engine on the same packets.
+    let catalogue = Catalogue::load("config/catalogue.toml").unwrap();
+    let specs: Vec<PbrSpec> = catalogue
+        .pbrs()
+        .iter()
+        .map(|p| PbrSpec::from_catalogue(p).unwrap())
+        .collect();
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &specs).unwrap();
+    let mut out = Vec::new();
+    for p in rinaldi_packets() {
+        engine.process(p, 0, &mut out);
+    }
+    engine.flush(0, &mut out);
+    let mut expected: Vec<_> = out
+        .iter()
+        .filter_map(|o| {
+            if let Output::Alert(a) = o {
+                Some(a.key())
+            } else {
+                None
+            }
+        })
+        .collect();
+    let mut got: Vec<_> = published
+        .iter()
+        .filter_map(|p| {
+            if let Publication::Alert { alert, .. } = p {
+                Some(alert.key())
+            } else {
+                None
+            }
+        })
+        .collect();
+    expected.sort();
+    got.sort();
+    assert!(!got.is_empty());
+    assert_eq!(got, expected);
+    for p in &published {
+        if let Publication::Alert { latency_ns, .. } = p {
+            assert!(
+                *latency_ns >= 0 && *latency_ns < 5_000_000_000,
+                "latency {latency_ns} ns"
+            );
+        }
+    }
+    assert!(published.iter().any(|p| matches!(p, Publication::State(_))));
+    assert!(published
+        .iter()
+        .any(|p| matches!(p, Publication::Intensity(_))));
+    let (records, _) = read_journal(dir.path()).unwrap();
+    let journaled = records
+        .iter()
+        .filter(|r| matches!(r, rockwatch::engine::JournalRecord::Alert(_)))
+        .count();
+    assert_eq!(journaled, got.len());
+}
