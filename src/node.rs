@@ -8,14 +8,15 @@
 
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
 use crate::catalogue::Catalogue;
 use crate::engine::{
-    AccelPacket, Alert, AlertConfig, Engine, JournalRecord, Output, PbrSpec, PbrState, PbrSummary,
-    ShardedEngine, StationIntensity,
+    AccelPacket, Alert, AlertConfig, Engine, EngineHandle, JournalRecord, Output, PbrSpec,
+    PbrState, PbrSummary, ShardedEngine, StationIntensity,
 };
 use crate::journal::Journal;
 use crate::node_config::NodeConfig;
@@ -31,6 +32,33 @@ pub enum Publication {
     },
     State(PbrState),
     Intensity(StationIntensity),
+}
+
+/// A transport's output side: publishes what the runtime hands it (alerts already journaled).
+pub trait Publisher {
+    /// Publishes one item; an error is logged (rate-limited) and the node goes on.
+    fn publish(&mut self, publication: &Publication) -> anyhow::Result<()>;
+}
+
+/// A transport's input side: a cloneable, thread-safe handle that stamps each packet with its
+/// arrival time and hands it to the engine.
+#[derive(Clone)]
+pub struct Submitter {
+    engine: EngineHandle,
+    epoch: Instant,
+}
+
+impl Submitter {
+    /// Hands a packet to the engine, stamped with its arrival time.
+    pub fn submit(&self, packet: AccelPacket) {
+        self.engine
+            .submit(packet, self.epoch.elapsed().as_nanos() as i64);
+    }
+
+    /// New alert thresholds (e.g. from a ROS 2 parameter), effective for the next packet.
+    pub fn set_alert_config(&self, alerts: AlertConfig) {
+        self.engine.set_alert_config(alerts);
+    }
 }
 
 /// Where the runtime's settings come from: the configuration file, overridden by flags.
@@ -161,6 +189,47 @@ impl NodeRuntime {
     #[must_use]
     pub fn pbr_ids(&self) -> &[String] {
         &self.pbr_ids
+    }
+
+    /// A handle for transport threads to submit packets.
+    #[must_use]
+    pub fn submitter(&self) -> Option<Submitter> {
+        self.engine.as_ref().map(|e| Submitter {
+            engine: e.handle(),
+            epoch: self.epoch,
+        })
+    }
+
+    /// Publishes the engine's outputs to every publisher as they come, until `stop` is set
+    /// (checked every 50 ms). Blocks: run it on the thread that owns the publishers.
+    pub fn pump(
+        &mut self,
+        publishers: &mut [&mut dyn Publisher],
+        stop: &AtomicBool,
+    ) -> anyhow::Result<()> {
+        let mut errors = 0u64;
+        while !stop.load(Ordering::Relaxed) {
+            let batch = self
+                .engine
+                .as_ref()
+                .and_then(|e| e.recv_outputs_timeout(Duration::from_millis(50)));
+            if let Some(batch) = batch {
+                let mut failures = Vec::new();
+                self.handle(batch, &mut |p| {
+                    for publisher in publishers.iter_mut() {
+                        if let Err(e) = publisher.publish(&p) {
+                            failures.push(e.to_string());
+                        }
+                    }
+                })?;
+                for f in failures {
+                    errors += 1;
+                    self.log
+                        .log("node", "publish_failed", &format!("{f} ({errors} in all)"));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Hands a packet to the engine, stamped with its arrival time.

@@ -101,3 +101,46 @@ fn runtime_publishes_the_engines_alerts_journaled_with_latencies() {
         .count();
     assert_eq!(journaled, got.len());
 }
+
+/// Collects publications.
+struct Collect(Vec<Publication>);
+impl rockwatch::node::Publisher for Collect {
+    fn publish(&mut self, p: &Publication) -> anyhow::Result<()> {
+        self.0.push(p.clone());
+        Ok(())
+    }
+}
+
+#[test]
+fn transport_threads_submit_while_the_pump_publishes() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        shards: 2,
+        ..NodeOptions::default()
+    };
+    let mut node = NodeRuntime::start(&options).unwrap();
+    let submitter = node.submitter().unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let producer = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            for p in rinaldi_packets() {
+                submitter.submit(p);
+            }
+            std::thread::sleep(Duration::from_millis(300));
+            stop.store(true, Ordering::Relaxed);
+        })
+    };
+    let mut collect = Collect(Vec::new());
+    node.pump(&mut [&mut collect], &stop).unwrap();
+    producer.join().unwrap();
+    node.shutdown(&mut |p| collect.0.push(p)).unwrap();
+    let overturned = collect
+        .0
+        .iter()
+        .filter(|p| matches!(p, Publication::Alert { alert, .. } if alert.level == rockwatch::engine::AlertLevel::Overturned))
+        .count();
+    assert_eq!(overturned, 1, "the slender pillar falls once");
+}

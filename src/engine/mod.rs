@@ -34,7 +34,7 @@ pub use output::{
     Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, PbrState, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
-pub use sharded::ShardedEngine;
+pub use sharded::{EngineHandle, ShardedEngine};
 pub use station::{PbrSummary, StationCounters};
 pub use stream::{StreamConfig, StreamCounters};
 

@@ -16,6 +16,46 @@ enum Command {
     Flush(i64),
     SetAlerts(AlertConfig),
     Reset(String),
+    Stop,
+}
+
+/// A cloneable, thread-safe handle for feeding a [`ShardedEngine`] from transport threads.
+/// After the engine shuts down, its methods do nothing.
+#[derive(Clone)]
+pub struct EngineHandle {
+    senders: std::sync::Arc<[SyncSender<Command>]>,
+}
+
+impl EngineHandle {
+    fn send(&self, shard: usize, command: Command) {
+        // Fails only after shutdown, when nothing is to be done with the command any more.
+        let _ = self.senders[shard].send(command);
+    }
+
+    fn broadcast(&self, command: impl Fn() -> Command) {
+        (0..self.senders.len()).for_each(|s| self.send(s, command()));
+    }
+
+    /// Queues a packet for its station's shard (waits if that shard's queue is full).
+    pub fn submit(&self, packet: AccelPacket, arrival_ns: i64) {
+        let shard = shard_of(&packet.station, self.senders.len());
+        self.send(shard, Command::Packet(packet, arrival_ns));
+    }
+
+    /// Releases packets held for reordering on every shard.
+    pub fn flush(&self, arrival_ns: i64) {
+        self.broadcast(|| Command::Flush(arrival_ns));
+    }
+
+    /// New alert thresholds on every shard (effective for the next packet).
+    pub fn set_alert_config(&self, alerts: AlertConfig) {
+        self.broadcast(|| Command::SetAlerts(alerts));
+    }
+
+    /// Operator reset of a block on every shard (only its own shard knows it).
+    pub fn reset_pbr(&self, pbr_id: &str) {
+        self.broadcast(|| Command::Reset(pbr_id.to_string()));
+    }
 }
 
 /// Packets a worker's queue holds before `submit` waits (back-pressure on the transport).
@@ -23,7 +63,7 @@ const QUEUE_PACKETS: usize = 4096;
 
 /// A pool of engine shards on worker threads.
 pub struct ShardedEngine {
-    senders: Vec<SyncSender<Command>>,
+    handle: EngineHandle,
     outputs: Receiver<Vec<Output>>,
     workers: Vec<JoinHandle<Engine>>,
 }
@@ -74,6 +114,7 @@ impl ShardedEngine {
                             Command::Reset(id) => {
                                 engine.reset_pbr(&id);
                             }
+                            Command::Stop => break,
                         }
                         if !out.is_empty() && out_tx.send(std::mem::take(&mut out)).is_err() {
                             break; // nobody listens any more
@@ -86,7 +127,9 @@ impl ShardedEngine {
             workers.push(handle);
         }
         Ok(ShardedEngine {
-            senders,
+            handle: EngineHandle {
+                senders: senders.into(),
+            },
             outputs,
             workers,
         })
@@ -95,33 +138,33 @@ impl ShardedEngine {
     /// Number of shards.
     #[must_use]
     pub fn shards(&self) -> usize {
-        self.senders.len()
+        self.handle.senders.len()
     }
 
-    fn send(&self, shard: usize, command: Command) {
-        // A worker only stops when the pool is dropped; a failed send cannot happen before.
-        let _ = self.senders[shard].send(command);
+    /// A handle for transport threads.
+    #[must_use]
+    pub fn handle(&self) -> EngineHandle {
+        self.handle.clone()
     }
 
     /// Queues a packet for its station's shard (waits if that shard's queue is full).
     pub fn submit(&self, packet: AccelPacket, arrival_ns: i64) {
-        let shard = shard_of(&packet.station, self.shards());
-        self.send(shard, Command::Packet(packet, arrival_ns));
+        self.handle.submit(packet, arrival_ns);
     }
 
     /// Releases packets held for reordering on every shard.
     pub fn flush(&self, arrival_ns: i64) {
-        (0..self.shards()).for_each(|s| self.send(s, Command::Flush(arrival_ns)));
+        self.handle.flush(arrival_ns);
     }
 
     /// New alert thresholds on every shard (effective for the next packet).
     pub fn set_alert_config(&self, alerts: AlertConfig) {
-        (0..self.shards()).for_each(|s| self.send(s, Command::SetAlerts(alerts)));
+        self.handle.set_alert_config(alerts);
     }
 
     /// Operator reset of a block on every shard (only its own shard knows it).
     pub fn reset_pbr(&self, pbr_id: &str) {
-        (0..self.shards()).for_each(|s| self.send(s, Command::Reset(pbr_id.to_string())));
+        self.handle.reset_pbr(pbr_id);
     }
 
     /// Outputs produced so far, without waiting.
@@ -142,7 +185,8 @@ impl ShardedEngine {
     /// Stops the workers after they have processed everything queued; returns their engines
     /// (for summaries and counters) and the outputs not yet taken.
     pub fn shutdown(self) -> (Vec<Engine>, Vec<Output>) {
-        drop(self.senders);
+        // Workers process what is queued before the stop; handles held elsewhere go dead.
+        self.handle.broadcast(|| Command::Stop);
         let engines: Vec<Engine> = self
             .workers
             .into_iter()
