@@ -11,6 +11,7 @@ pub mod plot;
 pub mod pulse;
 pub mod record;
 pub mod simulate;
+pub mod study;
 
 /// Standard gravity g (m/s²): the unit of AT2 records and the gravity of the block dynamics.
 pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;
