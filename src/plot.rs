@@ -18,8 +18,8 @@ static BUNDLED_FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans-subset.t
 pub fn ensure_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
-        // The bundled file is a valid TrueType font: registration cannot fail at run time
-        // (checked by the test `bundled_font_registers`).
+        // The bundled file is a valid TrueType font, so registration cannot fail at run time
+        // (tests/study.rs renders PNG text with it; a missing font would fail those plots).
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, BUNDLED_FONT);
     });
 }

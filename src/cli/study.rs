@@ -10,8 +10,8 @@ use rockwatch::study::plots::write_plots;
 use rockwatch::study::report::{display_name, summary, write_tables};
 use rockwatch::study::{
     analyse, run_study, ExclusionRule, StudyBlock, StudyConfig, DEFAULT_DT_S, DEFAULT_IM_PAD_S,
-    DEFAULT_MAX_SLIDE_M, DEFAULT_PULSES_PER_PAIR, DEFAULT_SLIDE_FLOOR_M, DEFAULT_T_EXTRA_S,
-    DEFAULT_THETA_FLOOR_RAD, DEFAULT_VECTOR_TOP,
+    DEFAULT_MAX_SLIDE_M, DEFAULT_PULSES_PER_PAIR, DEFAULT_SLIDE_FLOOR_M, DEFAULT_THETA_FLOOR_RAD,
+    DEFAULT_T_EXTRA_S, DEFAULT_VECTOR_TOP,
 };
 
 use super::OutputFormat;
@@ -146,7 +146,10 @@ fn build_config(args: &StudyArgs) -> anyhow::Result<StudyConfig> {
     for spec in &args.blocks {
         let block = StudyBlock::parse_spec(spec)?;
         if given.contains(&block.name) {
-            bail!("--block {spec:?}: two --block options name {:?}", block.name);
+            bail!(
+                "--block {spec:?}: two --block options name {:?}",
+                block.name
+            );
         }
         given.push(block.name.clone());
         match blocks.iter_mut().find(|b| b.name == block.name) {
@@ -192,12 +195,16 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         && std::io::stderr().is_terminal()
         && std::io::stdout().is_terminal();
     let bar = if show_bar {
-        let bar = ProgressBar::with_draw_target(Some(n_pulses as u64), ProgressDrawTarget::stderr());
+        let bar =
+            ProgressBar::with_draw_target(Some(n_pulses as u64), ProgressDrawTarget::stderr());
         bar.set_style(
             ProgressStyle::with_template(
                 "{elapsed_precise} [{bar:40}] {pos}/{len} pulses ({per_sec}, eta {eta})",
             )
-            .map_or_else(|_| ProgressStyle::default_bar(), |s| s.progress_chars("=> ")),
+            .map_or_else(
+                |_| ProgressStyle::default_bar(),
+                |s| s.progress_chars("=> "),
+            ),
         );
         bar
     } else {

@@ -161,7 +161,7 @@ pub fn fit_lognormal(
     // Centre and scale x for conditioning: η = ac + bc·(x − m)/s.
     let m = x.iter().sum::<f64>() / n as f64;
     let s = (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n as f64).sqrt();
-    if !(s > 0.0) {
+    if s.is_nan() || s <= 0.0 {
         // A constant IM cannot explain the events.
         return Err(FragilityError::Separated);
     }

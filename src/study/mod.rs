@@ -26,14 +26,13 @@ pub mod special;
 use rayon::prelude::*;
 
 use crate::dynamics::{BlockParams, Mode, ParamError};
-use crate::ims::{compute_ims, study_ims, ImError, ImOptions, STUDY_IM_COUNT, STUDY_IM_NAMES};
 pub use crate::ims::STUDY_IM_UNITS;
+use crate::ims::{compute_ims, study_ims, ImError, ImOptions, STUDY_IM_COUNT, STUDY_IM_NAMES};
 use crate::pulse::{sample_pulses, PulseError, PulseParameters, PulseScenario};
 use crate::simulate::{simulate, SimulationOptions, Status};
 use fragility::{fit_lognormal, FragilityError, LognormalFragility};
 use regression::{
-    linear_fit, log_log_fit, multiple_fit, residual_dependence_p, residuals,
-    LinearFit, MultipleFit,
+    linear_fit, log_log_fit, multiple_fit, residual_dependence_p, residuals, LinearFit, MultipleFit,
 };
 
 /// Moment magnitudes of the seed's study.
@@ -146,13 +145,27 @@ impl StudyBlock {
     /// The seed's sliding block: α = 45°, μs = μk = 0.1, DM = max |slide|. The seed gives no
     /// size; R = 1.12 m is the block of its Figure 2 (pure sliding).
     pub fn seed_sliding() -> Result<Self, StudyError> {
-        Self::from_r_alpha("sliding", 1.12, 45f64.to_radians(), 0.1, 0.1, DemandMeasure::Slide)
+        Self::from_r_alpha(
+            "sliding",
+            1.12,
+            45f64.to_radians(),
+            0.1,
+            0.1,
+            DemandMeasure::Slide,
+        )
     }
 
     /// The seed's rocking block: α = 11.31°, μs = 1.5, μk = 1.0, DM = max |θ|. The seed gives
     /// no size; R = 3.29 m is the block of its Figure 2 (pure rocking).
     pub fn seed_rocking() -> Result<Self, StudyError> {
-        Self::from_r_alpha("rocking", 3.29, 11.31f64.to_radians(), 1.5, 1.0, DemandMeasure::Theta)
+        Self::from_r_alpha(
+            "rocking",
+            3.29,
+            11.31f64.to_radians(),
+            1.5,
+            1.0,
+            DemandMeasure::Theta,
+        )
     }
 
     fn from_r_alpha(
@@ -163,12 +176,13 @@ impl StudyBlock {
         mu_k: f64,
         dm: DemandMeasure,
     ) -> Result<Self, StudyError> {
-        let params = BlockParams::from_r_alpha(r_m, alpha_rad, mu_s, mu_k, None).map_err(
-            |source| StudyError::Block {
-                name: name.to_string(),
-                source,
-            },
-        )?;
+        let params =
+            BlockParams::from_r_alpha(r_m, alpha_rad, mu_s, mu_k, None).map_err(|source| {
+                StudyError::Block {
+                    name: name.to_string(),
+                    source,
+                }
+            })?;
         Ok(StudyBlock {
             name: name.to_string(),
             params,
@@ -384,7 +398,9 @@ impl StudyConfig {
         }
         for (name, v) in [("im pad", self.im_pad_s), ("t_extra", self.t_extra_s)] {
             if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("{name} must be a finite number of seconds >= 0, got {v}"));
+                return bad(format!(
+                    "{name} must be a finite number of seconds >= 0, got {v}"
+                ));
             }
         }
         for (name, v) in [
@@ -399,7 +415,7 @@ impl StudyConfig {
             ("max slide", self.exclusion.max_slide_m),
             ("max theta", self.exclusion.max_theta_rad),
         ] {
-            if !(v > 0.0) {
+            if v.is_nan() || v <= 0.0 {
                 return bad(format!("{name} must be > 0 (or inf to disable), got {v}"));
             }
         }
@@ -448,8 +464,8 @@ impl Pair {
 /// (γ = 0x9E3779B97F4A7C15), so pairs get unrelated, reproducible Latin hypercubes.
 #[must_use]
 pub fn pair_seed(study_seed: u64, pair_index: usize) -> u64 {
-    let mut z = study_seed
-        .wrapping_add((pair_index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    let mut z =
+        study_seed.wrapping_add((pair_index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
@@ -547,7 +563,11 @@ pub struct StudyData {
     pub responses: Vec<Vec<BlockResponse>>,
 }
 
-fn respond(block: &StudyBlock, record: &crate::record::Record, options: &SimulationOptions) -> BlockResponse {
+fn respond(
+    block: &StudyBlock,
+    record: &crate::record::Record,
+    options: &SimulationOptions,
+) -> BlockResponse {
     match simulate(block.params, record, options) {
         Ok(sim) => {
             let s = sim.summary;
@@ -880,7 +900,9 @@ fn sd_and_range(values: &[f64]) -> (f64, f64) {
     let var = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n;
     let (lo, hi) = values
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
     (var.sqrt(), hi - lo)
 }
 
@@ -1047,10 +1069,10 @@ fn fragility_analysis(
                     ),
                 ),
                 None => {
-                    let reason = fits
-                        .iter()
-                        .find_map(|f| f.as_ref().err())
-                        .map_or_else(|| "no IM gave an increasing curve".to_string(), |e| e.to_string());
+                    let reason = fits.iter().find_map(|f| f.as_ref().err()).map_or_else(
+                        || "no IM gave an increasing curve".to_string(),
+                        |e| e.to_string(),
+                    );
                     (None, format!("no fragility curve: {reason}"))
                 }
             }
@@ -1083,7 +1105,11 @@ pub fn analyse_block(config: &StudyConfig, data: &StudyData, block_index: usize)
     let used: Vec<usize> = (0..categories.len())
         .filter(|&i| categories[i].is_used())
         .collect();
-    let dm_values: Vec<f64> = data.responses.iter().map(|r| dm.of(&r[block_index])).collect();
+    let dm_values: Vec<f64> = data
+        .responses
+        .iter()
+        .map(|r| dm.of(&r[block_index]))
+        .collect();
     let mut ranking: Vec<ImScore> = (0..STUDY_IM_COUNT)
         .into_par_iter()
         .map(|j| score_im(j, &used, data, &dm_values, floor))
@@ -1097,7 +1123,9 @@ pub fn analyse_block(config: &StudyConfig, data: &StudyData, block_index: usize)
         .par_iter()
         .map(|&(a, b)| vector_score(a, b, &used, data, &dm_values, floor, &ranking))
         .collect();
-    sort_desc_by(&mut vectors, |v| v.linear.as_ref().map_or(f64::NAN, |f| f.r2));
+    sort_desc_by(&mut vectors, |v| {
+        v.linear.as_ref().map_or(f64::NAN, |f| f.r2)
+    });
     let mut vector: Vec<VectorScore> = vectors.iter().take(config.vector_top).cloned().collect();
     let index_of = |name: &str| STUDY_IM_NAMES.iter().position(|n| *n == name);
     let best_asi = ranking

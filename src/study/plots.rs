@@ -154,7 +154,11 @@ where
             vec![(30, y), (50, y)],
             FIT_COLOUR.stroke_width(2),
         ))?;
-        cell.draw(&Text::new("linear fit (used runs)", (55, y - 8), ("sans-serif", 16)))?;
+        cell.draw(&Text::new(
+            "linear fit (used runs)",
+            (55, y - 8),
+            ("sans-serif", 16),
+        ))?;
         y += 40;
         for line in [
             format!("{} pulses", data.cases.len()),
@@ -207,7 +211,9 @@ where
         .collect();
     let (lo, hi) = values
         .iter()
-        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), (v, _)| (lo.min(*v), hi.max(*v)));
+        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), (v, _)| {
+            (lo.min(*v), hi.max(*v))
+        });
     if !(lo.is_finite() && hi > lo) {
         return Ok(());
     }
@@ -245,14 +251,24 @@ where
             RGBColor(0, 114, 178).mix(0.2).filled(),
         )))?
         .label("95 % band (delta method)")
-        .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], RGBColor(0, 114, 178).mix(0.2).filled()));
+        .legend(|(x, y)| {
+            Rectangle::new(
+                [(x, y - 5), (x + 20, y + 5)],
+                RGBColor(0, 114, 178).mix(0.2).filled(),
+            )
+        });
     chart
         .draw_series(LineSeries::new(
             grid.iter().map(|&x| (x, curve.probability(x))),
             RGBColor(0, 114, 178).stroke_width(2),
         ))?
         .label("lognormal MLE")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(0, 114, 178).stroke_width(2)));
+        .legend(|(x, y)| {
+            PathElement::new(
+                vec![(x, y), (x + 20, y)],
+                RGBColor(0, 114, 178).stroke_width(2),
+            )
+        });
     // Observed fractions in 12 log-spaced bins.
     let bins = 12;
     let width = (hi.ln() - lo.ln()) / bins as f64;
@@ -263,10 +279,20 @@ where
         counts[k].1 += usize::from(*e);
     }
     chart
-        .draw_series(counts.iter().enumerate().filter(|(_, c)| c.0 > 0).map(|(k, c)| {
-            let x = (lo.ln() + (k as f64 + 0.5) * width).exp();
-            Circle::new((x, c.1 as f64 / c.0 as f64), 4, RGBColor(213, 94, 0).filled())
-        }))?
+        .draw_series(
+            counts
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| c.0 > 0)
+                .map(|(k, c)| {
+                    let x = (lo.ln() + (k as f64 + 0.5) * width).exp();
+                    Circle::new(
+                        (x, c.1 as f64 / c.0 as f64),
+                        4,
+                        RGBColor(213, 94, 0).filled(),
+                    )
+                }),
+        )?
         .label("observed fraction (binned)")
         .legend(|(x, y)| Circle::new((x + 10, y), 4, RGBColor(213, 94, 0).filled()));
     chart

@@ -122,7 +122,10 @@ pub fn log_log_fit(x: &[f64], y: &[f64], y_floor: f64) -> Option<LinearFit> {
 /// Residuals `y − fit(x)`.
 #[must_use]
 pub fn residuals(fit: &LinearFit, x: &[f64], y: &[f64]) -> Vec<f64> {
-    x.iter().zip(y).map(|(&xi, &yi)| yi - fit.predict(xi)).collect()
+    x.iter()
+        .zip(y)
+        .map(|(&xi, &yi)| yi - fit.predict(xi))
+        .collect()
 }
 
 /// A multiple OLS fit `y = b0 + b1·x1 + … + bk·xk`.
@@ -149,7 +152,10 @@ pub fn multiple_fit(columns: &[&[f64]], y: &[f64]) -> Option<MultipleFit> {
     if n < k + 1 || columns.iter().any(|c| c.len() != n) {
         return None;
     }
-    if y.iter().chain(columns.iter().flat_map(|c| c.iter())).any(|v| !v.is_finite()) {
+    if y.iter()
+        .chain(columns.iter().flat_map(|c| c.iter()))
+        .any(|v| !v.is_finite())
+    {
         return None;
     }
     let my = mean(y);

@@ -256,13 +256,18 @@ pub fn vector_csv(analysis: &StudyAnalysis) -> String {
 
 /// Log-spaced IM grid over the positive IM values of the fragility sample (60 points).
 fn fragility_grid(data: &StudyData, curve: &LognormalFragility) -> Vec<f64> {
-    let j = STUDY_IM_NAMES.iter().position(|n| *n == curve.im).unwrap_or(0);
+    let j = STUDY_IM_NAMES
+        .iter()
+        .position(|n| *n == curve.im)
+        .unwrap_or(0);
     let (lo, hi) = data
         .cases
         .iter()
         .map(|c| c.ims[j])
         .filter(|v| *v > 0.0 && v.is_finite())
-        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
     if !(lo.is_finite() && hi > lo) {
         return Vec::new();
     }
@@ -547,13 +552,7 @@ fn seed_layout_pairs(data: &StudyData) -> Vec<usize> {
     }
 }
 
-fn md_table(
-    s: &mut String,
-    data: &StudyData,
-    block: &BlockAnalysis,
-    pairs: &[usize],
-    log: bool,
-) {
+fn md_table(s: &mut String, data: &StudyData, block: &BlockAnalysis, pairs: &[usize], log: bool) {
     s.push_str("| Intensity measure |");
     for &p in pairs {
         let _ = write!(s, " {} |", data.pairs[p].label().replace('-', " "));
@@ -666,7 +665,9 @@ pub fn write_tables(
         ("fragility.json", json(fragility_json(analysis))?),
         (
             "summary.json",
-            json(serde_json::to_string_pretty(&summary(config, data, analysis)))?,
+            json(serde_json::to_string_pretty(&summary(
+                config, data, analysis,
+            )))?,
         ),
     ];
     let mut written = Vec::with_capacity(files.len());

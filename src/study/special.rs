@@ -32,7 +32,7 @@ pub fn ln_gamma(x: f64) -> f64 {
         9.984_369_578_019_571_6e-6,
         1.505_632_735_149_311_6e-7,
     ];
-    if !(x > 0.0) {
+    if x.is_nan() || x <= 0.0 {
         return f64::NAN;
     }
     if x < 0.5 {
@@ -199,7 +199,7 @@ pub fn normal_pdf(z: f64) -> f64 {
 /// The Student-t CDF P(T ≤ t) with `nu > 0` degrees of freedom (NaN for nu ≤ 0 or NaN t).
 #[must_use]
 pub fn student_t_cdf(t: f64, nu: f64) -> f64 {
-    if !(nu > 0.0) || t.is_nan() {
+    if nu.is_nan() || nu <= 0.0 || t.is_nan() {
         return f64::NAN;
     }
     if t.is_infinite() {
@@ -216,7 +216,7 @@ pub fn student_t_cdf(t: f64, nu: f64) -> f64 {
 /// Two-sided p-value `P(|T| ≥ |t|)` of a t statistic with `nu` degrees of freedom.
 #[must_use]
 pub fn student_t_two_sided_p(t: f64, nu: f64) -> f64 {
-    if !(nu > 0.0) || t.is_nan() {
+    if nu.is_nan() || nu <= 0.0 || t.is_nan() {
         return f64::NAN;
     }
     if t.is_infinite() {
