@@ -199,7 +199,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             ProgressBar::with_draw_target(Some(n_pulses as u64), ProgressDrawTarget::stderr());
         bar.set_style(
             ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} pulses ({per_sec}, eta {eta})",
+                "{elapsed_precise} [{bar:30}] {pos}/{len} pulses, eta {eta}",
             )
             .map_or_else(
                 |_| ProgressStyle::default_bar(),

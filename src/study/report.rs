@@ -2,7 +2,7 @@
 //! `vector.csv`, `fragility.csv`, `fragility_fits.csv`, `fragility.json` and `summary.json`.
 //!
 //! Every table is first built as a `String` by a pure function (testable without files);
-//! [`write_tables`] writes them. Numbers are printed with Rust's shortest round-trip format,
+//! [`write_tables`] writes them. Numbers are printed in Rust's shortest round-trip format,
 //! so a file is bit-for-bit reproducible; an undefined value is an empty CSV field, `—` in
 //! Markdown and `null` in JSON.
 
@@ -26,10 +26,11 @@ pub struct ReportError {
     pub source: std::io::Error,
 }
 
-/// A CSV/MD number: shortest round-trip decimal, empty if not finite.
+/// A CSV number: shortest round-trip decimal (Rust's `Debug` form, with an exponent below
+/// 1e−5 and from 1e16 on), empty if not finite.
 fn num(v: f64) -> String {
     if v.is_finite() {
-        format!("{v}")
+        format!("{v:?}")
     } else {
         String::new()
     }
