@@ -19,6 +19,7 @@ pub mod record;
 pub mod replay;
 pub mod simulate;
 pub mod station_id;
+pub mod study;
 
 /// Standard gravity g (m/s²): the unit of AT2 records and the gravity of the block dynamics.
 pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;

@@ -9,6 +9,21 @@ use crate::dynamics::{BlockParams, Mode};
 use crate::simulate::Trace;
 use crate::STANDARD_GRAVITY_MPS2;
 
+/// DejaVu Sans, subset (assets/fonts/README.md): compiled in, so text renders on machines
+/// without fonts (plotters' `ab_glyph` backend uses only registered fonts).
+static BUNDLED_FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans-subset.ttf");
+
+/// Registers the bundled font as plotters' `"sans-serif"` family (once per process). Every
+/// plotting function calls it first; text drawn in any other family fails.
+pub fn ensure_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The bundled file is a valid TrueType font, so registration cannot fail at run time
+        // (tests/study.rs renders PNG text with it; a missing font would fail those plots).
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, BUNDLED_FONT);
+    });
+}
+
 /// Fill colour of each moving mode (rest is left white).
 fn mode_colour(mode: Mode) -> Option<RGBAColor> {
     match mode {
@@ -48,6 +63,7 @@ pub fn plot_simulation(
     params: &BlockParams,
     title: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
+    ensure_font();
     let root = SVGBackend::new(path, (1000, 800)).into_drawing_area();
     root.fill(&WHITE)?;
     let (head, body) = root.split_vertically(48);

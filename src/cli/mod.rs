@@ -11,6 +11,7 @@ mod ims;
 mod monitor;
 mod pulses;
 mod simulate;
+mod study;
 
 /// rockwatch: seismic monitoring of precariously balanced rocks and other freestanding blocks.
 #[derive(Debug, Parser)]
@@ -37,6 +38,9 @@ enum Command {
     /// Generate synthetic near-fault pulses (Mavroeidis & Papageorgiou 2003) and write one
     /// record file per pulse.
     Pulses(pulses::PulsesArgs),
+    /// Reproduce and extend the seed paper's intensity-measure study (efficiency and
+    /// sufficiency of 37 IMs for sliding and rocking blocks, vector IMs, fragility).
+    Study(study::StudyArgs),
 }
 
 /// Output format for people (`text`) or programs (`json`).
@@ -59,6 +63,7 @@ pub fn run() -> ExitCode {
         Command::Simulate(args) => simulate::run(args),
         Command::Pulses(args) => pulses::run(args),
         Command::Ims(args) => ims::run(args),
+        Command::Study(args) => study::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
