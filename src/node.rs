@@ -71,6 +71,43 @@ pub struct NodeOptions {
     pub shards: usize,
 }
 
+impl NodeOptions {
+    /// The catalogue in force: the flag's, else the configuration's.
+    pub fn catalogue_path(&self) -> anyhow::Result<PathBuf> {
+        self.catalogue
+            .clone()
+            .or(self.config.catalogue.clone())
+            .context("no catalogue: give --catalogue FILE or a --config that names one")
+    }
+
+    /// Loads the catalogue as the engine's blocks (with their ensemble members).
+    pub fn load_blocks(&self) -> anyhow::Result<Vec<PbrSpec>> {
+        let path = self.catalogue_path()?;
+        Catalogue::load(&path)?
+            .pbrs()
+            .iter()
+            .map(PbrSpec::from_catalogue)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+    }
+
+    /// Opens the state directory in force (the flag's, else the configuration's), if any,
+    /// returning the journal and its records; repairs are reported on stderr.
+    pub fn open_state(&self) -> anyhow::Result<Option<(Journal, Vec<JournalRecord>)>> {
+        let Some(dir) = self.state_dir.clone().or(self.config.state_dir.clone()) else {
+            return Ok(None);
+        };
+        let (journal, records, report) = Journal::open(&dir)?;
+        if !report.corrupt_lines.is_empty() || report.truncated_tail {
+            eprintln!(
+                "rockwatch: warning: {}: journal repaired ({report:?})",
+                dir.display()
+            );
+        }
+        Ok(Some((journal, records)))
+    }
+}
+
 /// Counts of what the runtime did (for logs and tests).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct NodeStats {
@@ -124,33 +161,9 @@ pub struct NodeRuntime {
 impl NodeRuntime {
     /// Loads the catalogue, restores the state directory, and starts the engine workers.
     pub fn start(options: &NodeOptions) -> anyhow::Result<NodeRuntime> {
-        let catalogue_path = options
-            .catalogue
-            .clone()
-            .or(options.config.catalogue.clone())
-            .context("no catalogue: give --catalogue FILE or a --config that names one")?;
-        let catalogue = Catalogue::load(&catalogue_path)?;
-        let specs = catalogue
-            .pbrs()
-            .iter()
-            .map(PbrSpec::from_catalogue)
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| anyhow::anyhow!("{}: {e}", catalogue_path.display()))?;
-        let (journal, records) = match options
-            .state_dir
-            .clone()
-            .or(options.config.state_dir.clone())
-        {
-            Some(dir) => {
-                let (journal, records, report) = Journal::open(&dir)?;
-                if !report.corrupt_lines.is_empty() || report.truncated_tail {
-                    eprintln!(
-                        "rockwatch: warning: {}: journal repaired ({report:?})",
-                        dir.display()
-                    );
-                }
-                (Some(journal), records)
-            }
+        let specs = options.load_blocks()?;
+        let (journal, records) = match options.open_state()? {
+            Some((journal, records)) => (Some(journal), records),
             None => (None, Vec::new()),
         };
         let shards = if options.shards == 0 {

@@ -4,11 +4,11 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context};
-use rockwatch::catalogue::Catalogue;
-use rockwatch::engine::{Alert, Engine, EngineConfig, JournalRecord, Output, PbrSpec, StationId};
+use anyhow::bail;
+use rockwatch::engine::{Alert, Engine, EngineConfig, JournalRecord, Output, StationId};
 use rockwatch::journal::Journal;
 use rockwatch::mseed::format_time_ns;
+use rockwatch::node::NodeOptions;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::record::Record;
 use rockwatch::replay::Traces;
@@ -90,23 +90,18 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
         Some(path) => NodeConfig::load(path).map_err(anyhow::Error::msg)?,
         None => NodeConfig::default(),
     };
-    let catalogue_path = args
-        .catalogue
-        .clone()
-        .or(config.catalogue.clone())
-        .context("no catalogue: give --catalogue FILE or a --config that names one")?;
-    let catalogue = Catalogue::load(&catalogue_path)?;
-    let specs = catalogue
-        .pbrs()
-        .iter()
-        .map(PbrSpec::from_catalogue)
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| anyhow::anyhow!("{}: {e}", catalogue_path.display()))?;
+    let options = NodeOptions {
+        config,
+        catalogue: args.catalogue.clone(),
+        state_dir: args.state_dir.clone(),
+        shards: 1,
+    };
+    let specs = options.load_blocks()?;
     let station = StationId::parse(&args.station).map_err(|e| anyhow::anyhow!("--station: {e}"))?;
     if !specs.iter().any(|s| s.station == station) {
         bail!(
             "{}: no block is bound to station {station}",
-            catalogue_path.display()
+            options.catalogue_path()?.display()
         );
     }
     if args.packet_ms == 0 {
@@ -126,20 +121,12 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
         (None, Some(path)) => Traces::from_mseed(path, &station)?,
         (None, None) => bail!("give --record FILE or --mseed FILE"),
     };
-    let engine_config: EngineConfig = config.engine;
-    let mut engine =
-        Engine::new(engine_config, config.stations.clone(), &specs).map_err(anyhow::Error::msg)?;
+    let engine_config: EngineConfig = options.config.engine;
+    let mut engine = Engine::new(engine_config, options.config.stations.clone(), &specs)
+        .map_err(anyhow::Error::msg)?;
 
-    let state_dir = args.state_dir.clone().or(config.state_dir.clone());
-    let mut journal = match &state_dir {
-        Some(dir) => {
-            let (journal, records, report) = Journal::open(dir)?;
-            if !report.corrupt_lines.is_empty() || report.truncated_tail {
-                eprintln!(
-                    "rockwatch: warning: {}: journal repaired ({report:?})",
-                    dir.display()
-                );
-            }
+    let mut journal = match options.open_state()? {
+        Some((journal, records)) => {
             engine.restore(&records);
             Some(journal)
         }
