@@ -407,6 +407,16 @@ fn alert_keys(out: &[Output]) -> Vec<(String, u32, AlertLevel)> {
         .collect()
 }
 
+/// The journal a shell would have written for these outputs (alerts only).
+fn journal_of(out: &[Output]) -> Vec<rockwatch::engine::JournalRecord> {
+    out.iter()
+        .filter_map(|o| match o {
+            Output::Alert(a) => Some(rockwatch::engine::JournalRecord::Alert(a.clone())),
+            _ => None,
+        })
+        .collect()
+}
+
 #[test]
 fn restart_from_the_journal_neither_loses_nor_duplicates_alerts() {
     use rockwatch::engine::JournalRecord;
@@ -436,16 +446,7 @@ fn restart_from_the_journal_neither_loses_nor_duplicates_alerts() {
         for p in all.iter().take(crash_after) {
             first.process(p.clone(), 0, &mut out);
         }
-        let journal: Vec<JournalRecord> = out
-            .iter()
-            .filter_map(|o| {
-                if let Output::Alert(a) = o {
-                    Some(JournalRecord::Alert(a.clone()))
-                } else {
-                    None
-                }
-            })
-            .collect();
+        let journal = journal_of(&out);
         // Second life: restore, and the stream is replayed from its start.
         let mut second = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
         second.restore(&journal);
@@ -484,16 +485,7 @@ fn a_fallen_block_stays_fallen_after_restart_until_reset() {
             100,
         ),
     );
-    let mut journal: Vec<JournalRecord> = out
-        .iter()
-        .filter_map(|o| {
-            if let Output::Alert(a) = o {
-                Some(JournalRecord::Alert(a.clone()))
-            } else {
-                None
-            }
-        })
-        .collect();
+    let mut journal = journal_of(&out);
     let mut restored = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
     restored.restore(&journal);
     assert!(restored.summaries()[0].overturned);
