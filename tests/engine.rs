@@ -636,3 +636,127 @@ fn sharded_engine_gives_each_station_the_same_results_as_one_engine() {
         "work was not spread"
     );
 }
+
+#[test]
+fn clipped_samples_are_flagged_and_counted_but_used() {
+    use rockwatch::engine::StationConfig;
+    let id = StationId::parse("CI.RRS.00").unwrap();
+    let station = StationConfig {
+        full_scale: Some(2.0),
+        ..StationConfig::default_for(id)
+    };
+    let mut engine = Engine::new(
+        EngineConfig::default(),
+        vec![station],
+        &[spec("b", "CI.RRS.00", 90.0, stocky())],
+    )
+    .unwrap();
+    // 5 of 20 samples at ±full scale (≥ 99.9 % of 2.0 m/s²).
+    let east: Vec<f64> = (0..20)
+        .map(|i| {
+            if i % 4 == 0 {
+                if i % 8 == 0 {
+                    2.0
+                } else {
+                    -1.999
+                }
+            } else {
+                0.5
+            }
+        })
+        .collect();
+    run(
+        &mut engine,
+        packets("CI.RRS.00", &east, &[0.0; 20], 0.01, 10),
+    );
+    let (_, counters, _) = engine.station_counters().next().unwrap();
+    assert_eq!(counters.clipped_samples, 5);
+    assert_eq!(counters.samples, 20);
+}
+
+#[test]
+fn a_changed_sample_rate_is_counted_and_the_blocks_go_on() {
+    let record = rinaldi_f32();
+    let zeros = vec![0.0; record.len()];
+    let mut all = packets(
+        "CI.RRS.00",
+        &record.horizontal_mps2[..200],
+        &zeros[..200],
+        record.dt_s,
+        50,
+    );
+    // Then the station switches to 200 Hz (the same record, resampled by repetition).
+    let doubled: Vec<f64> = record.horizontal_mps2[200..]
+        .iter()
+        .flat_map(|&a| [a, a])
+        .collect();
+    let mut later = packets("CI.RRS.00", &doubled, &vec![0.0; doubled.len()], 0.005, 100);
+    for (i, p) in later.iter_mut().enumerate() {
+        p.start_time_ns += 2_000_000_000;
+        p.sequence = 4 + i as u64;
+    }
+    all.extend(later);
+    let mut engine = Engine::new(
+        EngineConfig::default(),
+        vec![],
+        &[spec("b", "CI.RRS.00", 90.0, slender())],
+    )
+    .unwrap();
+    let out = run(&mut engine, all);
+    let (_, _, stream) = engine.station_counters().next().unwrap();
+    assert_eq!(stream.rate_changes, 1);
+    assert!(out
+        .iter()
+        .any(|o| matches!(o, Output::Notice(n) if n.kind == "rate_change")));
+    assert!(
+        engine.summaries()[0].overturned,
+        "the block keeps integrating at the new rate"
+    );
+}
+
+#[test]
+fn channels_oriented_by_azimuth_are_rotated_to_east_north() {
+    use rockwatch::engine::{Orientation, StationConfig};
+    // Channel 1 points to 228°, channel 2 to 318°: the record on channel 1 is the motion
+    // along 228°, the same as east/north components a·sin 228°, a·cos 228°.
+    let record = rinaldi_f32();
+    let zeros = vec![0.0; record.len()];
+    let id = StationId::parse("CI.RRS.00").unwrap();
+    let rotated = StationConfig {
+        orientation: Orientation::Azimuths {
+            h1_deg: 228.0,
+            h2_deg: 318.0,
+        },
+        ..StationConfig::default_for(id)
+    };
+    let blocks = [
+        spec("b", "CI.RRS.00", 228.0, slender()),
+        spec("c", "CI.RRS.00", 228.0, stocky()),
+    ];
+    let mut a = Engine::new(EngineConfig::default(), vec![rotated], &blocks).unwrap();
+    run(
+        &mut a,
+        packets(
+            "CI.RRS.00",
+            &record.horizontal_mps2,
+            &zeros,
+            record.dt_s,
+            50,
+        ),
+    );
+    let (s, c) = 228f64.to_radians().sin_cos();
+    let east: Vec<f64> = record.horizontal_mps2.iter().map(|x| x * s).collect();
+    let north: Vec<f64> = record.horizontal_mps2.iter().map(|x| x * c).collect();
+    let mut b = Engine::new(EngineConfig::default(), vec![], &blocks).unwrap();
+    run(&mut b, packets("CI.RRS.00", &east, &north, record.dt_s, 50));
+    for (x, y) in a.summaries().iter().zip(b.summaries()) {
+        assert_eq!(x.overturned, y.overturned);
+        // b's packets round a·sin/cos to f32 first; a rotates after the f32 rounding.
+        let tol = 1e-3 * y.max_theta_over_alpha;
+        assert!(
+            y.max_theta_over_alpha > 0.05
+                && (x.max_theta_over_alpha - y.max_theta_over_alpha).abs() < tol,
+            "{x:?} vs {y:?}"
+        );
+    }
+}

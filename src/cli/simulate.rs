@@ -29,12 +29,25 @@ pub struct SimulateArgs {
     /// Multiply both components by this factor.
     #[arg(long, default_value_t = 1.0, value_name = "X")]
     scale: f64,
-    /// Base width B of the block (m).
-    #[arg(long, value_name = "B")]
-    width: f64,
+    /// Base width B of the block (m); with --height. Alternatively give --half-diagonal
+    /// and --alpha.
+    #[arg(
+        long,
+        value_name = "B",
+        requires = "height",
+        required_unless_present = "half_diagonal"
+    )]
+    width: Option<f64>,
     /// Height H of the block (m).
-    #[arg(long, value_name = "H")]
-    height: f64,
+    #[arg(long, value_name = "H", requires = "width")]
+    height: Option<f64>,
+    /// Half-diagonal R = ½√(B² + H²) of the block (m); with --alpha, instead of --width and
+    /// --height.
+    #[arg(long = "half-diagonal", value_name = "R", requires = "alpha", conflicts_with_all = ["width", "height"])]
+    half_diagonal: Option<f64>,
+    /// Slenderness α = atan(B/H) of the block (degrees), with --half-diagonal.
+    #[arg(long, value_name = "DEG", requires = "half_diagonal", conflicts_with_all = ["width", "height"])]
+    alpha: Option<f64>,
     /// Static friction coefficient μs.
     #[arg(long = "mu-s", value_name = "MS")]
     mu_s: f64,
@@ -69,13 +82,19 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             bail!("--rtol must be in (0, 0.01), got {rtol}");
         }
     }
-    let params = BlockParams::from_width_height(
-        args.width,
-        args.height,
-        args.mu_s,
-        args.mu_k,
-        args.restitution,
-    )
+    let params = match (args.width, args.height, args.half_diagonal, args.alpha) {
+        (Some(b), Some(h), _, _) => {
+            BlockParams::from_width_height(b, h, args.mu_s, args.mu_k, args.restitution)
+        }
+        (_, _, Some(r), Some(alpha_deg)) => BlockParams::from_r_alpha(
+            r,
+            alpha_deg.to_radians(),
+            args.mu_s,
+            args.mu_k,
+            args.restitution,
+        ),
+        _ => bail!("give --width and --height, or --half-diagonal and --alpha"),
+    }
     .context("invalid block")?;
     let mut record = Record::read(&args.record)?;
     if let Some(vertical) = &args.vertical {

@@ -1,0 +1,72 @@
+//! `rockwatch simulate` block geometry given as B, H or as R, α.
+
+use std::process::Command;
+
+fn simulate_json(block: &[&str]) -> serde_json::Value {
+    let mut args = vec![
+        "simulate",
+        "--record",
+        "tests/data/records/Rinaldi228.AT2",
+        "--mu-s",
+        "1.5",
+        "--mu-k",
+        "1.0",
+        "--format",
+        "json",
+    ];
+    args.extend_from_slice(block);
+    let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn half_diagonal_and_alpha_describe_the_same_block_as_width_and_height() {
+    // R = ½√(B² + H²), α = atan(B/H): B = 2R sin α, H = 2R cos α.
+    let (r, alpha_deg) = (3.29_f64, 11.31_f64);
+    let (b, h) = (
+        2.0 * r * alpha_deg.to_radians().sin(),
+        2.0 * r * alpha_deg.to_radians().cos(),
+    );
+    let a = simulate_json(&["--half-diagonal", "3.29", "--alpha", "11.31"]);
+    let w = simulate_json(&["--width", &b.to_string(), "--height", &h.to_string()]);
+    assert!((a["alpha"].as_f64().unwrap() - alpha_deg.to_radians()).abs() < 1e-12);
+    assert_eq!(a["status"], w["status"]);
+    let (x, y) = (
+        a["max_abs_theta"].as_f64().unwrap(),
+        w["max_abs_theta"].as_f64().unwrap(),
+    );
+    assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{x} vs {y}");
+}
+
+#[test]
+fn geometry_must_be_complete() {
+    for block in [
+        &["--width", "1.0"][..],
+        &["--half-diagonal", "2.0"][..],
+        &["--width", "1", "--height", "2", "--alpha", "10"][..],
+    ] {
+        let mut args = vec![
+            "simulate",
+            "--record",
+            "tests/data/records/Rinaldi228.AT2",
+            "--mu-s",
+            "1.5",
+            "--mu-k",
+            "1.0",
+        ];
+        args.extend_from_slice(block);
+        let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{block:?}");
+    }
+}
