@@ -47,15 +47,21 @@ pub fn run_alerts(args: AlertsArgs) -> anyhow::Result<()> {
         );
     }
     match args.format {
-        OutputFormat::Json => println!("{}", serde_json::to_string_pretty(&records)?),
+        OutputFormat::Json => outln!("{}", serde_json::to_string_pretty(&records)?),
         OutputFormat::Text => {
-            println!(
+            outln!(
                 "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8} {:>9}",
-                "pbr", "station", "episode", "level", "mode", "θ/α", "data time (ns)"
+                "pbr",
+                "station",
+                "episode",
+                "level",
+                "mode",
+                "θ/α",
+                "data time (ns)"
             );
             for r in &records {
                 match r {
-                    JournalRecord::Alert(a) => println!(
+                    JournalRecord::Alert(a) => outln!(
                         "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8.3} {:>9}",
                         a.pbr_id,
                         a.station,
@@ -66,10 +72,10 @@ pub fn run_alerts(args: AlertsArgs) -> anyhow::Result<()> {
                         a.data_time_ns
                     ),
                     JournalRecord::EpisodeEnd { pbr_id, episode } => {
-                        println!("{pbr_id:<24} {:<12} {episode:>7} episode ended", "")
+                        outln!("{pbr_id:<24} {:<12} {episode:>7} episode ended", "")
                     }
                     JournalRecord::Reset { pbr_id } => {
-                        println!("{pbr_id:<24} {:<12} {:>7} reset by operator", "", "")
+                        outln!("{pbr_id:<24} {:<12} {:>7} reset by operator", "", "")
                     }
                 }
             }
@@ -96,6 +102,6 @@ pub fn run_reset(args: ResetArgs) -> anyhow::Result<()> {
     journal.append(&JournalRecord::Reset {
         pbr_id: args.pbr.clone(),
     })?;
-    println!("block {} reset in {}", args.pbr, args.state_dir.display());
+    outln!("block {} reset in {}", args.pbr, args.state_dir.display());
     Ok(())
 }

@@ -71,7 +71,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                     })
                 })
                 .collect();
-            println!(
+            outln!(
                 "{}",
                 serde_json::to_string_pretty(&serde_json::json!({
                     "record": "Northridge 1994, Rinaldi Receiving Sta, 228° + UP (PEER NGA RSN1063)",
@@ -81,14 +81,21 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             );
         }
         OutputFormat::Text => {
-            println!(
+            outln!(
                 "rockwatch demo: Northridge 1994, Rinaldi Receiving Sta (228° + UP, PEER NGA RSN1063), {:.2} s + {} s free vibration",
                 record.duration_s(),
                 options.t_extra_s
             );
-            println!(
+            outln!(
                 "{:<40} {:>7} {:>5} {:>5} {:>11} {:>9} {:>10} {:>8}  modes visited",
-                "block", "α (°)", "μs", "μk", "result", "max θ/α", "max slide", "impacts"
+                "block",
+                "α (°)",
+                "μs",
+                "μk",
+                "result",
+                "max θ/α",
+                "max slide",
+                "impacts"
             );
             for (name, p, s) in &rows {
                 let result = match s.status {
@@ -104,7 +111,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                         visited.push(m.as_str());
                     }
                 }
-                println!(
+                outln!(
                     "{:<40} {:>7.2} {:>5} {:>5} {:>11} {:>9.3} {:>8.4} m {:>8}  {}",
                     name,
                     p.alpha_rad.to_degrees(),

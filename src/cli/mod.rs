@@ -5,6 +5,36 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
 
+/// `println!` for command output: a closed pipe (`rockwatch … | head`) ends the process
+/// quietly with status 0 instead of panicking; any other write error is a one-line error.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout().lock(), $($arg)*) {
+            $crate::cli::stdout_failed(e);
+        }
+    }};
+}
+
+/// `print!` counterpart of [`outln!`].
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = write!(std::io::stdout().lock(), $($arg)*) {
+            $crate::cli::stdout_failed(e);
+        }
+    }};
+}
+
+/// Ends the process after a failed write to stdout.
+pub fn stdout_failed(error: std::io::Error) -> ! {
+    if error.kind() == std::io::ErrorKind::BrokenPipe {
+        std::process::exit(0);
+    }
+    eprintln!("rockwatch: error: cannot write to stdout: {error}");
+    std::process::exit(1);
+}
+
 mod alerts;
 mod demo;
 mod ims;

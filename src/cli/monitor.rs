@@ -66,7 +66,7 @@ pub enum MonitorFormat {
     Jsonl,
 }
 
-fn alert_json(a: &Alert, t0_ns: i64) -> serde_json::Value {
+fn alert_json(a: &Alert, t0_ns: i64, latency_ns: i64) -> serde_json::Value {
     serde_json::json!({
         "type": "alert",
         "pbr_id": a.pbr_id,
@@ -82,6 +82,7 @@ fn alert_json(a: &Alert, t0_ns: i64) -> serde_json::Value {
         "data_time": format_time_ns(a.data_time_ns),
         "data_time_ns": a.data_time_ns,
         "t_s": (a.data_time_ns - t0_ns) as f64 * 1e-9,
+        "latency_us": latency_ns as f64 * 1e-3,
     })
 }
 
@@ -134,6 +135,7 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
     };
 
     let jsonl = args.format == MonitorFormat::Jsonl;
+    let epoch = std::time::Instant::now();
     // Fault injection for the crash-safety tests: abort right after the N-th journal append,
     // before the alert is reported (the worst moment for a crash).
     let abort_after: Option<usize> = std::env::var("ROCKWATCH_FAULT_ABORT_AFTER_JOURNAL")
@@ -146,6 +148,8 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
         for o in out.drain(..) {
             match o {
                 Output::Alert(a) => {
+                    // Processing latency: now (before journaling) minus the packet's arrival.
+                    let latency_ns = epoch.elapsed().as_nanos() as i64 - a.arrival_ns;
                     // Journaled (and synced) before it is reported.
                     if let Some(j) = journal {
                         j.append(&JournalRecord::Alert(a.clone()))?;
@@ -155,10 +159,10 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
                         std::process::abort();
                     }
                     if jsonl {
-                        println!("{}", alert_json(&a, traces.start_ns));
+                        outln!("{}", alert_json(&a, traces.start_ns, latency_ns));
                     } else {
-                        println!(
-                            "t = {:>8.3} s  {:<18} {:<28} mode {:<10} θ/α {:>7.3}  slide {:>8.4} m  P(overturn) {:.2}  PGA {:.2} m/s²  PGV {:.3} m/s",
+                        outln!(
+                            "t = {:>8.3} s  {:<18} {:<28} mode {:<10} θ/α {:>7.3}  slide {:>8.4} m  P(overturn) {:.2}  PGA {:.2} m/s²  PGV {:.3} m/s  latency {:.0} µs",
                             (a.data_time_ns - traces.start_ns) as f64 * 1e-9,
                             a.level.as_str(),
                             a.pbr_id,
@@ -167,7 +171,8 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
                             a.slide_m,
                             a.overturn_probability,
                             a.pga_mps2,
-                            a.pgv_mps
+                            a.pgv_mps,
+                            latency_ns as f64 * 1e-3
                         );
                     }
                 }
@@ -189,10 +194,10 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
         Ok(())
     };
     for packet in traces.packets(&station, args.packet_ms, args.tail) {
-        engine.process(packet, 0, &mut out);
+        engine.process(packet, epoch.elapsed().as_nanos() as i64, &mut out);
         handle(&mut out, &mut journal)?;
     }
-    engine.flush(0, &mut out);
+    engine.flush(epoch.elapsed().as_nanos() as i64, &mut out);
     handle(&mut out, &mut journal)?;
 
     // Blocks of the monitored station only: the others received no data.
@@ -222,7 +227,7 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        println!(
+        outln!(
             "{}",
             serde_json::json!({
                 "type": "summary", "pbrs": pbrs,
@@ -230,13 +235,18 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
             })
         );
     } else {
-        println!("\n{alerts} alerts. Blocks:");
-        println!(
+        outln!("\n{alerts} alerts. Blocks:");
+        outln!(
             "{:<28} {:<11} {:>9} {:>11} {:>10} {:>13}",
-            "pbr", "station", "max θ/α", "max slide", "overturned", "P(overturn)"
+            "pbr",
+            "station",
+            "max θ/α",
+            "max slide",
+            "overturned",
+            "P(overturn)"
         );
         for s in &summaries {
-            println!(
+            outln!(
                 "{:<28} {:<11} {:>9.3} {:>9.4} m {:>10} {:>13.2}{}",
                 s.pbr_id,
                 s.station,

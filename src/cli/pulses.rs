@@ -225,7 +225,7 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
 
     match args.format {
         OutputFormat::Json => {
-            println!("{}", serde_json::to_string_pretty(&Summary { pulses })?);
+            outln!("{}", serde_json::to_string_pretty(&Summary { pulses })?);
         }
         OutputFormat::Text => print_table(&pulses),
     }
@@ -256,18 +256,33 @@ fn pulse_seed_id(id: usize, rate_hz: f64) -> String {
 }
 
 fn print_table(pulses: &[PulseSummary]) {
-    println!(
+    outln!(
         "{:>6} {:>8} {:>9} {:>7} {:>8} {:>9} {:>8} {:>10}  file",
-        "id", "Tp s", "Vp m/s", "gamma", "nu rad", "A m/s", "dur s", "PGA m/s²"
+        "id",
+        "Tp s",
+        "Vp m/s",
+        "gamma",
+        "nu rad",
+        "A m/s",
+        "dur s",
+        "PGA m/s²"
     );
     for p in pulses {
-        println!(
+        outln!(
             "{:>6} {:>8.3} {:>9.4} {:>7.3} {:>8.3} {:>9.4} {:>8.3} {:>10.4}  {}",
-            p.id, p.tp_s, p.vp_mps, p.gamma, p.nu_rad, p.a_mps, p.duration_s, p.pga_mps2, p.file
+            p.id,
+            p.tp_s,
+            p.vp_mps,
+            p.gamma,
+            p.nu_rad,
+            p.a_mps,
+            p.duration_s,
+            p.pga_mps2,
+            p.file
         );
     }
     if let Some(first) = pulses.first() {
-        println!(
+        outln!(
             "{} pulses for Mw {} at R {} km",
             pulses.len(),
             first.mw,

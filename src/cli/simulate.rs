@@ -119,8 +119,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("writing plot {}: {e}", path.display()))?;
     }
     match args.format {
-        OutputFormat::Json => println!("{}", serde_json::to_string_pretty(&sim.summary)?),
-        OutputFormat::Text => print!("{}", text_summary(&sim.summary, &params, &record)),
+        OutputFormat::Json => outln!("{}", serde_json::to_string_pretty(&sim.summary)?),
+        OutputFormat::Text => out!("{}", text_summary(&sim.summary, &params, &record)),
     }
     Ok(())
 }

@@ -226,13 +226,13 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
 
     match args.format {
         OutputFormat::Json => {
-            println!(
+            outln!(
                 "{}",
                 serde_json::to_string_pretty(&summary(&config, &data, &analysis))?
             );
         }
         OutputFormat::Text => {
-            println!(
+            outln!(
                 "{} pulses × {} blocks on {} threads: simulated and analysed in {:.1} s, \
                  {:.1} s with the files",
                 data.cases.len(),
@@ -243,7 +243,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             );
             for block in &analysis.blocks {
                 let c = &block.counts;
-                println!(
+                outln!(
                     "\nblock {} (DM {}): {} used ({} responding), {} excluded ({} overturned)",
                     block.name,
                     block.dm.label(),
@@ -252,12 +252,16 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                     c.excluded(),
                     c.overturned
                 );
-                println!(
+                outln!(
                     "  {:<22} {:>8} {:>8} {:>10} {:>10}",
-                    "IM", "R²", "R² log", "p(Mw)", "p(R)"
+                    "IM",
+                    "R²",
+                    "R² log",
+                    "p(Mw)",
+                    "p(R)"
                 );
                 for sc in block.ranking.iter().take(10) {
-                    println!(
+                    outln!(
                         "  {:<22} {:>8.4} {:>8.4} {:>10.3e} {:>10.3e}",
                         display_name(sc.name()),
                         sc.r2(),
@@ -267,17 +271,17 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                     );
                 }
                 match &block.fragility.selected {
-                    Some(f) => println!(
+                    Some(f) => outln!(
                         "  fragility of overturning: P = Φ(ln({}/{:.4} {})/{:.3})",
                         display_name(&f.im),
                         f.median,
                         f.im_unit,
                         f.beta
                     ),
-                    None => println!("  {}", block.fragility.note),
+                    None => outln!("  {}", block.fragility.note),
                 }
             }
-            println!("\nwrote {} files to {}", files.len(), args.out.display());
+            outln!("\nwrote {} files to {}", files.len(), args.out.display());
         }
     }
     Ok(())
