@@ -48,16 +48,6 @@ pub fn run_in_netns(script: &str, timeout_s: u32, envs: &[(&str, String)]) -> Ou
         .expect("run timeout/unshare (util-linux, coreutils)")
 }
 
-/// Packets sent on the veth interface, as printed by [`VETH_TX`].
-pub fn veth_tx(stdout: &str) -> u64 {
-    stdout
-        .lines()
-        .filter_map(|l| l.strip_prefix("VETH_TX="))
-        .last()
-        .and_then(|v| v.trim().parse().ok())
-        .expect("VETH_TX line")
-}
-
 pub fn text(o: &Output) -> (String, String) {
     (
         String::from_utf8_lossy(&o.stdout).into_owned(),
