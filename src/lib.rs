@@ -17,6 +17,7 @@ pub mod plot;
 pub mod pulse;
 pub mod record;
 pub mod replay;
+pub mod ros2;
 pub mod simulate;
 pub mod station_id;
 pub mod study;

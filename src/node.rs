@@ -59,6 +59,12 @@ impl Submitter {
     pub fn set_alert_config(&self, alerts: AlertConfig) {
         self.engine.set_alert_config(alerts);
     }
+
+    /// New state publication interval (s of data; e.g. from a ROS 2 parameter), effective
+    /// for the next packet; ignored unless finite and > 0.
+    pub fn set_state_interval_s(&self, state_interval_s: f64) {
+        self.engine.set_state_interval_s(state_interval_s);
+    }
 }
 
 /// Where the runtime's settings come from: the configuration file, overridden by flags.

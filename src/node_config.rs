@@ -37,6 +37,9 @@ pub struct NodeConfig {
     pub engine: EngineConfig,
     #[serde(default, rename = "station")]
     pub stations: Vec<StationConfig>,
+    /// The `[ros2]` section: namespace, domain, interfaces, input QoS, Imu topics.
+    #[serde(default)]
+    pub ros2: crate::ros2::Ros2Config,
 }
 
 impl NodeConfig {

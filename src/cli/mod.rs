@@ -39,7 +39,9 @@ mod alerts;
 mod demo;
 mod ims;
 mod monitor;
+mod node;
 mod pulses;
+mod replay;
 mod simulate;
 mod study;
 
@@ -63,6 +65,11 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Run the monitoring engine over a record: which catalogued blocks move or fall.
     Monitor(monitor::MonitorArgs),
+    /// Run the live node: ROS 2 input (/pbr/accel, Imu topics), engine, /pbr/ims, /pbr/state
+    /// and /pbr/alerts.
+    Node(node::NodeArgs),
+    /// Replay a record or a synthetic pulse to a running node as live packets.
+    Replay(replay::ReplayArgs),
     /// Simulate one rigid block under a ground-motion record.
     Simulate(simulate::SimulateArgs),
     /// Generate synthetic near-fault pulses (Mavroeidis & Papageorgiou 2003) and write one
@@ -90,6 +97,8 @@ pub fn run() -> ExitCode {
         Command::Reset(args) => alerts::run_reset(args),
         Command::Demo(args) => demo::run(args),
         Command::Monitor(args) => monitor::run(args),
+        Command::Node(args) => node::run(args),
+        Command::Replay(args) => replay::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Pulses(args) => pulses::run(args),
         Command::Ims(args) => ims::run(args),

@@ -113,6 +113,16 @@ impl Engine {
         self.config.alerts = alerts;
     }
 
+    /// New state publication interval (s of data), effective for the next packet; a value
+    /// that is not finite and > 0 is ignored (returns false).
+    pub fn set_state_interval_s(&mut self, state_interval_s: f64) -> bool {
+        let ok = state_interval_s.is_finite() && state_interval_s > 0.0;
+        if ok {
+            self.config.state_interval_s = state_interval_s;
+        }
+        ok
+    }
+
     /// Processes one packet that arrived at wall time `arrival_ns`; appends the outputs.
     pub fn process(&mut self, packet: AccelPacket, arrival_ns: i64, out: &mut Vec<Output>) {
         self.counters.packets += 1;

@@ -15,6 +15,7 @@ enum Command {
     Packet(AccelPacket, i64),
     Flush(i64),
     SetAlerts(AlertConfig),
+    SetStateInterval(f64),
     Reset(String),
     Stop,
 }
@@ -50,6 +51,11 @@ impl EngineHandle {
     /// New alert thresholds on every shard (effective for the next packet).
     pub fn set_alert_config(&self, alerts: AlertConfig) {
         self.broadcast(|| Command::SetAlerts(alerts));
+    }
+
+    /// New state publication interval (s of data) on every shard; ignored unless > 0.
+    pub fn set_state_interval_s(&self, state_interval_s: f64) {
+        self.broadcast(|| Command::SetStateInterval(state_interval_s));
     }
 
     /// Operator reset of a block on every shard (only its own shard knows it).
@@ -111,6 +117,9 @@ impl ShardedEngine {
                             Command::Packet(p, arrival) => engine.process(p, arrival, &mut out),
                             Command::Flush(arrival) => engine.flush(arrival, &mut out),
                             Command::SetAlerts(a) => engine.set_alert_config(a),
+                            Command::SetStateInterval(s) => {
+                                engine.set_state_interval_s(s);
+                            }
                             Command::Reset(id) => {
                                 engine.reset_pbr(&id);
                             }

@@ -1,0 +1,856 @@
+//! ROS 2 transport (ros2-client over RustDDS): the `pbr_msgs` interfaces, the node's
+//! subscriptions, publishers and parameters, the replay sink and an alert listener.
+//!
+//! Networking follows rclcpp: the DDS domain is `ROS_DOMAIN_ID` (default 0) and
+//! `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` (or `OFF`) restricts the participant to the
+//! loopback interface (multicast joins, multicast sends and advertised locators); the `[ros2]`
+//! section of the node configuration may override both and name the interfaces to use.
+
+pub mod msg;
+
+use std::net::{IpAddr, Ipv4Addr};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, Context as _};
+use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::qos::{Durability, History, Reliability, WhenFull};
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, QosProfile,
+    Subscription,
+};
+
+use crate::engine::{AccelPacket, AlertConfig, EngineConfig};
+use crate::node::{Publication, Submitter};
+use crate::replay::PacketSink;
+
+/// The node's name in the ROS graph.
+pub const NODE_NAME: &str = "rockwatch";
+/// Input topic (`pbr_msgs/AccelPacket`).
+pub const ACCEL_TOPIC: &str = "/pbr/accel";
+/// Output topics.
+pub const IMS_TOPIC: &str = "/pbr/ims";
+pub const STATE_TOPIC: &str = "/pbr/state";
+pub const ALERTS_TOPIC: &str = "/pbr/alerts";
+/// History depth of `/pbr/alerts` (transient local: a late subscriber gets this many).
+pub const ALERTS_DEPTH: usize = 1000;
+
+/// ROS 2 parameter names of the run-time settings (all doubles).
+pub const PARAM_IMMINENT_THETA_RATIO: &str = "alerts.imminent_theta_ratio";
+pub const PARAM_IMMINENT_PROBABILITY: &str = "alerts.imminent_probability";
+pub const PARAM_QUIET_THRESHOLD_MPS2: &str = "alerts.quiet_threshold_mps2";
+pub const PARAM_QUIET_S: &str = "alerts.quiet_s";
+pub const PARAM_STATE_INTERVAL_S: &str = "state_interval_s";
+
+/// `ROS_AUTOMATIC_DISCOVERY_RANGE` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
+pub enum DiscoveryRange {
+    /// No discovery beyond this host (treated as `Localhost`: loopback only).
+    Off,
+    /// Loopback only.
+    Localhost,
+    /// Every interface (or those named in `interfaces`).
+    Subnet,
+    /// As `Subnet`.
+    SystemDefault,
+}
+
+impl std::str::FromStr for DiscoveryRange {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "OFF" => Ok(DiscoveryRange::Off),
+            "LOCALHOST" => Ok(DiscoveryRange::Localhost),
+            "SUBNET" => Ok(DiscoveryRange::Subnet),
+            "SYSTEM_DEFAULT" | "" => Ok(DiscoveryRange::SystemDefault),
+            other => Err(format!(
+                "ROS_AUTOMATIC_DISCOVERY_RANGE must be OFF, LOCALHOST, SUBNET or SYSTEM_DEFAULT, got {other:?}"
+            )),
+        }
+    }
+}
+
+/// QoS of the input subscriptions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InputQos {
+    /// Reliable, volatile, keep last `input_depth`.
+    #[default]
+    Reliable,
+    /// The ROS 2 sensor-data profile: best effort, volatile, keep last 5.
+    SensorData,
+}
+
+/// A `sensor_msgs/msg/Imu` topic read as a station: one message = one sample,
+/// `linear_acceleration` x → east, y → north, z → up (m/s², the sensor mounted level with x
+/// east), gravity removed from z.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuInput {
+    /// Topic name, e.g. `/imu/data`.
+    pub topic: String,
+    /// Station SEED id `NET.STA.LOC` the samples belong to.
+    pub station: String,
+    /// Nominal sample rate (Hz) of the topic.
+    pub sample_rate_hz: f64,
+    /// Subtract standard gravity from z (m/s²; default true: an Imu at rest reads +g up).
+    #[serde(default = "yes")]
+    pub remove_gravity: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// The `[ros2]` section of the node configuration.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Ros2Config {
+    /// Node namespace (`/` by default); topics are absolute (`/pbr/...`).
+    pub namespace: String,
+    /// DDS domain id; default `ROS_DOMAIN_ID`, else 0.
+    pub domain_id: Option<u16>,
+    /// Discovery range; default `ROS_AUTOMATIC_DISCOVERY_RANGE`, else SUBNET.
+    pub discovery_range: Option<DiscoveryRange>,
+    /// Local interface addresses to use (multicast and advertised locators); empty = all.
+    /// Ignored under LOCALHOST/OFF, which use 127.0.0.1 only.
+    pub interfaces: Vec<IpAddr>,
+    /// QoS of `/pbr/accel` and the Imu topics.
+    pub input_qos: InputQos,
+    /// History depth of the reliable input subscription (packets).
+    pub input_depth: usize,
+    /// `sensor_msgs/msg/Imu` inputs.
+    pub imu: Vec<ImuInput>,
+}
+
+impl Default for Ros2Config {
+    fn default() -> Self {
+        Ros2Config {
+            namespace: "/".into(),
+            domain_id: None,
+            discovery_range: None,
+            interfaces: Vec::new(),
+            input_qos: InputQos::Reliable,
+            input_depth: 1000,
+            imu: Vec::new(),
+        }
+    }
+}
+
+impl Ros2Config {
+    /// Loopback only, whatever the environment says (the demo and tests).
+    #[must_use]
+    pub fn loopback_only() -> Ros2Config {
+        Ros2Config {
+            discovery_range: Some(DiscoveryRange::Localhost),
+            ..Ros2Config::default()
+        }
+    }
+}
+
+/// Which DDS domain and interfaces a participant uses.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NetworkPlan {
+    pub domain_id: u16,
+    /// `None`: every interface.
+    pub only_networks: Option<Vec<IpAddr>>,
+}
+
+/// Resolves the configuration and the values of `ROS_DOMAIN_ID` and
+/// `ROS_AUTOMATIC_DISCOVERY_RANGE` (the environment variables, passed in) into a plan.
+pub fn network_plan(
+    config: &Ros2Config,
+    ros_domain_id: Option<&str>,
+    ros_discovery_range: Option<&str>,
+) -> Result<NetworkPlan, String> {
+    let domain_id = match (config.domain_id, ros_domain_id.map(str::trim)) {
+        (Some(d), _) => d,
+        (None, None | Some("")) => 0,
+        (None, Some(s)) => s
+            .parse::<u16>()
+            .map_err(|_| format!("ROS_DOMAIN_ID must be an integer 0..=232, got {s:?}"))?,
+    };
+    if domain_id > 232 {
+        return Err(format!("DDS domain id must be 0..=232, got {domain_id}"));
+    }
+    let range = match (config.discovery_range, ros_discovery_range) {
+        (Some(r), _) => r,
+        (None, None) => DiscoveryRange::SystemDefault,
+        (None, Some(s)) => s.trim().parse()?,
+    };
+    let only_networks = match range {
+        DiscoveryRange::Off | DiscoveryRange::Localhost => {
+            Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)])
+        }
+        DiscoveryRange::Subnet | DiscoveryRange::SystemDefault if !config.interfaces.is_empty() => {
+            Some(config.interfaces.clone())
+        }
+        DiscoveryRange::Subnet | DiscoveryRange::SystemDefault => None,
+    };
+    Ok(NetworkPlan {
+        domain_id,
+        only_networks,
+    })
+}
+
+/// The plan for this process's environment.
+pub fn network_plan_from_env(config: &Ros2Config) -> Result<NetworkPlan, String> {
+    let domain = std::env::var("ROS_DOMAIN_ID").ok();
+    let range = std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").ok();
+    network_plan(config, domain.as_deref(), range.as_deref())
+}
+
+/// QoS of `/pbr/alerts`: reliable, transient local, keep last [`ALERTS_DEPTH`].
+#[must_use]
+pub fn alerts_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_secs(1)))
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast {
+            depth: ALERTS_DEPTH,
+        })
+}
+
+/// QoS of `/pbr/state` and `/pbr/ims`: reliable, volatile, keep last 100.
+#[must_use]
+pub fn output_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 100 })
+}
+
+/// QoS of the input subscriptions.
+#[must_use]
+pub fn input_qos(config: &Ros2Config) -> QosProfile {
+    match config.input_qos {
+        InputQos::Reliable => QosProfile::subscription_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+            .history(History::KeepLast {
+                depth: config.input_depth.max(1),
+            }),
+        InputQos::SensorData => QosProfile::subscription_default()
+            .reliability(Reliability::BestEffort)
+            .history(History::KeepLast { depth: 5 }),
+    }
+}
+
+/// QoS of the replay publisher: reliable and keep-all, so `publish` waits for the
+/// subscriber instead of dropping packets.
+#[must_use]
+pub fn replay_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_secs(5)))
+        .durability(Durability::Volatile)
+        .history(History::KeepAll)
+}
+
+fn dds_err(what: &str) -> impl Fn(ros2_client::CreateError) -> anyhow::Error + '_ {
+    move |e| anyhow!("ROS 2: {what}: {e:?}")
+}
+
+/// A DDS participant with one ROS 2 node and its spinner thread (discovery, parameters).
+pub struct Ros2Session {
+    node: Node,
+    plan: NetworkPlan,
+    spinner: Option<JoinHandle<()>>,
+}
+
+impl Ros2Session {
+    /// Creates the participant following `plan` and the node `namespace`/`name`.
+    pub fn open(
+        plan: &NetworkPlan,
+        namespace: &str,
+        name: &str,
+        options: NodeOptions,
+    ) -> anyhow::Result<Ros2Session> {
+        let mut builder = DomainParticipantBuilder::new(plan.domain_id);
+        if let Some(networks) = &plan.only_networks {
+            builder = builder.with_only_networks(networks.iter().copied());
+        }
+        let participant = builder
+            .build()
+            .map_err(|e| anyhow!("DDS participant (domain {}): {e:?}", plan.domain_id))?;
+        let context = Context::from_domain_participant(participant).map_err(dds_err("context"))?;
+        let node_name = NodeName::new(namespace, name)
+            .map_err(|e| anyhow!("ROS 2 node name {namespace:?}/{name:?}: {e:?}"))?;
+        let mut node = context
+            .new_node(node_name, options)
+            .map_err(|e| anyhow!("ROS 2 node: {e:?}"))?;
+        let spinner = node.spinner().map_err(dds_err("spinner"))?;
+        let spinner = std::thread::Builder::new()
+            .name(format!("ros2-spin-{name}"))
+            .spawn(move || {
+                if let Err(e) = futures::executor::block_on(spinner.spin()) {
+                    eprintln!("rockwatch: ROS 2 spinner stopped: {e:?}");
+                }
+            })?;
+        Ok(Ros2Session {
+            node,
+            plan: plan.clone(),
+            spinner: Some(spinner),
+        })
+    }
+
+    /// The network plan the participant was built with.
+    #[must_use]
+    pub fn plan(&self) -> &NetworkPlan {
+        &self.plan
+    }
+
+    /// The ROS 2 node.
+    pub fn node(&mut self) -> &mut Node {
+        &mut self.node
+    }
+
+    fn topic(
+        &mut self,
+        name: &str,
+        package: &str,
+        type_name: &str,
+        qos: &QosProfile,
+    ) -> anyhow::Result<ros2_client::dds::rustdds::Topic> {
+        let topic_name = Name::parse(name).map_err(|e| anyhow!("topic {name:?}: {e:?}"))?;
+        self.node
+            .create_topic(&topic_name, MessageTypeName::new(package, type_name), qos)
+            .map_err(|e| anyhow!("ROS 2 topic {name}: {e:?}"))
+    }
+
+    /// A publisher of `pbr_msgs/<type_name>` on `name`.
+    pub fn publisher<M: serde::Serialize>(
+        &mut self,
+        name: &str,
+        type_name: &str,
+        qos: QosProfile,
+    ) -> anyhow::Result<ros2_client::Publisher<M>> {
+        let topic = self.topic(name, msg::PACKAGE, type_name, &qos)?;
+        self.node
+            .create_publisher(&topic, Some(qos))
+            .map_err(|e| anyhow!("ROS 2 publisher {name}: {e:?}"))
+    }
+
+    /// A subscription to `<package>/<type_name>` on `name`.
+    pub fn subscription<M: 'static>(
+        &mut self,
+        name: &str,
+        package: &str,
+        type_name: &str,
+        qos: QosProfile,
+    ) -> anyhow::Result<Subscription<M>> {
+        let topic = self.topic(name, package, type_name, &qos)?;
+        self.node
+            .create_subscription(&topic, Some(qos))
+            .map_err(|e| anyhow!("ROS 2 subscription {name}: {e:?}"))
+    }
+}
+
+impl Drop for Ros2Session {
+    fn drop(&mut self) {
+        self.node.stop_spinner();
+        if let Some(spinner) = self.spinner.take() {
+            let _ = spinner.join();
+        }
+    }
+}
+
+/// The `sensor_msgs/msg/Imu` wire layout (fixed arrays carry no length in CDR).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct ImuMsg {
+    pub header: msg::Header,
+    /// Quaternion x, y, z, w.
+    pub orientation: [f64; 4],
+    pub orientation_covariance: [f64; 9],
+    /// rad/s.
+    pub angular_velocity: [f64; 3],
+    pub angular_velocity_covariance: [f64; 9],
+    /// m/s².
+    pub linear_acceleration: [f64; 3],
+    pub linear_acceleration_covariance: [f64; 9],
+}
+impl ros2_client::Message for ImuMsg {}
+
+/// Counters of the node's ROS 2 intake.
+#[derive(Debug, Default)]
+pub struct IntakeCounters {
+    /// Packets received and handed to the engine.
+    pub packets: AtomicU64,
+    /// Messages that could not be decoded (reported by DDS as read errors).
+    pub decode_errors: AtomicU64,
+}
+
+/// The node's ROS 2 side: parameters, the intake thread and the output publishers.
+pub struct Ros2Node {
+    session: Ros2Session,
+    stop: Arc<AtomicBool>,
+    intake: Option<JoinHandle<()>>,
+    pub counters: Arc<IntakeCounters>,
+}
+
+/// The node's output publishers (a [`crate::node::Publisher`]).
+pub struct Ros2Publisher {
+    alerts: ros2_client::Publisher<msg::PbrAlert>,
+    states: ros2_client::Publisher<msg::PbrState>,
+    ims: ros2_client::Publisher<msg::StationIntensity>,
+}
+
+impl crate::node::Publisher for Ros2Publisher {
+    fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
+        let result = match publication {
+            Publication::Alert { alert, .. } => self
+                .alerts
+                .publish(msg::PbrAlert::from(alert))
+                .map_err(|e| format!("{ALERTS_TOPIC}: {e:?}")),
+            Publication::State(s) => self
+                .states
+                .publish(msg::PbrState::from(s))
+                .map_err(|e| format!("{STATE_TOPIC}: {e:?}")),
+            Publication::Intensity(i) => self
+                .ims
+                .publish(msg::StationIntensity::from(i))
+                .map_err(|e| format!("{IMS_TOPIC}: {e:?}")),
+        };
+        result.map_err(|e| anyhow!("ROS 2 publish failed: {e}"))
+    }
+}
+
+/// Checks a parameter value: finite, > 0 (probabilities ≤ 1).
+fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), String> {
+    let v = parameter_f64(value).ok_or_else(|| format!("{name} must be a double"))?;
+    let ok = match name {
+        PARAM_IMMINENT_PROBABILITY => v > 0.0 && v <= 1.0,
+        _ => v.is_finite() && v > 0.0,
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(format!("{name}: invalid value {v}"))
+    }
+}
+
+fn parameter_f64(value: &ParameterValue) -> Option<f64> {
+    match value {
+        ParameterValue::Double(v) => Some(*v),
+        ParameterValue::Integer(v) => Some(*v as f64),
+        _ => None,
+    }
+}
+
+/// Applies a parameter to the alert configuration and the engine.
+fn apply_parameter(
+    name: &str,
+    value: &ParameterValue,
+    alerts: &Mutex<AlertConfig>,
+    submitter: &Submitter,
+) -> Result<(), String> {
+    validate_parameter(name, value)?;
+    let v = parameter_f64(value).ok_or_else(|| format!("{name} must be a double"))?;
+    if name == PARAM_STATE_INTERVAL_S {
+        submitter.set_state_interval_s(v);
+        return Ok(());
+    }
+    let mut config = alerts
+        .lock()
+        .map_err(|_| "alert configuration lock poisoned".to_string())?;
+    match name {
+        PARAM_IMMINENT_THETA_RATIO => config.imminent_theta_ratio = v,
+        PARAM_IMMINENT_PROBABILITY => config.imminent_probability = v,
+        PARAM_QUIET_THRESHOLD_MPS2 => config.quiet_threshold_mps2 = v,
+        PARAM_QUIET_S => config.quiet_s = v,
+        // Built-in parameters such as use_sim_time.
+        _ => return Ok(()),
+    }
+    submitter.set_alert_config(*config);
+    Ok(())
+}
+
+impl Ros2Node {
+    /// Joins the ROS 2 graph as `<namespace>/rockwatch`, declares the parameters (initial
+    /// values from `engine`), subscribes the inputs (handing packets to `submitter` on an
+    /// intake thread) and creates the output publishers.
+    pub fn start(
+        config: &Ros2Config,
+        plan: &NetworkPlan,
+        engine: &EngineConfig,
+        submitter: Submitter,
+    ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
+        let alerts = Arc::new(Mutex::new(engine.alerts));
+        let action_submitter = submitter.clone();
+        let action_alerts = Arc::clone(&alerts);
+        let options = NodeOptions::new()
+            .enable_rosout(true)
+            .start_parameter_services(true)
+            .declare_parameter(
+                PARAM_IMMINENT_THETA_RATIO,
+                ParameterValue::Double(engine.alerts.imminent_theta_ratio),
+            )
+            .declare_parameter(
+                PARAM_IMMINENT_PROBABILITY,
+                ParameterValue::Double(engine.alerts.imminent_probability),
+            )
+            .declare_parameter(
+                PARAM_QUIET_THRESHOLD_MPS2,
+                ParameterValue::Double(engine.alerts.quiet_threshold_mps2),
+            )
+            .declare_parameter(PARAM_QUIET_S, ParameterValue::Double(engine.alerts.quiet_s))
+            .declare_parameter(
+                PARAM_STATE_INTERVAL_S,
+                ParameterValue::Double(engine.state_interval_s),
+            )
+            .parameter_validator(Box::new(|name, value| {
+                if name.starts_with("alerts.") || name == PARAM_STATE_INTERVAL_S {
+                    validate_parameter(name, value)
+                } else {
+                    Ok(())
+                }
+            }))
+            .parameter_set_action(Box::new(move |name, value| {
+                apply_parameter(name, value, &action_alerts, &action_submitter)
+            }));
+        let mut session = Ros2Session::open(plan, &config.namespace, NODE_NAME, options)?;
+        let publisher = Ros2Publisher {
+            alerts: session.publisher(ALERTS_TOPIC, "PbrAlert", alerts_qos())?,
+            states: session.publisher(STATE_TOPIC, "PbrState", output_qos())?,
+            ims: session.publisher(IMS_TOPIC, "StationIntensity", output_qos())?,
+        };
+        let qos = input_qos(config);
+        let accel: Subscription<msg::AccelPacket> =
+            session.subscription(ACCEL_TOPIC, msg::PACKAGE, "AccelPacket", qos.clone())?;
+        let mut imus = Vec::new();
+        for imu in &config.imu {
+            if !(imu.sample_rate_hz.is_finite() && imu.sample_rate_hz > 0.0) {
+                return Err(anyhow!(
+                    "[[ros2.imu]] {}: sample_rate_hz must be > 0",
+                    imu.topic
+                ));
+            }
+            let sub: Subscription<ImuMsg> =
+                session.subscription(&imu.topic, "sensor_msgs", "Imu", qos.clone())?;
+            imus.push((imu.clone(), sub));
+        }
+        let stop = Arc::new(AtomicBool::new(false));
+        let counters = Arc::new(IntakeCounters::default());
+        let intake = {
+            let stop = Arc::clone(&stop);
+            let counters = Arc::clone(&counters);
+            std::thread::Builder::new()
+                .name("ros2-intake".into())
+                .spawn(move || intake_loop(accel, imus, &submitter, &stop, &counters))?
+        };
+        Ok((
+            Ros2Node {
+                session,
+                stop,
+                intake: Some(intake),
+                counters,
+            },
+            publisher,
+        ))
+    }
+
+    /// The underlying session (graph queries, the network plan).
+    pub fn session(&mut self) -> &mut Ros2Session {
+        &mut self.session
+    }
+
+    /// Stops taking input (joins the intake thread).
+    pub fn stop_intake(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(intake) = self.intake.take() {
+            let _ = intake.join();
+        }
+    }
+}
+
+impl Drop for Ros2Node {
+    fn drop(&mut self) {
+        self.stop_intake();
+    }
+}
+
+/// Takes every available message from the subscriptions and submits it, until `stop`.
+fn intake_loop(
+    mut accel: Subscription<msg::AccelPacket>,
+    mut imus: Vec<(ImuInput, Subscription<ImuMsg>)>,
+    submitter: &Submitter,
+    stop: &AtomicBool,
+    counters: &IntakeCounters,
+) {
+    let poll = Poll::new();
+    let mut poll = match poll {
+        Ok(p) => Some(p),
+        Err(e) => {
+            eprintln!("rockwatch: ROS 2 intake: cannot create a poller ({e}); polling every 10 ms");
+            None
+        }
+    };
+    if let Some(p) = &mut poll {
+        let mut ok = p
+            .registry()
+            .register(&mut accel, Token(0), Interest::READABLE)
+            .is_ok();
+        for (i, (_, sub)) in imus.iter_mut().enumerate() {
+            ok &= p
+                .registry()
+                .register(sub, Token(i + 1), Interest::READABLE)
+                .is_ok();
+        }
+        if !ok {
+            eprintln!(
+                "rockwatch: ROS 2 intake: cannot register subscriptions; polling every 10 ms"
+            );
+            poll = None;
+        }
+    }
+    let mut events = Events::with_capacity(16);
+    let mut imu_sequence = vec![0u64; imus.len()];
+    let mut last_report = Instant::now() - Duration::from_secs(60);
+    let mut report_error = |what: &str, e: String| {
+        counters.decode_errors.fetch_add(1, Ordering::Relaxed);
+        if last_report.elapsed() >= Duration::from_secs(10) {
+            let n = counters.decode_errors.load(Ordering::Relaxed);
+            eprintln!("rockwatch: ROS 2 {what}: undecodable message ({e}; {n} in all)");
+            last_report = Instant::now();
+        }
+    };
+    while !stop.load(Ordering::Relaxed) {
+        match &mut poll {
+            Some(p) => {
+                // Wakes on data, and every 100 ms to check `stop` and drain (edge-triggered).
+                let _ = p.poll(&mut events, Some(Duration::from_millis(100)));
+            }
+            None => std::thread::sleep(Duration::from_millis(10)),
+        }
+        // Bounded drains so a flood on one topic cannot starve the stop check.
+        for _ in 0..100_000 {
+            match accel.take() {
+                Ok(Some((m, _))) => {
+                    counters.packets.fetch_add(1, Ordering::Relaxed);
+                    submitter.submit(AccelPacket::from(&m));
+                }
+                Ok(None) => break,
+                Err(e) => report_error(ACCEL_TOPIC, format!("{e:?}")),
+            }
+        }
+        for ((imu, sub), sequence) in imus.iter_mut().zip(imu_sequence.iter_mut()) {
+            for _ in 0..100_000 {
+                match sub.take() {
+                    Ok(Some((m, _))) => {
+                        counters.packets.fetch_add(1, Ordering::Relaxed);
+                        submitter.submit(imu_packet(imu, &m, *sequence));
+                        *sequence += 1;
+                    }
+                    Ok(None) => break,
+                    Err(e) => report_error(&imu.topic, format!("{e:?}")),
+                }
+            }
+        }
+    }
+}
+
+/// One Imu message as a one-sample packet of its configured station.
+#[must_use]
+pub fn imu_packet(imu: &ImuInput, m: &ImuMsg, sequence: u64) -> AccelPacket {
+    let [x, y, z] = m.linear_acceleration;
+    let up = if imu.remove_gravity {
+        z - crate::STANDARD_GRAVITY_MPS2
+    } else {
+        z
+    };
+    AccelPacket {
+        station: imu.station.clone(),
+        start_time_ns: m.header.stamp.to_nanos(),
+        sample_rate_hz: imu.sample_rate_hz,
+        sequence,
+        east: vec![x as f32],
+        north: vec![y as f32],
+        up: vec![up as f32],
+    }
+}
+
+/// Replay over ROS 2: publishes `/pbr/accel` from a node `rockwatch_replay`.
+pub struct Ros2PacketSink {
+    session: Ros2Session,
+    publisher: ros2_client::Publisher<msg::AccelPacket>,
+}
+
+impl Ros2PacketSink {
+    pub fn open(plan: &NetworkPlan, namespace: &str) -> anyhow::Result<Ros2PacketSink> {
+        let mut session = Ros2Session::open(
+            plan,
+            namespace,
+            "rockwatch_replay",
+            NodeOptions::new().enable_rosout(false),
+        )?;
+        let publisher = session.publisher(ACCEL_TOPIC, "AccelPacket", replay_qos())?;
+        Ok(Ros2PacketSink { session, publisher })
+    }
+
+    /// Sends a raw message (tests of malformed input).
+    pub fn send_msg(&mut self, m: msg::AccelPacket) -> anyhow::Result<()> {
+        self.publisher
+            .publish(m)
+            .map_err(|e| anyhow!("ROS 2 publish on {ACCEL_TOPIC}: {e:?}"))
+    }
+}
+
+impl PacketSink for Ros2PacketSink {
+    fn wait_for_subscriber(&mut self, timeout: Duration) -> anyhow::Result<bool> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if self.publisher.get_subscription_count(self.session.node()) > 0 {
+                return Ok(true);
+            }
+            if Instant::now() >= deadline {
+                return Ok(false);
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()> {
+        self.send_msg(msg::AccelPacket::from(packet))
+    }
+}
+
+/// A subscriber of `/pbr/alerts` (transient local: receives the history too).
+pub struct Ros2AlertListener {
+    _session: Ros2Session,
+    subscription: Subscription<msg::PbrAlert>,
+    poll: Poll,
+    events: Events,
+}
+
+impl Ros2AlertListener {
+    pub fn open(plan: &NetworkPlan, namespace: &str) -> anyhow::Result<Ros2AlertListener> {
+        let mut session = Ros2Session::open(
+            plan,
+            namespace,
+            "rockwatch_listener",
+            NodeOptions::new().enable_rosout(false),
+        )?;
+        let mut subscription =
+            session.subscription(ALERTS_TOPIC, msg::PACKAGE, "PbrAlert", alerts_qos())?;
+        let poll = Poll::new().context("alert listener poller")?;
+        poll.registry()
+            .register(&mut subscription, Token(0), Interest::READABLE)
+            .context("alert listener registration")?;
+        Ok(Ros2AlertListener {
+            _session: session,
+            subscription,
+            poll,
+            events: Events::with_capacity(4),
+        })
+    }
+
+    /// Every alert received within `timeout` (returns as soon as there is at least one).
+    pub fn recv(&mut self, timeout: Duration) -> anyhow::Result<Vec<msg::PbrAlert>> {
+        let deadline = Instant::now() + timeout;
+        let mut out = Vec::new();
+        loop {
+            while let Some((alert, _)) = self
+                .subscription
+                .take()
+                .map_err(|e| anyhow!("{ALERTS_TOPIC}: {e:?}"))?
+            {
+                out.push(alert);
+            }
+            let now = Instant::now();
+            if !out.is_empty() || now >= deadline {
+                return Ok(out);
+            }
+            let wait = (deadline - now).min(Duration::from_millis(50));
+            let _ = self.poll.poll(&mut self.events, Some(wait));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn localhost_range_means_loopback_only_whatever_the_config_names() {
+        let mut config = Ros2Config {
+            interfaces: vec!["10.0.0.5".parse().unwrap()],
+            ..Ros2Config::default()
+        };
+        let plan = network_plan(&config, Some("7"), Some("LOCALHOST")).unwrap();
+        assert_eq!(plan.domain_id, 7);
+        assert_eq!(plan.only_networks, Some(vec!["127.0.0.1".parse().unwrap()]));
+        let plan = network_plan(&config, None, Some("OFF")).unwrap();
+        assert_eq!(plan.only_networks, Some(vec!["127.0.0.1".parse().unwrap()]));
+        // SUBNET: the configured interfaces, or every interface when none is named.
+        let plan = network_plan(&config, None, Some("SUBNET")).unwrap();
+        assert_eq!(plan.only_networks, Some(vec!["10.0.0.5".parse().unwrap()]));
+        config.interfaces.clear();
+        assert_eq!(
+            network_plan(&config, None, None).unwrap().only_networks,
+            None
+        );
+        // The configuration overrides the environment.
+        let demo = Ros2Config::loopback_only();
+        let plan = network_plan(&demo, Some("3"), Some("SUBNET")).unwrap();
+        assert_eq!(plan.only_networks, Some(vec!["127.0.0.1".parse().unwrap()]));
+        assert_eq!(plan.domain_id, 3);
+    }
+
+    #[test]
+    fn bad_environment_values_are_named() {
+        let config = Ros2Config::default();
+        let e = network_plan(&config, Some("x"), None).unwrap_err();
+        assert!(e.contains("ROS_DOMAIN_ID"), "{e}");
+        let e = network_plan(&config, Some("300"), None).unwrap_err();
+        assert!(e.contains("300"), "{e}");
+        let e = network_plan(&config, None, Some("localhost")).unwrap_err();
+        assert!(e.contains("ROS_AUTOMATIC_DISCOVERY_RANGE"), "{e}");
+        assert_eq!(
+            network_plan(&config, Some(""), Some("")).unwrap().domain_id,
+            0
+        );
+    }
+
+    #[test]
+    fn imu_sample_maps_xyz_to_east_north_up_without_gravity() {
+        let imu = ImuInput {
+            topic: "/imu".into(),
+            station: "XX.IMU.00".into(),
+            sample_rate_hz: 200.0,
+            remove_gravity: true,
+        };
+        let m = ImuMsg {
+            header: msg::Header::new(1_500_000_000, "imu_link"),
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            orientation_covariance: [0.0; 9],
+            angular_velocity: [0.0; 3],
+            angular_velocity_covariance: [0.0; 9],
+            linear_acceleration: [0.5, -0.25, 9.80665 + 0.125],
+            linear_acceleration_covariance: [0.0; 9],
+        };
+        let p = imu_packet(&imu, &m, 42);
+        assert_eq!((p.east[0], p.north[0]), (0.5, -0.25));
+        // 0.125 is exact in f32; the f64 subtraction of g leaves < 1e-15 error.
+        assert!((p.up[0] - 0.125).abs() < 1e-6);
+        assert_eq!(
+            (p.sequence, p.start_time_ns, p.sample_rate_hz),
+            (42, 1_500_000_000, 200.0)
+        );
+    }
+
+    #[test]
+    fn parameters_update_alert_thresholds_and_reject_bad_values() {
+        assert!(
+            validate_parameter(PARAM_IMMINENT_THETA_RATIO, &ParameterValue::Double(0.5)).is_ok()
+        );
+        assert!(
+            validate_parameter(PARAM_IMMINENT_PROBABILITY, &ParameterValue::Double(1.5)).is_err()
+        );
+        assert!(validate_parameter(PARAM_QUIET_S, &ParameterValue::Double(f64::NAN)).is_err());
+        assert!(validate_parameter(PARAM_STATE_INTERVAL_S, &ParameterValue::Double(-1.0)).is_err());
+        assert!(validate_parameter(PARAM_QUIET_S, &ParameterValue::Integer(5)).is_ok());
+        assert!(validate_parameter(PARAM_QUIET_S, &ParameterValue::String("5".into())).is_err());
+    }
+}

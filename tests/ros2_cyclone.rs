@@ -1,0 +1,91 @@
+//! replay → `rockwatch node` → an independent Cyclone DDS subscriber (Python `cyclonedds`,
+//! PbrAlert type parsed from msg/), in a private network namespace. Also: a subscriber that
+//! joins after the alerts gets them (transient local), and SIGTERM ends the node with 0.
+
+mod ros2_util;
+use ros2_util::*;
+
+fn have_cyclonedds() -> bool {
+    std::process::Command::new("python3")
+        .args(["-c", "import cyclonedds.domain"])
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// The JSON alerts a subscriber printed (lines after `PREFIX`).
+fn alerts(stdout: &str, prefix: &str) -> Vec<serde_json::Value> {
+    stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix(prefix))
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v.get("pbr_id").is_some())
+        .collect()
+}
+
+#[test]
+fn cyclone_dds_subscriber_receives_the_slender_pillar_overturned_and_a_late_one_too() {
+    assert!(
+        have_cyclonedds(),
+        "python3 -m pip install cyclonedds==11.0.1 (see .ci/run)"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("node.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "catalogue = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n",
+            repo().join("config/catalogue.toml").display()
+        ),
+    )
+    .unwrap();
+    let d = dir.path().display();
+    let bin = rockwatch().display().to_string();
+    let py = repo().join("tests/data/ros2/cyclone_alerts.py");
+    let py = py.display();
+    let msg = repo().join("msg");
+    let msg = msg.display();
+    let rec = repo().join("tests/data/records");
+    let rec = rec.display();
+    let script = format!(
+        "'{bin}' node --config '{d}/node.toml' --state-dir '{d}/state' 2> '{d}/node.err' & NODE=$!
+         python3 '{py}' '{msg}' --seconds 25 > '{d}/early.out' 2> '{d}/early.err' & SUB=$!
+         '{bin}' replay --record '{rec}/Rinaldi228.AT2' --vertical '{rec}/RinaldiUP.AT2' --azimuth 228 \
+             --station CI.RRS.00 --transport ros2 --speed max --tail 10 --wait-s 20
+         sleep 2
+         python3 '{py}' '{msg}' --seconds 4 > '{d}/late.out' 2> '{d}/late.err'
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
+         kill $SUB 2>/dev/null || true; wait $SUB || true
+         sed 's/^/EARLY /' '{d}/early.out'; sed 's/^/LATE /' '{d}/late.out'
+         cat '{d}/early.err' '{d}/late.err' '{d}/node.err' >&2"
+    );
+    let out = run_in_netns(
+        &script,
+        120,
+        &[("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST".into())],
+    );
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("NODE_RC=0"),
+        "SIGTERM must exit 0\n{stdout}\n{stderr}"
+    );
+    assert!(stdout.contains("replayed "), "{stdout}\n{stderr}");
+    for (who, prefix) in [("early", "EARLY "), ("late", "LATE ")] {
+        let got = alerts(&stdout, prefix);
+        // Level 3 = PbrAlert.OVERTURNED (msg/PbrAlert.msg).
+        assert!(
+            got.iter()
+                .any(|a| a["pbr_id"] == "rrs-slender-pillar" && a["level"] == 3),
+            "{who} subscriber: no OVERTURNED for the slender pillar\n{stdout}\n{stderr}"
+        );
+        for a in got.iter().filter(|a| a["pbr_id"] == "rrs-stocky-boulder") {
+            assert_eq!(
+                a["level"], 1,
+                "{who}: stocky boulder beyond motion onset: {a}"
+            );
+        }
+        for a in &got {
+            assert_eq!(a["frame_id"], "CI.RRS.00", "{a}");
+        }
+    }
+}
