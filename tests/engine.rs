@@ -760,3 +760,79 @@ fn channels_oriented_by_azimuth_are_rotated_to_east_north() {
         );
     }
 }
+
+#[test]
+fn a_lift_off_is_reported_and_the_block_is_put_down_again() {
+    // 100 ms of vertical acceleration below −g (the ground drops away), then 49 s of quiet.
+    let mut p = packets("CI.RRS.00", &[0.0; 10], &[0.0; 10], 0.01, 10);
+    p[0].up = vec![-12.0; 10];
+    let quiet = vec![0.0; 4900];
+    let mut rest = packets("CI.RRS.00", &quiet, &quiet, 0.01, 100);
+    for (i, q) in rest.iter_mut().enumerate() {
+        q.start_time_ns += 100_000_000;
+        q.sequence = 1 + i as u64;
+        q.up = vec![0.0; q.len()];
+    }
+    p.extend(rest);
+    let mut engine = Engine::new(
+        EngineConfig::default(),
+        vec![],
+        &[spec("b", "CI.RRS.00", 90.0, stocky())],
+    )
+    .unwrap();
+    let out = run(&mut engine, p);
+    assert!(out
+        .iter()
+        .any(|o| matches!(o, Output::Notice(n) if n.kind == "flight")));
+    assert!(
+        out.iter().any(|o| matches!(o, Output::EpisodeEnd { .. })),
+        "the episode must end after landing"
+    );
+    let last_state = out
+        .iter()
+        .rev()
+        .find_map(|o| {
+            if let Output::State(s) = o {
+                Some(s)
+            } else {
+                None
+            }
+        })
+        .unwrap();
+    assert_eq!(last_state.mode, rockwatch::dynamics::Mode::Rest);
+    let (_, counters, _) = engine.station_counters().next().unwrap();
+    assert_eq!(counters.flights, 1);
+}
+
+#[test]
+fn a_fallen_block_does_not_hold_the_station_intensity_window_open() {
+    // The slender block falls under Rinaldi; 120 s of quiet later the station's running PGA
+    // has restarted from zero although the block stays fallen.
+    let record = rinaldi_f32();
+    let mut east = record.horizontal_mps2.clone();
+    east.extend(std::iter::repeat_n(0.0, 12_000));
+    let zeros = vec![0.0; east.len()];
+    let mut engine = Engine::new(
+        EngineConfig::default(),
+        vec![],
+        &[spec("b", "CI.RRS.00", 90.0, slender())],
+    )
+    .unwrap();
+    let out = run(
+        &mut engine,
+        packets("CI.RRS.00", &east, &zeros, record.dt_s, 100),
+    );
+    assert!(engine.summaries()[0].overturned);
+    let last = out
+        .iter()
+        .rev()
+        .find_map(|o| {
+            if let Output::Intensity(i) = o {
+                Some(i)
+            } else {
+                None
+            }
+        })
+        .unwrap();
+    assert_eq!(last.pga_mps2, 0.0, "{last:?}");
+}

@@ -164,6 +164,8 @@ pub struct ResponseStats {
     pub n_impacts_significant: u32,
     pub n_flat_landings: u32,
     pub n_zeno_landings: u32,
+    /// Lift-offs (free flight) detected.
+    pub n_flights: u32,
     /// Mode selections where no candidate passed every consistency check (should stay 0).
     pub n_inconsistent_selections: u32,
     /// Last upward crossing of |θ| = α (s).
@@ -359,6 +361,28 @@ impl RigidBlock {
     pub fn stats(&self) -> &ResponseStats {
         &self.stats
     }
+    /// Tells the stepper that the ground input jumps here (after a data gap or a change of
+    /// sample rate): the integrator's stored derivative is stale and is dropped.
+    pub fn input_discontinuity(&mut self) {
+        self.integrator.reset(self.options.initial_step_s);
+    }
+
+    /// Ends a free flight once the effective gravity g + ÿg is positive again, for a monitor
+    /// that must go on after a lift-off. The flight itself is not modelled (spec §10: it is
+    /// detected and reported); the block is put down flat and at rest, keeping its slide u.
+    /// Returns true if it landed.
+    pub fn land_after_flight(&mut self, ground: GroundAccel) -> bool {
+        if self.phase != Phase::Flight || effective_gravity(&self.params, ground) <= 0.0 {
+            return false;
+        }
+        self.phase = Phase::Rest;
+        self.y[0] = 0.0;
+        self.y[1] = 0.0;
+        self.y[3] = 0.0;
+        self.integrator.reset(self.options.initial_step_s);
+        true
+    }
+
     /// Puts the block in the overturned state (restoring a persisted fallen block: a rock
     /// that fell stays fallen); θ is set to ±π/2 on the side it was leaning, + if upright.
     pub fn set_overturned(&mut self) {
@@ -634,7 +658,8 @@ impl RigidBlock {
                 self.stats.overturn_time_s =
                     Some(self.stats.last_alpha_upcrossing_s.unwrap_or(t_s));
             }
-            Phase::SlideRock { .. } | Phase::Flight => {}
+            Phase::Flight => self.stats.n_flights += 1,
+            Phase::SlideRock { .. } => {}
         }
         self.integrator.reset(self.options.initial_step_s);
         if from != phase.mode() {

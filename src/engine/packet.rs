@@ -4,6 +4,9 @@
 pub const MAX_SAMPLES_PER_PACKET: usize = 100_000;
 /// Accepted sample rates (Hz).
 pub const SAMPLE_RATE_RANGE_HZ: (f64, f64) = (1.0, 10_000.0);
+/// Accepted start times (ns since the Unix epoch): 1900-01-01 to 2100-01-01. Keeps every
+/// time difference the engine forms far from i64 overflow.
+pub const START_TIME_RANGE_NS: (i64, i64) = (-2_208_988_800_000_000_000, 4_102_444_800_000_000_000);
 
 pub use crate::station_id::StationId;
 
@@ -43,6 +46,8 @@ pub enum PacketError {
     },
     #[error("sample rate {0} Hz outside [1, 10000] Hz")]
     SampleRate(f64),
+    #[error("start time {0} ns is outside the years 1900-2100")]
+    StartTime(i64),
     #[error("non-finite sample ({component}[{index}] = {value})")]
     NonFinite {
         component: &'static str,
@@ -86,6 +91,10 @@ impl AccelPacket {
             && self.sample_rate_hz <= hi)
         {
             return Err(PacketError::SampleRate(self.sample_rate_hz));
+        }
+        let (t_lo, t_hi) = START_TIME_RANGE_NS;
+        if !(t_lo..=t_hi).contains(&self.start_time_ns) {
+            return Err(PacketError::StartTime(self.start_time_ns));
         }
         for (component, values) in [
             ("east", &self.east),
@@ -146,6 +155,9 @@ mod tests {
             packet(MAX_SAMPLES_PER_PACKET + 1).validate(),
             Err(PacketError::TooLarge { .. })
         ));
+        let mut p = packet(1);
+        p.start_time_ns = i64::MAX - 1_000_000;
+        assert!(matches!(p.validate(), Err(PacketError::StartTime(_))));
         let mut p = packet(1);
         p.station = "nope".into();
         assert!(matches!(p.validate(), Err(PacketError::Station(_))));

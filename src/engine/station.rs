@@ -12,6 +12,10 @@ use super::stream::{Gap, Released, Sequencer, StreamConfig};
 use crate::dynamics::{BlockEvent, BlockOptions, GroundAccel, Mode, RigidBlock};
 use crate::ims::{RunningConfig, RunningIms};
 
+/// Longest intensity window (s): a station that never goes quiet restarts its running IMs
+/// after this long (bounding their memory, about 8 bytes per sample and component).
+pub const MAX_INTENSITY_WINDOW_S: f64 = 3600.0;
+
 /// Per-station counters of data problems (cumulative).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct StationCounters {
@@ -24,6 +28,8 @@ pub struct StationCounters {
     pub clipped_samples: u64,
     /// Intervals the block integrator could not complete (should stay 0).
     pub integration_errors: u64,
+    /// Lift-offs of a nominal block (free flight, then put down again).
+    pub flights: u64,
 }
 
 /// A block's response summary (the last line of `rockwatch monitor`).
@@ -270,8 +276,20 @@ impl StationRuntime {
         }));
     }
 
+    /// The ground input of every block jumps here: drop their integrators' stale state.
+    fn input_discontinuity(&mut self) {
+        self.last = None;
+        for p in &mut self.pbrs {
+            p.nominal.input_discontinuity();
+            p.members
+                .iter_mut()
+                .for_each(RigidBlock::input_discontinuity);
+        }
+    }
+
     fn process_packet(&mut self, r: &Released, ctx: &PacketContext<'_>, out: &mut Vec<Output>) {
-        let dt_s = 1.0 / self.sequencer.rate_hz();
+        // The packet's own grid: held packets released by a rate change keep their rate.
+        let dt_s = 1.0 / r.rate_hz;
         match r.gap {
             Gap::Start | Gap::RateChange => {
                 if r.gap == Gap::RateChange {
@@ -290,7 +308,7 @@ impl StationRuntime {
                     (Ok(e), Ok(n), Ok(u)) => Some([e, n, u]),
                     _ => None,
                 };
-                self.last = None;
+                self.input_discontinuity();
             }
             Gap::None => {}
             Gap::Bridge(n) => {
@@ -307,7 +325,7 @@ impl StationRuntime {
                             north: prev.north + (next.north - prev.north) * w,
                             up: prev.up + (next.up - prev.up) * w,
                         };
-                        let t = self.sequencer.time_ns(r.first_index - (n - j + 1) as i64);
+                        let t = r.time_ns(j as i64 - n as i64 - 1);
                         self.feed(s, t, dt_s, ctx, out);
                     }
                 }
@@ -318,7 +336,7 @@ impl StationRuntime {
                     format!("{n} missing samples ({:.3} s): blocks flagged data_gap, integration resumes from the last state", n as f64 * dt_s),
                     out,
                 );
-                self.last = None;
+                self.input_discontinuity();
                 for p in &mut self.pbrs {
                     p.data_gap = true;
                 }
@@ -329,7 +347,7 @@ impl StationRuntime {
         }
         for i in r.skip..r.packet.len() {
             if let Some(s) = self.sample(&r.packet, i) {
-                let t = self.sequencer.time_ns(r.first_index + (i - r.skip) as i64);
+                let t = r.time_ns((i - r.skip) as i64);
                 self.feed(s, t, dt_s, ctx, out);
             }
         }
@@ -407,6 +425,7 @@ impl StationRuntime {
             };
             let mut first_change_ns: Option<i64> = None;
             let mut failed = false;
+            let mut landed_after_flight = false;
             if let Some(prev) = prev {
                 let (from, to) = (project(prev), project(s));
                 let t_before = pbr.nominal.time_s();
@@ -417,15 +436,30 @@ impl StationRuntime {
                     }
                 });
                 failed |= result.is_err();
+                // A lift-off is reported (state, notice); the block is put down again as soon
+                // as the effective gravity is positive (flight is not modelled, spec §10).
+                if pbr.nominal.mode() == Mode::Flight {
+                    landed_after_flight = pbr.nominal.land_after_flight(to);
+                }
                 let mut overturned = 0;
                 for m in &mut pbr.members {
                     failed |= m.advance(dt_s, from, to, |_| {}).is_err();
+                    m.land_after_flight(to);
                     overturned += usize::from(m.mode() == Mode::Overturned);
                 }
                 pbr.members_overturned = overturned;
             }
             if failed {
                 self.counters.integration_errors += 1;
+            }
+            if landed_after_flight {
+                self.counters.flights += 1;
+                let id = self.pbrs[index].id.clone();
+                self.notice(
+                    "flight",
+                    format!("block {id} lost contact with the ground (g + a_up ≤ 0 or N → 0); put down flat at rest"),
+                    out,
+                );
             }
             let pbr = &mut self.pbrs[index];
             let mode_changed = first_change_ns.is_some();
@@ -503,11 +537,19 @@ impl StationRuntime {
             self.last_intensity_ns = Some(t_ns);
             out.push(Output::Intensity(self.intensity(t_ns)));
         }
-        if quiet_long && self.pbrs.iter().all(|p| !p.in_episode) {
-            if let Some(ims) = &mut self.ims {
-                if ims[0].npts() as f64 * dt_s > 2.0 * ctx.alerts.quiet_s {
-                    ims.iter_mut().for_each(RunningIms::reset);
-                }
+        // The intensity window restarts once the station is quiet and no standing block is in
+        // an episode (a fallen block keeps its episode until reset, not the window), and in
+        // any case after MAX_INTENSITY_WINDOW_S, which bounds the running IMs' memory.
+        let settled = self
+            .pbrs
+            .iter()
+            .all(|p| !p.in_episode || p.nominal.mode() == Mode::Overturned);
+        if let Some(ims) = &mut self.ims {
+            let window_s = ims[0].npts() as f64 * dt_s;
+            if (quiet_long && settled && window_s > 2.0 * ctx.alerts.quiet_s)
+                || window_s > MAX_INTENSITY_WINDOW_S
+            {
+                ims.iter_mut().for_each(RunningIms::reset);
             }
         }
     }

@@ -52,6 +52,18 @@ pub struct Released {
     pub gap: Gap,
     /// Grid index of the packet's first new sample.
     pub first_index: i64,
+    /// UTC time of the packet's first new sample on the grid it was placed on (ns).
+    pub first_time_ns: i64,
+    /// Sample rate of that grid (Hz).
+    pub rate_hz: f64,
+}
+
+impl Released {
+    /// UTC time (ns) of the `k`-th new sample (k may be negative: bridged samples before).
+    #[must_use]
+    pub fn time_ns(&self, k: i64) -> i64 {
+        self.first_time_ns + (k as f64 * 1e9 / self.rate_hz).round() as i64
+    }
 }
 
 /// Counters of stream irregularities (cumulative).
@@ -141,6 +153,14 @@ impl Sequencer {
             return;
         };
         if (packet.sample_rate_hz - self.rate_hz).abs() > 1e-9 * self.rate_hz {
+            // A packet from before the data we already have (e.g. a late one at the old rate
+            // after a change) must not restart the grid in the past.
+            if packet.start_time_ns < self.time_ns(next) - (0.5e9 / self.rate_hz) as i64 {
+                self.counters.late_packets += 1;
+                self.counters.duplicate_packets += 1;
+                self.counters.overlap_samples += packet.len() as u64;
+                return;
+            }
             self.flush(out);
             self.counters.rate_changes += 1;
             self.start_grid(packet, Gap::RateChange, out);
@@ -180,6 +200,8 @@ impl Sequencer {
         self.rate_hz = packet.sample_rate_hz;
         self.next_index = Some(packet.len() as i64);
         out.push(Released {
+            first_time_ns: packet.start_time_ns,
+            rate_hz: packet.sample_rate_hz,
             packet,
             skip: 0,
             gap,
@@ -224,11 +246,14 @@ impl Sequencer {
             }
         };
         self.next_index = Some(k + n);
+        let first_index = k + skip as i64;
         out.push(Released {
+            first_time_ns: self.time_ns(first_index),
+            rate_hz: self.rate_hz,
             packet,
             skip,
             gap,
-            first_index: k + skip as i64,
+            first_index,
         });
     }
 }
@@ -367,6 +392,39 @@ mod tests {
         assert_eq!(got[1], (0, 20, Gap::RateChange));
         assert_eq!(s.counters.rate_changes, 1);
         assert_eq!(s.rate_hz(), 200.0);
+    }
+
+    #[test]
+    fn held_packets_keep_their_rate_and_times_across_a_rate_change() {
+        let mut s = Sequencer::new(StreamConfig::default());
+        let mut out = Vec::new();
+        s.offer(packet(0, 10, 0), &mut out);
+        s.offer(packet(20, 10, 2), &mut out); // held: samples 10..20 missing
+        let mut fast = packet(0, 20, 3);
+        fast.start_time_ns = 1_000_000_000 + 400_000_000;
+        fast.sample_rate_hz = 200.0;
+        s.offer(fast, &mut out);
+        let held = &out[1];
+        assert_eq!(
+            (held.gap, held.rate_hz, held.first_time_ns),
+            (Gap::Bridge(10), 100.0, 1_200_000_000)
+        );
+        assert_eq!(held.time_ns(1), 1_210_000_000);
+        assert_eq!(
+            (out[2].gap, out[2].rate_hz, out[2].first_time_ns),
+            (Gap::RateChange, 200.0, 1_400_000_000)
+        );
+        // A late 100 Hz packet after the change is dropped, not a new grid in the past.
+        s.offer(packet(10, 10, 1), &mut out);
+        assert_eq!(out.len(), 3);
+        assert_eq!(
+            (
+                s.counters.late_packets,
+                s.counters.rate_changes,
+                s.rate_hz()
+            ),
+            (1, 1, 200.0)
+        );
     }
 
     #[test]
