@@ -594,7 +594,7 @@ impl Catalogue {
         }
         let document: Document = toml::from_str(text).map_err(|e| CatalogueError::Syntax {
             location: source_name.to_owned(),
-            message: e.to_string().trim_end().to_owned(),
+            message: toml_error_line(text, &e),
         })?;
         let mut entries = Vec::with_capacity(document.pbr.len());
         for (index, spanned) in document.pbr.into_iter().enumerate() {
@@ -759,6 +759,15 @@ impl Catalogue {
 }
 
 /// 1-based line number of byte `offset` in `text`.
+/// A TOML error as one line, `line N: message` (toml's own rendering spans several lines).
+pub(crate) fn toml_error_line(text: &str, error: &toml::de::Error) -> String {
+    let message = error.message().replace('\n', " ");
+    match error.span() {
+        Some(span) => format!("line {}: {message}", line_of_offset(text, span.start)),
+        None => message,
+    }
+}
+
 fn line_of_offset(text: &str, offset: usize) -> usize {
     let end = offset.min(text.len());
     text.as_bytes()[..end]

@@ -79,20 +79,24 @@ pub fn read_journal(dir: &Path) -> Result<(Vec<JournalRecord>, LoadReport), Jour
     let mut records = Vec::new();
     let mut report = LoadReport::default();
     let mut reader = BufReader::new(file);
-    let mut line = String::new();
+    let mut line = Vec::new();
     let mut number = 0;
     loop {
         line.clear();
-        let n = reader.read_line(&mut line).map_err(io(&path))?;
+        let n = reader.read_until(b'\n', &mut line).map_err(io(&path))?;
         if n == 0 {
             break;
         }
         number += 1;
-        if !line.ends_with('\n') {
+        if line.last() != Some(&b'\n') {
             report.truncated_tail = true; // torn write: never acknowledged
             break;
         }
-        match decode(line.trim_end_matches('\n')) {
+        // A line that is not UTF-8 is as corrupt as one whose checksum fails.
+        match std::str::from_utf8(&line[..line.len() - 1])
+            .ok()
+            .and_then(decode)
+        {
             Some(r) => records.push(r),
             None => report.corrupt_lines.push(number),
         }
@@ -187,10 +191,16 @@ mod tests {
         let mut text = std::fs::read_to_string(&path).unwrap();
         text = text.replacen("\"a\"", "\"x\"", 1); // checksum no longer matches
         text.push_str("0badc0de {\"Reset\":{\"pbr_"); // torn write
-        std::fs::write(&path, text).unwrap();
+        let mut bytes = text.into_bytes();
+        let second_line = bytes.iter().position(|&b| b == b'\n').unwrap() + 1;
+        bytes.splice(
+            second_line..second_line,
+            b"\xff\xfe not utf-8\n".iter().copied(),
+        );
+        std::fs::write(&path, bytes).unwrap();
         let (mut j, recs, report) = Journal::open(dir.path()).unwrap();
         assert_eq!(recs, vec![reset("b")]);
-        assert_eq!(report.corrupt_lines, vec![1]);
+        assert_eq!(report.corrupt_lines, vec![1, 2]);
         assert!(report.truncated_tail);
         j.append(&reset("c")).unwrap();
         let (recs, report) = read_journal(dir.path()).unwrap();

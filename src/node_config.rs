@@ -46,11 +46,20 @@ impl NodeConfig {
     /// Reads and validates `path`; errors name the file (and the line, for TOML syntax).
     pub fn load(path: &Path) -> Result<NodeConfig, String> {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let mut config: NodeConfig = toml::from_str(&text)
-            .map_err(|e| format!("{}: {}", path.display(), e.to_string().trim_end()))?;
+        let mut config: NodeConfig = toml::from_str(&text).map_err(|e| {
+            format!(
+                "{}: {}",
+                path.display(),
+                crate::catalogue::toml_error_line(&text, &e)
+            )
+        })?;
         let base = path.parent().unwrap_or(Path::new("."));
         config.catalogue = config.catalogue.map(|c| base.join(c));
         config.state_dir = config.state_dir.map(|d| base.join(d));
+        config
+            .engine
+            .validate()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         for s in &config.stations {
             s.validate()
                 .map_err(|e| format!("{}: {e}", path.display()))?;
@@ -95,5 +104,17 @@ mod tests {
         assert!(e.contains("node.toml") && e.contains("R-S"), "{e}");
         let e = load("[[station]]\nid = \"CI.RRS.00\"\norientation = { kind = \"azimuths\", h1_deg = 0.0, h2_deg = 45.0 }\n").unwrap_err();
         assert!(e.contains("orthogonal"), "{e}");
+        for bad in [
+            "[engine.stream]\nreorder_window_packets = 9223372036854775807\n",
+            "[engine.alerts]\nimminent_theta_ratio = -1.0\n",
+            "[engine.alerts]\nquiet_s = nan\n",
+            "[engine.stream]\nmax_bridge_s = 1e12\n",
+        ] {
+            let e = load(bad).unwrap_err();
+            assert!(
+                e.contains("node.toml") && e.contains("out of range"),
+                "{bad}: {e}"
+            );
+        }
     }
 }

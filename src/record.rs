@@ -223,7 +223,8 @@ fn parse_at2(text: &str) -> Result<At2, ParseError> {
         .ok_or_else(|| (None, "truncated header: no NPTS/DT line".to_string()))?;
     let (npts, dt_s) = parse_npts_dt(npts_line).map_err(|p| (Some(index + 1), p))?;
 
-    let mut values_g = Vec::with_capacity(npts);
+    // NPTS comes from the file: never let it size an allocation beyond what the text can hold.
+    let mut values_g = Vec::with_capacity(npts.min(text.len() / 2));
     let mut extra_nonzero = false;
     for (index, line) in lines {
         for token in split_fortran_numbers(line) {
@@ -557,6 +558,12 @@ mod tests {
     fn non_numeric_token_names_line() {
         let text = "a\nb\nc\nNPTS= 3, DT= 0.01 SEC\n 0.1 x 0.3\n";
         assert_eq!(parse_at2(text).unwrap_err().0, Some(5));
+    }
+
+    #[test]
+    fn absurd_npts_is_an_error_not_an_allocation() {
+        let text = "a\nb\nc\nNPTS= 1000000000000, DT= 0.01 SEC\n 0.1 0.2\n";
+        assert!(parse_at2(text).unwrap_err().1.contains("only 2"));
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! Every subcommand lives in its own file; errors end the process with a one-line reason
 //! on stderr and a non-zero exit code.
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
 
 /// `println!` for command output: a closed pipe (`rockwatch … | head`) ends the process
@@ -47,7 +47,14 @@ mod study;
 
 /// rockwatch: seismic monitoring of precariously balanced rocks and other freestanding blocks.
 #[derive(Debug, Parser)]
-#[command(name = "rockwatch", version, about, long_about = None, propagate_version = true)]
+#[command(
+    name = "rockwatch",
+    version,
+    about,
+    long_about = None,
+    propagate_version = true,
+    allow_negative_numbers = true
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -91,7 +98,34 @@ pub enum OutputFormat {
 
 /// Parses the command line, runs the subcommand, and maps errors to a one-line message.
 pub fn run() -> ExitCode {
-    let cli = Cli::parse();
+    // Negative numbers are values, not flags, in every subcommand (`--scale -1`).
+    let command = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
+    let parsed = command
+        .try_get_matches()
+        .and_then(|matches| Cli::from_arg_matches(&matches));
+    let cli = match parsed {
+        Ok(cli) => cli,
+        // --help and --version print their text and succeed.
+        Err(e) if !e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        // A usage error: one line naming the problem, then where to look.
+        Err(e) => {
+            // clap's message up to its usage block, folded onto one line.
+            let text = e.render().to_string();
+            let reason: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(|l| l.trim().trim_start_matches("error: "))
+                .collect();
+            eprintln!(
+                "rockwatch: error: {} (see rockwatch --help)",
+                reason.join(" ")
+            );
+            return ExitCode::FAILURE;
+        }
+    };
     let result = match cli.command {
         Command::Alerts(args) => alerts::run_alerts(args),
         Command::Reset(args) => alerts::run_reset(args),

@@ -132,6 +132,64 @@ impl Default for EngineConfig {
     }
 }
 
+impl EngineConfig {
+    /// Checks every threshold; the message names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        let a = &self.alerts;
+        let checks: [(&str, f64, bool); 7] = [
+            (
+                "engine.state_interval_s",
+                self.state_interval_s,
+                self.state_interval_s > 0.0 && self.state_interval_s <= 3600.0,
+            ),
+            (
+                "engine.stream.max_bridge_s",
+                self.stream.max_bridge_s,
+                (0.0..=60.0).contains(&self.stream.max_bridge_s),
+            ),
+            (
+                "engine.stream.reorder_window_packets",
+                self.stream.reorder_window_packets as f64,
+                self.stream.reorder_window_packets <= 1024,
+            ),
+            (
+                "engine.alerts.imminent_theta_ratio",
+                a.imminent_theta_ratio,
+                a.imminent_theta_ratio > 0.0 && a.imminent_theta_ratio.is_finite(),
+            ),
+            (
+                "engine.alerts.imminent_probability",
+                a.imminent_probability,
+                a.imminent_probability > 0.0 && a.imminent_probability <= 1.0,
+            ),
+            (
+                "engine.alerts.quiet_threshold_mps2",
+                a.quiet_threshold_mps2,
+                a.quiet_threshold_mps2 >= 0.0 && a.quiet_threshold_mps2.is_finite(),
+            ),
+            (
+                "engine.alerts.quiet_s",
+                a.quiet_s,
+                a.quiet_s > 0.0 && a.quiet_s <= 86_400.0,
+            ),
+        ];
+        for (key, value, ok) in checks {
+            if !ok {
+                let range = match key {
+                    "engine.state_interval_s" => "(0, 3600] s",
+                    "engine.stream.max_bridge_s" => "[0, 60] s",
+                    "engine.stream.reorder_window_packets" => "0 to 1024",
+                    "engine.alerts.imminent_probability" => "(0, 1]",
+                    "engine.alerts.quiet_s" => "(0, 86400] s",
+                    _ => "a finite positive number",
+                };
+                return Err(format!("{key} = {value} is out of range: expected {range}"));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// A block bound to a station, ready to integrate: the nominal block and, for an uncertainty
 /// ensemble, its members.
 #[derive(Debug, Clone, PartialEq)]

@@ -80,12 +80,7 @@ impl Engine {
                 .entry(p.station.clone())
                 .or_insert_with(|| StationConfig::default_for(p.station.clone()));
         }
-        if !(config.state_interval_s.is_finite() && config.state_interval_s > 0.0) {
-            return Err(format!(
-                "state_interval_s must be > 0, got {}",
-                config.state_interval_s
-            ));
-        }
+        config.validate()?;
         let stations = configs
             .into_iter()
             .map(|(id, c)| {
