@@ -37,6 +37,9 @@ pub struct NodeConfig {
     pub engine: EngineConfig,
     #[serde(default, rename = "station")]
     pub stations: Vec<StationConfig>,
+    /// The iceoryx2 transport (`[iceoryx2]`).
+    #[serde(default)]
+    pub iceoryx2: crate::iox::IoxConfig,
 }
 
 impl NodeConfig {
@@ -48,6 +51,7 @@ impl NodeConfig {
         let base = path.parent().unwrap_or(Path::new("."));
         config.catalogue = config.catalogue.map(|c| base.join(c));
         config.state_dir = config.state_dir.map(|d| base.join(d));
+        config.iceoryx2.config_file = config.iceoryx2.config_file.map(|f| base.join(f));
         for s in &config.stations {
             s.validate()
                 .map_err(|e| format!("{}: {e}", path.display()))?;
