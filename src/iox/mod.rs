@@ -150,6 +150,27 @@ fn open_event(
         .map_err(iox_err(format!("iceoryx2 service {name:?} (event)")))
 }
 
+type AlertService =
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, PbrAlertIox, ()>;
+
+/// `pbr/alerts` with its history: whoever creates it first (node or client) must ask for the
+/// same history, else the other cannot open it.
+fn open_alert_service(
+    node: &Node<ipc::Service>,
+    config: &IoxConfig,
+) -> anyhow::Result<AlertService> {
+    let name = &config.alerts_service;
+    node.service_builder(&service_name(name)?)
+        .publish_subscribe::<PbrAlertIox>()
+        .enable_safe_overflow(true)
+        .history_size(config.alert_history)
+        .subscriber_max_buffer_size(config.alert_history.max(1))
+        .open_or_create()
+        .map_err(iox_err(format!(
+            "iceoryx2 service {name:?} (publish-subscribe)"
+        )))
+}
+
 fn create_node(config: &IoxConfig, signals: bool) -> anyhow::Result<Node<ipc::Service>> {
     let iox_config = config.load_iceoryx2_config()?;
     NodeBuilder::new()
@@ -474,16 +495,7 @@ impl IoxAlertPublisher {
     pub fn new(config: &IoxConfig) -> anyhow::Result<IoxAlertPublisher> {
         let node = create_node(config, false)?;
         let name = &config.alerts_service;
-        let service = node
-            .service_builder(&service_name(name)?)
-            .publish_subscribe::<PbrAlertIox>()
-            .enable_safe_overflow(true)
-            .history_size(config.alert_history)
-            .subscriber_max_buffer_size(config.alert_history.max(1))
-            .open_or_create()
-            .map_err(iox_err(format!(
-                "iceoryx2 service {name:?} (publish-subscribe)"
-            )))?;
+        let service = open_alert_service(&node, config)?;
         let publisher = service
             .publisher_builder()
             .backpressure_strategy(BackpressureStrategy::DiscardData)
@@ -515,6 +527,54 @@ impl Publisher for IoxAlertPublisher {
         self.notifier
             .notify()
             .map_err(iox_err("pbr/alerts: notify failed"))?;
+        Ok(())
+    }
+}
+
+/// A Rust client of `pbr/alerts` (tests, benchmark, tools): subscriber plus listener.
+pub struct IoxAlertSubscriber {
+    subscriber: iceoryx2::port::subscriber::Subscriber<ipc::Service, PbrAlertIox, ()>,
+    listener: iceoryx2::port::listener::Listener<ipc::Service>,
+    _node: Node<ipc::Service>,
+}
+
+impl IoxAlertSubscriber {
+    /// Subscribes to `pbr/alerts`, receiving up to [`IoxConfig::alert_history`] earlier alerts.
+    pub fn new(config: &IoxConfig) -> anyhow::Result<IoxAlertSubscriber> {
+        let node = create_node(config, false)?;
+        let service = open_alert_service(&node, config)?;
+        let subscriber = service
+            .subscriber_builder()
+            .create()
+            .map_err(iox_err("cannot create the pbr/alerts subscriber"))?;
+        let listener = open_event(&node, &config.alerts_service)?
+            .listener_builder()
+            .create()
+            .map_err(iox_err("cannot create the pbr/alerts listener"))?;
+        Ok(IoxAlertSubscriber {
+            subscriber,
+            listener,
+            _node: node,
+        })
+    }
+
+    /// Waits up to `timeout` for a notification, then appends every alert received to `out`.
+    pub fn wait(&self, timeout: Duration, out: &mut Vec<PbrAlertIox>) -> anyhow::Result<()> {
+        self.listener
+            .timed_wait(|_| {}, timeout)
+            .map_err(iox_err("pbr/alerts: wait failed"))?;
+        self.try_receive(out)
+    }
+
+    /// Appends every alert received so far to `out`, without waiting.
+    pub fn try_receive(&self, out: &mut Vec<PbrAlertIox>) -> anyhow::Result<()> {
+        while let Some(sample) = self
+            .subscriber
+            .receive()
+            .map_err(iox_err("pbr/alerts: receive failed"))?
+        {
+            out.push(*sample.payload());
+        }
         Ok(())
     }
 }
