@@ -205,3 +205,79 @@ fn rinaldi_over_iceoryx2_overturns_the_slender_pillar() {
         assert_eq!(a.station(), "CI.RRS.00");
     }
 }
+
+#[test]
+fn malformed_input_over_the_wire_is_counted_and_never_crashes() {
+    let config = test_config("malformed");
+    let runtime = NodeRuntime::start(&NodeOptions {
+        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        shards: 1,
+        ..NodeOptions::default()
+    })
+    .unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let input = IoxInput::spawn(&config, runtime.submitter().unwrap(), stop.clone()).unwrap();
+    let mut sink = IoxPacketSink::new(&config).unwrap();
+    assert!(sink.wait_for_subscriber(Duration::from_secs(10)).unwrap());
+
+    let good = AccelPacket {
+        station: "CI.RRS.00".into(),
+        start_time_ns: 0,
+        sample_rate_hz: 100.0,
+        sequence: 0,
+        east: vec![0.1; 10],
+        north: vec![0.0; 10],
+        up: vec![],
+    };
+    let header = AccelHeader::from_packet(&good);
+    let samples = vec![AccelSample::default(); 10];
+    let with = |f: &dyn Fn(&mut AccelHeader)| {
+        let mut h = header;
+        f(&mut h);
+        h
+    };
+    let mut station_after_nul = [0u8; 16];
+    station_after_nul[..9].copy_from_slice(b"CI.RRS.00");
+    station_after_nul[12] = b'X';
+    let mut nan = samples.clone();
+    nan[3].north = f32::NAN;
+    let hostile: Vec<(AccelHeader, Vec<AccelSample>)> = vec![
+        // Count mismatch (1).
+        (with(&|h| h.sample_count = 11), samples.clone()),
+        // Station: invalid UTF-8, garbage after the NUL, not a SEED id (3).
+        (with(&|h| h.station = [0xFF; 16]), samples.clone()),
+        (with(&|h| h.station = station_after_nul), samples.clone()),
+        (
+            with(&|h| h.station[..3].copy_from_slice(b"C-I")),
+            samples.clone(),
+        ),
+        // Structure: unknown flag, reserved set, oversized (3).
+        (with(&|h| h.flags = 0x80), samples.clone()),
+        (with(&|h| h.reserved = 7), samples.clone()),
+        (
+            with(&|h| h.sample_count = 100_001),
+            vec![AccelSample::default(); 100_001],
+        ),
+        // Values: NaN, absurd rate, empty (3).
+        (header, nan),
+        (with(&|h| h.sample_rate_hz = 1e9), samples.clone()),
+        (with(&|h| h.sample_count = 0), vec![]),
+    ];
+    for (h, s) in &hostile {
+        sink.send_raw(h, s).unwrap();
+    }
+    sink.send(&good).unwrap();
+    let total = hostile.len() as u64 + 1;
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while input.stats().received < total && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let stats = input.join().unwrap();
+    assert_eq!(stats.received, total, "{stats:?}");
+    assert_eq!(stats.rejected_count_mismatch, 1, "{stats:?}");
+    assert_eq!(stats.rejected_station, 3, "{stats:?}");
+    assert_eq!(stats.rejected_structure, 3, "{stats:?}");
+    assert_eq!(stats.rejected_values, 3, "{stats:?}");
+    assert_eq!(stats.submitted, 1, "{stats:?}");
+    runtime.shutdown(&mut |_| {}).unwrap();
+}
