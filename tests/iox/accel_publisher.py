@@ -30,7 +30,7 @@ def main() -> None:
     )
     notifier = event_service(n, name).notifier_builder().create()
     deadline = time.monotonic() + 20
-    while service.dynamic_config.number_of_subscribers() == 0:
+    while service.dynamic_config.number_of_subscribers == 0:
         if time.monotonic() > deadline:
             sys.exit("no subscriber on " + name)
         time.sleep(0.01)
