@@ -89,6 +89,7 @@ impl Peer {
         let mut child = Command::new("python3")
             .arg(format!("tests/iox/{script}"))
             .args(args)
+            .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .spawn()
             .unwrap();
@@ -115,6 +116,11 @@ impl Peer {
                 Err(e) => panic!("peer never printed {want:?}: {e}"),
             }
         }
+    }
+
+    /// Closes its stdin (a lingering publisher then exits).
+    fn close_stdin(&mut self) {
+        drop(self.child.stdin.take());
     }
 
     /// Waits (bounded) for the process to exit; true if it exited successfully.
@@ -203,6 +209,14 @@ fn run_node(
     stats
 }
 
+/// Waits (bounded) until the input has taken `n` packets.
+fn wait_received(input: &IoxInput, n: u64) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while input.stats().received < n && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
 /// Sets the flag when dropped (also when the driver panics, so the pump never hangs).
 struct StopOnDrop<'a>(&'a AtomicBool);
 impl Drop for StopOnDrop<'_> {
@@ -224,16 +238,19 @@ fn python_publisher_to_node_to_python_subscriber_overturns_the_slender_pillar() 
     let stop_file = dir.path().join("stop");
     let subscriber = python_subscriber(&config, &stop_file);
 
-    let stats = run_node(&config, |_| {
+    let stats = run_node(&config, |input| {
         let mut publisher = Peer::spawn(
             "accel_publisher.py",
             &[
                 "config/iceoryx2.toml",
                 &config.accel_service,
                 packets_file.to_str().unwrap(),
+                "--linger",
             ],
         );
         publisher.expect_line(&format!("sent {}", packets.len()), Duration::from_secs(60));
+        wait_received(input, packets.len() as u64);
+        publisher.close_stdin();
         assert!(publisher.wait(Duration::from_secs(10)));
     });
     let alerts = alerts_of(subscriber, &stop_file);
@@ -311,12 +328,15 @@ fn killed_publisher_leaves_the_node_serving_the_next_one() {
                 "config/iceoryx2.toml",
                 &config.accel_service,
                 second.to_str().unwrap(),
+                "--linger",
             ],
         );
         next.expect_line(
             &format!("sent {}", packets.len() - split),
             Duration::from_secs(60),
         );
+        wait_received(input, packets.len() as u64);
+        next.close_stdin();
         assert!(next.wait(Duration::from_secs(10)));
     });
     let alerts = alerts_of(subscriber, &stop_file);

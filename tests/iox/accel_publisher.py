@@ -1,8 +1,9 @@
 """Publishes acceleration packets (a JSON list) on rockwatch's pbr/accel over iceoryx2.
 
-usage: accel_publisher.py CONFIG_FILE SERVICE PACKETS_JSON [--pause-after N]
+usage: accel_publisher.py CONFIG_FILE SERVICE PACKETS_JSON [--pause-after N] [--linger]
 Each packet: {station, start_time_ns, sample_rate_hz, sequence, east, north, up}. With
---pause-after N it prints "paused" after N packets and sleeps (to be killed).
+--pause-after N it prints "paused" after N packets and sleeps (to be killed); with --linger it
+waits for stdin to close before exiting.
 """
 
 import ctypes
@@ -63,6 +64,10 @@ def main() -> None:
             print("paused", flush=True)
             time.sleep(60)
     print("sent", len(packets), flush=True)
+    # Stay connected until told (stdin closed, bounded): samples of a publisher that is gone
+    # are kept only in the subscriber's expired-connection buffer.
+    if "--linger" in sys.argv:
+        sys.stdin.readline()
 
 
 if __name__ == "__main__":
