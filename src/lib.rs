@@ -7,6 +7,7 @@ pub mod catalogue;
 pub mod dynamics;
 pub mod engine;
 pub mod ims;
+pub mod iox;
 pub mod journal;
 pub mod lhs;
 pub mod mseed;

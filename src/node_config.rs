@@ -40,6 +40,9 @@ pub struct NodeConfig {
     /// The `[ros2]` section: namespace, domain, interfaces, input QoS, Imu topics.
     #[serde(default)]
     pub ros2: crate::ros2::Ros2Config,
+    /// The iceoryx2 transport (`[iceoryx2]`).
+    #[serde(default)]
+    pub iceoryx2: crate::iox::IoxConfig,
 }
 
 impl NodeConfig {
@@ -60,6 +63,7 @@ impl NodeConfig {
             .engine
             .validate()
             .map_err(|e| format!("{}: {e}", path.display()))?;
+        config.iceoryx2.config_file = config.iceoryx2.config_file.map(|f| base.join(f));
         for s in &config.stations {
             s.validate()
                 .map_err(|e| format!("{}: {e}", path.display()))?;
