@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use rockwatch::engine::PbrSummary;
+use rockwatch::iox::{IoxAlertPublisher, IoxInput};
 use rockwatch::node::{NodeOptions, NodeRuntime, Publication, Publisher};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ros2::{network_plan_from_env, NetworkPlan, Ros2Node};
@@ -42,6 +43,8 @@ pub struct ServeReport {
     pub summaries: Vec<PbrSummary>,
     pub ros2_packets: u64,
     pub ros2_decode_errors: u64,
+    /// iceoryx2 intake, when that transport ran.
+    pub iox: Option<rockwatch::iox::IoxInputStats>,
 }
 
 /// Runs the node until `stop` is set: starts the runtime and the transports, pumps the
@@ -62,15 +65,46 @@ pub fn serve(
     // ROS 2 transport.
     let (mut ros2, mut ros2_publisher) =
         Ros2Node::start(&config.ros2, plan, &config.engine, submitter.clone())?;
-    // (Further transports: start here with `submitter.clone()`, push their publisher below.)
+    // iceoryx2 transport, when the configuration names its iceoryx2 config file (every
+    // process of a deployment must load the same one explicitly).
+    let iox_stop = Arc::new(AtomicBool::new(false));
+    let mut iox = match &config.iceoryx2.config_file {
+        Some(_) => {
+            let mut iox_config = config.iceoryx2.clone();
+            iox_config.handle_signals = false; // this process handles SIGINT/SIGTERM itself
+            let input = IoxInput::spawn(&iox_config, submitter.clone(), Arc::clone(&iox_stop))?;
+            let publisher = IoxAlertPublisher::new(&iox_config)?;
+            Some((input, publisher))
+        }
+        None => None,
+    };
 
     let mut publishers: Vec<&mut dyn Publisher> = vec![&mut ros2_publisher];
+    if let Some((_, publisher)) = &mut iox {
+        publishers.push(publisher);
+    }
     for p in extra.iter_mut() {
         publishers.push(&mut **p);
     }
     runtime.pump(&mut publishers, stop)?;
 
     ros2.stop_intake();
+    iox_stop.store(true, Ordering::Relaxed);
+    let (iox_input, mut iox_publisher) = match iox {
+        Some((input, publisher)) => (Some(input), Some(publisher)),
+        None => (None, None),
+    };
+    let mut publishers: Vec<&mut dyn Publisher> = vec![&mut ros2_publisher];
+    if let Some(publisher) = &mut iox_publisher {
+        publishers.push(publisher);
+    }
+    for p in extra.iter_mut() {
+        publishers.push(&mut **p);
+    }
+    let iox_stats = match iox_input {
+        Some(input) => Some(input.join()?),
+        None => None,
+    };
     let summaries = runtime.shutdown(&mut |p: Publication| {
         for publisher in publishers.iter_mut() {
             if let Err(e) = publisher.publish(&p) {
@@ -82,6 +116,7 @@ pub fn serve(
         summaries,
         ros2_packets: ros2.counters.packets.load(Ordering::Relaxed),
         ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
+        iox: iox_stats,
     })
 }
 
@@ -133,5 +168,15 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         report.summaries.len(),
         fallen
     );
+    if let Some(iox) = report.iox {
+        eprintln!(
+            "rockwatch: iceoryx2: {} packets received, {} submitted, {} rejected, {} sequence gaps, {} dead publishers cleaned",
+            iox.received,
+            iox.submitted,
+            iox.rejected_count_mismatch + iox.rejected_station + iox.rejected_structure + iox.rejected_values,
+            iox.sequence_gaps,
+            iox.dead_nodes_cleaned
+        );
+    }
     Ok(())
 }

@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, bail, Context};
 use rockwatch::engine::StationId;
+use rockwatch::iox::IoxPacketSink;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::pulse::{sample_pulses, PulseScenario};
 use rockwatch::record::Record;
@@ -87,7 +88,8 @@ pub struct ReplayArgs {
     /// Send the record this many times as one continuous stream.
     #[arg(long = "loop", default_value_t = 1, value_name = "N")]
     loops: u32,
-    /// Node configuration whose [ros2] section (namespace, domain, interfaces) to use.
+    /// Node configuration whose [ros2] section (namespace, domain, interfaces) or [iceoryx2]
+    /// section (config file, service names) to use.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Seconds to wait for the node's subscription before giving up.
@@ -183,6 +185,15 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
             let mut sink = Ros2PacketSink::open(&plan, &config.ros2.namespace)?;
             replay_through(&args, &mut sink)
         }
-        Transport::Iceoryx2 => bail!("--transport iceoryx2: not built yet"),
+        Transport::Iceoryx2 => {
+            if config.iceoryx2.config_file.is_none() {
+                bail!(
+                    "--transport iceoryx2 needs the iceoryx2 config file every process loads: \
+                     give --config with an [iceoryx2] config_file (e.g. config/node.toml)"
+                );
+            }
+            let mut sink = IoxPacketSink::new(&config.iceoryx2)?;
+            replay_through(&args, &mut sink)
+        }
     }
 }
