@@ -8,6 +8,9 @@ use crate::engine::{AccelPacket, StationId};
 use crate::mseed::{read_mseed, Channel, GapFill};
 use crate::record::{Record, RecordError};
 
+/// Longest quiet tail a replay or monitor run appends (s): one day.
+pub const MAX_TAIL_S: f64 = 86_400.0;
+
 /// Three aligned components (m/s², or counts for integer MiniSEED) with their timing.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Traces {
@@ -111,12 +114,13 @@ impl Traces {
         self.east.is_empty()
     }
 
-    /// Cuts the traces, followed by `tail_s` seconds of zeros, into packets of `packet_ms`
-    /// (at least one sample), sequence numbers from 0.
+    /// Cuts the traces, followed by `tail_s` seconds of zeros (at most [`MAX_TAIL_S`]), into
+    /// packets of `packet_ms` (at least one sample), sequence numbers from 0.
     #[must_use]
     pub fn packets(&self, station: &StationId, packet_ms: u32, tail_s: f64) -> Vec<AccelPacket> {
         let per_packet = ((f64::from(packet_ms) * 1e-3 * self.rate_hz).round() as usize).max(1);
-        let total = self.len() + (tail_s.max(0.0) * self.rate_hz).round() as usize;
+        let tail = (tail_s.clamp(0.0, MAX_TAIL_S) * self.rate_hz).round() as usize;
+        let total = self.len().saturating_add(tail);
         let at = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(0.0) as f32;
         (0..total)
             .step_by(per_packet)

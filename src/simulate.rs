@@ -52,7 +52,7 @@ pub struct Summary {
     pub exceeded_alpha: bool,
     /// Slenderness α (rad).
     pub alpha: f64,
-    /// max |θ| (rad) before any overturn.
+    /// max |θ| (rad); π/2 when the block overturned (the side face reached the ground).
     pub max_abs_theta: f64,
     pub max_abs_theta_over_alpha: f64,
     /// max |u| (m), slip of the contact point relative to the ground, before any overturn.
@@ -64,7 +64,8 @@ pub struct Summary {
     pub n_flat_landings: u32,
     /// `[t (s), mode]` at the start and at every mode change.
     pub modes: Vec<(f64, Mode)>,
-    /// Simulated duration including `t_extra` (s).
+    /// Simulated duration (s): the record plus `t_extra`, or up to the overturn or lift-off
+    /// that stopped the run.
     pub duration: f64,
 }
 
@@ -179,7 +180,7 @@ pub fn simulate(
             n_impacts_significant: stats.n_impacts_significant,
             n_flat_landings: stats.n_flat_landings,
             modes,
-            duration: n_intervals as f64 * dt,
+            duration: block.time_s(),
         },
         trace,
         events,

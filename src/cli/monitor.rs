@@ -108,8 +108,8 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
     if args.packet_ms == 0 {
         bail!("--packet-ms must be at least 1");
     }
-    if !(args.tail.is_finite() && args.tail >= 0.0) {
-        bail!("--tail must be a number of seconds ≥ 0, got {}", args.tail);
+    if !(args.tail.is_finite() && (0.0..=rockwatch::replay::MAX_TAIL_S).contains(&args.tail)) {
+        bail!("--tail must be 0 to 86400 s, got {}", args.tail);
     }
     let traces = match (&args.record, &args.mseed) {
         (Some(path), _) => {

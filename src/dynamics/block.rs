@@ -154,7 +154,7 @@ pub enum AdvanceError {
 /// Response extremes and counters accumulated since the block was created.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
 pub struct ResponseStats {
-    /// max |θ| (rad) before any overturn.
+    /// max |θ| (rad); π/2 once overturned.
     pub max_abs_theta_rad: f64,
     /// max |u| (m), slip of the contact point relative to the ground, before any overturn.
     pub max_abs_slide_m: f64,

@@ -50,8 +50,8 @@ pub enum ImError {
     /// The sampling interval is not a positive finite number.
     #[error("sampling interval must be a positive finite number of seconds, got {0}")]
     BadDt(f64),
-    /// An oscillator period is not a positive finite number.
-    #[error("period must be a positive finite number of seconds, got {0}")]
+    /// An oscillator period is not a positive finite number up to 100 s.
+    #[error("period must be a positive number of seconds up to 100, got {0}")]
     BadPeriod(f64),
     /// The damping ratio is outside `[0, 1)`.
     #[error("damping ratio must be in [0, 1), got {0}")]

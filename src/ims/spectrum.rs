@@ -162,9 +162,14 @@ pub fn check_dt(dt_s: f64) -> Result<(), ImError> {
     }
 }
 
-/// Checks a period: positive and finite (s).
+/// Longest oscillator period accepted (s).
+pub const MAX_PERIOD_S: f64 = 100.0;
+
+/// Checks a period: positive, finite and at most [`MAX_PERIOD_S`] (s).
 pub fn check_period(period_s: f64) -> Result<(), ImError> {
-    if period_s.is_finite() && period_s > 0.0 {
+    // Above ~100 s the recursion's coefficients lose their precision (ω·dt → 0), and no
+    // strong-motion use needs such periods.
+    if period_s.is_finite() && period_s > 0.0 && period_s <= MAX_PERIOD_S {
         Ok(())
     } else {
         Err(ImError::BadPeriod(period_s))
