@@ -2,6 +2,9 @@
 //! publishes the Rinaldi packets and subscribes to the alerts; a `kill -9`ed publisher process.
 //! Without Python/iceoryx2 the tests are skipped locally and FAIL when CI=true.
 
+mod support;
+use support::rinaldi_packets;
+
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -11,11 +14,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
-use rockwatch::engine::{AccelPacket, StationId};
+use rockwatch::engine::AccelPacket;
 use rockwatch::iox::{IoxAlertPublisher, IoxConfig, IoxInput};
 use rockwatch::node::{NodeOptions, NodeRuntime, Publisher};
-use rockwatch::record::Record;
-use rockwatch::replay::Traces;
 
 const ICEORYX2_VERSION: &str = "0.10.0";
 
@@ -51,17 +52,6 @@ fn python_peer_available() -> bool {
         eprintln!("skipped: python3 with iceoryx2=={ICEORYX2_VERSION} not found");
     }
     ok
-}
-
-fn rinaldi_packets() -> Vec<AccelPacket> {
-    let mut record = Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).unwrap();
-    record
-        .attach_vertical(Path::new("tests/data/records/RinaldiUP.AT2"))
-        .unwrap();
-    let station = StationId::parse("CI.RRS.00").unwrap();
-    Traces::from_record(&record, 228.0)
-        .unwrap()
-        .packets(&station, 100, 10.0)
 }
 
 fn write_packets(path: &Path, packets: &[AccelPacket]) {

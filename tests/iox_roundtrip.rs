@@ -1,19 +1,21 @@
 //! iceoryx2 transport: wire layouts, and the Rust round trip IoxPacketSink → IoxInput →
 //! NodeRuntime → IoxAlertPublisher → a Rust subscriber, with the Rinaldi record.
 
+mod support;
+use support::rinaldi_packets;
+
 use std::mem::{align_of, offset_of, size_of};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
-use rockwatch::engine::{AccelPacket, StationId};
+use rockwatch::engine::AccelPacket;
 use rockwatch::iox::types::{AccelHeader, AccelSample, PbrAlertIox};
 use rockwatch::iox::{IoxAlertPublisher, IoxAlertSubscriber, IoxConfig, IoxInput, IoxPacketSink};
 use rockwatch::node::{NodeOptions, NodeRuntime, Publisher};
-use rockwatch::record::Record;
-use rockwatch::replay::{PacketSink, Traces};
+use rockwatch::replay::PacketSink;
 
 /// Unique service names per test and process, so tests run in parallel.
 fn test_config(tag: &str) -> IoxConfig {
@@ -25,17 +27,6 @@ fn test_config(tag: &str) -> IoxConfig {
         handle_signals: false,
         ..IoxConfig::default()
     }
-}
-
-fn rinaldi_packets() -> Vec<AccelPacket> {
-    let mut record = Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).unwrap();
-    record
-        .attach_vertical(Path::new("tests/data/records/RinaldiUP.AT2"))
-        .unwrap();
-    let station = StationId::parse("CI.RRS.00").unwrap();
-    Traces::from_record(&record, 228.0)
-        .unwrap()
-        .packets(&station, 100, 10.0)
 }
 
 #[test]

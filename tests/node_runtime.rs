@@ -1,25 +1,15 @@
 //! The live node's runtime without transports: packets in, publications out, journal kept.
 
-use std::path::{Path, PathBuf};
+mod support;
+use support::rinaldi_packets;
+
+use std::path::PathBuf;
 use std::time::Duration;
 
 use rockwatch::catalogue::Catalogue;
-use rockwatch::engine::{Engine, EngineConfig, Output, PbrSpec, StationId};
+use rockwatch::engine::{Engine, EngineConfig, Output, PbrSpec};
 use rockwatch::journal::read_journal;
 use rockwatch::node::{NodeOptions, NodeRuntime, Publication};
-use rockwatch::record::Record;
-use rockwatch::replay::Traces;
-
-fn rinaldi_packets() -> Vec<rockwatch::engine::AccelPacket> {
-    let mut record = Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).unwrap();
-    record
-        .attach_vertical(Path::new("tests/data/records/RinaldiUP.AT2"))
-        .unwrap();
-    let station = StationId::parse("CI.RRS.00").unwrap();
-    Traces::from_record(&record, 228.0)
-        .unwrap()
-        .packets(&station, 100, 10.0)
-}
 
 #[test]
 fn runtime_publishes_the_engines_alerts_journaled_with_latencies() {
