@@ -207,3 +207,32 @@ fn pulses_bad_arguments_fail_with_a_message() {
         assert!(stderr.contains(needle), "{args:?}: {stderr}");
     }
 }
+
+#[test]
+fn format_also_names_the_file_format_as_in_the_issue_signature() {
+    // `rockwatch pulses ... --format csv` (the short form) writes CSV files and the text table.
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args([
+            "pulses", "--mw", "7", "--r-km", "10", "--count", "3", "--seed", "1", "--dt", "0.01",
+            "--format", "csv", "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 3);
+    assert!(names.iter().all(|n| n.ends_with(".csv")), "{names:?}");
+    for n in &names {
+        rockwatch::record::Record::read(&dir.path().join(n)).unwrap();
+    }
+}

@@ -85,8 +85,8 @@ pub struct PulsesArgs {
     /// (accelerometer) and orientation X (the block's +x axis, not a compass direction).
     /// The sampling rate 1/--dt must be one MiniSEED 2 can represent exactly (e.g. 200,
     /// 100, 1000/3 Hz).
-    #[arg(long = "file-format", value_enum, default_value_t = FileFormat::At2)]
-    pub file_format: FileFormat,
+    #[arg(long = "file-format", value_enum)]
+    pub file_format: Option<FileFormat>,
 
     /// Sample encoding of --file-format mseed files: float64 (exact) or float32 (half the
     /// size, relative rounding <= 6e-8).
@@ -98,9 +98,44 @@ pub struct PulsesArgs {
     /// "a_mps", "duration_s", "pga_mps2", "file"}, ...]} with tp_s the pulse period (s),
     /// vp_mps the peak velocity (m/s), a_mps the M&P amplitude A (m/s), duration_s the pulse
     /// duration gamma·Tp (s), pga_mps2 the largest |acceleration| of the written samples
-    /// (m/s²) and file the path of the record file.
-    #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
-    pub format: OutputFormat,
+    /// (m/s²) and file the path of the record file. For compatibility, `--format at2|csv|mseed`
+    /// is also accepted: it sets the file format (as --file-format) and prints the text table.
+    #[arg(long, value_enum, default_value_t = PulsesFormat::Text)]
+    pub format: PulsesFormat,
+}
+
+/// `--format`: the summary's format, or (the short form) the files' format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PulsesFormat {
+    Text,
+    Json,
+    At2,
+    Csv,
+    Mseed,
+}
+
+impl PulsesArgs {
+    /// (file format, stdout format) after reconciling --format and --file-format.
+    fn formats(&self) -> anyhow::Result<(FileFormat, OutputFormat)> {
+        let short = match self.format {
+            PulsesFormat::Text | PulsesFormat::Json => None,
+            PulsesFormat::At2 => Some(FileFormat::At2),
+            PulsesFormat::Csv => Some(FileFormat::Csv),
+            PulsesFormat::Mseed => Some(FileFormat::Mseed),
+        };
+        let file = match (short, self.file_format) {
+            (Some(a), Some(b)) if a != b => {
+                bail!("--format and --file-format name different file formats")
+            }
+            (a, b) => a.or(b).unwrap_or(FileFormat::At2),
+        };
+        let stdout = if self.format == PulsesFormat::Json {
+            OutputFormat::Json
+        } else {
+            OutputFormat::Text
+        };
+        Ok((file, stdout))
+    }
 }
 
 /// One line of the summary (also the JSON element).
@@ -136,7 +171,8 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
             args.pad_s
         );
     }
-    if args.file_format == FileFormat::Mseed {
+    let (file_format, stdout_format) = args.formats()?;
+    if file_format == FileFormat::Mseed {
         SampleRateFactors::from_rate_hz(1.0 / args.dt).map_err(|e| {
             anyhow::anyhow!("--dt {} s cannot be written as MiniSEED: {e}", args.dt)
         })?;
@@ -147,7 +183,7 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
 
     let width = count.to_string().len().max(4);
-    let extension = match args.file_format {
+    let extension = match file_format {
         FileFormat::At2 => "AT2",
         FileFormat::Csv => "csv",
         FileFormat::Mseed => "mseed",
@@ -162,7 +198,7 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
         let name = format!("pulse_M{}_R{}_{id:0width$}.{extension}", args.mw, args.r_km);
         let path = args.out.join(&name);
         record.source = path.display().to_string();
-        match args.file_format {
+        match file_format {
             FileFormat::At2 => {
                 let description = format!(
                     "Synthetic Mavroeidis-Papageorgiou pulse {id}: Mw {} R {} km seed {} \
@@ -223,7 +259,7 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
         });
     }
 
-    match args.format {
+    match stdout_format {
         OutputFormat::Json => {
             outln!("{}", serde_json::to_string_pretty(&Summary { pulses })?);
         }
