@@ -21,6 +21,9 @@ use crate::engine::{
 use crate::journal::Journal;
 use crate::node_config::NodeConfig;
 
+/// Longest time a live packet waits in the engine's reorder window for missing data.
+pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
+
 /// What a transport publishes.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Publication {
@@ -227,7 +230,17 @@ impl NodeRuntime {
         stop: &AtomicBool,
     ) -> anyhow::Result<()> {
         let mut errors = 0u64;
+        let mut last_flush = Instant::now();
         while !stop.load(Ordering::Relaxed) {
+            // The engine's reorder window counts packets (so replays are deterministic); live,
+            // a packet held for missing data must not wait forever if its station falls
+            // silent: release held packets (accepting the gap) every HELD_PACKET_TIMEOUT.
+            if last_flush.elapsed() >= HELD_PACKET_TIMEOUT {
+                last_flush = Instant::now();
+                if let Some(engine) = &self.engine {
+                    engine.flush(self.now_ns());
+                }
+            }
             let batch = self
                 .engine
                 .as_ref()

@@ -134,3 +134,43 @@ fn transport_threads_submit_while_the_pump_publishes() {
         .count();
     assert_eq!(overturned, 1, "the slender pillar falls once");
 }
+
+#[test]
+fn a_packet_held_for_missing_data_is_released_when_the_station_falls_silent() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        shards: 1,
+        ..NodeOptions::default()
+    };
+    let mut node = NodeRuntime::start(&options).unwrap();
+    let submitter = node.submitter().unwrap();
+    let packets = rinaldi_packets();
+    // Packet 0, then packet 12 (1.1 s lost), then silence: packet 12 waits in the reorder
+    // window until the node's timer releases it. (States and intensities are published once
+    // per second of data, so the held packet's must show a data time ≥ 1.2 s.)
+    submitter.submit(packets[0].clone());
+    submitter.submit(packets[12].clone());
+    let held_start = packets[12].start_time_ns;
+    let stop = Arc::new(AtomicBool::new(false));
+    let timer = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            // One timeout (1 s) plus margin.
+            std::thread::sleep(rockwatch::node::HELD_PACKET_TIMEOUT + Duration::from_millis(600));
+            stop.store(true, Ordering::Relaxed);
+        })
+    };
+    let mut collect = Collect(Vec::new());
+    node.pump(&mut [&mut collect], &stop).unwrap();
+    timer.join().unwrap();
+    assert!(
+        collect.0.iter().any(
+            |p| matches!(p, Publication::Intensity(i) if i.data_time_ns >= held_start)
+                || matches!(p, Publication::State(s) if s.data_time_ns >= held_start)
+        ),
+        "the held packet was never processed before shutdown"
+    );
+    node.shutdown(&mut |_| {}).unwrap();
+}
