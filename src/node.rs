@@ -124,6 +124,38 @@ pub struct NodeStats {
     pub notices: u64,
 }
 
+/// What the engine made of its input, summed over every shard (the node's closing summary).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct InputTotals {
+    /// Packets the engine examined.
+    pub packets: u64,
+    /// Packets rejected by validation: empty, mismatched component lengths, non-finite
+    /// samples, sample rate or start time out of range, too many samples.
+    pub rejected_packets: u64,
+    /// Packets whose station id is not `NET.STA.LOC`.
+    pub malformed_station_packets: u64,
+    /// Packets from stations neither configured nor in the catalogue.
+    pub unknown_station_packets: u64,
+    /// Packets whose every sample had been processed already.
+    pub duplicate_packets: u64,
+    /// Packets that arrived after later data had been processed.
+    pub late_packets: u64,
+}
+
+impl InputTotals {
+    fn add(&mut self, engine: &Engine) {
+        let c = engine.counters();
+        self.packets += c.packets;
+        self.malformed_station_packets += c.malformed_station_packets;
+        self.unknown_station_packets += c.unknown_station_packets;
+        for (_, station, stream) in engine.station_counters() {
+            self.rejected_packets += station.rejected_packets;
+            self.duplicate_packets += stream.duplicate_packets;
+            self.late_packets += stream.late_packets;
+        }
+    }
+}
+
 /// Logs at most one line per (station, kind) every `interval`, with the count suppressed.
 #[derive(Debug)]
 struct RateLimitedLog {
@@ -348,16 +380,29 @@ impl NodeRuntime {
     /// Stops intake: releases held packets, lets the workers finish, publishes what remains
     /// and returns every block's summary.
     pub fn shutdown(
-        mut self,
+        self,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<Vec<PbrSummary>> {
+        Ok(self.shutdown_with_totals(publish)?.0)
+    }
+
+    /// As [`NodeRuntime::shutdown`], also returning what the engine made of its input.
+    pub fn shutdown_with_totals(
+        mut self,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<(Vec<PbrSummary>, InputTotals)> {
         let now = self.now_ns();
         let Some(engine) = self.engine.take() else {
-            return Ok(Vec::new());
+            return Ok((Vec::new(), InputTotals::default()));
         };
         engine.flush(now);
         let (engines, rest) = engine.shutdown();
         self.handle(rest, publish)?;
-        Ok(engines.iter().flat_map(Engine::summaries).collect())
+        let mut totals = InputTotals::default();
+        for e in &engines {
+            totals.add(e);
+        }
+        Ok((engines.iter().flat_map(Engine::summaries).collect(), totals))
     }
 }
+
