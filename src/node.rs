@@ -163,13 +163,41 @@ struct RateLimitedLog {
     last: HashMap<(String, &'static str), (Instant, u64)>,
 }
 
+/// Distinct (station, kind) keys the log remembers; past this, new stations share one key,
+/// so a flood of invented station ids cannot grow the map without bound.
+const LOG_MAX_KEYS: usize = 4096;
+
+/// `text` fit for one log line: control characters escaped, at most `max_chars` characters
+/// (the rest replaced by a count), so a hostile station id cannot forge or flood log lines.
+fn printable(text: &str, max_chars: usize) -> String {
+    let mut out = String::new();
+    for (n, c) in text.chars().enumerate() {
+        if n == max_chars {
+            out += &format!(
+                "…(+{} bytes)",
+                text.len() - text.char_indices().nth(n).map_or(0, |(i, _)| i)
+            );
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 impl RateLimitedLog {
     fn log(&mut self, station: &str, kind: &'static str, message: &str) {
         let now = Instant::now();
-        let entry = self
-            .last
-            .entry((station.to_string(), kind))
-            .or_insert((now - self.interval, 0));
+        let mut key = (printable(station, 48), kind);
+        if self.last.len() >= LOG_MAX_KEYS && !self.last.contains_key(&key) {
+            key.0 = "(other stations)".into();
+        }
+        let message = printable(message, 400);
+        let station = key.0.clone();
+        let entry = self.last.entry(key).or_insert((now - self.interval, 0));
         if now.duration_since(entry.0) >= self.interval {
             let suppressed = std::mem::take(&mut entry.1);
             let more = if suppressed > 0 {
@@ -406,3 +434,23 @@ impl NodeRuntime {
     }
 }
 
+#[cfg(test)]
+mod tests {
+    use super::printable;
+
+    #[test]
+    fn printable_escapes_control_characters_and_bounds_the_length() {
+        assert_eq!(printable("CI.RRS.00", 48), "CI.RRS.00");
+        assert_eq!(
+            printable("CI.RRS.00\0\nforged", 48),
+            "CI.RRS.00\\u{0}\\nforged"
+        );
+        let long = "A".repeat(100_000);
+        assert_eq!(
+            printable(&long, 8),
+            format!("AAAAAAAA…(+{} bytes)", 100_000 - 8)
+        );
+        // Multi-byte characters are counted as characters, never split.
+        assert_eq!(printable("ééé", 2), "éé…(+2 bytes)");
+    }
+}
