@@ -75,8 +75,7 @@ fn count_before(stderr: &str, label: &str) -> u64 {
     let before = &line[..line.find(label).unwrap()];
     before
         .split(|c: char| !c.is_ascii_digit())
-        .filter(|s| !s.is_empty())
-        .next_back()
+        .rfind(|s| !s.is_empty())
         .unwrap_or_else(|| panic!("no count before {label:?}: {line}"))
         .parse()
         .unwrap()
