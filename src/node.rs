@@ -127,6 +127,38 @@ pub struct NodeStats {
     pub notices: u64,
 }
 
+/// What the engine made of its input, summed over every shard (the node's closing summary).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct InputTotals {
+    /// Packets the engine examined.
+    pub packets: u64,
+    /// Packets rejected by validation: empty, mismatched component lengths, non-finite
+    /// samples, sample rate or start time out of range, too many samples.
+    pub rejected_packets: u64,
+    /// Packets whose station id is not `NET.STA.LOC`.
+    pub malformed_station_packets: u64,
+    /// Packets from stations neither configured nor in the catalogue.
+    pub unknown_station_packets: u64,
+    /// Packets whose every sample had been processed already.
+    pub duplicate_packets: u64,
+    /// Packets that arrived after later data had been processed.
+    pub late_packets: u64,
+}
+
+impl InputTotals {
+    fn add(&mut self, engine: &Engine) {
+        let c = engine.counters();
+        self.packets += c.packets;
+        self.malformed_station_packets += c.malformed_station_packets;
+        self.unknown_station_packets += c.unknown_station_packets;
+        for (_, station, stream) in engine.station_counters() {
+            self.rejected_packets += station.rejected_packets;
+            self.duplicate_packets += stream.duplicate_packets;
+            self.late_packets += stream.late_packets;
+        }
+    }
+}
+
 /// Logs at most one line per (station, kind) every `interval`, with the count suppressed.
 #[derive(Debug)]
 struct RateLimitedLog {
@@ -134,13 +166,41 @@ struct RateLimitedLog {
     last: HashMap<(String, &'static str), (Instant, u64)>,
 }
 
+/// Distinct (station, kind) keys the log remembers; past this, new stations share one key,
+/// so a flood of invented station ids cannot grow the map without bound.
+const LOG_MAX_KEYS: usize = 4096;
+
+/// `text` fit for one log line: control characters escaped, at most `max_chars` characters
+/// (the rest replaced by a count), so a hostile station id cannot forge or flood log lines.
+fn printable(text: &str, max_chars: usize) -> String {
+    let mut out = String::new();
+    for (n, c) in text.chars().enumerate() {
+        if n == max_chars {
+            out += &format!(
+                "…(+{} bytes)",
+                text.len() - text.char_indices().nth(n).map_or(0, |(i, _)| i)
+            );
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 impl RateLimitedLog {
     fn log(&mut self, station: &str, kind: &'static str, message: &str) {
         let now = Instant::now();
-        let entry = self
-            .last
-            .entry((station.to_string(), kind))
-            .or_insert((now - self.interval, 0));
+        let mut key = (printable(station, 48), kind);
+        if self.last.len() >= LOG_MAX_KEYS && !self.last.contains_key(&key) {
+            key.0 = "(other stations)".into();
+        }
+        let message = printable(message, 400);
+        let station = key.0.clone();
+        let entry = self.last.entry(key).or_insert((now - self.interval, 0));
         if now.duration_since(entry.0) >= self.interval {
             let suppressed = std::mem::take(&mut entry.1);
             let more = if suppressed > 0 {
@@ -361,16 +421,49 @@ impl NodeRuntime {
     /// Stops intake: releases held packets, lets the workers finish, publishes what remains
     /// and returns every block's summary.
     pub fn shutdown(
-        mut self,
+        self,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<Vec<PbrSummary>> {
+        Ok(self.shutdown_with_totals(publish)?.0)
+    }
+
+    /// As [`NodeRuntime::shutdown`], also returning what the engine made of its input.
+    pub fn shutdown_with_totals(
+        mut self,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<(Vec<PbrSummary>, InputTotals)> {
         let now = self.now_ns();
         let Some(engine) = self.engine.take() else {
-            return Ok(Vec::new());
+            return Ok((Vec::new(), InputTotals::default()));
         };
         engine.flush(now);
         let (engines, rest) = engine.shutdown();
         self.handle(rest, publish)?;
-        Ok(engines.iter().flat_map(Engine::summaries).collect())
+        let mut totals = InputTotals::default();
+        for e in &engines {
+            totals.add(e);
+        }
+        Ok((engines.iter().flat_map(Engine::summaries).collect(), totals))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::printable;
+
+    #[test]
+    fn printable_escapes_control_characters_and_bounds_the_length() {
+        assert_eq!(printable("CI.RRS.00", 48), "CI.RRS.00");
+        assert_eq!(
+            printable("CI.RRS.00\0\nforged", 48),
+            "CI.RRS.00\\u{0}\\nforged"
+        );
+        let long = "A".repeat(100_000);
+        assert_eq!(
+            printable(&long, 8),
+            format!("AAAAAAAA…(+{} bytes)", 100_000 - 8)
+        );
+        // Multi-byte characters are counted as characters, never split.
+        assert_eq!(printable("ééé", 2), "éé…(+2 bytes)");
     }
 }

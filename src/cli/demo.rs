@@ -89,7 +89,8 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let mut config = NodeConfig::load(&dir.0.join("node.toml")).map_err(anyhow::Error::msg)?;
     // Loopback only, whatever ROS_AUTOMATIC_DISCOVERY_RANGE says; ROS_DOMAIN_ID is honoured.
     config.ros2 = Ros2Config::loopback_only();
-    // The demo goes through ROS 2 only (iceoryx2 has its own tests and benchmark).
+    // ROS 2 only: the bundled node.toml names an iceoryx2 config file beside it, which the
+    // demo does not ship, and the default iceoryx2 services could clash with a real node's.
     config.iceoryx2.config_file = None;
     let plan = network_plan(
         &config.ros2,

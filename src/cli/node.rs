@@ -10,7 +10,7 @@ use std::sync::Arc;
 use anyhow::Context;
 use rockwatch::engine::PbrSummary;
 use rockwatch::iox::{IoxAlertPublisher, IoxInput};
-use rockwatch::node::{NodeOptions, NodeRuntime, Publication, Publisher};
+use rockwatch::node::{InputTotals, NodeOptions, NodeRuntime, Publication, Publisher};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ros2::{network_plan_from_env, NetworkPlan, Ros2Node};
 
@@ -43,6 +43,8 @@ pub struct ServeReport {
     pub summaries: Vec<PbrSummary>,
     pub ros2_packets: u64,
     pub ros2_decode_errors: u64,
+    /// What the engine made of the input of every transport.
+    pub input: InputTotals,
     /// iceoryx2 intake, when that transport ran.
     pub iox: Option<rockwatch::iox::IoxInputStats>,
 }
@@ -105,7 +107,7 @@ pub fn serve(
         Some(input) => Some(input.join()?),
         None => None,
     };
-    let summaries = runtime.shutdown(&mut |p: Publication| {
+    let (summaries, input) = runtime.shutdown_with_totals(&mut |p: Publication| {
         for publisher in publishers.iter_mut() {
             if let Err(e) = publisher.publish(&p) {
                 eprintln!("rockwatch: at shutdown: {e:#}");
@@ -114,6 +116,7 @@ pub fn serve(
     })?;
     Ok(ServeReport {
         summaries,
+        input,
         ros2_packets: ros2.counters.packets.load(Ordering::Relaxed),
         ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
         iox: iox_stats,
@@ -167,6 +170,16 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         report.ros2_decode_errors,
         report.summaries.len(),
         fallen
+    );
+    let input = report.input;
+    eprintln!(
+        "rockwatch: engine input: {} packets, {} rejected as invalid, {} with a malformed station id, {} from unknown stations, {} duplicate, {} late",
+        input.packets,
+        input.rejected_packets,
+        input.malformed_station_packets,
+        input.unknown_station_packets,
+        input.duplicate_packets,
+        input.late_packets
     );
     if let Some(iox) = report.iox {
         eprintln!(

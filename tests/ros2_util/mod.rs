@@ -54,3 +54,124 @@ pub fn text(o: &Output) -> (String, String) {
         String::from_utf8_lossy(&o.stderr).into_owned(),
     )
 }
+
+/// Set in a test re-executed inside its network namespace.
+pub const IN_NETNS: &str = "ROCKWATCH_TEST_IN_NETNS";
+
+/// Runs the test `name` of the current test binary again, alone, in a fresh network
+/// namespace (see [`run_in_netns`]) with `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, bounded by
+/// `timeout_s`. Returns true inside the namespace (run the body there); in the caller, asserts
+/// that the re-executed test passed and returns false.
+pub fn reexec_in_netns(name: &str, timeout_s: u32) -> bool {
+    if std::env::var_os(IN_NETNS).is_some() {
+        return true;
+    }
+    let exe = std::env::current_exe().expect("test executable path");
+    let out = run_in_netns(
+        &format!(
+            "exec '{}' --exact '{name}' --nocapture --test-threads=1",
+            exe.display()
+        ),
+        timeout_s,
+        &[
+            (IN_NETNS, "1".into()),
+            ("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST".into()),
+        ],
+    );
+    let (stdout, stderr) = text(&out);
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "{name} in its network namespace failed ({})\n--- stdout\n{stdout}\n--- stderr\n{stderr}",
+        out.status
+    );
+    false
+}
+
+/// A `rockwatch node` child process, killed (SIGKILL) if still running when dropped.
+pub struct NodeProcess {
+    pub child: std::process::Child,
+    pub stderr_path: PathBuf,
+}
+
+impl NodeProcess {
+    /// Starts `rockwatch node --config CONFIG --state-dir STATE`, stderr to `stderr_path`.
+    pub fn start(
+        config: &std::path::Path,
+        state_dir: &std::path::Path,
+        stderr_path: PathBuf,
+    ) -> Self {
+        let stderr = std::fs::File::create(&stderr_path).unwrap();
+        let child = Command::new(rockwatch())
+            .arg("node")
+            .arg("--config")
+            .arg(config)
+            .arg("--state-dir")
+            .arg(state_dir)
+            .stdout(std::process::Stdio::null())
+            .stderr(stderr)
+            .spawn()
+            .expect("start rockwatch node");
+        NodeProcess { child, stderr_path }
+    }
+
+    pub fn stderr(&self) -> String {
+        std::fs::read_to_string(&self.stderr_path).unwrap_or_default()
+    }
+
+    /// Sends `signal` (e.g. "TERM", "KILL") and waits up to `timeout` for the exit.
+    pub fn signal_and_wait(
+        &mut self,
+        signal: &str,
+        timeout: std::time::Duration,
+    ) -> Option<std::process::ExitStatus> {
+        let pid = self.child.id().to_string();
+        let _ = Command::new("kill")
+            .arg(format!("-{signal}"))
+            .arg(&pid)
+            .status();
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                return Some(status);
+            }
+            if std::time::Instant::now() >= deadline {
+                return None;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for NodeProcess {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+/// A node configuration (TOML) with `catalogue` and loopback-only ROS 2.
+pub fn write_node_config(dir: &std::path::Path, catalogue: &std::path::Path) -> PathBuf {
+    let path = dir.join("node.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "catalogue = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n",
+            catalogue.display()
+        ),
+    )
+    .unwrap();
+    path
+}
+
+/// The Rinaldi record (228° + up) as 100 ms packets of station CI.RRS.00 with `tail_s` of quiet.
+pub fn rinaldi_packets(tail_s: f64) -> Vec<rockwatch::engine::AccelPacket> {
+    let rec = repo().join("tests/data/records");
+    let mut record = rockwatch::record::Record::read(&rec.join("Rinaldi228.AT2")).unwrap();
+    record.attach_vertical(&rec.join("RinaldiUP.AT2")).unwrap();
+    let station = rockwatch::engine::StationId::parse("CI.RRS.00").unwrap();
+    rockwatch::replay::Traces::from_record(&record, 228.0)
+        .unwrap()
+        .packets(&station, 100, tail_s)
+}
