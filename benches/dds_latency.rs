@@ -27,6 +27,9 @@
 //! largest backlog, the time to take the last packets, and the time the engine then needs to
 //! finish: small figures mean the whole node keeps up with 1000 stations in real time.
 
+mod common;
+use common::{percentile, rinaldi, station, write_catalogue};
+
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::Arc;
@@ -34,8 +37,7 @@ use std::time::{Duration, Instant};
 
 use rockwatch::engine::{AccelPacket, StationId};
 use rockwatch::node::{NodeOptions, NodeRuntime};
-use rockwatch::record::Record;
-use rockwatch::replay::{PacketSink, Traces};
+use rockwatch::replay::PacketSink;
 use rockwatch::ros2::{
     network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2Node, Ros2PacketSink,
 };
@@ -47,35 +49,6 @@ const PACE: Duration = Duration::from_micros(250);
 const BACKLOG: u64 = 500;
 const PACED_S: usize = 10;
 const IN_NETNS: &str = "ROCKWATCH_BENCH_IN_NETNS";
-
-fn station(i: usize) -> String {
-    format!("XB.S{i:04}.00")
-}
-
-fn write_catalogue(path: &Path) {
-    let mut text = String::new();
-    for i in 0..INTAKE_STATIONS {
-        text += &format!(
-            "[[pbr]]\nid = \"b{i:04}\"\nname = \"bench block {i}\"\nlat = 34.28\nlon = -118.48\n\
-             station = \"{}\"\nazimuth_deg = 228.0\nwidth_m = 0.30\nheight_m = 1.50\n\
-             mu_s = 0.70\nmu_k = 0.55\nsource = \"benchmark: copy of rrs-slender-pillar\"\n\n",
-            station(i)
-        );
-    }
-    std::fs::write(path, text).unwrap();
-}
-
-fn rinaldi() -> Traces {
-    let mut record = Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).unwrap();
-    record
-        .attach_vertical(Path::new("tests/data/records/RinaldiUP.AT2"))
-        .unwrap();
-    Traces::from_record(&record, 228.0).unwrap()
-}
-
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    sorted[((p / 100.0) * (sorted.len() - 1) as f64).round() as usize]
-}
 
 /// Re-executes this bench in a fresh network namespace (loopback only) when possible;
 /// returns false when it did (the child ran the bench), true to run it here.
@@ -133,7 +106,7 @@ fn main() {
     );
     let dir = tempfile::tempdir().unwrap();
     let catalogue = dir.path().join("catalogue.toml");
-    write_catalogue(&catalogue);
+    write_catalogue(&catalogue, INTAKE_STATIONS);
     latency(&config, &plan, &catalogue);
     intake(&config, &plan, &catalogue);
 }

@@ -11,7 +11,10 @@
 //! latency is the transport + engine path, not a queue. An alert's triggering packet is the
 //! station's latest packet sent before the alert arrived.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::{percentile, rinaldi, station, write_catalogue};
+
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -19,47 +22,17 @@ use std::time::{Duration, Instant};
 use rockwatch::engine::{AccelPacket, StationId};
 use rockwatch::iox::{IoxAlertPublisher, IoxAlertSubscriber, IoxConfig, IoxInput, IoxPacketSink};
 use rockwatch::node::{NodeOptions, NodeRuntime};
-use rockwatch::record::Record;
-use rockwatch::replay::{PacketSink, Traces};
+use rockwatch::replay::PacketSink;
 
 const ALERT_STATIONS: usize = 400;
 const INTAKE_STATIONS: usize = 1000;
 const PACKET_MS: u32 = 100;
 const PACE: Duration = Duration::from_micros(250);
 
-fn station(i: usize) -> String {
-    format!("XB.S{i:04}.00")
-}
-
-fn write_catalogue(path: &Path) {
-    let mut text = String::new();
-    for i in 0..INTAKE_STATIONS {
-        text += &format!(
-            "[[pbr]]\nid = \"b{i:04}\"\nname = \"bench block {i}\"\nlat = 34.28\nlon = -118.48\n\
-             station = \"{}\"\nazimuth_deg = 228.0\nwidth_m = 0.30\nheight_m = 1.50\n\
-             mu_s = 0.70\nmu_k = 0.55\nsource = \"benchmark: copy of rrs-slender-pillar\"\n\n",
-            station(i)
-        );
-    }
-    std::fs::write(path, text).unwrap();
-}
-
-fn rinaldi() -> Traces {
-    let mut record = Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).unwrap();
-    record
-        .attach_vertical(Path::new("tests/data/records/RinaldiUP.AT2"))
-        .unwrap();
-    Traces::from_record(&record, 228.0).unwrap()
-}
-
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    sorted[((p / 100.0) * (sorted.len() - 1) as f64).round() as usize]
-}
-
 fn main() {
     let dir = tempfile::tempdir().unwrap();
     let catalogue = dir.path().join("catalogue.toml");
-    write_catalogue(&catalogue);
+    write_catalogue(&catalogue, INTAKE_STATIONS);
     let pid = std::process::id();
     let config = IoxConfig {
         config_file: Some(PathBuf::from("config/iceoryx2.toml")),
