@@ -28,10 +28,10 @@
 //! finish: small figures mean the whole node keeps up with 1000 stations in real time.
 
 mod common;
-use common::{percentile, rinaldi, station, write_catalogue};
+use common::{percentile, rinaldi, station, station_packets, write_catalogue, SendLog};
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -128,12 +128,8 @@ fn latency(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
         runtime.submitter().unwrap(),
     )
     .unwrap();
-    let epoch = Instant::now();
-    let sent_ns: Arc<Vec<AtomicI64>> = Arc::new(
-        (0..per_station * ALERT_STATIONS)
-            .map(|_| AtomicI64::new(-1))
-            .collect(),
-    );
+    let log = Arc::new(SendLog::new(ALERT_STATIONS, per_station));
+    let epoch = log.epoch;
     let listener_done = Arc::new(AtomicBool::new(false));
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     let listener = {
@@ -153,34 +149,15 @@ fn latency(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
     ready_rx.recv_timeout(Duration::from_secs(30)).unwrap();
     let pump_stop = Arc::new(AtomicBool::new(false));
     let sender = {
-        let (plan, sent_ns, pump_stop) = (plan.clone(), sent_ns.clone(), pump_stop.clone());
-        let packets: Vec<Vec<AccelPacket>> = (0..ALERT_STATIONS)
-            .map(|s| {
-                template
-                    .iter()
-                    .map(|p| AccelPacket {
-                        station: station(s),
-                        ..p.clone()
-                    })
-                    .collect()
-            })
-            .collect();
+        let (plan, log, pump_stop) = (plan.clone(), log.clone(), pump_stop.clone());
+        let packets = station_packets(&template, ALERT_STATIONS);
         std::thread::spawn(move || {
             let mut sink = Ros2PacketSink::open(&plan, "/").unwrap();
             assert!(sink.wait_for_subscriber(Duration::from_secs(30)).unwrap());
             // The listener must be matched with the node's alert writer too: give discovery
             // a moment (transient local would deliver early alerts anyway, but late).
             std::thread::sleep(Duration::from_secs(1));
-            let mut next = Instant::now();
-            for j in 0..per_station {
-                for (s, station_packets) in packets.iter().enumerate() {
-                    std::thread::sleep(next.saturating_duration_since(Instant::now()));
-                    next += PACE;
-                    sent_ns[j * ALERT_STATIONS + s]
-                        .store(epoch.elapsed().as_nanos() as i64, Ordering::Relaxed);
-                    sink.send(&station_packets[j]).unwrap();
-                }
-            }
+            log.paced_send(&mut sink, &packets, PACE);
             std::thread::sleep(Duration::from_secs(1));
             pump_stop.store(true, Ordering::Relaxed);
         })
@@ -194,18 +171,7 @@ fn latency(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
     listener_done.store(true, Ordering::Relaxed);
     let alerts = listener.join().unwrap();
 
-    let mut latencies_us: Vec<f64> = alerts
-        .iter()
-        .filter_map(|(station, received_ns)| {
-            let s: usize = station.get(4..8)?.parse().ok()?;
-            let sent = (0..per_station)
-                .map(|j| sent_ns[j * ALERT_STATIONS + s].load(Ordering::Relaxed))
-                .filter(|&t| t >= 0 && t <= *received_ns)
-                .max()?;
-            Some((received_ns - sent) as f64 / 1e3)
-        })
-        .collect();
-    latencies_us.sort_by(f64::total_cmp);
+    let latencies_us = log.latencies_us(alerts.iter().map(|(station, t)| (station.as_str(), *t)));
     assert!(
         latencies_us.len() >= 1000,
         "only {} alerts",

@@ -12,10 +12,10 @@
 //! station's latest packet sent before the alert arrived.
 
 mod common;
-use common::{percentile, rinaldi, station, write_catalogue};
+use common::{percentile, rinaldi, station, station_packets, write_catalogue, SendLog};
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -55,12 +55,8 @@ fn main() {
     .unwrap();
     let stop = Arc::new(AtomicBool::new(false));
     let input = IoxInput::spawn(&config, runtime.submitter().unwrap(), stop.clone()).unwrap();
-    let epoch = Instant::now();
-    let sent_ns: Arc<Vec<AtomicI64>> = Arc::new(
-        (0..per_station * ALERT_STATIONS)
-            .map(|_| AtomicI64::new(-1))
-            .collect(),
-    );
+    let log = Arc::new(SendLog::new(ALERT_STATIONS, per_station));
+    let epoch = log.epoch;
     let subscriber_done = Arc::new(AtomicBool::new(false));
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     let subscriber = {
@@ -82,32 +78,12 @@ fn main() {
     ready_rx.recv_timeout(Duration::from_secs(30)).unwrap();
     let pump_stop = Arc::new(AtomicBool::new(false));
     let sender = {
-        let (config, sent_ns, pump_stop) = (config.clone(), sent_ns.clone(), pump_stop.clone());
-        let packets: Vec<Vec<AccelPacket>> = (0..ALERT_STATIONS)
-            .map(|s| {
-                template
-                    .iter()
-                    .map(|p| AccelPacket {
-                        station: station(s),
-                        ..p.clone()
-                    })
-                    .collect()
-            })
-            .collect();
+        let (config, log, pump_stop) = (config.clone(), log.clone(), pump_stop.clone());
+        let packets = station_packets(&template, ALERT_STATIONS);
         std::thread::spawn(move || {
             let mut sink = IoxPacketSink::new(&config).unwrap();
             assert!(sink.wait_for_subscriber(Duration::from_secs(30)).unwrap());
-            let mut next = Instant::now();
-            for j in 0..per_station {
-                for (s, station_packets) in packets.iter().enumerate() {
-                    // Sleep, not spin: the machine may have 2 cores for 5 busy threads.
-                    std::thread::sleep(next.saturating_duration_since(Instant::now()));
-                    next += PACE;
-                    sent_ns[j * ALERT_STATIONS + s]
-                        .store(epoch.elapsed().as_nanos() as i64, Ordering::Relaxed);
-                    sink.send(&station_packets[j]).unwrap();
-                }
-            }
+            log.paced_send(&mut sink, &packets, PACE);
             std::thread::sleep(Duration::from_millis(500));
             pump_stop.store(true, Ordering::Relaxed);
         })
@@ -138,29 +114,14 @@ fn main() {
     subscriber_done.store(true, Ordering::Relaxed);
     let alerts = subscriber.join().unwrap();
 
-    let mut latencies_us: Vec<f64> = alerts
-        .iter()
-        .filter_map(|(a, received_ns)| {
-            let s: usize = a.station().get(4..8)?.parse().ok()?;
-            // The triggering packet: the station's latest packet sent before the alert came
-            // back (its packets are ALERT_STATIONS x PACE = 100 ms apart, far more than the
-            // latency; the alert's data time may lie in the packet before, when the engine
-            // detects the event at a packet boundary).
-            let sent = (0..per_station)
-                .map(|j| sent_ns[j * ALERT_STATIONS + s].load(Ordering::Relaxed))
-                .filter(|&t| t >= 0 && t <= *received_ns)
-                .max()?;
-            Some((received_ns - sent) as f64 / 1e3)
-        })
-        .collect();
-    latencies_us.sort_by(f64::total_cmp);
+    let latencies_us = log.latencies_us(alerts.iter().map(|(a, t)| (a.station(), *t)));
     let mut internal = publisher.internal_us.clone();
     internal.sort_by(f64::total_cmp);
     if !internal.is_empty() {
         println!(
             "  node-internal part (packet taken by the input → alert published): p50 {:.1} µs, p99 {:.1} µs",
-            internal[internal.len() / 2],
-            internal[((internal.len() - 1) as f64 * 0.99) as usize]
+            percentile(&internal, 50.0),
+            percentile(&internal, 99.0)
         );
     }
     println!(
