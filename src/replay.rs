@@ -181,6 +181,12 @@ pub trait PacketSink {
     fn wait_for_subscriber(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool>;
     /// Sends one packet.
     fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()>;
+    /// Waits up to `timeout` until every connected subscriber has received everything sent
+    /// (reliable transports acknowledge); true if it has. Call before the sink is dropped.
+    fn finish(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool> {
+        let _ = timeout;
+        Ok(true)
+    }
 }
 
 /// Replay pace.

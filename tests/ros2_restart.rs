@@ -121,6 +121,10 @@ fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run
     let node = NodeProcess::start(&config, &state_a, dir.path().join("a.err"));
     let mut sink = sink_for_node(&node);
     replay(&packets, &mut sink, Speed::Max, Restamp::Now, 1).unwrap();
+    assert!(
+        sink.finish(Duration::from_secs(30)).unwrap(),
+        "not acknowledged"
+    );
     let stderr_a = finish(node, &state_a);
     assert!(
         stderr_a.contains(&format!("stopped: {} packets received", packets.len())),
@@ -174,6 +178,10 @@ fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run
     let node = NodeProcess::start(&config, &state_b, dir.path().join("b2.err"));
     let mut sink = sink_for_node(&node);
     replay(&packets, &mut sink, Speed::Max, Restamp::Now, 1).unwrap();
+    assert!(
+        sink.finish(Duration::from_secs(30)).unwrap(),
+        "not acknowledged"
+    );
     let stderr_b = finish(node, &state_b);
     let restarted = alert_history(&state_b);
     let got: BTreeSet<_> = restarted.iter().cloned().collect();

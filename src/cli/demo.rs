@@ -143,6 +143,9 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                     anyhow::bail!("the node did not subscribe to /pbr/accel within 30 s");
                 }
                 replay(&packets, &mut sink, speed, Restamp::Now, 1)?;
+                if !sink.finish(Duration::from_secs(30))? {
+                    anyhow::bail!("the node did not acknowledge every packet within 30 s");
+                }
                 Ok(())
             })?
     };

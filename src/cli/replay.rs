@@ -92,7 +92,9 @@ pub struct ReplayArgs {
     /// section (config file, service names) to use.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
-    /// Seconds to wait for the node's subscription before giving up.
+    /// Seconds to wait for the node's subscription before the first packet, and for its
+    /// acknowledgement of every packet after the last (ROS 2 is reliable: a replay ends only
+    /// once the node has everything).
     #[arg(long = "wait-s", default_value_t = 30.0, value_name = "S")]
     wait_s: f64,
 }
@@ -161,6 +163,13 @@ pub fn replay_through(args: &ReplayArgs, sink: &mut dyn PacketSink) -> anyhow::R
         RestampArg::Original => Restamp::Original,
     };
     let report = replay(&packets, sink, args.speed, restamp, args.loops)?;
+    if !sink.finish(Duration::from_secs_f64(args.wait_s))? {
+        bail!(
+            "sent {} packets, but the node did not acknowledge them all within {} s (is it overloaded or gone?)",
+            report.packets,
+            args.wait_s
+        );
+    }
     outln!(
         "replayed {} packets ({} samples, {:.2} s of data at {} Hz) as {} in {:.2} s wall, max lag {:.3} s",
         report.packets,

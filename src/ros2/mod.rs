@@ -16,7 +16,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context as _};
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{
+    no_key, DataWriterStatus, DomainParticipantBuilder, StatusEvented,
+};
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, QosProfile,
@@ -256,6 +258,7 @@ fn dds_err(what: &str) -> impl Fn(ros2_client::CreateError) -> anyhow::Error + '
 /// A DDS participant with one ROS 2 node and its spinner thread (discovery, parameters).
 pub struct Ros2Session {
     node: Node,
+    context: Context,
     plan: NetworkPlan,
     spinner: Option<JoinHandle<()>>,
 }
@@ -291,6 +294,7 @@ impl Ros2Session {
             })?;
         Ok(Ros2Session {
             node,
+            context,
             plan: plan.clone(),
             spinner: Some(spinner),
         })
@@ -672,9 +676,21 @@ pub fn imu_packet(imu: &ImuInput, m: &ImuMsg, sequence: u64) -> AccelPacket {
 }
 
 /// Replay over ROS 2: publishes `/pbr/accel` from a node `rockwatch_replay`.
+///
+/// The writer is a plain RustDDS data writer on the node's participant and ROS 2 topic
+/// (ros2-client's `Publisher` hides it), because a replay must know that the subscriber has
+/// *received* what was sent before it exits: discovery is two-sided, and the writer can see
+/// the node's reader before the reader has matched the writer; samples sent in that window
+/// are only repaired later by the reliable protocol (the reader asks for everything from the
+/// writer's first sequence number once it matches), which needs the writer alive.
+/// [`PacketSink::finish`] waits for every matched reader's acknowledgement. The writer is not
+/// listed under the node in the ROS 2 graph (`ros2 topic info` shows the publisher without
+/// its node name).
 pub struct Ros2PacketSink {
-    session: Ros2Session,
-    publisher: ros2_client::Publisher<msg::AccelPacket>,
+    _session: Ros2Session,
+    writer: no_key::DataWriterCdr<msg::AccelPacket>,
+    /// Readers matched now, from the writer's publication-matched status events.
+    matched: i32,
 }
 
 impl Ros2PacketSink {
@@ -685,15 +701,37 @@ impl Ros2PacketSink {
             "rockwatch_replay",
             NodeOptions::new().enable_rosout(false),
         )?;
-        let publisher = session.publisher(ACCEL_TOPIC, "AccelPacket", replay_qos())?;
-        Ok(Ros2PacketSink { session, publisher })
+        let qos = replay_qos();
+        let topic = session.topic(ACCEL_TOPIC, msg::PACKAGE, "AccelPacket", &qos)?;
+        let dds_qos = ros2_client::dds::rustdds::QosPolicies::from(qos);
+        let writer = session
+            .context
+            .domain_participant()
+            .create_publisher(&dds_qos)
+            .and_then(|p| p.create_datawriter_no_key_cdr(&topic, Some(dds_qos.clone())))
+            .map_err(|e| anyhow!("ROS 2 publisher {ACCEL_TOPIC}: {e:?}"))?;
+        Ok(Ros2PacketSink {
+            _session: session,
+            writer,
+            matched: 0,
+        })
     }
 
     /// Sends a raw message (tests of malformed input).
     pub fn send_msg(&mut self, m: msg::AccelPacket) -> anyhow::Result<()> {
-        self.publisher
-            .publish(m)
+        self.writer
+            .write(m, Some(ros2_client::dds::rustdds::Timestamp::now()))
             .map_err(|e| anyhow!("ROS 2 publish on {ACCEL_TOPIC}: {e:?}"))
+    }
+
+    /// Readers matched now (after taking the writer's pending status events).
+    fn matched_readers(&mut self) -> i32 {
+        while let Some(status) = self.writer.try_recv_status() {
+            if let DataWriterStatus::PublicationMatched { current, .. } = status {
+                self.matched = current.count();
+            }
+        }
+        self.matched
     }
 }
 
@@ -701,7 +739,7 @@ impl PacketSink for Ros2PacketSink {
     fn wait_for_subscriber(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         let deadline = Instant::now() + timeout;
         loop {
-            if self.publisher.get_subscription_count(self.session.node()) > 0 {
+            if self.matched_readers() > 0 {
                 return Ok(true);
             }
             if Instant::now() >= deadline {
@@ -713,6 +751,12 @@ impl PacketSink for Ros2PacketSink {
 
     fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()> {
         self.send_msg(msg::AccelPacket::from(packet))
+    }
+
+    fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
+        self.writer
+            .wait_for_acknowledgments(timeout)
+            .map_err(|e| anyhow!("ROS 2 {ACCEL_TOPIC}: waiting for acknowledgements: {e:?}"))
     }
 }
 
