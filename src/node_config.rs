@@ -17,6 +17,17 @@
 //! gain_mps2_per_count = 2.384185791015625e-06
 //! full_scale = 8388608
 //! orientation = { kind = "azimuths", h1_deg = 0.0, h2_deg = 90.0 }
+//!
+//! [ros2]
+//! input_qos = "sensor_data"             # best effort, as most Imu drivers publish
+//!
+//! # A sensor_msgs/msg/Imu topic as a station (see `crate::ros2::ImuInput`): mounted level,
+//! # x east, y north, z up; east = x, north = y, up = z − 9.80665 (remove_gravity).
+//! [[ros2.imu]]
+//! topic = "/imu/data"
+//! station = "XB.IMU.00"
+//! sample_rate_hz = 100.0
+//! remove_gravity = true
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -95,6 +106,34 @@ mod tests {
         assert_eq!(c.engine.alerts.imminent_theta_ratio, 0.7);
         assert_eq!(c.engine.alerts.quiet_s, 30.0); // default kept
         assert_eq!(c.stations[0].gain_mps2_per_count, Some(1e-6));
+    }
+
+    #[test]
+    fn readme_imu_example_parses_with_the_documented_values() {
+        let readme = include_str!("../README.md");
+        let block = readme
+            .split("```toml\n")
+            .skip(1)
+            .filter_map(|b| b.split("```").next())
+            .find(|b| b.contains("[[ros2.imu]]"))
+            .expect("README has a [[ros2.imu]] example");
+        let c = load(block).unwrap();
+        assert_eq!(c.ros2.input_qos, crate::ros2::InputQos::SensorData);
+        assert_eq!(
+            c.ros2.imu,
+            vec![crate::ros2::ImuInput {
+                topic: "/imu/data".into(),
+                station: "XB.IMU.00".into(),
+                sample_rate_hz: 100.0,
+                remove_gravity: true,
+            }]
+        );
+        // remove_gravity defaults to true.
+        let c = load(
+            "[[ros2.imu]]\ntopic = \"/imu\"\nstation = \"XB.IMU.00\"\nsample_rate_hz = 200.0\n",
+        )
+        .unwrap();
+        assert!(c.ros2.imu[0].remove_gravity);
     }
 
     #[test]

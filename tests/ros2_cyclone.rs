@@ -5,13 +5,6 @@
 mod ros2_util;
 use ros2_util::*;
 
-fn have_cyclonedds() -> bool {
-    std::process::Command::new("python3")
-        .args(["-c", "import cyclonedds.domain"])
-        .status()
-        .is_ok_and(|s| s.success())
-}
-
 /// The JSON alerts a subscriber printed (lines after `PREFIX`).
 fn alerts(stdout: &str, prefix: &str) -> Vec<serde_json::Value> {
     stdout

@@ -63,24 +63,6 @@ struct HugeLength {
     east: [f32; 4],
 }
 
-/// The number `label` is followed by in the node's closing summary line that contains it.
-fn count_before(stderr: &str, label: &str) -> u64 {
-    let line = stderr
-        .lines()
-        .filter(|l| {
-            l.starts_with("rockwatch: stopped:") || l.starts_with("rockwatch: engine input:")
-        })
-        .find(|l| l.contains(label))
-        .unwrap_or_else(|| panic!("no summary with {label:?} in\n{stderr}"));
-    let before = &line[..line.find(label).unwrap()];
-    before
-        .split(|c: char| !c.is_ascii_digit())
-        .rfind(|s| !s.is_empty())
-        .unwrap_or_else(|| panic!("no count before {label:?}: {line}"))
-        .parse()
-        .unwrap()
-}
-
 #[test]
 fn node_survives_counts_and_rejects_hostile_input_then_still_raises_overturned() {
     if !reexec_in_netns(

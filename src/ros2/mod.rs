@@ -87,9 +87,17 @@ pub enum InputQos {
     SensorData,
 }
 
-/// A `sensor_msgs/msg/Imu` topic read as a station: one message = one sample,
-/// `linear_acceleration` x → east, y → north, z → up (m/s², the sensor mounted level with x
-/// east), gravity removed from z.
+/// A `sensor_msgs/msg/Imu` topic read as a station: one message = one sample.
+///
+/// Frame: the Imu must be mounted level with x east, y north, z up (ENU, REP 103);
+/// `linear_acceleration` (m/s²) is taken as east = x, north = y, up = z − g when
+/// `remove_gravity` (an accelerometer reports the specific force: +g on z at rest, REP 145).
+/// There is no rotation: a sensor mounted otherwise must be re-published in ENU first.
+/// `orientation` and `angular_velocity` are ignored. `header.stamp` is the sample time: the
+/// node places each message on the station's sample grid (rate `sample_rate_hz`), so stamps
+/// must advance by 1/`sample_rate_hz` per message (sensor time, not the arrival time).
+/// Drivers that publish best effort need `input_qos = "sensor_data"`: the default reliable
+/// reader does not match a best-effort writer.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ImuInput {

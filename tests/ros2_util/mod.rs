@@ -175,3 +175,46 @@ pub fn rinaldi_packets(tail_s: f64) -> Vec<rockwatch::engine::AccelPacket> {
         .unwrap()
         .packets(&station, 100, tail_s)
 }
+
+/// True if `python3` can import Cyclone DDS's Python binding (`cyclonedds`, pinned in .ci/run).
+pub fn have_cyclonedds() -> bool {
+    Command::new("python3")
+        .args(["-c", "import cyclonedds.domain"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// Whether a test needing the Python peer `what` may run: `available` as given, except that a
+/// missing peer FAILS the test under `CI=true` (CI installs every peer) and is reported as a
+/// skip otherwise.
+pub fn peer_or_skip(available: bool, what: &str) -> bool {
+    if !available {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "CI=true but {what} is missing (see .ci/run)"
+        );
+        eprintln!("skipped: {what} not found");
+    }
+    available
+}
+
+/// The number `label` is preceded by in the node's closing summary (`rockwatch: stopped:` or
+/// `rockwatch: engine input:`) line that contains it.
+pub fn count_before(stderr: &str, label: &str) -> u64 {
+    let line = stderr
+        .lines()
+        .filter(|l| {
+            l.starts_with("rockwatch: stopped:") || l.starts_with("rockwatch: engine input:")
+        })
+        .find(|l| l.contains(label))
+        .unwrap_or_else(|| panic!("no summary with {label:?} in\n{stderr}"));
+    let before = &line[..line.find(label).unwrap()];
+    before
+        .split(|c: char| !c.is_ascii_digit())
+        .rfind(|s| !s.is_empty())
+        .unwrap_or_else(|| panic!("no count before {label:?}: {line}"))
+        .parse()
+        .unwrap()
+}

@@ -5,40 +5,17 @@ of truth), reliable + transient local + keep last 1000 like the node's writer.
 Prints one JSON object per alert received, then exits after --seconds.
 Usage: cyclone_alerts.py MSG_DIR --seconds S
 """
-import dataclasses
 import json
 import os
 import sys
 import time
-import types
 
-# Loopback only, unicast discovery of same-host peers (lo has no multicast in a netns).
-os.environ.setdefault(
-    "CYCLONEDDS_URI",
-    "<CycloneDDS><Domain><General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
-    "<AllowMulticast>false</AllowMulticast></General>"
-    "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>20</MaxAutoParticipantIndex>"
-    "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain></CycloneDDS>",
-)
-
+from cyclone_common import Header, domain_id, struct  # first: sets CYCLONEDDS_URI
 from cyclonedds.core import Qos, Policy  # noqa: E402
 from cyclonedds.domain import DomainParticipant  # noqa: E402
-from cyclonedds.idl import IdlStruct  # noqa: E402
 from cyclonedds.idl import types as t  # noqa: E402
 from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
-
-
-def struct(name, typename, fields):
-    """A Cyclone IDL struct `name` with (field, type) in order."""
-    def body(ns):
-        ns["__annotations__"] = dict(fields)
-    cls = types.new_class(name, (IdlStruct,), {"typename": typename}, body)
-    return dataclasses.dataclass(cls)
-
-
-Time = struct("Time", "builtin_interfaces::msg::dds_::Time_", [("sec", t.int32), ("nanosec", t.uint32)])
-Header = struct("Header", "std_msgs::msg::dds_::Header_", [("stamp", Time), ("frame_id", str)])
 
 PRIMITIVES = {
     "bool": bool, "uint8": t.uint8, "uint32": t.uint32, "uint64": t.uint64, "int32": t.int32,
@@ -67,7 +44,7 @@ def main():
     msg_dir = sys.argv[1]
     seconds = float(sys.argv[sys.argv.index("--seconds") + 1])
     PbrAlert = msg_type(msg_dir, "PbrAlert")
-    dp = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0")))
+    dp = DomainParticipant(domain_id())
     qos = Qos(
         Policy.Reliability.Reliable(max_blocking_time=1_000_000_000),
         Policy.Durability.TransientLocal,
