@@ -89,7 +89,11 @@ impl Block {
 }
 
 fn have_peer() -> bool {
-    peer_or_skip(have_cyclonedds(), "python3 with cyclonedds==11.0.1")
+    peer_available(
+        have_cyclonedds(),
+        "python3 with cyclonedds==11.0.1",
+        "pip install cyclonedds==11.0.1, as .ci/run does",
+    )
 }
 
 /// A catalogue of `blocks` on [`STATION`] and a node configuration mapping [`TOPIC`] to it.

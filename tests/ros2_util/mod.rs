@@ -186,16 +186,16 @@ pub fn have_cyclonedds() -> bool {
         .is_ok_and(|s| s.success())
 }
 
-/// Whether a test needing the Python peer `what` may run: `available` as given, except that a
-/// missing peer FAILS the test under `CI=true` (CI installs every peer) and is reported as a
-/// skip otherwise.
-pub fn peer_or_skip(available: bool, what: &str) -> bool {
+/// Whether an optional peer of a test is `available`: true if so. If not, the test is skipped
+/// locally (prints `skipped: <what> not found`, returns false) but FAILS under `CI=true`, where
+/// .ci/run installs it (`how` says how).
+pub fn peer_available(available: bool, what: &str, how: &str) -> bool {
     if !available {
         assert!(
             std::env::var("CI").as_deref() != Ok("true"),
-            "CI=true but {what} is missing (see .ci/run)"
+            "CI=true but {what} is missing ({how})"
         );
-        eprintln!("skipped: {what} not found");
+        eprintln!("skipped: {what} not found ({how})");
     }
     available
 }
@@ -217,4 +217,56 @@ pub fn count_before(stderr: &str, label: &str) -> u64 {
         .unwrap_or_else(|| panic!("no count before {label:?}: {line}"))
         .parse()
         .unwrap()
+}
+
+/// The JSON objects of the lines of `stdout` that start with `prefix`.
+pub fn json_lines(stdout: &str, prefix: &str) -> Vec<serde_json::Value> {
+    stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix(prefix))
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+/// The environment variable naming the colcon install base (merged layout) of `msg/`, the
+/// ROS 2 package `pbr_msgs` built by `launch-scripts/build-msgs.sh` (.ci/run sets it).
+pub const PBR_MSGS_PREFIX_ENV: &str = "ROCKWATCH_PBR_MSGS_PREFIX";
+
+/// The colcon install of `pbr_msgs` whose generated Python types import (with rclpy) once its
+/// `local_setup.sh` is sourced: `$ROCKWATCH_PBR_MSGS_PREFIX`, else `target/pbr_msgs` (the
+/// script's default). None (test skipped) if there is none, except under `CI=true` (panics).
+pub fn pbr_msgs_install() -> Option<PathBuf> {
+    let prefix = std::env::var_os(PBR_MSGS_PREFIX_ENV)
+        .map_or_else(|| repo().join("target/pbr_msgs"), PathBuf::from);
+    let ok = prefix.join("local_setup.sh").is_file()
+        && Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "{}; exec python3 -c 'import rclpy; from pbr_msgs.msg import PbrAlert, AccelPacket'",
+                source_pbr_msgs(&prefix)
+            ))
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+    let what = format!(
+        "the colcon build of msg/ with importable Python types in {}",
+        prefix.display()
+    );
+    peer_available(
+        ok,
+        &what,
+        &format!("run launch-scripts/build-msgs.sh, or set {PBR_MSGS_PREFIX_ENV}"),
+    )
+    .then_some(prefix)
+}
+
+/// Shell (sh) commands setting up the environment of the colcon install at `prefix` as its
+/// own setup file does (AMENT_PREFIX_PATH, CMAKE_PREFIX_PATH, PYTHONPATH, LD_LIBRARY_PATH),
+/// wherever the install lies (COLCON_CURRENT_PREFIX). The setup file is not `set -e` clean.
+pub fn source_pbr_msgs(prefix: &std::path::Path) -> String {
+    format!(
+        "set +e; COLCON_CURRENT_PREFIX='{p}'; . '{p}/local_setup.sh'; unset COLCON_CURRENT_PREFIX; set -e",
+        p = prefix.display()
+    )
 }
