@@ -23,8 +23,9 @@
 //!
 //! Intake: 1000 stations at 100 Hz in 100 ms packets of quiet data (10 000 packets/s is real
 //! time): (1) as fast as the node's DDS intake takes them, with at most `BACKLOG` packets in
-//! flight (below the input's history depth, so none is dropped; the engine works on
-//! inline, so taking a packet includes processing it), and (2) paced at exactly real time for
+//! flight (below the input's history depth, so none is dropped; the node's event loop takes
+//! packets into its inbox at most 4096 ahead of the engine, which runs inline on the same
+//! thread), and (2) paced at exactly real time for
 //! `PACED_S` seconds (each 100 ms, one packet per station in a burst), reporting the intake's
 //! largest backlog, the time to take the last packets, and the time the engine then needs to
 //! finish: small figures mean the whole node keeps up with 1000 stations in real time.

@@ -21,8 +21,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use rockwatch::engine::{AccelPacket, StationId};
-use rockwatch::iox::{IoxAlertSubscriber, IoxConfig, IoxPacketSink};
+use rockwatch::dynamics::Mode;
+use rockwatch::engine::{AccelPacket, Alert, AlertLevel, StationId};
+use rockwatch::iox::{IoxAlertPublisher, IoxAlertSubscriber, IoxConfig, IoxInput, IoxPacketSink};
 use rockwatch::node::{NodeOptions, Publication, Publisher, Reactor};
 use rockwatch::replay::PacketSink;
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config};
@@ -32,13 +33,26 @@ const INTAKE_STATIONS: usize = 1000;
 const PACKET_MS: u32 = 100;
 const PACE: Duration = Duration::from_micros(250);
 
-/// Records the node-internal part of the latency: arrival of the triggering packet at the
-/// input → publication of the alert (after journaling, before the iceoryx2 publisher).
-struct Internal(Vec<f64>);
+/// Records the node-internal part of the latency (arrival of the triggering packet at the
+/// input → the alert ready to publish, journaled: the alert's own `latency_ns`) and when the
+/// node was ready to publish each alert (ns since the send log's epoch: the node's arrival
+/// stamp plus `latency_ns`, moved to that epoch), keyed by (block, data time).
+struct Internal {
+    /// Node epoch − send log epoch (ns).
+    node_offset_ns: i64,
+    internal_us: Vec<f64>,
+    published: Vec<(String, String, i64, i64)>,
+}
 impl Publisher for Internal {
     fn publish(&mut self, p: &Publication) -> anyhow::Result<()> {
-        if let Publication::Alert { latency_ns, .. } = p {
-            self.0.push(*latency_ns as f64 / 1e3);
+        if let Publication::Alert { alert, latency_ns } = p {
+            self.internal_us.push(*latency_ns as f64 / 1e3);
+            self.published.push((
+                alert.station.clone(),
+                alert.pbr_id.clone(),
+                alert.data_time_ns,
+                self.node_offset_ns + alert.arrival_ns + latency_ns,
+            ));
         }
         Ok(())
     }
@@ -60,6 +74,105 @@ fn node_options(catalogue: &Path, iox: &IoxConfig) -> (NodeOptions, NetworkPlan)
     (options, plan)
 }
 
+/// The transport alone, for comparison: the same sender, subscriber and pace, and an echo
+/// thread built like the node's event loop (the iceoryx2 input on a mio Poll, the alert
+/// publisher) that answers each packet with an alert at once — no engine, no ROS 2, no other
+/// thread. Returns the sorted latencies (µs) publish packet → receive alert: two wake-ups.
+fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+    let echo = {
+        let (config, stop, ready_tx) = (config.clone(), stop.clone(), ready_tx.clone());
+        std::thread::spawn(move || {
+            let mut input = IoxInput::open(&config).unwrap();
+            let mut publisher = IoxAlertPublisher::new(&config).unwrap();
+            let mut poll = mio::Poll::new().unwrap();
+            poll.registry()
+                .register(&mut input, mio::Token(0), mio::Interest::READABLE)
+                .unwrap();
+            let mut events = mio::Events::with_capacity(8);
+            ready_tx.send(()).unwrap();
+            while !stop.load(Ordering::Relaxed) {
+                poll.poll(&mut events, Some(Duration::from_millis(50)))
+                    .unwrap();
+                input
+                    .drain(usize::MAX, &mut |p: AccelPacket| {
+                        let alert = Alert {
+                            pbr_id: "echo".into(),
+                            station: p.station,
+                            level: AlertLevel::MotionOnset,
+                            episode: 1,
+                            mode: Mode::Rock,
+                            theta_over_alpha: 0.0,
+                            slide_m: 0.0,
+                            overturn_probability: 0.0,
+                            pga_mps2: 0.0,
+                            pgv_mps: 0.0,
+                            data_time_ns: p.start_time_ns,
+                            arrival_ns: 0,
+                        };
+                        publisher.publish(&Publication::Alert {
+                            alert,
+                            latency_ns: 0,
+                        })
+                    })
+                    .unwrap();
+            }
+        })
+    };
+    let epoch = Instant::now();
+    let done = Arc::new(AtomicBool::new(false));
+    let subscriber = {
+        let (config, done) = (config.clone(), done.clone());
+        std::thread::spawn(move || {
+            let sub = IoxAlertSubscriber::new(&config).unwrap();
+            ready_tx.send(()).unwrap();
+            let mut got = Vec::new();
+            let mut stamped = Vec::new();
+            while !done.load(Ordering::Relaxed) {
+                let before = got.len();
+                sub.wait(Duration::from_millis(20), &mut got).unwrap();
+                let now = epoch.elapsed().as_nanos() as i64;
+                stamped.extend(got[before..].iter().map(|a| (a.data_time_ns, now)));
+            }
+            stamped
+        })
+    };
+    ready_rx.recv_timeout(Duration::from_secs(30)).unwrap();
+    ready_rx.recv_timeout(Duration::from_secs(30)).unwrap();
+    let mut sink = IoxPacketSink::new(config).unwrap();
+    assert!(sink.wait_for_subscriber(Duration::from_secs(30)).unwrap());
+    let mut sent = vec![0i64; packets];
+    let mut next = Instant::now();
+    for (i, sent) in sent.iter_mut().enumerate() {
+        std::thread::sleep(next.saturating_duration_since(Instant::now()));
+        next += PACE;
+        let packet = AccelPacket {
+            station: station(i % ALERT_STATIONS),
+            start_time_ns: i as i64,
+            sample_rate_hz: 100.0,
+            sequence: (i / ALERT_STATIONS) as u64,
+            east: vec![0.0; 10],
+            north: vec![0.0; 10],
+            up: vec![0.0; 10],
+        };
+        *sent = epoch.elapsed().as_nanos() as i64;
+        sink.send(&packet).unwrap();
+    }
+    std::thread::sleep(Duration::from_millis(200));
+    done.store(true, Ordering::Relaxed);
+    stop.store(true, Ordering::Relaxed);
+    echo.join().unwrap();
+    let mut latencies: Vec<f64> = subscriber
+        .join()
+        .unwrap()
+        .into_iter()
+        .filter_map(|(i, t)| Some((t - *sent.get(usize::try_from(i).ok()?)?) as f64 / 1e3))
+        .collect();
+    latencies.sort_by(f64::total_cmp);
+    latencies
+}
+
 fn main() {
     let dir = tempfile::tempdir().unwrap();
     let catalogue = dir.path().join("catalogue.toml");
@@ -75,6 +188,23 @@ fn main() {
     let traces = rinaldi();
     let template = traces.packets(&StationId::parse("XB.S0000.00").unwrap(), PACKET_MS, 2.0);
     let per_station = template.len();
+
+    // ---- transport floor -----------------------------------------------------------------
+    let floor_config = IoxConfig {
+        accel_service: format!("rockwatch-bench/{pid}/floor-accel"),
+        alerts_service: format!("rockwatch-bench/{pid}/floor-alerts"),
+        ..config.clone()
+    };
+    let floor = transport_floor(&floor_config, 20_000);
+    println!(
+        "  transport alone (same pace; an echo thread built like the event loop answers each \
+         packet at once: two wake-ups, no engine, no ROS 2), {} round trips: p50 {:.1} µs, \
+         p99 {:.1} µs, max {:.1} µs",
+        floor.len(),
+        percentile(&floor, 50.0),
+        percentile(&floor, 99.0),
+        floor.last().copied().unwrap_or(f64::NAN),
+    );
 
     // ---- latency -------------------------------------------------------------------------
     let (options, plan) = node_options(&catalogue, &config);
@@ -112,7 +242,12 @@ fn main() {
             stop.store(true, Ordering::Relaxed);
         })
     };
-    let mut internal = Internal(Vec::new());
+    let mut internal = Internal {
+        node_offset_ns: reactor.epoch().duration_since(epoch).as_nanos() as i64
+            - epoch.duration_since(reactor.epoch()).as_nanos() as i64,
+        internal_us: Vec::with_capacity(4096),
+        published: Vec::with_capacity(4096),
+    };
     let report = reactor.run(&stop, &mut [&mut internal]).unwrap();
     sender.join().unwrap();
     let input_stats = report.iox.unwrap();
@@ -121,15 +256,50 @@ fn main() {
     let alerts = subscriber.join().unwrap();
 
     let latencies_us = log.latencies_us(alerts.iter().map(|(a, t)| (a.station(), *t)));
-    let mut internal = internal.0;
-    internal.sort_by(f64::total_cmp);
-    if !internal.is_empty() {
-        println!(
-            "  node-internal part (packet taken by the input → alert published): p50 {:.1} µs, p99 {:.1} µs",
-            percentile(&internal, 50.0),
-            percentile(&internal, 99.0)
-        );
-    }
+    // Where the time goes: publish packet → the alert is ready (journaled) in the node
+    // (iceoryx2 wake-up of the node, queueing, engine), and ready → the subscriber has it
+    // (iceoryx2 publish + notify, wake-up of the subscriber).
+    let to_node_us = log.latencies_us(
+        internal
+            .published
+            .iter()
+            .map(|(station, _, _, t)| (station, *t)),
+    );
+    let published: std::collections::HashMap<(String, i64), i64> = internal
+        .published
+        .iter()
+        .map(|(_, pbr, data_ns, t)| ((pbr.clone(), *data_ns), *t))
+        .collect();
+    let mut to_subscriber_us: Vec<f64> = alerts
+        .iter()
+        .filter_map(|(a, t)| {
+            let sent = published.get(&(a.pbr_id(), a.data_time_ns))?;
+            Some((t - sent) as f64 / 1e3)
+        })
+        .collect();
+    to_subscriber_us.sort_by(f64::total_cmp);
+    let mut internal_us = internal.internal_us;
+    internal_us.sort_by(f64::total_cmp);
+    let p = |v: &[f64], q: f64| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            percentile(v, q)
+        }
+    };
+    println!(
+        "  node-internal part (packet taken by the input → alert published): p50 {:.1} µs, p99 {:.1} µs",
+        p(&internal_us, 50.0),
+        p(&internal_us, 99.0)
+    );
+    println!(
+        "  packet published → alert ready in the node: p50 {:.1} µs, p99 {:.1} µs; \
+         alert ready in the node → received: p50 {:.1} µs, p99 {:.1} µs",
+        p(&to_node_us, 50.0),
+        p(&to_node_us, 99.0),
+        p(&to_subscriber_us, 50.0),
+        p(&to_subscriber_us, 99.0),
+    );
     println!(
         "iceoryx2 alert latency (publish packet -> receive alert), {} alerts from {} packets \
          ({} stations, {} shard(s), one packet every {:?}): p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",

@@ -24,8 +24,8 @@ pub use serve::{serve, Probe, Reactor, ServeReport};
 
 use crate::catalogue::Catalogue;
 use crate::engine::{
-    AccelPacket, Alert, AlertConfig, Engine, JournalRecord, Output, PbrSpec, PbrState, PbrSummary,
-    ShardedEngine, StationIntensity,
+    AccelPacket, Alert, AlertConfig, Engine, JournalRecord, Output, OutputSink, PbrSpec, PbrState,
+    PbrSummary, ShardedEngine, StationIntensity,
 };
 use crate::journal::Journal;
 use crate::node_config::NodeConfig;
@@ -267,6 +267,109 @@ impl RateLimitedLog {
     }
 }
 
+/// Where the runtime's outputs go: the journal, the publishers (through a callback), the
+/// stats and the rate-limited log.
+struct Emitter {
+    journal: Option<Journal>,
+    epoch: Instant,
+    log: RateLimitedLog,
+    stats: NodeStats,
+    /// States and intensities held back until the batch's alerts are out (reused).
+    deferred: Vec<Output>,
+}
+
+impl Emitter {
+    fn now_ns(&self) -> i64 {
+        self.epoch.elapsed().as_nanos() as i64
+    }
+
+    /// A sink for one batch of engine outputs (one packet, one flush, one worker batch):
+    /// each alert is journaled (and synced), then published at once, in engine order; episode
+    /// ends are journaled; notices logged; states and intensities are published by
+    /// [`EmitSink::finish`], after the batch (they are not journaled, and an alert must not
+    /// wait for them). After a journal failure nothing more is published and `finish` returns
+    /// the error.
+    fn sink<'a, P: FnMut(Publication)>(&'a mut self, publish: &'a mut P) -> EmitSink<'a, P> {
+        self.deferred.clear();
+        EmitSink {
+            emit: self,
+            publish,
+            error: None,
+        }
+    }
+}
+
+/// See [`Emitter::sink`].
+struct EmitSink<'a, P: FnMut(Publication)> {
+    emit: &'a mut Emitter,
+    publish: &'a mut P,
+    error: Option<anyhow::Error>,
+}
+
+impl<P: FnMut(Publication)> EmitSink<'_, P> {
+    /// Publishes the batch's states and intensities; returns the journal's error, if any.
+    fn finish(self) -> anyhow::Result<()> {
+        let EmitSink {
+            emit,
+            publish,
+            error,
+        } = self;
+        if let Some(e) = error {
+            emit.deferred.clear();
+            return Err(e);
+        }
+        for output in emit.deferred.drain(..) {
+            match output {
+                Output::State(s) => {
+                    emit.stats.states += 1;
+                    publish(Publication::State(s));
+                }
+                Output::Intensity(i) => {
+                    emit.stats.intensities += 1;
+                    publish(Publication::Intensity(i));
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
+    fn push(&mut self, output: Output) {
+        if self.error.is_some() {
+            return; // the state directory failed: publish nothing more
+        }
+        let record = match &output {
+            Output::Alert(alert) => Some(JournalRecord::Alert(alert.clone())),
+            Output::EpisodeEnd { pbr_id, episode } => Some(JournalRecord::EpisodeEnd {
+                pbr_id: pbr_id.clone(),
+                episode: *episode,
+            }),
+            _ => None,
+        };
+        if let (Some(record), Some(journal)) = (record, &mut self.emit.journal) {
+            if let Err(e) = journal.append(&record) {
+                self.error = Some(e.into());
+                return;
+            }
+        }
+        match output {
+            Output::Alert(alert) => {
+                self.emit.stats.alerts += 1;
+                let latency_ns = self.emit.now_ns() - alert.arrival_ns;
+                (self.publish)(Publication::Alert { alert, latency_ns });
+            }
+            Output::EpisodeEnd { .. } => {}
+            Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
+            Output::Notice(n) => {
+                self.emit.stats.notices += 1;
+                self.emit.log.log(&n.station, n.kind, &n.message);
+            }
+        }
+    }
+}
+
 /// The engine of a [`NodeRuntime`].
 enum EngineMode {
     /// One shard: the engine runs on the caller's thread.
@@ -279,13 +382,9 @@ enum EngineMode {
 pub struct NodeRuntime {
     /// Always `Some` until `shutdown`.
     engine: Option<EngineMode>,
-    journal: Option<Journal>,
-    epoch: Instant,
-    log: RateLimitedLog,
-    pub stats: NodeStats,
+    /// Journal, stats, logs: where outputs go.
+    emit: Emitter,
     pbr_ids: Vec<String>,
-    /// Outputs of the inline engine (reused: no allocation per packet).
-    out: Vec<Output>,
     last_flush: Instant,
 }
 
@@ -330,12 +429,14 @@ impl NodeRuntime {
         };
         Ok(NodeRuntime {
             engine: Some(engine),
-            journal,
-            epoch: Instant::now(),
-            log: RateLimitedLog::new(),
-            stats: NodeStats::default(),
+            emit: Emitter {
+                journal,
+                epoch: Instant::now(),
+                log: RateLimitedLog::new(),
+                stats: NodeStats::default(),
+                deferred: Vec::new(),
+            },
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
-            out: Vec::new(),
             last_flush: Instant::now(),
         })
     }
@@ -352,7 +453,19 @@ impl NodeRuntime {
     /// Monotonic wall time since start (ns): arrival and emission stamps.
     #[must_use]
     pub fn now_ns(&self) -> i64 {
-        self.epoch.elapsed().as_nanos() as i64
+        self.emit.now_ns()
+    }
+
+    /// Counts of what the runtime did so far.
+    #[must_use]
+    pub fn stats(&self) -> NodeStats {
+        self.emit.stats
+    }
+
+    /// The instant [`NodeRuntime::now_ns`] counts from (to compare stamps with other clocks).
+    #[must_use]
+    pub fn epoch(&self) -> Instant {
+        self.emit.epoch
     }
 
     /// Ids of the catalogued blocks.
@@ -362,24 +475,36 @@ impl NodeRuntime {
     }
 
     /// Hands a packet to the engine, stamped with its arrival time. Inline, the packet is
-    /// processed now and its outputs published (alerts journaled first) before this returns;
-    /// sharded, it is queued for its station's worker (waiting if that queue is full) and the
-    /// outputs come through [`NodeRuntime::poll`]. An error means the state directory failed
-    /// (the alert was not published).
+    /// processed now: each alert is journaled (and synced) and published the moment the engine
+    /// raises it, mid-packet, and the packet's states and intensities are published after it,
+    /// all before this returns; sharded, it is queued for its station's worker (waiting if
+    /// that queue is full) and the outputs come through [`NodeRuntime::poll`]. An error means
+    /// the state directory failed (the alert was not published).
     pub fn submit(
         &mut self,
         packet: AccelPacket,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
-        self.stats.packets += 1;
-        let arrival = self.now_ns();
+        let arrival_ns = self.now_ns();
+        self.submit_arrived(packet, arrival_ns, publish)
+    }
+
+    /// As [`NodeRuntime::submit`], for a packet taken from its transport at `arrival_ns`
+    /// ([`NodeRuntime::now_ns`] then) and queued since.
+    pub fn submit_arrived(
+        &mut self,
+        packet: AccelPacket,
+        arrival: i64,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<()> {
+        self.emit.stats.packets += 1;
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
-                let mut out = std::mem::take(&mut self.out);
-                engine.process(packet, arrival, &mut out);
-                let result = self.handle(&mut out, publish);
-                self.out = out;
-                result
+                // Each alert is journaled and published the moment the engine raises it; the
+                // rest of the packet is processed after.
+                let mut sink = self.emit.sink(publish);
+                engine.process(packet, arrival, &mut sink);
+                sink.finish()
             }
             Some(EngineMode::Sharded(engine)) => {
                 engine.submit(packet, arrival);
@@ -411,7 +536,7 @@ impl NodeRuntime {
 
     /// Operator reset of a fallen block: journaled, then applied.
     pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
-        if let Some(j) = &mut self.journal {
+        if let Some(j) = &mut self.emit.journal {
             j.append(&JournalRecord::Reset {
                 pbr_id: pbr_id.to_string(),
             })?;
@@ -438,11 +563,9 @@ impl NodeRuntime {
         let now = self.now_ns();
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
-                let mut out = std::mem::take(&mut self.out);
-                engine.flush(now, &mut out);
-                let result = self.handle(&mut out, publish);
-                self.out = out;
-                result
+                let mut sink = self.emit.sink(publish);
+                engine.flush(now, &mut sink);
+                sink.finish()
             }
             Some(EngineMode::Sharded(engine)) => {
                 engine.flush(now);
@@ -452,42 +575,17 @@ impl NodeRuntime {
         }
     }
 
-    /// Journals and publishes `outputs` (drained).
+    /// Journals and publishes `outputs` (drained), as [`Emitter::sink`].
     fn handle(
         &mut self,
         outputs: &mut Vec<Output>,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
+        let mut sink = self.emit.sink(publish);
         for output in outputs.drain(..) {
-            match output {
-                Output::Alert(alert) => {
-                    if let Some(j) = &mut self.journal {
-                        j.append(&JournalRecord::Alert(alert.clone()))?;
-                    }
-                    self.stats.alerts += 1;
-                    let latency_ns = self.now_ns() - alert.arrival_ns;
-                    publish(Publication::Alert { alert, latency_ns });
-                }
-                Output::EpisodeEnd { pbr_id, episode } => {
-                    if let Some(j) = &mut self.journal {
-                        j.append(&JournalRecord::EpisodeEnd { pbr_id, episode })?;
-                    }
-                }
-                Output::State(s) => {
-                    self.stats.states += 1;
-                    publish(Publication::State(s));
-                }
-                Output::Intensity(i) => {
-                    self.stats.intensities += 1;
-                    publish(Publication::Intensity(i));
-                }
-                Output::Notice(n) => {
-                    self.stats.notices += 1;
-                    self.log.log(&n.station, n.kind, &n.message);
-                }
-            }
+            sink.push(output);
         }
-        Ok(())
+        sink.finish()
     }
 
     /// Publishes everything the engine workers have produced so far, without waiting (inline,
@@ -534,9 +632,9 @@ impl NodeRuntime {
         let engines = match self.engine.take() {
             None => return Ok((Vec::new(), InputTotals::default())),
             Some(EngineMode::Inline(mut engine)) => {
-                let mut rest = Vec::new();
-                engine.flush(now, &mut rest);
-                self.handle(&mut rest, publish)?;
+                let mut sink = self.emit.sink(publish);
+                engine.flush(now, &mut sink);
+                sink.finish()?;
                 vec![*engine]
             }
             Some(EngineMode::Sharded(engine)) => {

@@ -8,7 +8,9 @@
 //! held-packet flush and the iceoryx2 dead-node check are seen; there is no busy polling.
 //!
 //! With one engine shard (the default) the engine runs inline, so a packet goes subscriber →
-//! engine → journal → publishers without a thread hand-off. Readiness is edge-triggered: a
+//! engine → journal → publishers without a thread hand-off; an alert is journaled and
+//! published on iceoryx2 the moment the engine raises it (mid-packet), the ROS 2 (and extra)
+//! publications of a turn go out together at its end. Readiness is edge-triggered: a
 //! ready source is drained until empty into its inbox ([`INBOX_BOUND`]); the inboxes are then
 //! processed round robin for at most [`TURN_BUDGET`] or [`DRAIN_BOUND`] packets before the
 //! loop polls and takes again, so a flood on one input cannot starve the others and no
@@ -163,6 +165,12 @@ impl Reactor {
         })
     }
 
+    /// The instant the node's arrival stamps (`Alert::arrival_ns`) count from.
+    #[must_use]
+    pub fn epoch(&self) -> std::time::Instant {
+        self.runtime.epoch()
+    }
+
     /// The intake counters, readable from other threads while the node runs.
     #[must_use]
     pub fn probe(&self) -> Probe {
@@ -173,9 +181,9 @@ impl Reactor {
     }
 
     /// Runs the event loop until `stop` is set (seen within [`TICK`]), publishing to the
-    /// node's publishers (iceoryx2 first, the lowest-latency transport, then ROS 2) and to
-    /// `extra`; then drains what the inputs still hold, shuts the engine down (held packets
-    /// released, remaining outputs published, journal synced) and reports.
+    /// node's publishers — the iceoryx2 alert publisher at once, ROS 2 and `extra` at the end
+    /// of each turn (see `Outlet`) — then takes what the inputs still hold, shuts the engine
+    /// down (held packets released, remaining outputs published, journal synced) and reports.
     pub fn run(
         self,
         stop: &AtomicBool,
@@ -194,16 +202,15 @@ impl Reactor {
             Some((input, publisher)) => (Some(input), Some(publisher)),
             None => (None, None),
         };
-        let mut publishers: Vec<&mut dyn Publisher> = Vec::with_capacity(2 + extra.len());
-        if let Some(p) = &mut iox_publisher {
-            publishers.push(p);
-        }
-        publishers.push(&mut ros2_publisher);
+        let mut later: Vec<&mut dyn Publisher> = Vec::with_capacity(1 + extra.len());
+        later.push(&mut ros2_publisher);
         for p in extra.iter_mut() {
-            publishers.push(&mut **p);
+            later.push(&mut **p);
         }
         let mut out = Outlet {
-            publishers,
+            now: iox_publisher.as_mut().map(|p| p as &mut dyn Publisher),
+            later,
+            queue: Vec::new(),
             errors: 0,
             log: RateLimitedLog::new(),
         };
@@ -242,7 +249,8 @@ impl Reactor {
                 &mut out,
                 &controls,
             )?;
-            runtime.flush_if_due(&mut |p| out.publish(&p))?;
+            runtime.flush_if_due(&mut |p| out.publish(p))?;
+            out.flush();
             if let Some(input) = &mut iox_input {
                 input.maintain();
             }
@@ -271,7 +279,8 @@ impl Reactor {
             )?;
         }
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
-        let (summaries, input) = runtime.shutdown_with_totals(&mut |p| out.publish(&p))?;
+        let (summaries, input) = runtime.shutdown_with_totals(&mut |p| out.publish(p))?;
+        out.flush();
         if let Some(input) = &mut iox_input {
             let _ = poll.registry().deregister(input);
         }
@@ -302,8 +311,9 @@ fn turn(
             continue;
         }
         let room = INBOX_BOUND.saturating_sub(inbox.queue.len());
+        let clock = &*runtime;
         let mut push = |packet: AccelPacket| -> anyhow::Result<()> {
-            inbox.queue.push_back(packet);
+            inbox.queue.push_back((packet, clock.now_ns()));
             Ok(())
         };
         inbox.due = match (source, &mut *iox_input) {
@@ -319,24 +329,27 @@ fn turn(
     loop {
         let mut any = false;
         for inbox in inboxes.iter_mut() {
-            if let Some(packet) = inbox.queue.pop_front() {
+            if let Some((packet, arrival_ns)) = inbox.queue.pop_front() {
                 any = true;
                 processed += 1;
                 // A parameter change queued before this packet was taken applies to it.
                 apply_controls(controls, runtime);
-                runtime.submit(packet, &mut |p| out.publish(&p))?;
+                runtime.submit_arrived(packet, arrival_ns, &mut |p| out.publish(p))?;
             }
         }
         if !any || processed >= DRAIN_BOUND || Instant::now() >= deadline {
             break;
         }
     }
-    runtime.poll(&mut |p| out.publish(&p))
+    runtime.poll(&mut |p| out.publish(p))?;
+    out.flush();
+    Ok(())
 }
 
-/// Packets taken from one source and not yet processed.
+/// Packets taken from one source and not yet processed, with their arrival stamps
+/// ([`NodeRuntime::now_ns`] when taken).
 struct Inbox {
-    queue: VecDeque<AccelPacket>,
+    queue: VecDeque<(AccelPacket, i64)>,
     /// Ready (or stopped at the bound last turn): take from the source on this turn.
     due: bool,
 }
@@ -357,25 +370,50 @@ fn apply_controls(controls: &Receiver<Control>, runtime: &mut NodeRuntime) {
     }
 }
 
-/// Every publisher of the node; a failed publication is logged (rate-limited) and the node
-/// goes on.
+/// Every publisher of the node. The iceoryx2 alert publisher (`now`) publishes at once; the
+/// others (ROS 2, extra) are handed the turn's publications together at its end
+/// ([`Outlet::flush`]): each ROS 2 publication wakes RustDDS's network thread, which would
+/// otherwise compete for the CPU with the iceoryx2 subscriber being woken at that moment, and
+/// one batch per turn wakes it once. A failed publication is logged (rate-limited) and the
+/// node goes on.
 struct Outlet<'a> {
-    publishers: Vec<&'a mut dyn Publisher>,
+    now: Option<&'a mut dyn Publisher>,
+    later: Vec<&'a mut dyn Publisher>,
+    /// Publications for `later` (reused: no allocation per turn).
+    queue: Vec<Publication>,
     errors: u64,
     log: RateLimitedLog,
 }
 
 impl Outlet<'_> {
-    fn publish(&mut self, publication: &Publication) {
-        for publisher in &mut self.publishers {
-            if let Err(e) = publisher.publish(publication) {
-                self.errors += 1;
-                self.log.log(
-                    "node",
-                    "publish_failed",
-                    &format!("{e:#} ({} in all)", self.errors),
-                );
+    fn publish(&mut self, publication: Publication) {
+        if let Some(publisher) = &mut self.now {
+            if let Err(e) = publisher.publish(&publication) {
+                Self::failed(&mut self.errors, &mut self.log, &e);
             }
         }
+        if !self.later.is_empty() {
+            self.queue.push(publication);
+        }
+    }
+
+    /// Hands the queued publications to the other publishers.
+    fn flush(&mut self) {
+        for publication in self.queue.drain(..) {
+            for publisher in &mut self.later {
+                if let Err(e) = publisher.publish(&publication) {
+                    Self::failed(&mut self.errors, &mut self.log, &e);
+                }
+            }
+        }
+    }
+
+    fn failed(errors: &mut u64, log: &mut RateLimitedLog, e: &anyhow::Error) {
+        *errors += 1;
+        log.log(
+            "node",
+            "publish_failed",
+            &format!("{e:#} ({errors} in all)"),
+        );
     }
 }
