@@ -180,7 +180,7 @@ impl Reactor {
         }
     }
 
-    /// Runs the event loop until `stop` is set (seen within [`TICK`]), publishing to the
+    /// Runs the event loop until `stop` is set (seen within `TICK`, 50 ms), publishing to the
     /// node's publishers — the iceoryx2 alert publisher at once, ROS 2 and `extra` at the end
     /// of each turn (see `Outlet`) — then takes what the inputs still hold, shuts the engine
     /// down (held packets released, remaining outputs published, journal synced) and reports.
