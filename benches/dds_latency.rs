@@ -2,9 +2,11 @@
 //! `/pbr/accel` to receiving the PbrAlert it triggers on `/pbr/alerts` (p50, p99, max over
 //! ≥ 1000 alerts), and the node's sustained intake over DDS.
 //!
-//! Run: `cargo bench --bench dds_latency`. Three DDS participants in this process on their own
-//! threads — the replay sink (sender), the node (intake, engine shards, pump + publishers), an
-//! alert listener — talking through RTPS over UDP exactly as separate processes would.
+//! Run: `cargo bench --bench dds_latency`. Three DDS participants in this process — the replay
+//! sink (sender thread), the node (`rockwatch::node::Reactor`, the very code `rockwatch node`
+//! runs: one event loop taking the subscriptions, the engine inline with the default one
+//! shard, the publishers; on this thread), an alert listener (thread) — talking through RTPS
+//! over UDP exactly as separate processes would.
 //!
 //! No traffic leaves the machine: every participant is built from the LOCALHOST network plan
 //! (`Ros2Config::loopback_only()` → `with_only_networks([127.0.0.1])`: multicast joins, sends
@@ -21,8 +23,9 @@
 //!
 //! Intake: 1000 stations at 100 Hz in 100 ms packets of quiet data (10 000 packets/s is real
 //! time): (1) as fast as the node's DDS intake takes them, with at most `BACKLOG` packets in
-//! flight (below the input's history depth, so none is dropped; the engine works on
-//! concurrently, its queue is not counted here), and (2) paced at exactly real time for
+//! flight (below the input's history depth, so none is dropped; the node's event loop takes
+//! packets into its inbox at most 4096 ahead of the engine, which runs inline on the same
+//! thread), and (2) paced at exactly real time for
 //! `PACED_S` seconds (each 100 ms, one packet per station in a burst), reporting the intake's
 //! largest backlog, the time to take the last packets, and the time the engine then needs to
 //! finish: small figures mean the whole node keeps up with 1000 stations in real time.
@@ -36,11 +39,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use rockwatch::engine::{AccelPacket, StationId};
-use rockwatch::node::{NodeOptions, NodeRuntime};
+use rockwatch::node::{NodeOptions, Reactor};
 use rockwatch::replay::PacketSink;
-use rockwatch::ros2::{
-    network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2Node, Ros2PacketSink,
-};
+use rockwatch::ros2::{network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2PacketSink};
 
 const ALERT_STATIONS: usize = 400;
 const INTAKE_STATIONS: usize = 1000;
@@ -111,23 +112,23 @@ fn main() {
     intake(&config, &plan, &catalogue);
 }
 
+/// The node's options: the bench catalogue, ROS 2 `config`, no iceoryx2, default shards (1:
+/// the engine inline on the event loop).
+fn node_options(config: &Ros2Config, catalogue: &Path) -> NodeOptions {
+    let mut options = NodeOptions {
+        catalogue: Some(catalogue.to_path_buf()),
+        ..NodeOptions::default()
+    };
+    options.config.ros2 = config.clone();
+    options
+}
+
 fn latency(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
     let traces = rinaldi();
     let template = traces.packets(&StationId::parse("XB.S0000.00").unwrap(), PACKET_MS, 1.0);
     let per_station = template.len();
-    let options = NodeOptions {
-        catalogue: Some(catalogue.to_path_buf()),
-        shards: 2,
-        ..NodeOptions::default()
-    };
-    let mut runtime = NodeRuntime::start(&options).unwrap();
-    let (node, mut publisher) = Ros2Node::start(
-        config,
-        plan,
-        &options.config.engine,
-        runtime.submitter().unwrap(),
-    )
-    .unwrap();
+    let options = node_options(config, catalogue);
+    let reactor = Reactor::start(&options, plan).unwrap();
     let log = Arc::new(SendLog::new(ALERT_STATIONS, per_station));
     let epoch = log.epoch;
     let listener_done = Arc::new(AtomicBool::new(false));
@@ -147,9 +148,9 @@ fn latency(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
         })
     };
     ready_rx.recv_timeout(Duration::from_secs(30)).unwrap();
-    let pump_stop = Arc::new(AtomicBool::new(false));
+    let stop = Arc::new(AtomicBool::new(false));
     let sender = {
-        let (plan, log, pump_stop) = (plan.clone(), log.clone(), pump_stop.clone());
+        let (plan, log, stop) = (plan.clone(), log.clone(), stop.clone());
         let packets = station_packets(&template, ALERT_STATIONS);
         std::thread::spawn(move || {
             let mut sink = Ros2PacketSink::open(&plan, "/").unwrap();
@@ -159,14 +160,12 @@ fn latency(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
             std::thread::sleep(Duration::from_secs(1));
             log.paced_send(&mut sink, &packets, PACE);
             std::thread::sleep(Duration::from_secs(1));
-            pump_stop.store(true, Ordering::Relaxed);
+            stop.store(true, Ordering::Relaxed);
         })
     };
-    runtime.pump(&mut [&mut publisher], &pump_stop).unwrap();
+    let report = reactor.run(&stop, &mut []).unwrap();
     sender.join().unwrap();
-    let received = node.counters.packets.load(Ordering::Relaxed);
-    drop(node);
-    runtime.shutdown(&mut |_| {}).unwrap();
+    let received = report.ros2_packets;
     std::thread::sleep(Duration::from_millis(200));
     listener_done.store(true, Ordering::Relaxed);
     let alerts = listener.join().unwrap();
@@ -179,9 +178,10 @@ fn latency(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
     );
     println!(
         "DDS alert latency (publish AccelPacket -> receive PbrAlert, loopback UDP), {} alerts \
-         from {received} packets ({ALERT_STATIONS} stations, 2 shards, one packet every \
+         from {received} packets ({ALERT_STATIONS} stations, {} shard(s), one packet every \
          {PACE:?}): p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
         latencies_us.len(),
+        options.shards,
         percentile(&latencies_us, 50.0),
         percentile(&latencies_us, 99.0),
         latencies_us.last().copied().unwrap_or(f64::NAN),
@@ -202,21 +202,33 @@ fn quiet(s: usize, j: usize) -> AccelPacket {
 }
 
 fn intake(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
-    let options = NodeOptions {
-        catalogue: Some(catalogue.to_path_buf()),
-        shards: 0,
-        ..NodeOptions::default()
+    let options = node_options(config, catalogue);
+    let reactor = Reactor::start(&options, plan).unwrap();
+    let probe = reactor.probe();
+    let stop = Arc::new(AtomicBool::new(false));
+    let sender = {
+        let (plan, stop) = (plan.clone(), stop.clone());
+        std::thread::spawn(move || {
+            let taken = || probe.ros2_packets();
+            send_intake(&plan, &taken);
+            stop.store(true, Ordering::Relaxed);
+            Instant::now()
+        })
     };
-    let runtime = NodeRuntime::start(&options).unwrap();
-    let (node, _publisher) = Ros2Node::start(
-        config,
-        plan,
-        &options.config.engine,
-        runtime.submitter().unwrap(),
-    )
-    .unwrap();
-    let counters = Arc::clone(&node.counters);
-    let taken = || counters.packets.load(Ordering::Relaxed);
+    let report = reactor.run(&stop, &mut []).unwrap();
+    let stopped = sender.join().unwrap();
+    println!(
+        "  node stopped {:.2} s after intake stopped ({} packets taken, {} undecodable; engine \
+         inline, {} shard(s))",
+        stopped.elapsed().as_secs_f64(),
+        report.ros2_packets,
+        report.ros2_decode_errors,
+        options.shards,
+    );
+}
+
+/// The two intake phases, with flow control from `taken` (the node's counter).
+fn send_intake(plan: &NetworkPlan, taken: &dyn Fn() -> u64) {
     let mut sink = Ros2PacketSink::open(plan, "/").unwrap();
     assert!(sink.wait_for_subscriber(Duration::from_secs(30)).unwrap());
     let deadline = Instant::now() + Duration::from_secs(300);
@@ -277,12 +289,5 @@ fn intake(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
         taken() - base,
         max_lag as f64 / (INTAKE_STATIONS as f64 * 10.0) * 1e3,
         drain_s * 1e3,
-    );
-    drop(node);
-    let start = Instant::now();
-    runtime.shutdown(&mut |_| {}).unwrap();
-    println!(
-        "  engine drained the rest in {:.2} s after intake stopped",
-        start.elapsed().as_secs_f64()
     );
 }

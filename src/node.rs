@@ -1,22 +1,31 @@
-//! The live node's transport-independent runtime (shell): the sharded engine, the state
-//! directory, arrival time stamps, rate-limited logging. Transports (ROS 2, iceoryx2) are thin
-//! adapters around it: they `submit` packets as they arrive and `poll` for publications.
+//! The live node (shell).
 //!
-//! Ordering guarantee: an alert is appended to the journal and synced before `poll` hands it
-//! to the transport, so a published alert is never lost; on restart the journal is restored
+//! - [`NodeRuntime`]: the transport-independent runtime: the engine (inline on the caller's
+//!   thread with one shard, else sharded over worker threads), the state directory, arrival
+//!   time stamps, rate-limited logging.
+//! - [`serve`] / [`Reactor`] (module `serve`): the node itself, one event loop that takes the
+//!   input of every transport (ROS 2, iceoryx2), runs the engine and publishes.
+//!
+//! Ordering guarantee: an alert is appended to the journal and synced before it is handed to
+//! any publisher, so a published alert is never lost; on restart the journal is restored
 //! into the engine, so an alert is never published twice.
+
+mod serve;
 
 use std::collections::HashMap;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
+pub use serve::{serve, Probe, Reactor, ServeReport};
+
 use crate::catalogue::Catalogue;
 use crate::engine::{
-    AccelPacket, Alert, AlertConfig, Engine, EngineHandle, JournalRecord, Output, PbrSpec,
-    PbrState, PbrSummary, ShardedEngine, StationIntensity,
+    AccelPacket, Alert, AlertConfig, Engine, JournalRecord, Output, OutputSink, PbrSpec, PbrState,
+    PbrSummary, ShardedEngine, StationIntensity,
 };
 use crate::journal::Journal;
 use crate::node_config::NodeConfig;
@@ -43,41 +52,75 @@ pub trait Publisher {
     fn publish(&mut self, publication: &Publication) -> anyhow::Result<()>;
 }
 
-/// A transport's input side: a cloneable, thread-safe handle that stamps each packet with its
-/// arrival time and hands it to the engine.
-#[derive(Clone)]
-pub struct Submitter {
-    engine: EngineHandle,
-    epoch: Instant,
+/// Wakes an event loop from another thread.
+pub use crate::engine::sharded::Wake;
+
+/// A settings change handed to the node's event loop by another thread (e.g. a ROS 2
+/// parameter service).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Control {
+    /// New alert thresholds.
+    Alerts(AlertConfig),
+    /// New state publication interval (s of data); ignored unless finite and > 0.
+    StateIntervalS(f64),
 }
 
-impl Submitter {
-    /// Hands a packet to the engine, stamped with its arrival time.
-    pub fn submit(&self, packet: AccelPacket) {
-        self.engine
-            .submit(packet, self.epoch.elapsed().as_nanos() as i64);
+/// A cloneable, thread-safe handle that queues settings changes for the node's event loop and
+/// wakes it; the loop applies them before the next packet.
+#[derive(Clone)]
+pub struct ControlSender {
+    tx: mpsc::Sender<Control>,
+    wake: Wake,
+}
+
+impl ControlSender {
+    /// A sender and the receiver the event loop drains; `wake` is called after each change.
+    #[must_use]
+    pub fn channel(wake: Wake) -> (ControlSender, mpsc::Receiver<Control>) {
+        let (tx, rx) = mpsc::channel();
+        (ControlSender { tx, wake }, rx)
     }
 
-    /// New alert thresholds (e.g. from a ROS 2 parameter), effective for the next packet.
+    /// Queues a change (dropped silently once the event loop has stopped).
+    pub fn send(&self, control: Control) {
+        if self.tx.send(control).is_ok() {
+            (self.wake)();
+        }
+    }
+
+    /// New alert thresholds, effective for the next packet.
     pub fn set_alert_config(&self, alerts: AlertConfig) {
-        self.engine.set_alert_config(alerts);
+        self.send(Control::Alerts(alerts));
     }
 
-    /// New state publication interval (s of data; e.g. from a ROS 2 parameter), effective
-    /// for the next packet; ignored unless finite and > 0.
+    /// New state publication interval (s of data), effective for the next packet.
     pub fn set_state_interval_s(&self, state_interval_s: f64) {
-        self.engine.set_state_interval_s(state_interval_s);
+        self.send(Control::StateIntervalS(state_interval_s));
     }
 }
 
 /// Where the runtime's settings come from: the configuration file, overridden by flags.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct NodeOptions {
     pub config: NodeConfig,
     pub catalogue: Option<PathBuf>,
     pub state_dir: Option<PathBuf>,
-    /// Engine worker threads (0: one per core).
+    /// Engine shards (default 1; 0: one per core). One shard runs the engine inline on the
+    /// node's event loop thread: a packet is processed, journaled and published without any
+    /// thread hand-off (lowest latency). More shards spread stations over worker threads for
+    /// throughput, at the cost of two hand-offs per packet (event loop → worker → event loop).
     pub shards: usize,
+}
+
+impl Default for NodeOptions {
+    fn default() -> Self {
+        NodeOptions {
+            config: NodeConfig::default(),
+            catalogue: None,
+            state_dir: None,
+            shards: 1,
+        }
+    }
 }
 
 impl NodeOptions {
@@ -192,6 +235,14 @@ fn printable(text: &str, max_chars: usize) -> String {
 }
 
 impl RateLimitedLog {
+    /// At most one line per (station, kind) every 10 s.
+    fn new() -> RateLimitedLog {
+        RateLimitedLog {
+            interval: Duration::from_secs(10),
+            last: HashMap::new(),
+        }
+    }
+
     fn log(&mut self, station: &str, kind: &'static str, message: &str) {
         let now = Instant::now();
         let mut key = (printable(station, 48), kind);
@@ -216,20 +267,137 @@ impl RateLimitedLog {
     }
 }
 
-/// The running node minus its transports.
-pub struct NodeRuntime {
-    /// Always `Some` until `shutdown`.
-    engine: Option<ShardedEngine>,
+/// Where the runtime's outputs go: the journal, the publishers (through a callback), the
+/// stats and the rate-limited log.
+struct Emitter {
     journal: Option<Journal>,
     epoch: Instant,
     log: RateLimitedLog,
-    pub stats: NodeStats,
+    stats: NodeStats,
+    /// States and intensities held back until the batch's alerts are out (reused).
+    deferred: Vec<Output>,
+}
+
+impl Emitter {
+    fn now_ns(&self) -> i64 {
+        self.epoch.elapsed().as_nanos() as i64
+    }
+
+    /// A sink for one batch of engine outputs (one packet, one flush, one worker batch):
+    /// each alert is journaled (and synced), then published at once, in engine order; episode
+    /// ends are journaled; notices logged; states and intensities are published by
+    /// [`EmitSink::finish`], after the batch (they are not journaled, and an alert must not
+    /// wait for them). After a journal failure nothing more is published and `finish` returns
+    /// the error.
+    fn sink<'a, P: FnMut(Publication)>(&'a mut self, publish: &'a mut P) -> EmitSink<'a, P> {
+        self.deferred.clear();
+        EmitSink {
+            emit: self,
+            publish,
+            error: None,
+        }
+    }
+}
+
+/// See [`Emitter::sink`].
+struct EmitSink<'a, P: FnMut(Publication)> {
+    emit: &'a mut Emitter,
+    publish: &'a mut P,
+    error: Option<anyhow::Error>,
+}
+
+impl<P: FnMut(Publication)> EmitSink<'_, P> {
+    /// Publishes the batch's states and intensities; returns the journal's error, if any.
+    fn finish(self) -> anyhow::Result<()> {
+        let EmitSink {
+            emit,
+            publish,
+            error,
+        } = self;
+        if let Some(e) = error {
+            emit.deferred.clear();
+            return Err(e);
+        }
+        for output in emit.deferred.drain(..) {
+            match output {
+                Output::State(s) => {
+                    emit.stats.states += 1;
+                    publish(Publication::State(s));
+                }
+                Output::Intensity(i) => {
+                    emit.stats.intensities += 1;
+                    publish(Publication::Intensity(i));
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
+    fn push(&mut self, output: Output) {
+        if self.error.is_some() {
+            return; // the state directory failed: publish nothing more
+        }
+        let record = match &output {
+            Output::Alert(alert) => Some(JournalRecord::Alert(alert.clone())),
+            Output::EpisodeEnd { pbr_id, episode } => Some(JournalRecord::EpisodeEnd {
+                pbr_id: pbr_id.clone(),
+                episode: *episode,
+            }),
+            _ => None,
+        };
+        if let (Some(record), Some(journal)) = (record, &mut self.emit.journal) {
+            if let Err(e) = journal.append(&record) {
+                self.error = Some(e.into());
+                return;
+            }
+        }
+        match output {
+            Output::Alert(alert) => {
+                self.emit.stats.alerts += 1;
+                let latency_ns = self.emit.now_ns() - alert.arrival_ns;
+                (self.publish)(Publication::Alert { alert, latency_ns });
+            }
+            Output::EpisodeEnd { .. } => {}
+            Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
+            Output::Notice(n) => {
+                self.emit.stats.notices += 1;
+                self.emit.log.log(&n.station, n.kind, &n.message);
+            }
+        }
+    }
+}
+
+/// The engine of a [`NodeRuntime`].
+enum EngineMode {
+    /// One shard: the engine runs on the caller's thread.
+    Inline(Box<Engine>),
+    /// Stations spread over worker threads.
+    Sharded(ShardedEngine),
+}
+
+/// The running node minus its transports.
+pub struct NodeRuntime {
+    /// Always `Some` until `shutdown`.
+    engine: Option<EngineMode>,
+    /// Journal, stats, logs: where outputs go.
+    emit: Emitter,
     pbr_ids: Vec<String>,
+    last_flush: Instant,
 }
 
 impl NodeRuntime {
-    /// Loads the catalogue, restores the state directory, and starts the engine workers.
+    /// Loads the catalogue, restores the state directory, and starts the engine (inline for
+    /// one shard, else its workers).
     pub fn start(options: &NodeOptions) -> anyhow::Result<NodeRuntime> {
+        Self::start_with_wake(options, Arc::new(|| {}))
+    }
+
+    /// As [`NodeRuntime::start`]; with several shards, each worker calls `wake` after queueing
+    /// outputs (so an event loop can sleep until [`NodeRuntime::poll`] has work).
+    pub fn start_with_wake(options: &NodeOptions, wake: Wake) -> anyhow::Result<NodeRuntime> {
         let specs = options.load_blocks()?;
         let (journal, records) = match options.open_state()? {
             Some((journal, records)) => (Some(journal), records),
@@ -240,31 +408,64 @@ impl NodeRuntime {
         } else {
             options.shards
         };
-        let engine = ShardedEngine::start(
-            options.config.engine,
-            &options.config.stations,
-            &specs,
-            &records,
-            shards,
-        )
-        .map_err(anyhow::Error::msg)?;
+        let config = &options.config;
+        let engine = if shards == 1 {
+            let mut engine = Engine::new(config.engine, config.stations.clone(), &specs)
+                .map_err(anyhow::Error::msg)?;
+            engine.restore(&records);
+            EngineMode::Inline(Box::new(engine))
+        } else {
+            EngineMode::Sharded(
+                ShardedEngine::start_with_wake(
+                    config.engine,
+                    &config.stations,
+                    &specs,
+                    &records,
+                    shards,
+                    wake,
+                )
+                .map_err(anyhow::Error::msg)?,
+            )
+        };
         Ok(NodeRuntime {
             engine: Some(engine),
-            journal,
-            epoch: Instant::now(),
-            log: RateLimitedLog {
-                interval: Duration::from_secs(10),
-                last: HashMap::new(),
+            emit: Emitter {
+                journal,
+                epoch: Instant::now(),
+                log: RateLimitedLog::new(),
+                stats: NodeStats::default(),
+                deferred: Vec::new(),
             },
-            stats: NodeStats::default(),
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+            last_flush: Instant::now(),
         })
+    }
+
+    /// Engine shards: 1 when the engine runs inline.
+    #[must_use]
+    pub fn shards(&self) -> usize {
+        match &self.engine {
+            Some(EngineMode::Sharded(e)) => e.shards(),
+            _ => 1,
+        }
     }
 
     /// Monotonic wall time since start (ns): arrival and emission stamps.
     #[must_use]
     pub fn now_ns(&self) -> i64 {
-        self.epoch.elapsed().as_nanos() as i64
+        self.emit.now_ns()
+    }
+
+    /// Counts of what the runtime did so far.
+    #[must_use]
+    pub fn stats(&self) -> NodeStats {
+        self.emit.stats
+    }
+
+    /// The instant [`NodeRuntime::now_ns`] counts from (to compare stamps with other clocks).
+    #[must_use]
+    pub fn epoch(&self) -> Instant {
+        self.emit.epoch
     }
 
     /// Ids of the catalogued blocks.
@@ -273,147 +474,142 @@ impl NodeRuntime {
         &self.pbr_ids
     }
 
-    /// A handle for transport threads to submit packets.
-    #[must_use]
-    pub fn submitter(&self) -> Option<Submitter> {
-        self.engine.as_ref().map(|e| Submitter {
-            engine: e.handle(),
-            epoch: self.epoch,
-        })
-    }
-
-    /// Publishes the engine's outputs to every publisher as they come, until `stop` is set
-    /// (checked every 50 ms). Blocks: run it on the thread that owns the publishers.
-    pub fn pump(
+    /// Hands a packet to the engine, stamped with its arrival time. Inline, the packet is
+    /// processed now: each alert is journaled (and synced) and published the moment the engine
+    /// raises it, mid-packet, and the packet's states and intensities are published after it,
+    /// all before this returns; sharded, it is queued for its station's worker (waiting if
+    /// that queue is full) and the outputs come through [`NodeRuntime::poll`]. An error means
+    /// the state directory failed (the alert was not published).
+    pub fn submit(
         &mut self,
-        publishers: &mut [&mut dyn Publisher],
-        stop: &AtomicBool,
+        packet: AccelPacket,
+        publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
-        let mut errors = 0u64;
-        let mut last_flush = Instant::now();
-        while !stop.load(Ordering::Relaxed) {
-            // The engine's reorder window counts packets (so replays are deterministic); live,
-            // a packet held for missing data must not wait forever if its station falls
-            // silent: release held packets (accepting the gap) every HELD_PACKET_TIMEOUT.
-            if last_flush.elapsed() >= HELD_PACKET_TIMEOUT {
-                last_flush = Instant::now();
-                if let Some(engine) = &self.engine {
-                    engine.flush(self.now_ns());
-                }
-            }
-            let batch = self
-                .engine
-                .as_ref()
-                .and_then(|e| e.recv_outputs_timeout(Duration::from_millis(50)));
-            if let Some(batch) = batch {
-                let mut failures = Vec::new();
-                self.handle(batch, &mut |p| {
-                    for publisher in publishers.iter_mut() {
-                        if let Err(e) = publisher.publish(&p) {
-                            failures.push(e.to_string());
-                        }
-                    }
-                })?;
-                for f in failures {
-                    errors += 1;
-                    self.log
-                        .log("node", "publish_failed", &format!("{f} ({errors} in all)"));
-                }
-            }
-        }
-        Ok(())
+        let arrival_ns = self.now_ns();
+        self.submit_arrived(packet, arrival_ns, publish)
     }
 
-    /// Hands a packet to the engine, stamped with its arrival time.
-    pub fn submit(&mut self, packet: AccelPacket) {
-        self.stats.packets += 1;
-        let arrival = self.now_ns();
-        if let Some(engine) = &self.engine {
-            engine.submit(packet, arrival);
+    /// As [`NodeRuntime::submit`], for a packet taken from its transport at `arrival_ns`
+    /// ([`NodeRuntime::now_ns`] then) and queued since.
+    pub fn submit_arrived(
+        &mut self,
+        packet: AccelPacket,
+        arrival: i64,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<()> {
+        self.emit.stats.packets += 1;
+        match &mut self.engine {
+            Some(EngineMode::Inline(engine)) => {
+                // Each alert is journaled and published the moment the engine raises it; the
+                // rest of the packet is processed after.
+                let mut sink = self.emit.sink(publish);
+                engine.process(packet, arrival, &mut sink);
+                sink.finish()
+            }
+            Some(EngineMode::Sharded(engine)) => {
+                engine.submit(packet, arrival);
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Applies a settings change, effective for the next packet.
+    pub fn apply(&mut self, control: Control) {
+        match (control, &mut self.engine) {
+            (Control::Alerts(a), Some(EngineMode::Inline(e))) => e.set_alert_config(a),
+            (Control::Alerts(a), Some(EngineMode::Sharded(e))) => e.set_alert_config(a),
+            (Control::StateIntervalS(s), Some(EngineMode::Inline(e))) => {
+                e.set_state_interval_s(s);
+            }
+            (Control::StateIntervalS(s), Some(EngineMode::Sharded(e))) => {
+                e.set_state_interval_s(s);
+            }
+            (_, None) => {}
         }
     }
 
     /// New alert thresholds, effective for the next packet.
-    pub fn set_alert_config(&self, alerts: AlertConfig) {
-        if let Some(engine) = &self.engine {
-            engine.set_alert_config(alerts);
-        }
+    pub fn set_alert_config(&mut self, alerts: AlertConfig) {
+        self.apply(Control::Alerts(alerts));
     }
 
     /// Operator reset of a fallen block: journaled, then applied.
     pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
-        if let Some(j) = &mut self.journal {
+        if let Some(j) = &mut self.emit.journal {
             j.append(&JournalRecord::Reset {
                 pbr_id: pbr_id.to_string(),
             })?;
         }
-        if let Some(engine) = &self.engine {
-            engine.reset_pbr(pbr_id);
+        match &mut self.engine {
+            Some(EngineMode::Inline(e)) => {
+                e.reset_pbr(pbr_id);
+            }
+            Some(EngineMode::Sharded(e)) => e.reset_pbr(pbr_id),
+            None => {}
         }
         Ok(())
     }
 
+    /// Releases the packets held in the engine's reorder window if `HELD_PACKET_TIMEOUT` has
+    /// passed since the last release. The engine's window counts packets (so replays are
+    /// deterministic); live, a packet held for missing data must not wait forever if its
+    /// station falls silent. Call it regularly (the event loop does, at least every 50 ms).
+    pub fn flush_if_due(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
+        if self.last_flush.elapsed() < HELD_PACKET_TIMEOUT {
+            return Ok(());
+        }
+        self.last_flush = Instant::now();
+        let now = self.now_ns();
+        match &mut self.engine {
+            Some(EngineMode::Inline(engine)) => {
+                let mut sink = self.emit.sink(publish);
+                engine.flush(now, &mut sink);
+                sink.finish()
+            }
+            Some(EngineMode::Sharded(engine)) => {
+                engine.flush(now);
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Journals and publishes `outputs` (drained), as [`Emitter::sink`].
     fn handle(
         &mut self,
-        outputs: Vec<Output>,
+        outputs: &mut Vec<Output>,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
-        for output in outputs {
-            match output {
-                Output::Alert(alert) => {
-                    if let Some(j) = &mut self.journal {
-                        j.append(&JournalRecord::Alert(alert.clone()))?;
-                    }
-                    self.stats.alerts += 1;
-                    let latency_ns = self.now_ns() - alert.arrival_ns;
-                    publish(Publication::Alert { alert, latency_ns });
-                }
-                Output::EpisodeEnd { pbr_id, episode } => {
-                    if let Some(j) = &mut self.journal {
-                        j.append(&JournalRecord::EpisodeEnd { pbr_id, episode })?;
-                    }
-                }
-                Output::State(s) => {
-                    self.stats.states += 1;
-                    publish(Publication::State(s));
-                }
-                Output::Intensity(i) => {
-                    self.stats.intensities += 1;
-                    publish(Publication::Intensity(i));
-                }
-                Output::Notice(n) => {
-                    self.stats.notices += 1;
-                    self.log.log(&n.station, n.kind, &n.message);
-                }
-            }
+        let mut sink = self.emit.sink(publish);
+        for output in outputs.drain(..) {
+            sink.push(output);
         }
-        Ok(())
+        sink.finish()
     }
 
-    /// Publishes everything the engine has produced so far, without waiting. Alerts are
-    /// journaled first; an error means the state directory failed (the alert was not
-    /// published).
+    /// Publishes everything the engine workers have produced so far, without waiting (inline,
+    /// outputs are published by `submit` itself and this does nothing). Alerts are journaled
+    /// first; an error means the state directory failed (the alert was not published).
     pub fn poll(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
-        let outputs: Vec<Output> = self
-            .engine
-            .as_ref()
-            .map_or_else(Vec::new, |e| e.try_outputs().collect());
-        self.handle(outputs, publish)
+        let mut outputs: Vec<Output> = match &self.engine {
+            Some(EngineMode::Sharded(e)) => e.try_outputs().collect(),
+            _ => return Ok(()),
+        };
+        self.handle(&mut outputs, publish)
     }
 
-    /// Waits up to `timeout` for outputs, then publishes them (for transports without their
-    /// own event loop).
+    /// Waits up to `timeout` for outputs of the engine workers, then publishes them (returns
+    /// at once inline).
     pub fn poll_wait(
         &mut self,
         timeout: Duration,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
-        if let Some(first) = self
-            .engine
-            .as_ref()
-            .and_then(|e| e.recv_outputs_timeout(timeout))
-        {
-            self.handle(first, publish)?;
+        if let Some(EngineMode::Sharded(e)) = &self.engine {
+            if let Some(mut first) = e.recv_outputs_timeout(timeout) {
+                self.handle(&mut first, publish)?;
+            }
         }
         self.poll(publish)
     }
@@ -433,12 +629,21 @@ impl NodeRuntime {
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<(Vec<PbrSummary>, InputTotals)> {
         let now = self.now_ns();
-        let Some(engine) = self.engine.take() else {
-            return Ok((Vec::new(), InputTotals::default()));
+        let engines = match self.engine.take() {
+            None => return Ok((Vec::new(), InputTotals::default())),
+            Some(EngineMode::Inline(mut engine)) => {
+                let mut sink = self.emit.sink(publish);
+                engine.flush(now, &mut sink);
+                sink.finish()?;
+                vec![*engine]
+            }
+            Some(EngineMode::Sharded(engine)) => {
+                engine.flush(now);
+                let (engines, mut rest) = engine.shutdown();
+                self.handle(&mut rest, publish)?;
+                engines
+            }
         };
-        engine.flush(now);
-        let (engines, rest) = engine.shutdown();
-        self.handle(rest, publish)?;
         let mut totals = InputTotals::default();
         for e in &engines {
             totals.add(e);

@@ -47,7 +47,6 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
         config_file: Some(iox_file.clone()),
         accel_service: accel.clone(),
         alerts_service: alerts.clone(),
-        handle_signals: false,
         ..IoxConfig::default()
     };
     let deadline = Instant::now() + Duration::from_secs(20);

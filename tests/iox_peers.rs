@@ -1,8 +1,12 @@
 //! iceoryx2 with independent peers: the PyPI package `iceoryx2` (same version as the crate)
 //! publishes the Rinaldi packets and subscribes to the alerts; a `kill -9`ed publisher process.
+//! The node is `rockwatch::node::Reactor` (what `rockwatch node` runs); it also joins ROS 2, so
+//! each test runs in a private network namespace (loopback only).
 //! Without Python/iceoryx2 the tests are skipped locally and FAIL when CI=true.
 
+mod ros2_util;
 mod support;
+use ros2_util::reexec_in_netns;
 use support::rinaldi_packets;
 
 use std::io::{BufRead, BufReader};
@@ -10,13 +14,13 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, Receiver};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
 use rockwatch::engine::AccelPacket;
-use rockwatch::iox::{IoxAlertPublisher, IoxConfig, IoxInput};
-use rockwatch::node::{NodeOptions, NodeRuntime, Publisher};
+use rockwatch::iox::IoxConfig;
+use rockwatch::node::{NodeOptions, Probe, Reactor};
+use rockwatch::ros2::{network_plan, Ros2Config};
 
 const ICEORYX2_VERSION: &str = "0.10.0";
 
@@ -26,7 +30,6 @@ fn test_config(tag: &str) -> IoxConfig {
         config_file: Some(PathBuf::from("config/iceoryx2.toml")),
         accel_service: format!("rockwatch-peer/{id}/{tag}/accel"),
         alerts_service: format!("rockwatch-peer/{id}/{tag}/alerts"),
-        handle_signals: false,
         ..IoxConfig::default()
     }
 }
@@ -165,49 +168,43 @@ fn alerts_of(mut peer: Peer, stop_file: &Path) -> Vec<(String, u64, u64)> {
     alerts
 }
 
-/// Runs the node (runtime + input + alert publisher) on this thread while `drive` runs on
-/// another; returns the input's counters.
+/// Runs the node on this thread while `drive` runs on another; returns the iceoryx2 input's
+/// counters.
 fn run_node(
     config: &IoxConfig,
-    drive: impl FnOnce(&IoxInput) + Send,
+    drive: impl FnOnce(&Probe) + Send,
 ) -> rockwatch::iox::IoxInputStats {
-    let mut runtime = NodeRuntime::start(&NodeOptions {
+    let mut options = NodeOptions {
         catalogue: Some(PathBuf::from("config/catalogue.toml")),
-        shards: 2,
         ..NodeOptions::default()
-    })
-    .unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let input = IoxInput::spawn(config, runtime.submitter().unwrap(), stop).unwrap();
-    let mut publisher = IoxAlertPublisher::new(config).unwrap();
-    let pump_stop = AtomicBool::new(false);
-    std::thread::scope(|s| {
+    };
+    options.config.iceoryx2 = config.clone();
+    options.config.ros2 = Ros2Config::loopback_only();
+    let plan = network_plan(&options.config.ros2, None, None).unwrap();
+    let reactor = Reactor::start(&options, &plan).unwrap();
+    let probe = reactor.probe();
+    let stop = AtomicBool::new(false);
+    let report = std::thread::scope(|s| {
         s.spawn(|| {
-            let guard = StopOnDrop(&pump_stop);
-            drive(&input);
+            let guard = StopOnDrop(&stop);
+            drive(&probe);
             std::thread::sleep(Duration::from_millis(500));
             drop(guard);
         });
-        runtime.pump(&mut [&mut publisher], &pump_stop).unwrap();
+        reactor.run(&stop, &mut []).unwrap()
     });
-    let stats = input.join().unwrap();
-    let mut rest = Vec::new();
-    runtime.shutdown(&mut |p| rest.push(p)).unwrap();
-    for p in &rest {
-        publisher.publish(p).unwrap();
-    }
-    stats
+    report.iox.unwrap()
 }
 
-/// Waits (bounded) until the input has taken `n` packets.
-fn wait_received(input: &IoxInput, n: u64) {
+/// Waits (bounded) until the node's iceoryx2 input has taken `n` packets.
+fn wait_received(probe: &Probe, n: u64) {
     let deadline = Instant::now() + Duration::from_secs(30);
-    while input.stats().received < n && Instant::now() < deadline {
+    while probe.iox().unwrap().received < n && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
     }
 }
 
-/// Sets the flag when dropped (also when the driver panics, so the pump never hangs).
+/// Sets the flag when dropped (also when the driver panics, so the node never hangs).
 struct StopOnDrop<'a>(&'a AtomicBool);
 impl Drop for StopOnDrop<'_> {
     fn drop(&mut self) {
@@ -217,7 +214,12 @@ impl Drop for StopOnDrop<'_> {
 
 #[test]
 fn python_publisher_to_node_to_python_subscriber_overturns_the_slender_pillar() {
-    if !python_peer_available() {
+    if !python_peer_available()
+        || !reexec_in_netns(
+            "python_publisher_to_node_to_python_subscriber_overturns_the_slender_pillar",
+            180,
+        )
+    {
         return;
     }
     let config = test_config("python");
@@ -228,7 +230,7 @@ fn python_publisher_to_node_to_python_subscriber_overturns_the_slender_pillar() 
     let stop_file = dir.path().join("stop");
     let subscriber = python_subscriber(&config, &stop_file);
 
-    let stats = run_node(&config, |input| {
+    let stats = run_node(&config, |probe| {
         let mut publisher = Peer::spawn(
             "accel_publisher.py",
             &[
@@ -239,7 +241,7 @@ fn python_publisher_to_node_to_python_subscriber_overturns_the_slender_pillar() 
             ],
         );
         publisher.expect_line(&format!("sent {}", packets.len()), Duration::from_secs(60));
-        wait_received(input, packets.len() as u64);
+        wait_received(probe, packets.len() as u64);
         publisher.close_stdin();
         assert!(publisher.wait(Duration::from_secs(10)));
     });
@@ -263,7 +265,9 @@ fn python_publisher_to_node_to_python_subscriber_overturns_the_slender_pillar() 
 
 #[test]
 fn killed_publisher_leaves_the_node_serving_the_next_one() {
-    if !python_peer_available() {
+    if !python_peer_available()
+        || !reexec_in_netns("killed_publisher_leaves_the_node_serving_the_next_one", 180)
+    {
         return;
     }
     let config = test_config("kill");
@@ -279,7 +283,7 @@ fn killed_publisher_leaves_the_node_serving_the_next_one() {
     let stop_file = dir.path().join("stop");
     let subscriber = python_subscriber(&config, &stop_file);
 
-    let stats = run_node(&config, |input| {
+    let stats = run_node(&config, |probe| {
         let mut killed = Peer::spawn(
             "accel_publisher.py",
             &[
@@ -311,7 +315,7 @@ fn killed_publisher_leaves_the_node_serving_the_next_one() {
         while dead_nodes() > 0 && Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(50));
         }
-        assert_eq!(dead_nodes(), 0, "{:?}", input.stats());
+        assert_eq!(dead_nodes(), 0, "{:?}", probe.iox());
         let mut next = Peer::spawn(
             "accel_publisher.py",
             &[
@@ -325,7 +329,7 @@ fn killed_publisher_leaves_the_node_serving_the_next_one() {
             &format!("sent {}", packets.len() - split),
             Duration::from_secs(60),
         );
-        wait_received(input, packets.len() as u64);
+        wait_received(probe, packets.len() as u64);
         next.close_stdin();
         assert!(next.wait(Duration::from_secs(10)));
     });

@@ -1,7 +1,11 @@
-//! iceoryx2 transport: wire layouts, and the Rust round trip IoxPacketSink → IoxInput →
-//! NodeRuntime → IoxAlertPublisher → a Rust subscriber, with the Rinaldi record.
+//! iceoryx2 transport: wire layouts, and the Rust round trip IoxPacketSink → the node
+//! (`rockwatch::node::Reactor`, the code `rockwatch node` runs: iceoryx2 input, engine,
+//! alert publisher on one event loop) → a Rust subscriber, with the Rinaldi record. The node
+//! also joins ROS 2, so those tests run in a private network namespace (loopback only).
 
+mod ros2_util;
 mod support;
+use ros2_util::reexec_in_netns;
 use support::rinaldi_packets;
 
 use std::mem::{align_of, offset_of, size_of};
@@ -13,9 +17,10 @@ use std::time::{Duration, Instant};
 use iceoryx2::prelude::*;
 use rockwatch::engine::AccelPacket;
 use rockwatch::iox::types::{AccelHeader, AccelSample, PbrAlertIox};
-use rockwatch::iox::{IoxAlertPublisher, IoxAlertSubscriber, IoxConfig, IoxInput, IoxPacketSink};
-use rockwatch::node::{NodeOptions, NodeRuntime, Publisher};
+use rockwatch::iox::{IoxAlertSubscriber, IoxConfig, IoxPacketSink};
+use rockwatch::node::{NodeOptions, Reactor};
 use rockwatch::replay::PacketSink;
+use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config};
 
 /// Unique service names per test and process, so tests run in parallel.
 fn test_config(tag: &str) -> IoxConfig {
@@ -24,9 +29,22 @@ fn test_config(tag: &str) -> IoxConfig {
         config_file: Some(PathBuf::from("config/iceoryx2.toml")),
         accel_service: format!("rockwatch-test/{id}/{tag}/accel"),
         alerts_service: format!("rockwatch-test/{id}/{tag}/alerts"),
-        handle_signals: false,
         ..IoxConfig::default()
     }
+}
+
+/// Node options for the example catalogue with the iceoryx2 transport `iox`, and the
+/// loopback-only ROS 2 plan.
+fn node_options(iox: &IoxConfig, shards: usize) -> (NodeOptions, NetworkPlan) {
+    let mut options = NodeOptions {
+        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        shards,
+        ..NodeOptions::default()
+    };
+    options.config.iceoryx2 = iox.clone();
+    options.config.ros2 = Ros2Config::loopback_only();
+    let plan = network_plan(&options.config.ros2, None, None).unwrap();
+    (options, plan)
 }
 
 #[test]
@@ -120,17 +138,10 @@ fn collect_alerts(
     got
 }
 
-#[test]
-fn rinaldi_over_iceoryx2_overturns_the_slender_pillar() {
-    let config = test_config("roundtrip");
-    let mut runtime = NodeRuntime::start(&NodeOptions {
-        catalogue: Some(PathBuf::from("config/catalogue.toml")),
-        shards: 2,
-        ..NodeOptions::default()
-    })
-    .unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let input = IoxInput::spawn(&config, runtime.submitter().unwrap(), stop.clone()).unwrap();
+fn rinaldi_over_iceoryx2_overturns_the_slender_pillar(shards: usize) {
+    let config = test_config(&format!("roundtrip{shards}"));
+    let (options, plan) = node_options(&config, shards);
+    let reactor = Reactor::start(&options, &plan).unwrap();
 
     // The alert subscriber exists before anything is published.
     let ready = Arc::new(std::sync::Barrier::new(2));
@@ -143,11 +154,11 @@ fn rinaldi_over_iceoryx2_overturns_the_slender_pillar() {
 
     let packets = rinaldi_packets();
     let n = packets.len() as u64;
-    // The pump runs on this thread; the sender stops it once everything was sent (what the
+    // The node runs on this thread; the sender stops it once everything was sent (what the
     // engine still holds comes out at shutdown).
-    let pump_stop = Arc::new(AtomicBool::new(false));
+    let stop = Arc::new(AtomicBool::new(false));
     let sender = {
-        let (config, pump_stop) = (config.clone(), pump_stop.clone());
+        let (config, stop) = (config.clone(), stop.clone());
         std::thread::spawn(move || {
             let mut sink = IoxPacketSink::new(&config).unwrap();
             let connected = sink.wait_for_subscriber(Duration::from_secs(10));
@@ -157,19 +168,13 @@ fn rinaldi_over_iceoryx2_overturns_the_slender_pillar() {
                 }
             }
             std::thread::sleep(Duration::from_millis(500));
-            pump_stop.store(true, Ordering::Relaxed);
+            stop.store(true, Ordering::Relaxed);
             connected.unwrap()
         })
     };
-    let mut publisher = IoxAlertPublisher::new(&config).unwrap();
-    runtime.pump(&mut [&mut publisher], &pump_stop).unwrap();
+    let report = reactor.run(&stop, &mut []).unwrap();
     assert!(sender.join().unwrap(), "the input never subscribed");
-    let stats = input.join().unwrap();
-    let mut rest = Vec::new();
-    runtime.shutdown(&mut |p| rest.push(p)).unwrap();
-    for p in &rest {
-        publisher.publish(p).unwrap();
-    }
+    let stats = report.iox.unwrap();
     std::thread::sleep(Duration::from_millis(200));
     done.store(true, Ordering::Relaxed);
     let alerts = subscriber.join().unwrap();
@@ -177,6 +182,7 @@ fn rinaldi_over_iceoryx2_overturns_the_slender_pillar() {
     assert_eq!(stats.received, n, "{stats:?}");
     assert_eq!(stats.submitted, n, "{stats:?}");
     assert_eq!(stats.sequence_gaps, 0, "{stats:?}");
+    assert_eq!(report.input.packets, n, "{:?}", report.input);
     let overturned: Vec<_> = alerts
         .iter()
         .filter(|a| a.level == 3)
@@ -198,17 +204,62 @@ fn rinaldi_over_iceoryx2_overturns_the_slender_pillar() {
 }
 
 #[test]
+fn rinaldi_over_iceoryx2_overturns_the_slender_pillar_with_the_inline_engine() {
+    if reexec_in_netns(
+        "rinaldi_over_iceoryx2_overturns_the_slender_pillar_with_the_inline_engine",
+        120,
+    ) {
+        rinaldi_over_iceoryx2_overturns_the_slender_pillar(1);
+    }
+}
+
+#[test]
+fn rinaldi_over_iceoryx2_overturns_the_slender_pillar_with_two_engine_shards() {
+    if reexec_in_netns(
+        "rinaldi_over_iceoryx2_overturns_the_slender_pillar_with_two_engine_shards",
+        120,
+    ) {
+        rinaldi_over_iceoryx2_overturns_the_slender_pillar(2);
+    }
+}
+
+#[test]
 fn malformed_input_over_the_wire_is_counted_and_never_crashes() {
+    if !reexec_in_netns(
+        "malformed_input_over_the_wire_is_counted_and_never_crashes",
+        120,
+    ) {
+        return;
+    }
     let config = test_config("malformed");
-    let runtime = NodeRuntime::start(&NodeOptions {
-        catalogue: Some(PathBuf::from("config/catalogue.toml")),
-        shards: 1,
-        ..NodeOptions::default()
-    })
-    .unwrap();
+    let (options, plan) = node_options(&config, 1);
+    let reactor = Reactor::start(&options, &plan).unwrap();
+    let probe = reactor.probe();
     let stop = Arc::new(AtomicBool::new(false));
-    let input = IoxInput::spawn(&config, runtime.submitter().unwrap(), stop.clone()).unwrap();
-    let mut sink = IoxPacketSink::new(&config).unwrap();
+    let sender = {
+        let (config, stop) = (config.clone(), stop.clone());
+        std::thread::spawn(move || {
+            send_hostile_packets(&config, &probe);
+            stop.store(true, Ordering::Relaxed);
+        })
+    };
+    let report = reactor.run(&stop, &mut []).unwrap();
+    sender.join().unwrap();
+    let stats = report.iox.unwrap();
+    let total = 11; // 10 hostile + 1 good, sent below
+    assert_eq!(stats.received, total, "{stats:?}");
+    assert_eq!(stats.rejected_count_mismatch, 1, "{stats:?}");
+    assert_eq!(stats.rejected_station, 3, "{stats:?}");
+    assert_eq!(stats.rejected_structure, 3, "{stats:?}");
+    assert_eq!(stats.rejected_values, 3, "{stats:?}");
+    assert_eq!(stats.submitted, 1, "{stats:?}");
+    // Only the good packet reached the engine.
+    assert_eq!(report.input.packets, 1, "{:?}", report.input);
+}
+
+/// Sends 10 hostile packets and a good one, and waits (bounded) until the node took them.
+fn send_hostile_packets(config: &IoxConfig, probe: &rockwatch::node::Probe) {
+    let mut sink = IoxPacketSink::new(config).unwrap();
     assert!(sink.wait_for_subscriber(Duration::from_secs(10)).unwrap());
 
     let good = AccelPacket {
@@ -259,16 +310,9 @@ fn malformed_input_over_the_wire_is_counted_and_never_crashes() {
     }
     sink.send(&good).unwrap();
     let total = hostile.len() as u64 + 1;
+    assert_eq!(total, 11);
     let deadline = Instant::now() + Duration::from_secs(20);
-    while input.stats().received < total && Instant::now() < deadline {
+    while probe.iox().unwrap().received < total && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
     }
-    let stats = input.join().unwrap();
-    assert_eq!(stats.received, total, "{stats:?}");
-    assert_eq!(stats.rejected_count_mismatch, 1, "{stats:?}");
-    assert_eq!(stats.rejected_station, 3, "{stats:?}");
-    assert_eq!(stats.rejected_structure, 3, "{stats:?}");
-    assert_eq!(stats.rejected_values, 3, "{stats:?}");
-    assert_eq!(stats.submitted, 1, "{stats:?}");
-    runtime.shutdown(&mut |_| {}).unwrap();
 }

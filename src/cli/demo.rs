@@ -102,7 +102,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         config,
         catalogue: None,
         state_dir: None,
-        shards: 0,
+        shards: 1,
     };
 
     let station = StationId::parse(STATION).map_err(anyhow::Error::msg)?;
@@ -128,7 +128,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             .name("demo-node".into())
             .spawn(move || {
                 let mut recorder = LatencyRecorder(latencies);
-                super::node::serve(&options, &plan, &stop, &mut [&mut recorder])
+                rockwatch::node::serve(&options, &plan, &stop, &mut [&mut recorder])
             })?
     };
     let replayer = {

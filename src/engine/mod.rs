@@ -31,7 +31,8 @@ use std::collections::{BTreeMap, HashSet};
 
 pub use config::{AlertConfig, EngineConfig, Orientation, PbrSpec, StationConfig};
 pub use output::{
-    Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, PbrState, StationIntensity,
+    Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink, PbrState,
+    StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use sharded::{EngineHandle, ShardedEngine};
@@ -118,8 +119,9 @@ impl Engine {
         ok
     }
 
-    /// Processes one packet that arrived at wall time `arrival_ns`; appends the outputs.
-    pub fn process(&mut self, packet: AccelPacket, arrival_ns: i64, out: &mut Vec<Output>) {
+    /// Processes one packet that arrived at wall time `arrival_ns`; hands each output to `out`
+    /// as soon as it is produced (pass a `&mut Vec<Output>` to collect them).
+    pub fn process(&mut self, packet: AccelPacket, arrival_ns: i64, out: &mut dyn OutputSink) {
         self.counters.packets += 1;
         let station_id = match StationId::parse(&packet.station) {
             Ok(id) => id,
@@ -183,7 +185,7 @@ impl Engine {
 
     /// Releases every packet held for reordering (call when streams go quiet, and at the end
     /// of an offline run).
-    pub fn flush(&mut self, arrival_ns: i64, out: &mut Vec<Output>) {
+    pub fn flush(&mut self, arrival_ns: i64, out: &mut dyn OutputSink) {
         let ctx = PacketContext {
             alerts: &self.config.alerts,
             journaled: &self.journaled,

@@ -2,6 +2,19 @@
 
 use crate::dynamics::Mode;
 
+/// Where the engine puts its outputs, each as soon as it is produced (an alert mid-packet
+/// need not wait for the rest of the packet). A `Vec<Output>` just collects them.
+pub trait OutputSink {
+    /// Takes one output.
+    fn push(&mut self, output: Output);
+}
+
+impl OutputSink for Vec<Output> {
+    fn push(&mut self, output: Output) {
+        Vec::push(self, output);
+    }
+}
+
 /// Alert levels, in increasing severity (numbering as in `msg/PbrAlert.msg`).
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,

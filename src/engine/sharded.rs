@@ -4,6 +4,7 @@
 //! outputs stay in order and deterministic (outputs of different stations interleave).
 
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
+use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use super::{
@@ -67,6 +68,9 @@ impl EngineHandle {
 /// Packets a worker's queue holds before `submit` waits (back-pressure on the transport).
 const QUEUE_PACKETS: usize = 4096;
 
+/// Called by a worker after it has queued outputs (e.g. to wake an event loop).
+pub type Wake = Arc<dyn Fn() + Send + Sync>;
+
 /// A pool of engine shards on worker threads.
 pub struct ShardedEngine {
     handle: EngineHandle,
@@ -88,6 +92,19 @@ impl ShardedEngine {
         journal: &[JournalRecord],
         shards: usize,
     ) -> Result<ShardedEngine, String> {
+        Self::start_with_wake(config, stations, pbrs, journal, shards, Arc::new(|| {}))
+    }
+
+    /// As [`ShardedEngine::start`]; every worker calls `wake` after queueing a batch of
+    /// outputs, so an event loop can sleep until there is something to publish.
+    pub fn start_with_wake(
+        config: EngineConfig,
+        stations: &[StationConfig],
+        pbrs: &[PbrSpec],
+        journal: &[JournalRecord],
+        shards: usize,
+        wake: Wake,
+    ) -> Result<ShardedEngine, String> {
         let shards = shards.max(1);
         let (out_tx, outputs): (Sender<Vec<Output>>, _) = mpsc::channel();
         let mut senders = Vec::with_capacity(shards);
@@ -108,6 +125,7 @@ impl ShardedEngine {
             engine.restore(journal);
             let (tx, rx) = mpsc::sync_channel::<Command>(QUEUE_PACKETS);
             let out_tx = out_tx.clone();
+            let wake = Arc::clone(&wake);
             let handle = std::thread::Builder::new()
                 .name(format!("rockwatch-shard-{shard}"))
                 .spawn(move || {
@@ -125,8 +143,11 @@ impl ShardedEngine {
                             }
                             Command::Stop => break,
                         }
-                        if !out.is_empty() && out_tx.send(std::mem::take(&mut out)).is_err() {
-                            break; // nobody listens any more
+                        if !out.is_empty() {
+                            if out_tx.send(std::mem::take(&mut out)).is_err() {
+                                break; // nobody listens any more
+                            }
+                            wake();
                         }
                     }
                     engine
@@ -169,6 +190,11 @@ impl ShardedEngine {
     /// New alert thresholds on every shard (effective for the next packet).
     pub fn set_alert_config(&self, alerts: AlertConfig) {
         self.handle.set_alert_config(alerts);
+    }
+
+    /// New state publication interval (s of data) on every shard; ignored unless > 0.
+    pub fn set_state_interval_s(&self, state_interval_s: f64) {
+        self.handle.set_state_interval_s(state_interval_s);
     }
 
     /// Operator reset of a block on every shard (only its own shard knows it).

@@ -5,7 +5,7 @@ use super::config::{AlertConfig, Orientation, PbrSpec, StationConfig};
 use std::collections::HashSet;
 
 use super::output::{
-    Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, PbrState, RaisedLevels,
+    Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink, PbrState, RaisedLevels,
     StationIntensity,
 };
 use super::stream::{Gap, Released, Sequencer, StreamConfig};
@@ -189,7 +189,7 @@ impl StationRuntime {
         packet: super::packet::AccelPacket,
         ctx: &PacketContext<'_>,
         scratch: &mut Vec<Released>,
-        out: &mut Vec<Output>,
+        out: &mut dyn OutputSink,
     ) {
         self.counters.packets += 1;
         scratch.clear();
@@ -204,7 +204,7 @@ impl StationRuntime {
         &mut self,
         ctx: &PacketContext<'_>,
         scratch: &mut Vec<Released>,
-        out: &mut Vec<Output>,
+        out: &mut dyn OutputSink,
     ) {
         scratch.clear();
         self.sequencer.flush(scratch);
@@ -268,7 +268,7 @@ impl StationRuntime {
         true
     }
 
-    fn notice(&self, kind: &'static str, message: String, out: &mut Vec<Output>) {
+    fn notice(&self, kind: &'static str, message: String, out: &mut dyn OutputSink) {
         out.push(Output::Notice(Notice {
             station: self.name.clone(),
             kind,
@@ -287,7 +287,7 @@ impl StationRuntime {
         }
     }
 
-    fn process_packet(&mut self, r: &Released, ctx: &PacketContext<'_>, out: &mut Vec<Output>) {
+    fn process_packet(&mut self, r: &Released, ctx: &PacketContext<'_>, out: &mut dyn OutputSink) {
         // The packet's own grid: held packets released by a rate change keep their rate.
         let dt_s = 1.0 / r.rate_hz;
         match r.gap {
@@ -393,7 +393,7 @@ impl StationRuntime {
         t_ns: i64,
         dt_s: f64,
         ctx: &PacketContext<'_>,
-        out: &mut Vec<Output>,
+        out: &mut dyn OutputSink,
     ) {
         if let Some([e, n, u]) = &mut self.ims {
             e.push(s.east);

@@ -1,8 +1,9 @@
 //! iceoryx2 transport (zero-copy, same host): a thin adapter around `crate::node`.
 //!
-//! - [`IoxInput`]: a thread subscribed to `pbr/accel` (user header [`AccelHeader`], slice of
-//!   [`AccelSample`]), woken through the event service of the same name and a WaitSet (no busy
-//!   polling), handing packets to a [`Submitter`].
+//! - [`IoxInput`]: the subscription to `pbr/accel` (user header [`AccelHeader`], slice of
+//!   [`AccelSample`]) plus the listener of the event service of the same name: a mio event
+//!   source driven by the node's event loop (`crate::node::Reactor`; no thread of its own, no
+//!   busy polling), which validates and counts what it takes and tracks sequence gaps.
 //! - [`IoxAlertPublisher`]: a [`Publisher`] that publishes alerts on `pbr/alerts` and notifies
 //!   the event service of the same name.
 //! - [`IoxPacketSink`]: a [`PacketSink`] for `rockwatch replay --transport iceoryx2`.
@@ -18,9 +19,8 @@ pub mod types;
 use std::collections::HashMap;
 use std::fmt::Debug;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context};
@@ -28,10 +28,10 @@ use iceoryx2::config::Config;
 use iceoryx2::port::publisher::Publisher as IoxPublisherPort;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
-use iceoryx2::waitset::WaitSetRunResult;
+use mio::unix::SourceFd;
 
 use crate::engine::AccelPacket;
-use crate::node::{Publication, Publisher, Submitter};
+use crate::node::{Publication, Publisher};
 use crate::replay::PacketSink;
 pub use types::{
     packet_from_wire, AccelHeader, AccelSample, PbrAlertIox, WireError, ACCEL_FLAG_HAS_UP,
@@ -56,12 +56,9 @@ pub struct IoxConfig {
     pub max_publishers: usize,
     /// Alerts kept for subscribers that join late (`pbr/alerts` history).
     pub alert_history: usize,
-    /// Dead iceoryx2 nodes (e.g. a `kill -9`ed station) are cleaned at start-up, when no packet
-    /// arrived for this long (the listener's deadline) and at least this often (s).
+    /// Dead iceoryx2 nodes (e.g. a `kill -9`ed station) are cleaned at start-up and then
+    /// this often (s).
     pub dead_node_check_s: f64,
-    /// Let iceoryx2 catch SIGINT/SIGTERM in the input thread and stop the node (set false when
-    /// the application installs its own handlers).
-    pub handle_signals: bool,
 }
 
 impl Default for IoxConfig {
@@ -74,7 +71,6 @@ impl Default for IoxConfig {
             max_publishers: 64,
             alert_history: 128,
             dead_node_check_s: 1.0,
-            handle_signals: true,
         }
     }
 }
@@ -171,15 +167,12 @@ fn open_alert_service(
         )))
 }
 
-fn create_node(config: &IoxConfig, signals: bool) -> anyhow::Result<Node<ipc::Service>> {
+/// An iceoryx2 node that leaves SIGINT/SIGTERM to the application.
+fn create_node(config: &IoxConfig) -> anyhow::Result<Node<ipc::Service>> {
     let iox_config = config.load_iceoryx2_config()?;
     NodeBuilder::new()
         .config(&iox_config)
-        .signal_handling_mode(if signals {
-            SignalHandlingMode::HandleTerminationRequests
-        } else {
-            SignalHandlingMode::Disabled
-        })
+        .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
         .map_err(iox_err("cannot create the iceoryx2 node"))
 }
@@ -205,7 +198,8 @@ pub struct IoxInputStats {
     pub receive_errors: u64,
     /// Dead iceoryx2 nodes cleaned up by this input.
     pub dead_nodes_cleaned: u64,
-    /// Wake-ups of the input thread (events, deadlines, stop checks).
+    /// Times the input was drained (readiness of its listener, and the event loop's periodic
+    /// safety-net drain).
     pub wakeups: u64,
 }
 
@@ -244,65 +238,59 @@ const RECV_ERRORS: usize = 7;
 const DEAD_NODES: usize = 8;
 const WAKEUPS: usize = 9;
 
-/// The input side: a thread subscribed to `pbr/accel`.
-///
-/// ```no_run
-/// # use std::sync::{Arc, atomic::AtomicBool};
-/// # fn f(runtime: &mut rockwatch::node::NodeRuntime, cfg: &rockwatch::iox::IoxConfig,
-/// #      mut publisher: rockwatch::iox::IoxAlertPublisher) -> anyhow::Result<()> {
-/// let stop = Arc::new(AtomicBool::new(false));
-/// let submitter = runtime.submitter().expect("running");
-/// let input = rockwatch::iox::IoxInput::spawn(cfg, submitter, stop.clone())?;
-/// runtime.pump(&mut [&mut publisher], &stop)?; // returns once SIGINT/SIGTERM set `stop`
-/// let stats = input.join()?;
-/// # Ok(()) }
-/// ```
+/// The input side, subscribed to `pbr/accel`: a subscriber plus the listener of the event
+/// service of the same name. It has no thread: register it with a `mio::Poll` (it is a mio
+/// event source, readable when a station has notified) and call [`IoxInput::drain`] whenever
+/// it is ready, and [`IoxInput::maintain`] regularly (the node's event loop does both).
 pub struct IoxInput {
-    thread: Option<JoinHandle<anyhow::Result<()>>>,
+    subscriber: iceoryx2::port::subscriber::Subscriber<ipc::Service, [AccelSample], AccelHeader>,
+    listener: iceoryx2::port::listener::Listener<ipc::Service>,
+    intake: Intake,
     counters: Arc<Counters>,
-    stop: Arc<AtomicBool>,
+    cleanup_period: Duration,
+    last_cleanup: Instant,
+    node: Node<ipc::Service>,
+}
+
+/// A thread-safe view of an [`IoxInput`]'s counters (for tests, benchmarks and logs).
+#[derive(Debug, Clone)]
+pub struct IoxStatsHandle(Arc<Counters>);
+
+impl IoxStatsHandle {
+    /// Counters so far.
+    #[must_use]
+    pub fn stats(&self) -> IoxInputStats {
+        self.0.snapshot()
+    }
 }
 
 impl IoxInput {
-    /// Starts the input thread and returns once it is subscribed (or failed to). The thread
-    /// runs until `stop` is set (checked at least every 100 ms) or, with
-    /// [`IoxConfig::handle_signals`], until SIGINT/SIGTERM, which also sets `stop`.
-    pub fn spawn(
-        config: &IoxConfig,
-        submitter: Submitter,
-        stop: Arc<AtomicBool>,
-    ) -> anyhow::Result<IoxInput> {
+    /// Cleans up dead iceoryx2 nodes (e.g. `kill -9`ed stations), then opens (or creates)
+    /// `pbr/accel` and subscribes.
+    pub fn open(config: &IoxConfig) -> anyhow::Result<IoxInput> {
+        let node = create_node(config)?;
         let counters = Arc::new(Counters::default());
-        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-        let thread = {
-            let (config, counters, stop) = (config.clone(), counters.clone(), stop.clone());
-            std::thread::Builder::new()
-                .name("iox-input".into())
-                .spawn(move || {
-                    input_thread(&config, &submitter, &stop, &counters, &ready_tx).inspect_err(
-                        |e| {
-                            // If start-up failed, the receiver reports it; else log here.
-                            let _ = ready_tx.send(Err(anyhow!("{e:#}")));
-                        },
-                    )
-                })
-                .context("cannot start the iceoryx2 input thread")?
-        };
-        match ready_rx.recv_timeout(Duration::from_secs(30)) {
-            Ok(Ok(())) => Ok(IoxInput {
-                thread: Some(thread),
-                counters,
-                stop,
-            }),
-            Ok(Err(e)) => {
-                let _ = thread.join();
-                Err(e)
-            }
-            Err(_) => {
-                stop.store(true, Ordering::Relaxed);
-                Err(anyhow!("the iceoryx2 input did not start within 30 s"))
-            }
-        }
+        counters.add(DEAD_NODES, node.try_cleanup_dead_nodes().cleanups);
+        let service = open_accel_service(&node, config)?;
+        let event = open_event(&node, &config.accel_service)?;
+        let subscriber = service
+            .subscriber_builder()
+            .buffer_size(config.subscriber_buffer)
+            .create()
+            .map_err(iox_err("cannot create the pbr/accel subscriber"))?;
+        let listener = event
+            .listener_builder()
+            .create()
+            .map_err(iox_err("cannot create the pbr/accel listener"))?;
+        Ok(IoxInput {
+            subscriber,
+            listener,
+            intake: Intake::default(),
+            counters,
+            cleanup_period: config.dead_node_period(),
+            last_cleanup: Instant::now(),
+            node,
+        })
     }
 
     /// Counters so far.
@@ -311,24 +299,89 @@ impl IoxInput {
         self.counters.snapshot()
     }
 
-    /// Sets the stop flag, waits for the thread and returns the final counters.
-    pub fn join(mut self) -> anyhow::Result<IoxInputStats> {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(thread) = self.thread.take() {
-            thread
-                .join()
-                .map_err(|_| anyhow!("the iceoryx2 input thread panicked"))??;
+    /// A handle to read the counters from other threads.
+    #[must_use]
+    pub fn stats_handle(&self) -> IoxStatsHandle {
+        IoxStatsHandle(Arc::clone(&self.counters))
+    }
+
+    /// Takes the pending notifications, then up to `max` packets: each is checked (wire
+    /// layout, values; counted when rejected, with per-station sequence gaps) and handed to
+    /// `submit`. Returns true if `max` was reached (more may be waiting: call again without
+    /// waiting for readiness, which is edge-triggered). An error of `submit` is returned.
+    pub fn drain(
+        &mut self,
+        max: usize,
+        submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
+    ) -> anyhow::Result<bool> {
+        self.counters.add(WAKEUPS, 1);
+        // Consume the notifications first: a notifier sends again only once the listener has
+        // taken them, and samples sent before a notification are then all visible below.
+        if self.listener.try_wait(|_| {}).is_err() {
+            self.counters.add(RECV_ERRORS, 1);
         }
-        Ok(self.counters.snapshot())
+        for _ in 0..max {
+            match self.subscriber.receive() {
+                Ok(Some(sample)) => {
+                    let packet =
+                        self.intake
+                            .accept(sample.user_header(), sample.payload(), &self.counters);
+                    drop(sample); // return the shared-memory slot before the engine runs
+                    if let Some(packet) = packet {
+                        self.counters.add(SUBMITTED, 1);
+                        submit(packet)?;
+                    }
+                }
+                Ok(None) => return Ok(false),
+                Err(_) => {
+                    self.counters.add(RECV_ERRORS, 1);
+                    return Ok(false);
+                }
+            }
+        }
+        Ok(true)
+    }
+
+    /// Cleans up dead iceoryx2 nodes when [`IoxConfig::dead_node_check_s`] has passed since
+    /// the last clean-up (cheap otherwise: call it on every turn of the event loop).
+    pub fn maintain(&mut self) {
+        if self.last_cleanup.elapsed() >= self.cleanup_period {
+            let state = self.node.try_cleanup_dead_nodes();
+            self.counters.add(DEAD_NODES, state.cleanups);
+            self.last_cleanup = Instant::now();
+        }
+    }
+
+    fn raw_fd(&self) -> i32 {
+        // SAFETY: `native_handle` is unsafe only because the number must not outlive the
+        // listener nor be closed by the caller; it is used transiently to (de)register the
+        // listener's socket with a poller, and the listener lives as long as `self`.
+        unsafe { self.listener.file_descriptor().native_handle() }
     }
 }
 
-impl Drop for IoxInput {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
-        }
+/// Readable when a station has notified `pbr/accel` (the listener's socket).
+impl mio::event::Source for IoxInput {
+    fn register(
+        &mut self,
+        registry: &mio::Registry,
+        token: mio::Token,
+        interests: mio::Interest,
+    ) -> std::io::Result<()> {
+        SourceFd(&self.raw_fd()).register(registry, token, interests)
+    }
+
+    fn reregister(
+        &mut self,
+        registry: &mio::Registry,
+        token: mio::Token,
+        interests: mio::Interest,
+    ) -> std::io::Result<()> {
+        SourceFd(&self.raw_fd()).reregister(registry, token, interests)
+    }
+
+    fn deregister(&mut self, registry: &mio::Registry) -> std::io::Result<()> {
+        SourceFd(&self.raw_fd()).deregister(registry)
     }
 }
 
@@ -387,99 +440,6 @@ impl Intake {
     }
 }
 
-fn input_thread(
-    config: &IoxConfig,
-    submitter: &Submitter,
-    stop: &AtomicBool,
-    counters: &Counters,
-    ready: &std::sync::mpsc::Sender<anyhow::Result<()>>,
-) -> anyhow::Result<()> {
-    let node = create_node(config, config.handle_signals)?;
-    let cleanup = |node: &Node<ipc::Service>| {
-        let state = node.try_cleanup_dead_nodes();
-        counters.add(DEAD_NODES, state.cleanups);
-    };
-    cleanup(&node);
-    let service = open_accel_service(&node, config)?;
-    let event = open_event(&node, &config.accel_service)?;
-    let subscriber = service
-        .subscriber_builder()
-        .buffer_size(config.subscriber_buffer)
-        .create()
-        .map_err(iox_err("cannot create the pbr/accel subscriber"))?;
-    let listener = event
-        .listener_builder()
-        .create()
-        .map_err(iox_err("cannot create the pbr/accel listener"))?;
-    let waitset = WaitSetBuilder::new()
-        .signal_handling_mode(if config.handle_signals {
-            SignalHandlingMode::HandleTerminationRequests
-        } else {
-            SignalHandlingMode::Disabled
-        })
-        .create::<ipc::Service>()
-        .map_err(iox_err("cannot create the iceoryx2 WaitSet"))?;
-    let period = config.dead_node_period();
-    let guard = waitset
-        .attach_deadline(&listener, period)
-        .map_err(iox_err("cannot attach the pbr/accel listener"))?;
-    let _ = ready.send(Ok(()));
-
-    let mut intake = Intake::default();
-    let mut last_cleanup = Instant::now();
-    let drain = |intake: &mut Intake| loop {
-        match subscriber.receive() {
-            Ok(Some(sample)) => {
-                if let Some(packet) =
-                    intake.accept(sample.user_header(), sample.payload(), counters)
-                {
-                    drop(sample);
-                    submitter.submit(packet);
-                    counters.add(SUBMITTED, 1);
-                }
-            }
-            Ok(None) => break,
-            Err(_) => {
-                counters.add(RECV_ERRORS, 1);
-                break;
-            }
-        }
-    };
-    while !stop.load(Ordering::Relaxed) {
-        let mut missed_deadline = false;
-        let result = waitset
-            .wait_and_process_once_with_timeout(
-                |id| {
-                    if id.has_event_from(&guard) {
-                        // Consume the notifications; samples are drained below.
-                        let _ = listener.try_wait(|_| {});
-                    } else if id.has_missed_deadline(&guard) {
-                        missed_deadline = true;
-                    }
-                    CallbackProgression::Continue
-                },
-                Duration::from_millis(100),
-            )
-            .map_err(iox_err("iceoryx2 WaitSet failed"))?;
-        counters.add(WAKEUPS, 1);
-        // Drain on every wake-up: notifications coalesce, and a sample may precede its event.
-        drain(&mut intake);
-        if matches!(
-            result,
-            WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt
-        ) {
-            stop.store(true, Ordering::Relaxed);
-            break;
-        }
-        if missed_deadline || last_cleanup.elapsed() >= period {
-            cleanup(&node);
-            last_cleanup = Instant::now();
-        }
-    }
-    drain(&mut intake);
-    Ok(())
-}
-
 /// Publishes alerts on `pbr/alerts` (payload [`PbrAlertIox`]) and notifies the event service
 /// of the same name; states and intensities are not published over iceoryx2.
 pub struct IoxAlertPublisher {
@@ -491,9 +451,9 @@ pub struct IoxAlertPublisher {
 
 impl IoxAlertPublisher {
     /// Opens (or creates) `pbr/alerts` with [`IoxConfig::alert_history`] alerts of history.
-    /// Create it on the thread that runs `NodeRuntime::pump`.
+    /// Use it on the thread that created it (the node's event loop).
     pub fn new(config: &IoxConfig) -> anyhow::Result<IoxAlertPublisher> {
-        let node = create_node(config, false)?;
+        let node = create_node(config)?;
         let name = &config.alerts_service;
         let service = open_alert_service(&node, config)?;
         let publisher = service
@@ -541,7 +501,7 @@ pub struct IoxAlertSubscriber {
 impl IoxAlertSubscriber {
     /// Subscribes to `pbr/alerts`, receiving up to [`IoxConfig::alert_history`] earlier alerts.
     pub fn new(config: &IoxConfig) -> anyhow::Result<IoxAlertSubscriber> {
-        let node = create_node(config, false)?;
+        let node = create_node(config)?;
         let service = open_alert_service(&node, config)?;
         let subscriber = service
             .subscriber_builder()
@@ -591,7 +551,7 @@ pub struct IoxPacketSink {
 impl IoxPacketSink {
     /// Opens (or creates) `pbr/accel` as [`IoxInput`] does.
     pub fn new(config: &IoxConfig) -> anyhow::Result<IoxPacketSink> {
-        let node = create_node(config, false)?;
+        let node = create_node(config)?;
         let service = open_accel_service(&node, config)?;
         let publisher = service
             .publisher_builder()

@@ -9,13 +9,13 @@
 pub mod msg;
 
 use std::net::{IpAddr, Ipv4Addr};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context as _};
-use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Registry, Token};
 use ros2_client::dds::rustdds::{
     no_key, DataWriterStatus, DomainParticipantBuilder, StatusEvented,
 };
@@ -26,7 +26,7 @@ use ros2_client::{
 };
 
 use crate::engine::{AccelPacket, AlertConfig, EngineConfig};
-use crate::node::{Publication, Submitter};
+use crate::node::{ControlSender, Publication};
 use crate::replay::PacketSink;
 
 /// The node's name in the ROS graph.
@@ -394,12 +394,17 @@ pub struct IntakeCounters {
     pub decode_errors: AtomicU64,
 }
 
-/// The node's ROS 2 side: parameters, the intake thread and the output publishers.
+/// The node's ROS 2 side: parameters, the input subscriptions and (returned separately by
+/// [`Ros2Node::start`]) the output publishers. It has no intake thread: the node's event loop
+/// registers the subscriptions ([`Ros2Node::register`]) and drains those that are ready
+/// ([`Ros2Node::drain`]).
 pub struct Ros2Node {
     session: Ros2Session,
-    stop: Arc<AtomicBool>,
-    intake: Option<JoinHandle<()>>,
+    accel: Subscription<msg::AccelPacket>,
+    /// Imu inputs with the sequence number of their next one-sample packet.
+    imus: Vec<(ImuInput, Subscription<ImuMsg>, u64)>,
     pub counters: Arc<IntakeCounters>,
+    last_error_report: Option<Instant>,
 }
 
 /// The node's output publishers (a [`crate::node::Publisher`]).
@@ -451,17 +456,18 @@ fn parameter_f64(value: &ParameterValue) -> Option<f64> {
     }
 }
 
-/// Applies a parameter to the alert configuration and the engine.
+/// Applies a parameter to the alert configuration and hands the change to the node's event
+/// loop (effective before its next packet).
 fn apply_parameter(
     name: &str,
     value: &ParameterValue,
     alerts: &Mutex<AlertConfig>,
-    submitter: &Submitter,
+    controls: &ControlSender,
 ) -> Result<(), String> {
     validate_parameter(name, value)?;
     let v = parameter_f64(value).ok_or_else(|| format!("{name} must be a double"))?;
     if name == PARAM_STATE_INTERVAL_S {
-        submitter.set_state_interval_s(v);
+        controls.set_state_interval_s(v);
         return Ok(());
     }
     let mut config = alerts
@@ -475,23 +481,21 @@ fn apply_parameter(
         // Built-in parameters such as use_sim_time.
         _ => return Ok(()),
     }
-    submitter.set_alert_config(*config);
+    controls.set_alert_config(*config);
     Ok(())
 }
 
 impl Ros2Node {
     /// Joins the ROS 2 graph as `<namespace>/rockwatch`, declares the parameters (initial
-    /// values from `engine`), subscribes the inputs (handing packets to `submitter` on an
-    /// intake thread) and creates the output publishers.
+    /// values from `engine`; changes go to `controls`, i.e. the node's event loop), subscribes
+    /// the inputs and creates the output publishers.
     pub fn start(
         config: &Ros2Config,
         plan: &NetworkPlan,
         engine: &EngineConfig,
-        submitter: Submitter,
+        controls: ControlSender,
     ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
         let alerts = Arc::new(Mutex::new(engine.alerts));
-        let action_submitter = submitter.clone();
-        let action_alerts = Arc::clone(&alerts);
         let options = NodeOptions::new()
             .enable_rosout(true)
             .start_parameter_services(true)
@@ -520,7 +524,7 @@ impl Ros2Node {
                 }
             }))
             .parameter_set_action(Box::new(move |name, value| {
-                apply_parameter(name, value, &action_alerts, &action_submitter)
+                apply_parameter(name, value, &alerts, &controls)
             }));
         let mut session = Ros2Session::open(plan, &config.namespace, NODE_NAME, options)?;
         let publisher = Ros2Publisher {
@@ -541,23 +545,15 @@ impl Ros2Node {
             }
             let sub: Subscription<ImuMsg> =
                 session.subscription(&imu.topic, "sensor_msgs", "Imu", qos.clone())?;
-            imus.push((imu.clone(), sub));
+            imus.push((imu.clone(), sub, 0));
         }
-        let stop = Arc::new(AtomicBool::new(false));
-        let counters = Arc::new(IntakeCounters::default());
-        let intake = {
-            let stop = Arc::clone(&stop);
-            let counters = Arc::clone(&counters);
-            std::thread::Builder::new()
-                .name("ros2-intake".into())
-                .spawn(move || intake_loop(accel, imus, &submitter, &stop, &counters))?
-        };
         Ok((
             Ros2Node {
                 session,
-                stop,
-                intake: Some(intake),
-                counters,
+                accel,
+                imus,
+                counters: Arc::new(IntakeCounters::default()),
+                last_error_report: None,
             },
             publisher,
         ))
@@ -568,97 +564,72 @@ impl Ros2Node {
         &mut self.session
     }
 
-    /// Stops taking input (joins the intake thread).
-    pub fn stop_intake(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(intake) = self.intake.take() {
-            let _ = intake.join();
-        }
+    /// Number of input subscriptions: `/pbr/accel` (input 0), then the Imu topics.
+    #[must_use]
+    pub fn inputs(&self) -> usize {
+        1 + self.imus.len()
     }
-}
 
-impl Drop for Ros2Node {
-    fn drop(&mut self) {
-        self.stop_intake();
+    /// Registers input `i` (0..[`Ros2Node::inputs`]) with `registry` as `Token(first + i)`,
+    /// readable. Readiness is edge-triggered: drain an input fully once it is reported.
+    pub fn register(&mut self, registry: &Registry, first: usize) -> std::io::Result<()> {
+        registry.register(&mut self.accel, Token(first), Interest::READABLE)?;
+        for (i, (_, sub, _)) in self.imus.iter_mut().enumerate() {
+            registry.register(sub, Token(first + 1 + i), Interest::READABLE)?;
+        }
+        Ok(())
     }
-}
 
-/// Takes every available message from the subscriptions and submits it, until `stop`.
-fn intake_loop(
-    mut accel: Subscription<msg::AccelPacket>,
-    mut imus: Vec<(ImuInput, Subscription<ImuMsg>)>,
-    submitter: &Submitter,
-    stop: &AtomicBool,
-    counters: &IntakeCounters,
-) {
-    let poll = Poll::new();
-    let mut poll = match poll {
-        Ok(p) => Some(p),
-        Err(e) => {
-            eprintln!("rockwatch: ROS 2 intake: cannot create a poller ({e}); polling every 10 ms");
-            None
-        }
-    };
-    if let Some(p) = &mut poll {
-        let mut ok = p
-            .registry()
-            .register(&mut accel, Token(0), Interest::READABLE)
-            .is_ok();
-        for (i, (_, sub)) in imus.iter_mut().enumerate() {
-            ok &= p
-                .registry()
-                .register(sub, Token(i + 1), Interest::READABLE)
-                .is_ok();
-        }
-        if !ok {
-            eprintln!(
-                "rockwatch: ROS 2 intake: cannot register subscriptions; polling every 10 ms"
-            );
-            poll = None;
-        }
-    }
-    let mut events = Events::with_capacity(16);
-    let mut imu_sequence = vec![0u64; imus.len()];
-    let mut last_report = Instant::now() - Duration::from_secs(60);
-    let mut report_error = |what: &str, e: String| {
-        counters.decode_errors.fetch_add(1, Ordering::Relaxed);
-        if last_report.elapsed() >= Duration::from_secs(10) {
-            let n = counters.decode_errors.load(Ordering::Relaxed);
-            eprintln!("rockwatch: ROS 2 {what}: undecodable message ({e}; {n} in all)");
-            last_report = Instant::now();
-        }
-    };
-    while !stop.load(Ordering::Relaxed) {
-        match &mut poll {
-            Some(p) => {
-                // Wakes on data, and every 100 ms to check `stop` and drain (edge-triggered).
-                let _ = p.poll(&mut events, Some(Duration::from_millis(100)));
-            }
-            None => std::thread::sleep(Duration::from_millis(10)),
-        }
-        // Bounded drains so a flood on one topic cannot starve the stop check.
-        for _ in 0..100_000 {
-            match accel.take() {
-                Ok(Some((m, _))) => {
-                    counters.packets.fetch_add(1, Ordering::Relaxed);
-                    submitter.submit(AccelPacket::from(&m));
+    /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`
+    /// (an Imu message is a one-sample packet of its station). Undecodable messages are
+    /// counted and logged (at most one line per 10 s). Returns true if `max` was reached
+    /// (more may be waiting: bounded so that a flood on one input cannot starve the others).
+    pub fn drain(
+        &mut self,
+        input: usize,
+        max: usize,
+        submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
+    ) -> anyhow::Result<bool> {
+        for _ in 0..max {
+            if input == 0 {
+                match self.accel.take() {
+                    Ok(Some((m, _))) => {
+                        self.counters.packets.fetch_add(1, Ordering::Relaxed);
+                        submit(AccelPacket::from(&m))?;
+                    }
+                    Ok(None) => return Ok(false),
+                    Err(e) => self.report_error(ACCEL_TOPIC.to_string(), &format!("{e:?}")),
                 }
-                Ok(None) => break,
-                Err(e) => report_error(ACCEL_TOPIC, format!("{e:?}")),
-            }
-        }
-        for ((imu, sub), sequence) in imus.iter_mut().zip(imu_sequence.iter_mut()) {
-            for _ in 0..100_000 {
+            } else {
+                let Some((imu, sub, sequence)) = self.imus.get_mut(input - 1) else {
+                    return Ok(false);
+                };
                 match sub.take() {
                     Ok(Some((m, _))) => {
-                        counters.packets.fetch_add(1, Ordering::Relaxed);
-                        submitter.submit(imu_packet(imu, &m, *sequence));
+                        self.counters.packets.fetch_add(1, Ordering::Relaxed);
+                        let packet = imu_packet(imu, &m, *sequence);
                         *sequence += 1;
+                        submit(packet)?;
                     }
-                    Ok(None) => break,
-                    Err(e) => report_error(&imu.topic, format!("{e:?}")),
+                    Ok(None) => return Ok(false),
+                    Err(e) => {
+                        let topic = imu.topic.clone();
+                        self.report_error(topic, &format!("{e:?}"));
+                    }
                 }
             }
+        }
+        Ok(true)
+    }
+
+    fn report_error(&mut self, what: String, error: &str) {
+        let n = self.counters.decode_errors.fetch_add(1, Ordering::Relaxed) + 1;
+        if self
+            .last_error_report
+            .is_none_or(|t| t.elapsed() >= Duration::from_secs(10))
+        {
+            eprintln!("rockwatch: ROS 2 {what}: undecodable message ({error}; {n} in all)");
+            self.last_error_report = Some(Instant::now());
         }
     }
 }

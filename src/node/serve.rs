@@ -1,0 +1,419 @@
+//! The live node: ONE event loop thread (the caller's) multiplexes every input with a mio
+//! `Poll` and publishes on the same thread.
+//!
+//! Sources: the ROS 2 subscriptions (`/pbr/accel`, the Imu topics), the iceoryx2 `pbr/accel`
+//! listener, and a `mio::Waker` through which other threads hand work in (ROS 2 parameter
+//! changes from the spinner thread; with several engine shards, the workers' outputs). The
+//! poll timeout ([`TICK`]) bounds how late the stop flag (SIGINT/SIGTERM), the
+//! held-packet flush and the iceoryx2 dead-node check are seen; there is no busy polling.
+//!
+//! With one engine shard (the default) the engine runs inline, so a packet goes subscriber →
+//! engine → journal → publishers without a thread hand-off; an alert is journaled and
+//! published on iceoryx2 the moment the engine raises it (mid-packet), the ROS 2 (and extra)
+//! publications of a turn go out together at its end. Readiness is edge-triggered: a
+//! ready source is drained until empty into its inbox ([`INBOX_BOUND`]); the inboxes are then
+//! processed round robin for at most [`TURN_BUDGET`] or [`DRAIN_BOUND`] packets before the
+//! loop polls and takes again, so a flood on one input cannot starve the others and no
+//! transport holds much unread data.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Receiver;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use mio::{Events, Poll, Token, Waker};
+
+use super::{
+    Control, ControlSender, InputTotals, NodeOptions, NodeRuntime, Publication, Publisher,
+    RateLimitedLog, Wake,
+};
+use crate::engine::{AccelPacket, PbrSummary};
+use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
+use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher};
+
+/// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
+/// dead-node check are looked at least this often.
+pub const TICK: Duration = Duration::from_millis(50);
+
+/// Most packets processed per turn of the event loop (round robin over the sources).
+pub const DRAIN_BOUND: usize = 256;
+
+/// Longest a turn of the event loop processes packets (plus one packet's time) before it
+/// polls again and takes what arrived meanwhile: the transports never hold more than this
+/// much unread data, so a sender that sends a burst and goes away loses nothing (RustDDS
+/// discards the unread samples of a writer that has left).
+pub const TURN_BUDGET: Duration = Duration::from_micros(200);
+
+/// Most packets taken from one source and waiting to be processed; beyond, the rest stays in
+/// the transport (DDS history, iceoryx2 subscriber buffer).
+pub const INBOX_BOUND: usize = 4096;
+
+const WAKE: Token = Token(0);
+const IOX: Token = Token(1);
+/// ROS 2 input `i` is `Token(ROS2_FIRST + i)`.
+const ROS2_FIRST: usize = 2;
+
+/// What [`serve`] hands back at the end.
+#[derive(Debug, Clone)]
+pub struct ServeReport {
+    pub summaries: Vec<PbrSummary>,
+    pub ros2_packets: u64,
+    pub ros2_decode_errors: u64,
+    /// What the engine made of the input of every transport.
+    pub input: InputTotals,
+    /// iceoryx2 intake, when that transport ran.
+    pub iox: Option<IoxInputStats>,
+}
+
+/// A thread-safe view of a running node's intake counters (tests, benchmarks).
+#[derive(Debug, Clone)]
+pub struct Probe {
+    ros2: Arc<IntakeCounters>,
+    iox: Option<IoxStatsHandle>,
+}
+
+impl Probe {
+    /// Messages taken from the ROS 2 inputs so far.
+    #[must_use]
+    pub fn ros2_packets(&self) -> u64 {
+        self.ros2.packets.load(Ordering::Relaxed)
+    }
+
+    /// Undecodable ROS 2 messages so far.
+    #[must_use]
+    pub fn ros2_decode_errors(&self) -> u64 {
+        self.ros2.decode_errors.load(Ordering::Relaxed)
+    }
+
+    /// The iceoryx2 input's counters, when that transport runs.
+    #[must_use]
+    pub fn iox(&self) -> Option<IoxInputStats> {
+        self.iox.as_ref().map(IoxStatsHandle::stats)
+    }
+}
+
+/// The node, started and subscribed but not yet running its loop. Create it and call
+/// [`Reactor::run`] on the same thread (the iceoryx2 ports are bound to it).
+pub struct Reactor {
+    runtime: NodeRuntime,
+    poll: Poll,
+    /// Kept alive for the workers' and the parameter services' wake-ups.
+    _waker: Arc<Waker>,
+    controls: Receiver<Control>,
+    ros2: Ros2Node,
+    ros2_publisher: Ros2Publisher,
+    iox: Option<(IoxInput, IoxAlertPublisher)>,
+}
+
+/// Runs the node until `stop` is set: [`Reactor::start`], then [`Reactor::run`] with the
+/// `extra` publishers. This is what `rockwatch node` runs.
+pub fn serve(
+    options: &NodeOptions,
+    plan: &NetworkPlan,
+    stop: &AtomicBool,
+    extra: &mut [&mut dyn Publisher],
+) -> anyhow::Result<ServeReport> {
+    Reactor::start(options, plan)?.run(stop, extra)
+}
+
+impl Reactor {
+    /// Starts the runtime (catalogue, state directory, engine) and the transports: ROS 2
+    /// always, iceoryx2 when the configuration names its iceoryx2 config file (every process
+    /// of a deployment must load the same one explicitly). Returns once every input is
+    /// subscribed.
+    pub fn start(options: &NodeOptions, plan: &NetworkPlan) -> anyhow::Result<Reactor> {
+        let poll = Poll::new().context("cannot create the node's event loop (mio Poll)")?;
+        let waker = Arc::new(
+            Waker::new(poll.registry(), WAKE).context("cannot create the event loop's waker")?,
+        );
+        let wake: Wake = {
+            let waker = Arc::clone(&waker);
+            Arc::new(move || {
+                // Fails only if the eventfd is gone, i.e. the loop has ended.
+                let _ = waker.wake();
+            })
+        };
+        let runtime = NodeRuntime::start_with_wake(options, wake.clone())?;
+        let (control_sender, controls) = ControlSender::channel(wake);
+        let config = &options.config;
+
+        let (mut ros2, ros2_publisher) =
+            Ros2Node::start(&config.ros2, plan, &config.engine, control_sender)?;
+        ros2.register(poll.registry(), ROS2_FIRST)
+            .context("cannot register the ROS 2 subscriptions with the event loop")?;
+        let iox = match &config.iceoryx2.config_file {
+            Some(_) => {
+                let mut input = IoxInput::open(&config.iceoryx2)?;
+                poll.registry()
+                    .register(&mut input, IOX, mio::Interest::READABLE)
+                    .context("cannot register the iceoryx2 listener with the event loop")?;
+                let publisher = IoxAlertPublisher::new(&config.iceoryx2)?;
+                Some((input, publisher))
+            }
+            None => None,
+        };
+        Ok(Reactor {
+            runtime,
+            poll,
+            _waker: waker,
+            controls,
+            ros2,
+            ros2_publisher,
+            iox,
+        })
+    }
+
+    /// The instant the node's arrival stamps (`Alert::arrival_ns`) count from.
+    #[must_use]
+    pub fn epoch(&self) -> std::time::Instant {
+        self.runtime.epoch()
+    }
+
+    /// The intake counters, readable from other threads while the node runs.
+    #[must_use]
+    pub fn probe(&self) -> Probe {
+        Probe {
+            ros2: Arc::clone(&self.ros2.counters),
+            iox: self.iox.as_ref().map(|(input, _)| input.stats_handle()),
+        }
+    }
+
+    /// Runs the event loop until `stop` is set (seen within `TICK`, 50 ms), publishing to the
+    /// node's publishers — the iceoryx2 alert publisher at once, ROS 2 and `extra` at the end
+    /// of each turn (see `Outlet`) — then takes what the inputs still hold, shuts the engine
+    /// down (held packets released, remaining outputs published, journal synced) and reports.
+    pub fn run(
+        self,
+        stop: &AtomicBool,
+        extra: &mut [&mut dyn Publisher],
+    ) -> anyhow::Result<ServeReport> {
+        let Reactor {
+            mut runtime,
+            mut poll,
+            _waker,
+            controls,
+            mut ros2,
+            mut ros2_publisher,
+            iox,
+        } = self;
+        let (mut iox_input, mut iox_publisher) = match iox {
+            Some((input, publisher)) => (Some(input), Some(publisher)),
+            None => (None, None),
+        };
+        let mut later: Vec<&mut dyn Publisher> = Vec::with_capacity(1 + extra.len());
+        later.push(&mut ros2_publisher);
+        for p in extra.iter_mut() {
+            later.push(&mut **p);
+        }
+        let mut out = Outlet {
+            now: iox_publisher.as_mut().map(|p| p as &mut dyn Publisher),
+            later,
+            queue: Vec::new(),
+            errors: 0,
+            log: RateLimitedLog::new(),
+        };
+
+        // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
+        let mut inboxes: Vec<Inbox> = (0..1 + ros2.inputs()).map(|_| Inbox::new()).collect();
+        let mut events = Events::with_capacity(64);
+        while !stop.load(Ordering::Relaxed) {
+            let pending = inboxes.iter().any(|i| i.due || !i.queue.is_empty());
+            let timeout = if pending { Duration::ZERO } else { TICK };
+            match poll.poll(&mut events, Some(timeout)) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e).context("the node's event loop failed (poll)"),
+            }
+            if events.is_empty() && !pending {
+                // Idle tick: look at every source once (a safety net, cheap when empty).
+                inboxes.iter_mut().for_each(|i| i.due = true);
+            }
+            for event in &events {
+                let source = match event.token() {
+                    WAKE => continue,
+                    IOX => 0,
+                    Token(t) => 1 + t.wrapping_sub(ROS2_FIRST),
+                };
+                if let Some(inbox) = inboxes.get_mut(source) {
+                    inbox.due = true;
+                }
+            }
+            apply_controls(&controls, &mut runtime);
+            turn(
+                &mut inboxes,
+                &mut iox_input,
+                &mut ros2,
+                &mut runtime,
+                &mut out,
+                &controls,
+            )?;
+            runtime.flush_if_due(&mut |p| out.publish(p))?;
+            out.flush();
+            if let Some(input) = &mut iox_input {
+                input.maintain();
+            }
+        }
+
+        // Stop: take what the inputs still hold (bounded) and process every packet taken,
+        // then shut the engine down.
+        inboxes.iter_mut().for_each(|i| i.due = true);
+        turn(
+            &mut inboxes,
+            &mut iox_input,
+            &mut ros2,
+            &mut runtime,
+            &mut out,
+            &controls,
+        )?;
+        while inboxes.iter().any(|i| !i.queue.is_empty()) {
+            inboxes.iter_mut().for_each(|i| i.due = false);
+            turn(
+                &mut inboxes,
+                &mut iox_input,
+                &mut ros2,
+                &mut runtime,
+                &mut out,
+                &controls,
+            )?;
+        }
+        let iox_stats = iox_input.as_ref().map(IoxInput::stats);
+        let (summaries, input) = runtime.shutdown_with_totals(&mut |p| out.publish(p))?;
+        out.flush();
+        if let Some(input) = &mut iox_input {
+            let _ = poll.registry().deregister(input);
+        }
+        Ok(ServeReport {
+            summaries,
+            input,
+            ros2_packets: ros2.counters.packets.load(Ordering::Relaxed),
+            ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
+            iox: iox_stats,
+        })
+    }
+}
+
+/// One turn of the event loop after the poll: take what the ready (`due`) sources hold into
+/// their inboxes (fast: no engine work yet), then run the engine on the inboxes' packets for
+/// at most [`TURN_BUDGET`] / [`DRAIN_BOUND`] packets, then publish what the engine workers
+/// produced.
+fn turn(
+    inboxes: &mut [Inbox],
+    iox_input: &mut Option<IoxInput>,
+    ros2: &mut Ros2Node,
+    runtime: &mut NodeRuntime,
+    out: &mut Outlet<'_>,
+    controls: &Receiver<Control>,
+) -> anyhow::Result<()> {
+    for (source, inbox) in inboxes.iter_mut().enumerate() {
+        if !inbox.due {
+            continue;
+        }
+        let room = INBOX_BOUND.saturating_sub(inbox.queue.len());
+        let clock = &*runtime;
+        let mut push = |packet: AccelPacket| -> anyhow::Result<()> {
+            inbox.queue.push_back((packet, clock.now_ns()));
+            Ok(())
+        };
+        inbox.due = match (source, &mut *iox_input) {
+            (0, Some(input)) => input.drain(room, &mut push)?,
+            (0, None) => false,
+            (s, _) => ros2.drain(s - 1, room, &mut push)?,
+        };
+    }
+    // Round robin over the sources, one packet each, until the inboxes are empty, or
+    // DRAIN_BOUND packets or TURN_BUDGET have gone by (then poll again, taking new data).
+    let deadline = Instant::now() + TURN_BUDGET;
+    let mut processed = 0;
+    loop {
+        let mut any = false;
+        for inbox in inboxes.iter_mut() {
+            if let Some((packet, arrival_ns)) = inbox.queue.pop_front() {
+                any = true;
+                processed += 1;
+                // A parameter change queued before this packet was taken applies to it.
+                apply_controls(controls, runtime);
+                runtime.submit_arrived(packet, arrival_ns, &mut |p| out.publish(p))?;
+            }
+        }
+        if !any || processed >= DRAIN_BOUND || Instant::now() >= deadline {
+            break;
+        }
+    }
+    runtime.poll(&mut |p| out.publish(p))?;
+    out.flush();
+    Ok(())
+}
+
+/// Packets taken from one source and not yet processed, with their arrival stamps
+/// ([`NodeRuntime::now_ns`] when taken).
+struct Inbox {
+    queue: VecDeque<(AccelPacket, i64)>,
+    /// Ready (or stopped at the bound last turn): take from the source on this turn.
+    due: bool,
+}
+
+impl Inbox {
+    fn new() -> Inbox {
+        Inbox {
+            queue: VecDeque::new(),
+            due: true,
+        }
+    }
+}
+
+/// Applies every queued settings change.
+fn apply_controls(controls: &Receiver<Control>, runtime: &mut NodeRuntime) {
+    while let Ok(control) = controls.try_recv() {
+        runtime.apply(control);
+    }
+}
+
+/// Every publisher of the node. The iceoryx2 alert publisher (`now`) publishes at once; the
+/// others (ROS 2, extra) are handed the turn's publications together at its end
+/// ([`Outlet::flush`]): each ROS 2 publication wakes RustDDS's network thread, which would
+/// otherwise compete for the CPU with the iceoryx2 subscriber being woken at that moment, and
+/// one batch per turn wakes it once. A failed publication is logged (rate-limited) and the
+/// node goes on.
+struct Outlet<'a> {
+    now: Option<&'a mut dyn Publisher>,
+    later: Vec<&'a mut dyn Publisher>,
+    /// Publications for `later` (reused: no allocation per turn).
+    queue: Vec<Publication>,
+    errors: u64,
+    log: RateLimitedLog,
+}
+
+impl Outlet<'_> {
+    fn publish(&mut self, publication: Publication) {
+        if let Some(publisher) = &mut self.now {
+            if let Err(e) = publisher.publish(&publication) {
+                Self::failed(&mut self.errors, &mut self.log, &e);
+            }
+        }
+        if !self.later.is_empty() {
+            self.queue.push(publication);
+        }
+    }
+
+    /// Hands the queued publications to the other publishers.
+    fn flush(&mut self) {
+        for publication in self.queue.drain(..) {
+            for publisher in &mut self.later {
+                if let Err(e) = publisher.publish(&publication) {
+                    Self::failed(&mut self.errors, &mut self.log, &e);
+                }
+            }
+        }
+    }
+
+    fn failed(errors: &mut u64, log: &mut RateLimitedLog, e: &anyhow::Error) {
+        *errors += 1;
+        log.log(
+            "node",
+            "publish_failed",
+            &format!("{e:#} ({errors} in all)"),
+        );
+    }
+}
