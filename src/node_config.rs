@@ -19,7 +19,7 @@
 //! orientation = { kind = "azimuths", h1_deg = 0.0, h2_deg = 90.0 }
 //!
 //! [ros2]
-//! input_qos = "sensor_data"             # best effort, as most Imu drivers publish
+//! input_qos = "reliable"                # of /pbr/accel (default)
 //!
 //! # A sensor_msgs/msg/Imu topic as a station (see `crate::ros2::ImuInput`): mounted level,
 //! # x east, y north, z up; east = x, north = y, up = z − 9.80665 (remove_gravity).
@@ -28,6 +28,7 @@
 //! station = "XB.IMU.00"
 //! sample_rate_hz = 100.0
 //! remove_gravity = true
+//! qos = "sensor_data"                   # default: best effort, as most Imu drivers publish
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -118,7 +119,7 @@ mod tests {
             .find(|b| b.contains("[[ros2.imu]]"))
             .expect("README has a [[ros2.imu]] example");
         let c = load(block).unwrap();
-        assert_eq!(c.ros2.input_qos, crate::ros2::InputQos::SensorData);
+        assert_eq!(c.ros2.input_qos, crate::ros2::InputQos::Reliable);
         assert_eq!(
             c.ros2.imu,
             vec![crate::ros2::ImuInput {
@@ -126,6 +127,7 @@ mod tests {
                 station: "XB.IMU.00".into(),
                 sample_rate_hz: 100.0,
                 remove_gravity: true,
+                qos: crate::ros2::InputQos::SensorData,
             }]
         );
         // remove_gravity defaults to true.
@@ -134,6 +136,8 @@ mod tests {
         )
         .unwrap();
         assert!(c.ros2.imu[0].remove_gravity);
+        // qos defaults to the sensor-data profile (best effort), whatever input_qos says.
+        assert_eq!(c.ros2.imu[0].qos, crate::ros2::InputQos::SensorData);
     }
 
     #[test]

@@ -97,7 +97,8 @@ fn have_peer() -> bool {
 }
 
 /// A catalogue of `blocks` on [`STATION`] and a node configuration mapping [`TOPIC`] to it.
-fn write_config(dir: &Path, blocks: &[&Block], rate_hz: f64) -> PathBuf {
+/// `qos`: the `[[ros2.imu]] qos` key's value, or None for the default (sensor data).
+fn write_config(dir: &Path, blocks: &[&Block], rate_hz: f64, qos: Option<&str>) -> PathBuf {
     let catalogue = dir.join("catalogue.toml");
     let mut text = String::new();
     for b in blocks {
@@ -115,6 +116,9 @@ fn write_config(dir: &Path, blocks: &[&Block], rate_hz: f64) -> PathBuf {
         "[[ros2.imu]]\ntopic = \"{TOPIC}\"\nstation = \"{STATION}\"\nsample_rate_hz = {rate_hz:?}\n\
          remove_gravity = true\n"
     );
+    if let Some(qos) = qos {
+        text += &format!("qos = \"{qos}\"\n");
+    }
     std::fs::write(&config, text).unwrap();
     config
 }
@@ -302,7 +306,13 @@ fn imu_record_from_cyclone_overturns_the_slender_block_and_not_the_stocky_one() 
 
     // The node, then the peer publishing the record at its sample rate.
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), &[&SLENDER, &STOCKY, &CROSSWISE], rate_hz);
+    // Reliable on both sides (the peer is reliable): every sample must arrive, exactly.
+    let config = write_config(
+        dir.path(),
+        &[&SLENDER, &STOCKY, &CROSSWISE],
+        rate_hz,
+        Some("reliable"),
+    );
     let state = dir.path().join("state");
     let mut node = NodeProcess::start(&config, &state, dir.path().join("node.err"));
     let rec = repo().join("tests/data/records");
@@ -422,7 +432,7 @@ fn imu_messages_with_a_wrong_layout_are_counted_undecodable_and_the_node_carries
     }
     const GOOD: u64 = 50;
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), &[&SLENDER], 100.0);
+    let config = write_config(dir.path(), &[&SLENDER], 100.0, Some("reliable"));
     let mut node = NodeProcess::start(
         &config,
         &dir.path().join("state"),
@@ -471,4 +481,44 @@ fn imu_messages_with_a_wrong_layout_are_counted_undecodable_and_the_node_carries
         GOOD + 1,
         "engine input\n{stderr}"
     );
+}
+
+#[test]
+fn a_best_effort_imu_driver_is_matched_by_the_default_qos() {
+    if !have_peer()
+        || !reexec_in_netns(
+            "a_best_effort_imu_driver_is_matched_by_the_default_qos",
+            120,
+        )
+    {
+        return;
+    }
+    // A reliable reader never matches a best-effort writer: with a reliable default the peer
+    // would see no reader and exit 2 (no reader matched), failing this test.
+    const COUNT: u64 = 200;
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), &[&SLENDER], 100.0, None);
+    let mut node = NodeProcess::start(
+        &config,
+        &dir.path().join("state"),
+        dir.path().join("node.err"),
+    );
+    let peer = run_peer(
+        &["at-rest", "--count", &COUNT.to_string(), "--rate", "100"],
+        60,
+    );
+    assert_eq!(field(&peer, "sent"), COUNT, "{peer:?}");
+    std::thread::sleep(Duration::from_secs(1));
+    let status = node.signal_and_wait("TERM", Duration::from_secs(20));
+    let stderr = node.stderr();
+    assert!(status.is_some_and(|s| s.success()), "{status:?}\n{stderr}");
+    // Best effort may lose samples (none expected on loopback; the first ones may go while
+    // the node's reader is still discovering the writer): most must arrive, all decodable.
+    let got = count_before(&stderr, "packets received over ROS 2");
+    assert!(
+        (COUNT * 3 / 4..=COUNT).contains(&got),
+        "{got} of {COUNT}\n{stderr}"
+    );
+    assert_eq!(count_before(&stderr, "undecodable"), 0, "{stderr}");
+    assert_eq!(count_before(&stderr, "rejected as invalid"), 0, "{stderr}");
 }

@@ -96,8 +96,10 @@ pub enum InputQos {
 /// `orientation` and `angular_velocity` are ignored. `header.stamp` is the sample time: the
 /// node places each message on the station's sample grid (rate `sample_rate_hz`), so stamps
 /// must advance by 1/`sample_rate_hz` per message (sensor time, not the arrival time).
-/// Drivers that publish best effort need `input_qos = "sensor_data"`: the default reliable
-/// reader does not match a best-effort writer.
+/// The subscription uses the ROS 2 sensor-data QoS by default (best effort, as REP 2003 asks
+/// of sensor subscribers): it matches Imu drivers that publish best effort (most do) as well
+/// as reliable ones. `qos = "reliable"` asks reliable publishers to repair losses, but then a
+/// best-effort driver is never matched (no data, no error: DDS QoS mismatch).
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ImuInput {
@@ -110,10 +112,17 @@ pub struct ImuInput {
     /// Subtract standard gravity from z (m/s²; default true: an Imu at rest reads +g up).
     #[serde(default = "yes")]
     pub remove_gravity: bool,
+    /// QoS of this subscription (default `sensor_data`; `reliable` keeps `input_depth`).
+    #[serde(default = "sensor_data")]
+    pub qos: InputQos,
 }
 
 fn yes() -> bool {
     true
+}
+
+fn sensor_data() -> InputQos {
+    InputQos::SensorData
 }
 
 /// The `[ros2]` section of the node configuration.
@@ -129,9 +138,9 @@ pub struct Ros2Config {
     /// Local interface addresses to use (multicast and advertised locators); empty = all.
     /// Ignored under LOCALHOST/OFF, which use 127.0.0.1 only.
     pub interfaces: Vec<IpAddr>,
-    /// QoS of `/pbr/accel` and the Imu topics.
+    /// QoS of `/pbr/accel` (each Imu topic has its own `qos`).
     pub input_qos: InputQos,
-    /// History depth of the reliable input subscription (packets).
+    /// History depth of the reliable input subscriptions (messages).
     pub input_depth: usize,
     /// `sensor_msgs/msg/Imu` inputs.
     pub imu: Vec<ImuInput>,
@@ -234,14 +243,14 @@ pub fn output_qos() -> QosProfile {
         .history(History::KeepLast { depth: 100 })
 }
 
-/// QoS of the input subscriptions.
+/// QoS of an input subscription: `kind`, with `depth` for the reliable one.
 #[must_use]
-pub fn input_qos(config: &Ros2Config) -> QosProfile {
-    match config.input_qos {
+pub fn input_qos(kind: InputQos, depth: usize) -> QosProfile {
+    match kind {
         InputQos::Reliable => QosProfile::subscription_default()
             .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
             .history(History::KeepLast {
-                depth: config.input_depth.max(1),
+                depth: depth.max(1),
             }),
         InputQos::SensorData => QosProfile::subscription_default()
             .reliability(Reliability::BestEffort)
@@ -532,9 +541,12 @@ impl Ros2Node {
             states: session.publisher(STATE_TOPIC, "PbrState", output_qos())?,
             ims: session.publisher(IMS_TOPIC, "StationIntensity", output_qos())?,
         };
-        let qos = input_qos(config);
-        let accel: Subscription<msg::AccelPacket> =
-            session.subscription(ACCEL_TOPIC, msg::PACKAGE, "AccelPacket", qos.clone())?;
+        let accel: Subscription<msg::AccelPacket> = session.subscription(
+            ACCEL_TOPIC,
+            msg::PACKAGE,
+            "AccelPacket",
+            input_qos(config.input_qos, config.input_depth),
+        )?;
         let mut imus = Vec::new();
         for imu in &config.imu {
             if !(imu.sample_rate_hz.is_finite() && imu.sample_rate_hz > 0.0) {
@@ -543,8 +555,9 @@ impl Ros2Node {
                     imu.topic
                 ));
             }
+            let qos = input_qos(imu.qos, config.input_depth);
             let sub: Subscription<ImuMsg> =
-                session.subscription(&imu.topic, "sensor_msgs", "Imu", qos.clone())?;
+                session.subscription(&imu.topic, "sensor_msgs", "Imu", qos)?;
             imus.push((imu.clone(), sub, 0));
         }
         Ok((
@@ -843,6 +856,7 @@ mod tests {
             station: "XX.IMU.00".into(),
             sample_rate_hz: 200.0,
             remove_gravity: true,
+            qos: InputQos::SensorData,
         };
         let m = ImuMsg {
             header: msg::Header::new(1_500_000_000, "imu_link"),

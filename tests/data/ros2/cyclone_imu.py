@@ -74,6 +74,15 @@ QOS = Qos(
 )
 
 
+# What most Imu drivers publish with (the ROS 2 sensor-data profile): best effort, keep last 5.
+QOS_BEST_EFFORT = Qos(
+    Policy.Reliability.BestEffort,
+    Policy.Durability.Volatile,
+    Policy.History.KeepLast(5),
+    Policy.DataRepresentation(use_cdrv0_representation=True),
+)
+
+
 def arg(args, name, default=None):
     if name in args:
         return args[args.index(name) + 1]
@@ -182,8 +191,16 @@ def main():
         writer.write(imu(time.time_ns(), float("nan"), 0.0, STANDARD_GRAVITY_MPS2))
         print(json.dumps({"nan": 1}), flush=True)
         paced(writer, [(0.0, 0.0, STANDARD_GRAVITY_MPS2)] * good, rate_hz)
+    elif "at-rest" in args:
+        # A best-effort driver: level, at rest (x = y = 0, z = +g), paced at --rate.
+        count = int(arg(args, "--count"))
+        rate_hz = float(arg(args, "--rate"))
+        writer = DataWriter(dp, Topic(dp, topic_name, Imu, qos=QOS_BEST_EFFORT), qos=QOS_BEST_EFFORT)
+        writers.append(writer)
+        wait_matched(writers, wait_s)
+        paced(writer, [(0.0, 0.0, STANDARD_GRAVITY_MPS2)] * count, rate_hz)
     else:
-        print(json.dumps({"error": "mode: record or hostile"}), flush=True)
+        print(json.dumps({"error": "mode: record, hostile or at-rest"}), flush=True)
         sys.exit(2)
     acked = all(w.wait_for_acks(duration(seconds=10)) for w in writers)
     print(json.dumps({"acked": acked}), flush=True)
