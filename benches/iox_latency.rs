@@ -23,7 +23,9 @@ use std::time::{Duration, Instant};
 
 use rockwatch::dynamics::Mode;
 use rockwatch::engine::{AccelPacket, Alert, AlertLevel, StationId};
-use rockwatch::iox::{IoxAlertPublisher, IoxAlertSubscriber, IoxConfig, IoxInput, IoxPacketSink};
+use rockwatch::iox::{
+    IoxAlertPublisher, IoxAlertSubscriber, IoxConfig, IoxInput, IoxPacketSink, PbrAlertIox,
+};
 use rockwatch::node::{NodeOptions, Publication, Publisher, Reactor};
 use rockwatch::replay::PacketSink;
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config};
@@ -74,6 +76,31 @@ fn node_options(catalogue: &Path, iox: &IoxConfig) -> (NodeOptions, NetworkPlan)
     (options, plan)
 }
 
+/// A thread subscribed to the alerts of `config` (it says so on `ready`) that waits on the
+/// alerts' event service, as a client would, until `done`: every alert with the time it was
+/// received (ns since `epoch`).
+fn alert_subscriber(
+    config: &IoxConfig,
+    epoch: Instant,
+    done: Arc<AtomicBool>,
+    ready: std::sync::mpsc::Sender<()>,
+) -> std::thread::JoinHandle<Vec<(PbrAlertIox, i64)>> {
+    let config = config.clone();
+    std::thread::spawn(move || {
+        let sub = IoxAlertSubscriber::new(&config).unwrap();
+        ready.send(()).unwrap();
+        let mut got = Vec::new();
+        let mut stamped = Vec::new();
+        while !done.load(Ordering::Relaxed) {
+            let before = got.len();
+            sub.wait(Duration::from_millis(20), &mut got).unwrap();
+            let now = epoch.elapsed().as_nanos() as i64;
+            stamped.extend(got[before..].iter().map(|a| (*a, now)));
+        }
+        stamped
+    })
+}
+
 /// The transport alone, for comparison: the same sender, subscriber and pace, and an echo
 /// thread built like the node's event loop (the iceoryx2 input on a mio Poll, the alert
 /// publisher) that answers each packet with an alert at once — no engine, no ROS 2, no other
@@ -122,22 +149,7 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
     };
     let epoch = Instant::now();
     let done = Arc::new(AtomicBool::new(false));
-    let subscriber = {
-        let (config, done) = (config.clone(), done.clone());
-        std::thread::spawn(move || {
-            let sub = IoxAlertSubscriber::new(&config).unwrap();
-            ready_tx.send(()).unwrap();
-            let mut got = Vec::new();
-            let mut stamped = Vec::new();
-            while !done.load(Ordering::Relaxed) {
-                let before = got.len();
-                sub.wait(Duration::from_millis(20), &mut got).unwrap();
-                let now = epoch.elapsed().as_nanos() as i64;
-                stamped.extend(got[before..].iter().map(|a| (a.data_time_ns, now)));
-            }
-            stamped
-        })
-    };
+    let subscriber = alert_subscriber(config, epoch, done.clone(), ready_tx);
     ready_rx.recv_timeout(Duration::from_secs(30)).unwrap();
     ready_rx.recv_timeout(Duration::from_secs(30)).unwrap();
     let mut sink = IoxPacketSink::new(config).unwrap();
@@ -167,7 +179,9 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
         .join()
         .unwrap()
         .into_iter()
-        .filter_map(|(i, t)| Some((t - *sent.get(usize::try_from(i).ok()?)?) as f64 / 1e3))
+        .filter_map(|(a, t)| {
+            Some((t - *sent.get(usize::try_from(a.data_time_ns).ok()?)?) as f64 / 1e3)
+        })
         .collect();
     latencies.sort_by(f64::total_cmp);
     latencies
@@ -213,22 +227,7 @@ fn main() {
     let epoch = log.epoch;
     let subscriber_done = Arc::new(AtomicBool::new(false));
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-    let subscriber = {
-        let (config, done) = (config.clone(), subscriber_done.clone());
-        std::thread::spawn(move || {
-            let sub = IoxAlertSubscriber::new(&config).unwrap();
-            ready_tx.send(()).unwrap();
-            let mut got = Vec::new();
-            let mut stamped = Vec::new();
-            while !done.load(Ordering::Relaxed) {
-                let before = got.len();
-                sub.wait(Duration::from_millis(20), &mut got).unwrap();
-                let now = epoch.elapsed().as_nanos() as i64;
-                stamped.extend(got[before..].iter().map(|a| (*a, now)));
-            }
-            stamped
-        })
-    };
+    let subscriber = alert_subscriber(&config, epoch, subscriber_done.clone(), ready_tx);
     ready_rx.recv_timeout(Duration::from_secs(30)).unwrap();
     let stop = Arc::new(AtomicBool::new(false));
     let sender = {

@@ -259,16 +259,7 @@ impl Reactor {
         // Stop: take what the inputs still hold (bounded) and process every packet taken,
         // then shut the engine down.
         inboxes.iter_mut().for_each(|i| i.due = true);
-        turn(
-            &mut inboxes,
-            &mut iox_input,
-            &mut ros2,
-            &mut runtime,
-            &mut out,
-            &controls,
-        )?;
-        while inboxes.iter().any(|i| !i.queue.is_empty()) {
-            inboxes.iter_mut().for_each(|i| i.due = false);
+        loop {
             turn(
                 &mut inboxes,
                 &mut iox_input,
@@ -277,6 +268,11 @@ impl Reactor {
                 &mut out,
                 &controls,
             )?;
+            if inboxes.iter().all(|i| i.queue.is_empty()) {
+                break;
+            }
+            // Process what was taken; take nothing new.
+            inboxes.iter_mut().for_each(|i| i.due = false);
         }
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
         let (summaries, input) = runtime.shutdown_with_totals(&mut |p| out.publish(p))?;
