@@ -22,8 +22,9 @@
 #     afterwards) into INSTALL_DIR, skipped when INSTALL_DIR's stamp says it was built from the
 #     same msg/ files, script and Python; an old INSTALL_DIR is replaced only if it is a colcon
 #     install base (never an unrelated directory);
-#  4. checks: Python imports the generated types and loads their C type support; a C++ program
-#     built with find_package(pbr_msgs) against the install compiles and runs.
+#  4. checks: Python imports the generated types (the messages and the service ResetPbr) and
+#     loads their C type support; a C++ program built with find_package(pbr_msgs) against the
+#     install compiles and runs.
 # Takes about 10 s (installs present, build skipped) to about 1.5 min (fresh machine, full build)
 # on 2 cores.
 set -euo pipefail
@@ -114,8 +115,10 @@ if [ -n "${ROS_DISTRO:-}" ]; then
   say "note: ROS_DISTRO=$ROS_DISTRO is set; this script builds against the PyPI wheels in $py_prefix only"
 fi
 
-# The stamp: msg/ (every file), this script, and the Python whose wheels are the underlay.
-stamp=$( (cd "$repo" && sha256sum msg/* launch-scripts/build-msgs.sh; echo "$py_prefix") | sha256sum | cut -d' ' -f1)
+# The stamp: msg/ (every file, msg/srv/ too), this script, and the Python whose wheels are the
+# underlay.
+stamp=$( (cd "$repo" && find msg -type f | LC_ALL=C sort | xargs sha256sum &&
+  sha256sum launch-scripts/build-msgs.sh && echo "$py_prefix") | sha256sum | cut -d' ' -f1)
 stamp_file=$install_dir/.rockwatch-build-msgs.stamp
 
 # In a subshell: the install's environment, as its setup files set it (they are not `set -u`
@@ -129,14 +132,21 @@ source_install() {
 }
 
 check() {
-  # Python: the generated classes, their constants, and the C type support extension.
+  # Python: the generated classes, their constants, and the C type support extension; the
+  # service ResetPbr (msg/srv/ResetPbr.srv) with its request and response fields.
   (
     source_install
     python3 - <<'EOF'
 from pbr_msgs.msg import AccelPacket, PbrAlert, PbrState, StationIntensity
-for cls in (AccelPacket, PbrAlert, PbrState, StationIntensity):
+from pbr_msgs.srv import ResetPbr
+for cls in (AccelPacket, PbrAlert, PbrState, StationIntensity, ResetPbr.Request, ResetPbr.Response):
     cls.__class__.__import_type_support__()
     assert cls._TYPE_SUPPORT is not None, cls
+ResetPbr.__class__.__import_type_support__()
+assert ResetPbr._TYPE_SUPPORT is not None, ResetPbr
+assert list(ResetPbr.Request.get_fields_and_field_types().items()) == [("pbr_id", "string")]
+assert list(ResetPbr.Response.get_fields_and_field_types().items()) == [
+    ("success", "boolean"), ("message", "string")]
 assert (PbrAlert.MOTION_ONSET, PbrAlert.OVERTURN_IMMINENT, PbrAlert.OVERTURNED) == (1, 2, 3)
 assert PbrState.OVERTURNED == 4
 EOF
@@ -157,9 +167,19 @@ EOF
 #include <pbr_msgs/msg/accel_packet.h>
 #include <rosidl_runtime_c/primitives_sequence_functions.h>
 #include <pbr_msgs/msg/pbr_alert.hpp>
+#include <pbr_msgs/srv/reset_pbr.hpp>
 #include <rosidl_typesupport_cpp/message_type_support.hpp>
+#include <rosidl_typesupport_cpp/service_type_support.hpp>
 #include <cstdio>
 int main() {
+  pbr_msgs::srv::ResetPbr::Request request;
+  request.pbr_id = "rrs-slender-pillar";
+  pbr_msgs::srv::ResetPbr::Response response;
+  response.success = true;
+  response.message = "reset";
+  const rosidl_service_type_support_t * srv_ts =
+    rosidl_typesupport_cpp::get_service_type_support_handle<pbr_msgs::srv::ResetPbr>();
+  if (srv_ts == nullptr) { std::printf("no service type support\n"); return 1; }
   static_assert(pbr_msgs::msg::PbrAlert::OVERTURNED == 3, "PbrAlert.OVERTURNED");
   pbr_msgs__msg__AccelPacket c;
   if (!pbr_msgs__msg__AccelPacket__init(&c)) return 1;

@@ -12,7 +12,7 @@
 
 mod serve;
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::mpsc;
 use std::sync::Arc;
@@ -24,8 +24,8 @@ pub use serve::{serve, Probe, Reactor, ServeReport};
 
 use crate::catalogue::Catalogue;
 use crate::engine::{
-    AccelPacket, Alert, AlertConfig, Engine, JournalRecord, Output, OutputSink, PbrSpec, PbrState,
-    PbrSummary, ShardedEngine, StationIntensity,
+    AccelPacket, Alert, AlertConfig, AlertLevel, Engine, JournalRecord, Output, OutputSink,
+    PbrSpec, PbrState, PbrSummary, ShardedEngine, StationIntensity,
 };
 use crate::journal::Journal;
 use crate::node_config::NodeConfig;
@@ -97,6 +97,62 @@ impl ControlSender {
     pub fn set_state_interval_s(&self, state_interval_s: f64) {
         self.send(Control::StateIntervalS(state_interval_s));
     }
+}
+
+/// What an operator reset of a block ([`NodeRuntime::operator_reset`]) did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResetOutcome {
+    /// The block had overturned: the reset was journaled (and synced), then applied; the block
+    /// stands again at rest, its episode closed, and a new episode can raise alerts.
+    Reset,
+    /// The block stands (it never overturned, or was reset already): nothing was journaled or
+    /// changed. A block that is moving is not disturbed.
+    NotOverturned,
+    /// No block of the node's catalogue has this id: nothing was done.
+    UnknownPbr,
+}
+
+impl ResetOutcome {
+    /// Whether the request succeeded: the block is known and now stands (reset or already).
+    #[must_use]
+    pub fn success(self) -> bool {
+        self != ResetOutcome::UnknownPbr
+    }
+
+    /// One line for people about block `pbr_id` (control characters escaped, length bounded).
+    #[must_use]
+    pub fn message(self, pbr_id: &str) -> String {
+        let id = printable(pbr_id, 200);
+        match self {
+            ResetOutcome::Reset => format!(
+                "block {id} reset: it stands again at rest, and a new episode can raise alerts"
+            ),
+            ResetOutcome::NotOverturned => {
+                format!("block {id} has not overturned: nothing to reset")
+            }
+            ResetOutcome::UnknownPbr => {
+                format!("unknown block {id:?}: no such id in the node's catalogue")
+            }
+        }
+    }
+}
+
+/// Blocks that have overturned and not been reset since, by the records of a journal read in
+/// order (an `overturned` alert, then no reset): the fallen blocks the engine restores.
+fn overturned_in(records: &[JournalRecord]) -> HashSet<String> {
+    let mut fallen = HashSet::new();
+    for record in records {
+        match record {
+            JournalRecord::Alert(a) if a.level == AlertLevel::Overturned => {
+                fallen.insert(a.pbr_id.clone());
+            }
+            JournalRecord::Reset { pbr_id } => {
+                fallen.remove(pbr_id);
+            }
+            _ => {}
+        }
+    }
+    fallen
 }
 
 /// Where the runtime's settings come from: the configuration file, overridden by flags.
@@ -276,6 +332,9 @@ struct Emitter {
     stats: NodeStats,
     /// States and intensities held back until the batch's alerts are out (reused).
     deferred: Vec<Output>,
+    /// Blocks overturned and not reset since: restored from the journal, then every
+    /// `overturned` alert the engine raises (inline or on a worker) until an operator reset.
+    overturned: HashSet<String>,
 }
 
 impl Emitter {
@@ -337,6 +396,11 @@ impl<P: FnMut(Publication)> EmitSink<'_, P> {
 
 impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
     fn push(&mut self, output: Output) {
+        if let Output::Alert(a) = &output {
+            if a.level == AlertLevel::Overturned {
+                self.emit.overturned.insert(a.pbr_id.clone());
+            }
+        }
         if self.error.is_some() {
             return; // the state directory failed: publish nothing more
         }
@@ -403,6 +467,7 @@ impl NodeRuntime {
             Some((journal, records)) => (Some(journal), records),
             None => (None, Vec::new()),
         };
+        let overturned = overturned_in(&records);
         let shards = if options.shards == 0 {
             std::thread::available_parallelism().map_or(1, usize::from)
         } else {
@@ -435,6 +500,7 @@ impl NodeRuntime {
                 log: RateLimitedLog::new(),
                 stats: NodeStats::default(),
                 deferred: Vec::new(),
+                overturned,
             },
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
             last_flush: Instant::now(),
@@ -534,13 +600,59 @@ impl NodeRuntime {
         self.apply(Control::Alerts(alerts));
     }
 
-    /// Operator reset of a fallen block: journaled, then applied.
+    /// Whether block `pbr_id` has overturned and not been reset since (None: no such block).
+    /// With several shards, an overturn counts once its alert has come back from the worker
+    /// (through [`NodeRuntime::poll`]).
+    #[must_use]
+    pub fn overturned(&self, pbr_id: &str) -> Option<bool> {
+        self.pbr_ids
+            .iter()
+            .any(|id| id == pbr_id)
+            .then(|| self.emit.overturned.contains(pbr_id))
+    }
+
+    /// An operator's request to reset block `pbr_id`: an overturned block is reset
+    /// ([`NodeRuntime::reset_pbr`]: journaled and synced, then applied, so a restart keeps
+    /// it); a standing or moving block is left alone, an unknown id refused. Logs one line
+    /// per reset naming the block (refusals rate-limited). An error means the state
+    /// directory failed: nothing was applied.
+    pub fn operator_reset(&mut self, pbr_id: &str) -> anyhow::Result<ResetOutcome> {
+        let outcome = match self.overturned(pbr_id) {
+            None => ResetOutcome::UnknownPbr,
+            Some(false) => ResetOutcome::NotOverturned,
+            Some(true) => {
+                if let Err(e) = self.reset_pbr(pbr_id) {
+                    self.emit
+                        .log
+                        .log(pbr_id, "reset_failed", &format!("not reset: {e:#}"));
+                    return Err(e);
+                }
+                ResetOutcome::Reset
+            }
+        };
+        match outcome {
+            ResetOutcome::Reset => eprintln!(
+                "rockwatch: {}: reset by the operator: stands again at rest",
+                printable(pbr_id, 200)
+            ),
+            _ => self
+                .emit
+                .log
+                .log(pbr_id, "reset_refused", &outcome.message(pbr_id)),
+        }
+        Ok(outcome)
+    }
+
+    /// Operator reset of a fallen block, unconditionally: journaled (and synced), then applied
+    /// to the engine (see [`NodeRuntime::operator_reset`] for the checked request). An error
+    /// means the state directory failed and nothing was applied.
     pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
         if let Some(j) = &mut self.emit.journal {
             j.append(&JournalRecord::Reset {
                 pbr_id: pbr_id.to_string(),
             })?;
         }
+        self.emit.overturned.remove(pbr_id);
         match &mut self.engine {
             Some(EngineMode::Inline(e)) => {
                 e.reset_pbr(pbr_id);

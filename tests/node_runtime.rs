@@ -9,7 +9,7 @@ use std::time::Duration;
 use rockwatch::catalogue::Catalogue;
 use rockwatch::engine::{Engine, EngineConfig, Output, PbrSpec};
 use rockwatch::journal::read_journal;
-use rockwatch::node::{NodeOptions, NodeRuntime, Publication};
+use rockwatch::node::{NodeOptions, NodeRuntime, Publication, ResetOutcome};
 
 /// Alert keys of the single-threaded engine on the Rinaldi packets (the reference).
 fn reference_alert_keys() -> Vec<rockwatch::engine::AlertKey> {
@@ -225,4 +225,151 @@ fn a_packet_held_for_missing_data_is_released_when_the_station_falls_silent() {
         );
         node.shutdown(&mut |_| {}).unwrap();
     }
+}
+
+/// The Rinaldi packets again, as the same station's stream continuing `after_s` seconds after
+/// the end of the first pass (later times, later sequence numbers).
+fn rinaldi_again(after_s: f64) -> Vec<rockwatch::engine::AccelPacket> {
+    let first = rinaldi_packets();
+    let last = first.last().unwrap();
+    let end_ns = last.start_time_ns + (last.len() as f64 * 1e9 / last.sample_rate_hz) as i64;
+    let shift_ns = end_ns - first[0].start_time_ns + (after_s * 1e9) as i64;
+    let n = first.len() as u64;
+    first
+        .into_iter()
+        .map(|mut p| {
+            p.start_time_ns += shift_ns;
+            p.sequence += n;
+            p
+        })
+        .collect()
+}
+
+/// Feeds `packets` and waits (bounded) for the sharded workers' outputs; returns the alerts'
+/// (block, episode, level).
+fn feed(
+    node: &mut NodeRuntime,
+    packets: &[rockwatch::engine::AccelPacket],
+) -> Vec<(String, u32, String)> {
+    let mut alerts = Vec::new();
+    let mut publish = |p: Publication| {
+        if let Publication::Alert { alert, .. } = p {
+            alerts.push((
+                alert.pbr_id,
+                alert.episode,
+                alert.level.as_str().to_string(),
+            ));
+        }
+    };
+    for p in packets {
+        node.submit(p.clone(), &mut publish).unwrap();
+    }
+    // The quiet tail ends the episodes of the blocks that stand; sharded, the outputs come
+    // back from the workers: wait until nothing more comes for 200 ms.
+    loop {
+        let before = node.stats().alerts + node.stats().states;
+        node.poll_wait(Duration::from_millis(200), &mut publish)
+            .unwrap();
+        if node.stats().alerts + node.stats().states == before {
+            break;
+        }
+    }
+    alerts
+}
+
+const SLENDER: &str = "rrs-slender-pillar";
+
+fn operator_reset_stands_the_block_again(shards: usize) {
+    let dir = tempfile::tempdir().unwrap();
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        state_dir: Some(dir.path().to_path_buf()),
+        shards,
+        ..NodeOptions::default()
+    };
+    let resets_in_journal = || {
+        read_journal(dir.path())
+            .unwrap()
+            .0
+            .iter()
+            .filter(|r| matches!(r, rockwatch::engine::JournalRecord::Reset { pbr_id } if pbr_id == SLENDER))
+            .count()
+    };
+    let mut node = NodeRuntime::start(&options).unwrap();
+    // Unknown ids and standing blocks: nothing done, nothing journaled.
+    assert_eq!(node.overturned("no-such-block"), None);
+    assert_eq!(
+        node.operator_reset("no-such-block").unwrap(),
+        ResetOutcome::UnknownPbr
+    );
+    assert_eq!(node.overturned(SLENDER), Some(false));
+    assert_eq!(
+        node.operator_reset(SLENDER).unwrap(),
+        ResetOutcome::NotOverturned
+    );
+    assert_eq!(resets_in_journal(), 0);
+
+    // First pass: the slender block overturns in episode 1 (as the plain engine says).
+    let first = feed(&mut node, &rinaldi_packets());
+    let expected: Vec<_> = reference_alert_keys()
+        .into_iter()
+        .filter(|k| k.0 == SLENDER)
+        .collect();
+    assert!(expected
+        .iter()
+        .any(|k| k.1 == 1 && k.2 == rockwatch::engine::AlertLevel::Overturned));
+    let slender_levels = |alerts: &[(String, u32, String)], episode: u32| {
+        let mut v: Vec<String> = alerts
+            .iter()
+            .filter(|a| a.0 == SLENDER && a.1 == episode)
+            .map(|a| a.2.clone())
+            .collect();
+        v.sort();
+        v
+    };
+    let mut reference_levels: Vec<String> =
+        expected.iter().map(|k| k.2.as_str().to_string()).collect();
+    reference_levels.sort();
+    assert_eq!(slender_levels(&first, 1), reference_levels, "{first:?}");
+    assert_eq!(node.overturned(SLENDER), Some(true));
+
+    // A fallen block stays fallen: the record again raises nothing for it.
+    let again = feed(&mut node, &rinaldi_again(30.0));
+    assert!(!again.iter().any(|a| a.0 == SLENDER), "{again:?}");
+
+    // The reset: journaled, and the block stands again.
+    assert_eq!(node.operator_reset(SLENDER).unwrap(), ResetOutcome::Reset);
+    assert_eq!(resets_in_journal(), 1);
+    assert_eq!(node.overturned(SLENDER), Some(false));
+    assert_eq!(
+        node.operator_reset(SLENDER).unwrap(),
+        ResetOutcome::NotOverturned
+    );
+    assert_eq!(
+        resets_in_journal(),
+        1,
+        "a standing block's reset is not journaled"
+    );
+
+    // From rest under the same motion the block does what it did the first time, as episode 2.
+    let third = feed(&mut node, &rinaldi_again(90.0));
+    assert_eq!(slender_levels(&third, 2), reference_levels, "{third:?}");
+    assert_eq!(node.overturned(SLENDER), Some(true));
+    assert_eq!(node.operator_reset(SLENDER).unwrap(), ResetOutcome::Reset);
+    node.shutdown(&mut |_| {}).unwrap();
+
+    // A restart keeps the reset: the journal's last word on the block is a reset.
+    let node = NodeRuntime::start(&options).unwrap();
+    assert_eq!(node.overturned(SLENDER), Some(false));
+    assert_eq!(resets_in_journal(), 2);
+}
+
+#[test]
+fn operator_reset_of_a_fallen_block_is_journaled_and_a_new_episode_can_overturn_it_inline() {
+    operator_reset_stands_the_block_again(1);
+}
+
+#[test]
+fn operator_reset_of_a_fallen_block_is_journaled_and_a_new_episode_can_overturn_it_sharded() {
+    operator_reset_stands_the_block_again(2);
 }

@@ -1,6 +1,6 @@
-//! One source of truth for the wire format: the `.msg` files of `msg/` are parsed here and the
-//! Rust structs of `rockwatch::ros2::msg` must have the same fields, in the same order, with
-//! the same types (CDR is positional), and the same constants.
+//! One source of truth for the wire format: the `.msg` files of `msg/` and the `.srv` files of
+//! `msg/srv/` are parsed here and the Rust structs of `rockwatch::ros2::msg` must have the same
+//! fields, in the same order, with the same types (CDR is positional), and the same constants.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -24,7 +24,25 @@ fn parse_msg(name: &str) -> MsgFile {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("msg")
         .join(format!("{name}.msg"));
+    parse_fields(name, &std::fs::read_to_string(&path).unwrap())
+}
+
+/// A `.srv` file of `msg/srv/`: the request's fields, a line `---`, the response's.
+fn parse_srv(name: &str) -> (MsgFile, MsgFile) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("msg/srv")
+        .join(format!("{name}.srv"));
     let text = std::fs::read_to_string(&path).unwrap();
+    let parts: Vec<&str> = text.split("\n---\n").collect();
+    assert_eq!(parts.len(), 2, "{name}.srv: one `---` line");
+    (
+        parse_fields(&format!("{name}_Request"), parts[0]),
+        parse_fields(&format!("{name}_Response"), parts[1]),
+    )
+}
+
+/// The fields and constants of one message's text.
+fn parse_fields(name: &str, text: &str) -> MsgFile {
     let mut file = MsgFile::default();
     for line in text.lines() {
         let line = line.split('#').next().unwrap().trim();
@@ -75,6 +93,8 @@ fn registry() -> serde_reflection::Registry {
     tracer.trace_simple_type::<msg::StationIntensity>().unwrap();
     tracer.trace_simple_type::<msg::PbrState>().unwrap();
     tracer.trace_simple_type::<msg::PbrAlert>().unwrap();
+    tracer.trace_simple_type::<msg::ResetPbrRequest>().unwrap();
+    tracer.trace_simple_type::<msg::ResetPbrResponse>().unwrap();
     tracer.registry().unwrap()
 }
 
@@ -94,7 +114,23 @@ fn assert_struct_matches(registry: &serde_reflection::Registry, name: &str, file
         .iter()
         .map(|(ty, n)| (n.clone(), expected_format(ty)))
         .collect();
-    assert_eq!(rust, msg, "{name}: Rust struct vs msg/{name}.msg");
+    assert_eq!(rust, msg, "{name}: Rust struct vs its .msg/.srv file");
+}
+
+#[test]
+fn reset_service_structs_have_the_fields_of_the_srv_file_in_order() {
+    let registry = registry();
+    let (request, response) = parse_srv(msg::RESET_SERVICE_TYPE);
+    assert_struct_matches(&registry, "ResetPbrRequest", &request);
+    assert_struct_matches(&registry, "ResetPbrResponse", &response);
+    // The fields the node and `rockwatch reset --node` rely on, independently of the file.
+    let field = |ty: &str, name: &str| (ty.to_string(), name.to_string());
+    assert_eq!(request.fields, [field("string", "pbr_id")]);
+    assert_eq!(
+        response.fields,
+        [field("bool", "success"), field("string", "message")]
+    );
+    assert!(request.constants.is_empty() && response.constants.is_empty());
 }
 
 #[test]

@@ -64,7 +64,8 @@ struct Cli {
 enum Command {
     /// List the alert history of a state directory.
     Alerts(alerts::AlertsArgs),
-    /// Reset a fallen block in a state directory.
+    // No doc comment here: a variant's doc comment replaces the long help, and `reset --help`
+    // shows ResetArgs' (its first line is the summary in this list).
     Reset(alerts::ResetArgs),
     /// Intensity measures of a record (PGA, PGV, CAV, Arias, durations, SA, ASI/SI/VSI, …).
     Ims(ims::ImsArgs),

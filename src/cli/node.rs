@@ -16,8 +16,10 @@ use rockwatch::ros2::network_plan_from_env;
 ///
 /// The node is `<namespace>/rockwatch`; DDS domain `ROS_DOMAIN_ID`;
 /// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` keeps it on loopback. Alert thresholds
-/// (`alerts.*`) and `state_interval_s` are ROS 2 parameters, settable at run time. SIGINT or
-/// SIGTERM: stop intake, publish what remains, flush the state directory, exit 0.
+/// (`alerts.*`) and `state_interval_s` are ROS 2 parameters, settable at run time. The
+/// service `/pbr/reset` (`pbr_msgs/srv/ResetPbr`) resets a fallen block (`rockwatch reset
+/// --node`). SIGINT or SIGTERM: stop intake, publish what remains, flush the state directory,
+/// exit 0.
 #[derive(Debug, clap::Args)]
 pub struct NodeArgs {
     /// Node configuration (TOML, e.g. config/node.toml): catalogue, stations, thresholds,

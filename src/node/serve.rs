@@ -1,7 +1,8 @@
 //! The live node: ONE event loop thread (the caller's) multiplexes every input with a mio
 //! `Poll` and publishes on the same thread.
 //!
-//! Sources: the ROS 2 subscriptions (`/pbr/accel`, the Imu topics), the iceoryx2 `pbr/accel`
+//! Sources: the ROS 2 subscriptions (`/pbr/accel`, the Imu topics), the ROS 2 service
+//! `/pbr/reset` (operator resets, applied between packets), the iceoryx2 `pbr/accel`
 //! listener, and a `mio::Waker` through which other threads hand work in (ROS 2 parameter
 //! changes from the spinner thread; with several engine shards, the workers' outputs). The
 //! poll timeout ([`TICK`]) bounds how late the stop flag (SIGINT/SIGTERM), the
@@ -31,6 +32,7 @@ use super::{
 };
 use crate::engine::{AccelPacket, PbrSummary};
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
+use crate::ros2::msg::ResetPbrResponse;
 use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
@@ -52,8 +54,10 @@ pub const INBOX_BOUND: usize = 4096;
 
 const WAKE: Token = Token(0);
 const IOX: Token = Token(1);
+/// The ROS 2 service `/pbr/reset`.
+const RESET: Token = Token(2);
 /// ROS 2 input `i` is `Token(ROS2_FIRST + i)`.
-const ROS2_FIRST: usize = 2;
+const ROS2_FIRST: usize = 3;
 
 /// What [`serve`] hands back at the end.
 #[derive(Debug, Clone)]
@@ -143,6 +147,8 @@ impl Reactor {
             Ros2Node::start(&config.ros2, plan, &config.engine, control_sender)?;
         ros2.register(poll.registry(), ROS2_FIRST)
             .context("cannot register the ROS 2 subscriptions with the event loop")?;
+        ros2.register_reset(poll.registry(), RESET)
+            .context("cannot register the ROS 2 reset service with the event loop")?;
         let iox = match &config.iceoryx2.config_file {
             Some(_) => {
                 let mut input = IoxInput::open(&config.iceoryx2)?;
@@ -218,8 +224,10 @@ impl Reactor {
         // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
         let mut inboxes: Vec<Inbox> = (0..1 + ros2.inputs()).map(|_| Inbox::new()).collect();
         let mut events = Events::with_capacity(64);
+        // Requests of /pbr/reset may be waiting (edge-triggered, like the inputs).
+        let mut resets_due = true;
         while !stop.load(Ordering::Relaxed) {
-            let pending = inboxes.iter().any(|i| i.due || !i.queue.is_empty());
+            let pending = resets_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
             let timeout = if pending { Duration::ZERO } else { TICK };
             match poll.poll(&mut events, Some(timeout)) {
                 Ok(()) => {}
@@ -229,10 +237,15 @@ impl Reactor {
             if events.is_empty() && !pending {
                 // Idle tick: look at every source once (a safety net, cheap when empty).
                 inboxes.iter_mut().for_each(|i| i.due = true);
+                resets_due = true;
             }
             for event in &events {
                 let source = match event.token() {
                     WAKE => continue,
+                    RESET => {
+                        resets_due = true;
+                        continue;
+                    }
                     IOX => 0,
                     Token(t) => 1 + t.wrapping_sub(ROS2_FIRST),
                 };
@@ -241,6 +254,11 @@ impl Reactor {
                 }
             }
             apply_controls(&controls, &mut runtime);
+            // Operator resets apply before the packets of this turn.
+            if resets_due {
+                resets_due = ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
+            }
+            ros2.send_due_replies();
             turn(
                 &mut inboxes,
                 &mut iox_input,
@@ -274,6 +292,10 @@ impl Reactor {
             // Process what was taken; take nothing new.
             inboxes.iter_mut().for_each(|i| i.due = false);
         }
+        // Requests waiting at the stop are answered (a bounded number; the responses go out
+        // now, held ones too).
+        ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
+        ros2.flush_replies();
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
         let (summaries, input) = runtime.shutdown_with_totals(&mut |p| out.publish(p))?;
         out.flush();
@@ -356,6 +378,22 @@ impl Inbox {
             queue: VecDeque::new(),
             due: true,
         }
+    }
+}
+
+/// Serves one `/pbr/reset` request: [`NodeRuntime::operator_reset`] (an overturned block is
+/// reset, journaled first; a standing one left alone; an unknown id refused) and its response.
+/// A failed journal is reported to the client (success false) and logged; the node goes on.
+fn reset_response(runtime: &mut NodeRuntime, pbr_id: &str) -> ResetPbrResponse {
+    match runtime.operator_reset(pbr_id) {
+        Ok(outcome) => ResetPbrResponse {
+            success: outcome.success(),
+            message: outcome.message(pbr_id),
+        },
+        Err(e) => ResetPbrResponse {
+            success: false,
+            message: format!("block {pbr_id} not reset: the state directory failed: {e:#}"),
+        },
     }
 }
 

@@ -1,5 +1,6 @@
 //! ROS 2 transport (ros2-client over RustDDS): the `pbr_msgs` interfaces, the node's
-//! subscriptions, publishers and parameters, the replay sink and an alert listener.
+//! subscriptions, publishers, parameters and reset service, the replay sink, an alert
+//! listener and the reset client.
 //!
 //! Networking follows rclcpp: the DDS domain is `ROS_DOMAIN_ID` (default 0) and
 //! `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` (or `OFF`) restricts the participant to the
@@ -21,8 +22,8 @@ use ros2_client::dds::rustdds::{
 };
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
 use ros2_client::{
-    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, QosProfile,
-    Subscription,
+    Client, Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue,
+    QosProfile, RmwRequestId, Server, ServiceMapping, ServiceTypeName, Subscription,
 };
 
 use crate::engine::{AccelPacket, AlertConfig, EngineConfig};
@@ -39,6 +40,20 @@ pub const STATE_TOPIC: &str = "/pbr/state";
 pub const ALERTS_TOPIC: &str = "/pbr/alerts";
 /// History depth of `/pbr/alerts` (transient local: a late subscriber gets this many).
 pub const ALERTS_DEPTH: usize = 1000;
+/// The operator reset service (`pbr_msgs/srv/ResetPbr`), absolute like the topics.
+pub const RESET_SERVICE: &str = "/pbr/reset";
+/// The ROS 2 <-> DDS mapping of the reset service: the "enhanced" RPC-over-DDS mapping, that of
+/// ROS 2's default middleware (rmw_fastrtps) and of rmw_connextdds; rmw_cyclonedds uses its
+/// own, and its clients are not served (as for the parameter services).
+pub const RESET_SERVICE_MAPPING: ServiceMapping = ServiceMapping::Enhanced;
+/// Longest a reset response waits for the requesting client's response reader to be
+/// discovered (a volatile writer does not send a sample to a reader it has not matched).
+pub const RESET_REPLY_WAIT: Duration = Duration::from_secs(2);
+/// Most reset requests served per turn of the event loop (the rest on the next turn).
+pub const RESET_REQUESTS_PER_TURN: usize = 64;
+/// Most reset responses held for their client (see [`Ros2Node::send_due_replies`]); beyond,
+/// a response is sent at once (bounded memory and work under a flood of requests).
+pub const RESET_REPLIES_HELD: usize = 256;
 
 /// ROS 2 parameter names of the run-time settings (all doubles).
 pub const PARAM_IMMINENT_THETA_RATIO: &str = "alerts.imminent_theta_ratio";
@@ -258,6 +273,16 @@ pub fn input_qos(kind: InputQos, depth: usize) -> QosProfile {
     }
 }
 
+/// QoS of the reset service's requests and responses: ROS 2's services default (reliable,
+/// volatile, keep last 10).
+#[must_use]
+pub fn service_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 10 })
+}
+
 /// QoS of the replay publisher: reliable and keep-all, so `publish` waits for the
 /// subscriber instead of dropping packets.
 #[must_use]
@@ -403,10 +428,11 @@ pub struct IntakeCounters {
     pub decode_errors: AtomicU64,
 }
 
-/// The node's ROS 2 side: parameters, the input subscriptions and (returned separately by
-/// [`Ros2Node::start`]) the output publishers. It has no intake thread: the node's event loop
-/// registers the subscriptions ([`Ros2Node::register`]) and drains those that are ready
-/// ([`Ros2Node::drain`]).
+/// The node's ROS 2 side: parameters, the input subscriptions, the reset service and (returned
+/// separately by [`Ros2Node::start`]) the output publishers. It has no intake thread: the
+/// node's event loop registers the subscriptions ([`Ros2Node::register`]) and the service
+/// ([`Ros2Node::register_reset`]), drains the subscriptions that are ready
+/// ([`Ros2Node::drain`]) and serves the service ([`Ros2Node::serve_resets`]).
 pub struct Ros2Node {
     session: Ros2Session,
     accel: Subscription<msg::AccelPacket>,
@@ -414,6 +440,18 @@ pub struct Ros2Node {
     imus: Vec<(ImuInput, Subscription<ImuMsg>, u64)>,
     pub counters: Arc<IntakeCounters>,
     last_error_report: Option<Instant>,
+    /// The `/pbr/reset` server and the DDS name of its response topic.
+    reset: Server<msg::ResetPbrRequest, msg::ResetPbrResponse>,
+    reset_reply_topic: String,
+    /// Responses waiting for their client's response reader to be discovered.
+    pending_replies: Vec<PendingReply>,
+}
+
+/// A reset response not sent yet (see [`Ros2Node::send_due_replies`]).
+struct PendingReply {
+    id: RmwRequestId,
+    response: msg::ResetPbrResponse,
+    since: Instant,
 }
 
 /// The node's output publishers (a [`crate::node::Publisher`]).
@@ -497,7 +535,7 @@ fn apply_parameter(
 impl Ros2Node {
     /// Joins the ROS 2 graph as `<namespace>/rockwatch`, declares the parameters (initial
     /// values from `engine`; changes go to `controls`, i.e. the node's event loop), subscribes
-    /// the inputs and creates the output publishers.
+    /// the inputs, creates the output publishers and the server of [`RESET_SERVICE`].
     pub fn start(
         config: &Ros2Config,
         plan: &NetworkPlan,
@@ -560,6 +598,21 @@ impl Ros2Node {
                 session.subscription(&imu.topic, "sensor_msgs", "Imu", qos)?;
             imus.push((imu.clone(), sub, 0));
         }
+        let reset_name =
+            Name::parse(RESET_SERVICE).map_err(|e| anyhow!("service {RESET_SERVICE}: {e:?}"))?;
+        let node_name = NodeName::new(&config.namespace, NODE_NAME)
+            .map_err(|e| anyhow!("ROS 2 node name {:?}: {e:?}", config.namespace))?;
+        let reset_reply_topic = reset_name.to_dds_name("rr", &node_name, "Reply");
+        let reset = session
+            .node
+            .create_server(
+                RESET_SERVICE_MAPPING,
+                &reset_name,
+                &ServiceTypeName::new(msg::PACKAGE, msg::RESET_SERVICE_TYPE),
+                service_qos(),
+                service_qos(),
+            )
+            .map_err(|e| anyhow!("ROS 2 service {RESET_SERVICE}: {e:?}"))?;
         Ok((
             Ros2Node {
                 session,
@@ -567,9 +620,99 @@ impl Ros2Node {
                 imus,
                 counters: Arc::new(IntakeCounters::default()),
                 last_error_report: None,
+                reset,
+                reset_reply_topic,
+                pending_replies: Vec::new(),
             },
             publisher,
         ))
+    }
+
+    /// Registers the `/pbr/reset` server with `registry` as `token`, readable (edge-triggered:
+    /// serve every request once it is reported, see [`Ros2Node::serve_resets`]).
+    pub fn register_reset(&mut self, registry: &Registry, token: Token) -> std::io::Result<()> {
+        registry.register(&mut self.reset, token, Interest::READABLE)
+    }
+
+    /// Serves up to [`RESET_REQUESTS_PER_TURN`] requests of `/pbr/reset`: `handle` gets each
+    /// block id and gives the response, which is sent once the client can receive it
+    /// ([`Ros2Node::send_due_replies`]). Undecodable requests are counted and logged like
+    /// undecodable packets. Returns true if the bound was reached (more may be waiting).
+    pub fn serve_resets(&mut self, handle: &mut impl FnMut(&str) -> msg::ResetPbrResponse) -> bool {
+        for _ in 0..RESET_REQUESTS_PER_TURN {
+            match self.reset.receive_request() {
+                Ok(Some((id, request))) => {
+                    let response = handle(&request.pbr_id);
+                    if self.pending_replies.len() < RESET_REPLIES_HELD {
+                        self.pending_replies.push(PendingReply {
+                            id,
+                            response,
+                            since: Instant::now(),
+                        });
+                    } else if let Err(e) = self.reset.send_response(id, response) {
+                        eprintln!("rockwatch: ROS 2 {RESET_SERVICE}: response not sent: {e:?}");
+                    }
+                }
+                Ok(None) => {
+                    self.send_due_replies();
+                    return false;
+                }
+                Err(e) => self.report_error(RESET_SERVICE.to_string(), &format!("{e:?}")),
+            }
+        }
+        self.send_due_replies();
+        true
+    }
+
+    /// Reset responses not sent yet.
+    #[must_use]
+    pub fn pending_replies(&self) -> usize {
+        self.pending_replies.len()
+    }
+
+    /// Sends each waiting reset response whose client's response reader has been discovered
+    /// (a reader of the service's response topic in the requester's DDS participant: the
+    /// request id names the client's writer, or with Fast DDS its reader, whose GUID prefix
+    /// is its participant's), or that has waited [`RESET_REPLY_WAIT`]. The response writer is
+    /// volatile, as ROS 2 services are: a response written before it has matched the client's
+    /// reader would never reach it, and the request can arrive before that match (discovery
+    /// is two-sided). Fast DDS servers wait in the same way. Costs nothing when none waits.
+    pub fn send_due_replies(&mut self) {
+        if self.pending_replies.is_empty() {
+            return;
+        }
+        let readers = self
+            .session
+            .context
+            .domain_participant()
+            .discovered_readers();
+        let topic = &self.reset_reply_topic;
+        let mut i = 0;
+        while i < self.pending_replies.len() {
+            let p = &self.pending_replies[i];
+            let client = ros2_client::dds::rustdds::GUID::from(p.id.writer_gid).prefix;
+            let discovered = readers.iter().any(|r| {
+                r.reader_proxy.remote_reader_guid.prefix == client
+                    && r.subscription_topic_data.topic_name() == topic
+            });
+            if !discovered && p.since.elapsed() < RESET_REPLY_WAIT {
+                i += 1;
+                continue;
+            }
+            let p = self.pending_replies.swap_remove(i);
+            if let Err(e) = self.reset.send_response(p.id, p.response) {
+                eprintln!("rockwatch: ROS 2 {RESET_SERVICE}: response not sent: {e:?}");
+            }
+        }
+    }
+
+    /// Sends every waiting reset response now (at shutdown).
+    pub fn flush_replies(&mut self) {
+        for p in std::mem::take(&mut self.pending_replies) {
+            if let Err(e) = self.reset.send_response(p.id, p.response) {
+                eprintln!("rockwatch: ROS 2 {RESET_SERVICE}: response not sent: {e:?}");
+            }
+        }
     }
 
     /// The underlying session (graph queries, the network plan).
@@ -749,6 +892,114 @@ impl PacketSink for Ros2PacketSink {
         self.writer
             .wait_for_acknowledgments(timeout)
             .map_err(|e| anyhow!("ROS 2 {ACCEL_TOPIC}: waiting for acknowledgements: {e:?}"))
+    }
+}
+
+/// Runs `future` on this thread until it completes (true) or `timeout` passes (false).
+fn block_on_with_timeout(future: impl std::future::Future<Output = ()>, timeout: Duration) -> bool {
+    use futures::future::{select, Either};
+    let (tx, rx) = futures::channel::oneshot::channel::<()>();
+    // The timer: a thread that completes `rx` after `timeout`. If the future wins, the
+    // thread's send fails later and it ends (a CLI's process usually ends first).
+    let timer = std::thread::Builder::new()
+        .name("rockwatch-timeout".into())
+        .spawn(move || {
+            std::thread::sleep(timeout);
+            let _ = tx.send(());
+        });
+    if timer.is_err() {
+        return false;
+    }
+    let future = std::pin::pin!(future);
+    matches!(
+        futures::executor::block_on(select(future, rx)),
+        Either::Left(_)
+    )
+}
+
+/// A client of a running node's `/pbr/reset` service (`pbr_msgs/srv/ResetPbr`), as node
+/// `rockwatch_reset` of its own DDS participant: `rockwatch reset --node`.
+pub struct Ros2ResetClient {
+    session: Ros2Session,
+    client: Client<msg::ResetPbrRequest, msg::ResetPbrResponse>,
+    poll: Poll,
+    events: Events,
+}
+
+impl Ros2ResetClient {
+    /// Joins the graph following `plan` (the node's namespace: the service name is absolute).
+    pub fn open(plan: &NetworkPlan, namespace: &str) -> anyhow::Result<Ros2ResetClient> {
+        let mut session = Ros2Session::open(
+            plan,
+            namespace,
+            "rockwatch_reset",
+            NodeOptions::new().enable_rosout(false),
+        )?;
+        let name =
+            Name::parse(RESET_SERVICE).map_err(|e| anyhow!("service {RESET_SERVICE}: {e:?}"))?;
+        let mut client = session
+            .node
+            .create_client(
+                RESET_SERVICE_MAPPING,
+                &name,
+                &ServiceTypeName::new(msg::PACKAGE, msg::RESET_SERVICE_TYPE),
+                service_qos(),
+                service_qos(),
+            )
+            .map_err(|e| anyhow!("ROS 2 client of {RESET_SERVICE}: {e:?}"))?;
+        let poll = Poll::new().context("reset client poller")?;
+        poll.registry()
+            .register(&mut client, Token(0), Interest::READABLE)
+            .context("reset client registration")?;
+        Ok(Ros2ResetClient {
+            session,
+            client,
+            poll,
+            events: Events::with_capacity(4),
+        })
+    }
+
+    /// Waits up to `timeout` for a server of the service (a matched request reader and
+    /// response writer); false if none appeared.
+    pub fn wait_for_service(&mut self, timeout: Duration) -> bool {
+        block_on_with_timeout(self.client.wait_for_service(&self.session.node), timeout)
+    }
+
+    /// Asks for the reset of block `pbr_id` and waits up to `timeout` for the response.
+    pub fn reset(
+        &mut self,
+        pbr_id: &str,
+        timeout: Duration,
+    ) -> anyhow::Result<msg::ResetPbrResponse> {
+        let deadline = Instant::now() + timeout;
+        let id = self
+            .client
+            .send_request(msg::ResetPbrRequest {
+                pbr_id: pbr_id.to_string(),
+            })
+            .map_err(|e| anyhow!("ROS 2 {RESET_SERVICE}: request not sent: {e:?}"))?;
+        loop {
+            // Responses to other clients' requests share the topic: keep only ours.
+            while let Some((rid, response)) = self
+                .client
+                .receive_response()
+                .map_err(|e| anyhow!("ROS 2 {RESET_SERVICE}: bad response: {e:?}"))?
+            {
+                if rid == id {
+                    return Ok(response);
+                }
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return Err(anyhow!(
+                    "no response from {RESET_SERVICE} within {} s (the node may be overloaded or gone; \
+                     the reset may or may not have been applied: see `rockwatch alerts`)",
+                    timeout.as_secs_f64()
+                ));
+            }
+            let wait = (deadline - now).min(Duration::from_millis(50));
+            let _ = self.poll.poll(&mut self.events, Some(wait));
+        }
     }
 }
 

@@ -1,8 +1,9 @@
-//! The `pbr_msgs` interfaces (`msg/*.msg`) as Rust structs for the CDR wire format.
+//! The `pbr_msgs` interfaces (`msg/*.msg`, `msg/srv/*.srv`) as Rust structs for the CDR wire
+//! format.
 //!
 //! CDR is positional: the fields below are declared in exactly the order and with exactly the
-//! types of the `.msg` files (checked by `tests/ros2_msgs.rs`, which parses `msg/`). Field names
-//! are those of the `.msg` files, so they carry no unit suffix; the units are in each doc
+//! types of the `.msg` and `.srv` files (checked by `tests/ros2_msgs.rs`, which parses `msg/`).
+//! Field names are those of the files, so they carry no unit suffix; the units are in each doc
 //! comment (SI: m/s², m/s, m, s, rad).
 
 use ros2_client::builtin_interfaces::Time;
@@ -11,8 +12,12 @@ use serde::{Deserialize, Serialize};
 use crate::dynamics::Mode;
 use crate::engine::{self, AlertLevel};
 
-/// The ROS 2 package of the messages (DDS type names `pbr_msgs::msg::dds_::<Name>_`).
+/// The ROS 2 package of the messages (DDS type names `pbr_msgs::msg::dds_::<Name>_`) and of
+/// the service (`pbr_msgs::srv::dds_::ResetPbr_Request_` / `_Response_`).
 pub const PACKAGE: &str = "pbr_msgs";
+
+/// The service type `pbr_msgs/srv/ResetPbr`.
+pub const RESET_SERVICE_TYPE: &str = "ResetPbr";
 
 /// `std_msgs/Header`: `builtin_interfaces/Time stamp`, `string frame_id`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -120,11 +125,30 @@ pub struct PbrAlert {
     pub message: String,
 }
 
+/// `pbr_msgs/srv/ResetPbr` request (`msg/srv/ResetPbr.srv`): the operator reset of a block.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResetPbrRequest {
+    /// Catalogue id of the block.
+    pub pbr_id: String,
+}
+
+/// `pbr_msgs/srv/ResetPbr` response.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResetPbrResponse {
+    /// True if the block was reset or stood already; false for an unknown id or a failed
+    /// journal.
+    pub success: bool,
+    /// What the node did, for people.
+    pub message: String,
+}
+
 impl ros2_client::Message for Header {}
 impl ros2_client::Message for AccelPacket {}
 impl ros2_client::Message for StationIntensity {}
 impl ros2_client::Message for PbrState {}
 impl ros2_client::Message for PbrAlert {}
+impl ros2_client::Message for ResetPbrRequest {}
+impl ros2_client::Message for ResetPbrResponse {}
 
 /// `PbrState` / `PbrAlert` mode constants.
 pub const MODE_REST: u8 = 0;

@@ -232,8 +232,9 @@ pub fn json_lines(stdout: &str, prefix: &str) -> Vec<serde_json::Value> {
 /// ROS 2 package `pbr_msgs` built by `launch-scripts/build-msgs.sh` (.ci/run sets it).
 pub const PBR_MSGS_PREFIX_ENV: &str = "ROCKWATCH_PBR_MSGS_PREFIX";
 
-/// The colcon install of `pbr_msgs` whose generated Python types import (with rclpy) once its
-/// `local_setup.sh` is sourced: `$ROCKWATCH_PBR_MSGS_PREFIX`, else `target/pbr_msgs` (the
+/// The colcon install of `pbr_msgs` whose generated Python types (the messages and the service
+/// `ResetPbr`: an install built before the service counts as none) import (with rclpy) once
+/// its `local_setup.sh` is sourced: `$ROCKWATCH_PBR_MSGS_PREFIX`, else `target/pbr_msgs` (the
 /// script's default). None (test skipped) if there is none, except under `CI=true` (panics).
 pub fn pbr_msgs_install() -> Option<PathBuf> {
     let prefix = std::env::var_os(PBR_MSGS_PREFIX_ENV)
@@ -242,7 +243,7 @@ pub fn pbr_msgs_install() -> Option<PathBuf> {
         && Command::new("sh")
             .arg("-c")
             .arg(format!(
-                "{}; exec python3 -c 'import rclpy; from pbr_msgs.msg import PbrAlert, AccelPacket'",
+                "{}; exec python3 -c 'import rclpy; from pbr_msgs.msg import PbrAlert, AccelPacket; from pbr_msgs.srv import ResetPbr'",
                 source_pbr_msgs(&prefix)
             ))
             .stdout(std::process::Stdio::null())
