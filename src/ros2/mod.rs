@@ -810,6 +810,10 @@ pub fn imu_packet(imu: &ImuInput, m: &ImuMsg, sequence: u64) -> AccelPacket {
     }
 }
 
+/// How long a replay's writer stays after the node has acknowledged every packet (see
+/// [`Ros2PacketSink`]'s `finish`).
+pub const REPLAY_LINGER: Duration = Duration::from_secs(1);
+
 /// Replay over ROS 2: publishes `/pbr/accel` from a node `rockwatch_replay`.
 ///
 /// The writer is a plain RustDDS data writer on the node's participant and ROS 2 topic
@@ -818,7 +822,9 @@ pub fn imu_packet(imu: &ImuInput, m: &ImuMsg, sequence: u64) -> AccelPacket {
 /// the node's reader before the reader has matched the writer; samples sent in that window
 /// are only repaired later by the reliable protocol (the reader asks for everything from the
 /// writer's first sequence number once it matches), which needs the writer alive.
-/// [`PacketSink::finish`] waits for every matched reader's acknowledgement. The writer is not
+/// [`PacketSink::finish`] waits for every matched reader's acknowledgement, then
+/// [`REPLAY_LINGER`], because the node's DDS reader discards the samples of a writer that has
+/// left which the node has not yet taken (a RustDDS 0.15.1 defect). The writer is not
 /// listed under the node in the ROS 2 graph (`ros2 topic info` shows the publisher without
 /// its node name).
 pub struct Ros2PacketSink {
@@ -889,9 +895,16 @@ impl PacketSink for Ros2PacketSink {
     }
 
     fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
-        self.writer
+        let acknowledged = self
+            .writer
             .wait_for_acknowledgments(timeout)
-            .map_err(|e| anyhow!("ROS 2 {ACCEL_TOPIC}: waiting for acknowledgements: {e:?}"))
+            .map_err(|e| anyhow!("ROS 2 {ACCEL_TOPIC}: waiting for acknowledgements: {e:?}"))?;
+        // An acknowledged sample sits in the node's reader cache until the node takes it, and
+        // RustDDS 0.15.1 makes the unread samples of a writer that has left unreadable
+        // (`forget_reliable_writer` drops the writer's delivery marker): stay a moment so the
+        // node, even when busy, takes everything before this writer goes.
+        std::thread::sleep(REPLAY_LINGER);
+        Ok(acknowledged)
     }
 }
 

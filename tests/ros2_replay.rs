@@ -1,0 +1,45 @@
+//! `rockwatch replay --transport ros2` delivers every packet: at `--speed max` the whole record
+//! leaves in milliseconds, and the replay must not exit before the node has it (DDS discovery
+//! is two-sided, and the node's DDS reader drops the unread samples of a writer that has left).
+
+mod ros2_util;
+use ros2_util::*;
+
+#[test]
+fn replays_at_max_speed_deliver_every_packet_to_the_node() {
+    const REPLAYS: u64 = 6;
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
+    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let rec = repo().join("tests/data/records/Rinaldi228.AT2");
+    // Each replay is a new process (a new DDS participant and writer), sent flat out.
+    let replay = format!(
+        "'{bin}' replay --config '{}' --record '{}' --azimuth 228 --station CI.RRS.00 \
+         --transport ros2 --speed max --tail 5 --restamp original --wait-s 30 | sed 's/^/REPLAY /'",
+        config.display(),
+        rec.display()
+    );
+    let script = format!(
+        "'{bin}' node --config '{}' 2> '{d}/node.err' & NODE=$!
+         for i in $(seq {REPLAYS}); do {replay}; done
+         sleep 1
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
+         cat '{d}/node.err' >&2",
+        config.display()
+    );
+    let out = run_in_netns(&script, 180, &[]);
+    let (stdout, stderr) = text(&out);
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{stderr}");
+    let sent: Vec<u64> = stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("REPLAY replayed "))
+        .map(|l| l.split(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(sent.len() as u64, REPLAYS, "{stdout}\n{stderr}");
+    assert!(sent.iter().all(|&n| n == sent[0] && n > 200), "{sent:?}");
+    assert_eq!(
+        count_before(&stderr, "packets received over ROS 2"),
+        sent.iter().sum::<u64>(),
+        "packets lost between the replay and the node\n{stdout}\n{stderr}"
+    );
+}
