@@ -595,11 +595,6 @@ impl NodeRuntime {
         }
     }
 
-    /// New alert thresholds, effective for the next packet.
-    pub fn set_alert_config(&mut self, alerts: AlertConfig) {
-        self.apply(Control::Alerts(alerts));
-    }
-
     /// Whether block `pbr_id` has overturned and not been reset since (None: no such block).
     /// With several shards, an overturn counts once its alert has come back from the worker
     /// (through [`NodeRuntime::poll`]).

@@ -43,3 +43,33 @@ fn replays_at_max_speed_deliver_every_packet_to_the_node() {
         "packets lost between the replay and the node\n{stdout}\n{stderr}"
     );
 }
+
+#[test]
+fn a_replay_whose_node_stops_midway_exits_non_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
+    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let rec = repo().join("tests/data/records/Rinaldi228.AT2");
+    // 25 s of data at 5× real time: the node is stopped (SIGTERM) about 1 s in.
+    let script = format!(
+        "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
+         '{bin}' replay --config '{c}' --record '{r}' --station CI.RRS.00 --transport ros2 \
+             --speed 5 --wait-s 10 > '{d}/replay.out' 2> '{d}/replay.err' & REPLAY=$!
+         sleep 2; kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
+         RC=0; wait $REPLAY || RC=$?; echo REPLAY_RC=$RC
+         cat '{d}/replay.err' >&2",
+        c = config.display(),
+        r = rec.display()
+    );
+    let out = run_in_netns(&script, 120, &[]);
+    let (stdout, stderr) = text(&out);
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("REPLAY_RC=1"),
+        "the replay must fail when its node goes away\n{stdout}\n{stderr}"
+    );
+    assert!(
+        stderr.contains("did not acknowledge"),
+        "one line saying why\n{stderr}"
+    );
+}

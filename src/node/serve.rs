@@ -43,14 +43,21 @@ pub const TICK: Duration = Duration::from_millis(50);
 pub const DRAIN_BOUND: usize = 256;
 
 /// Longest a turn of the event loop processes packets (plus one packet's time) before it
-/// polls again and takes what arrived meanwhile: the transports never hold more than this
-/// much unread data, so a sender that sends a burst and goes away loses nothing (RustDDS
-/// discards the unread samples of a writer that has left).
+/// polls again and takes what arrived meanwhile, so the transports hold little unread data
+/// (RustDDS discards the unread samples of a writer that has left; see `REPLAY_LINGER`).
 pub const TURN_BUDGET: Duration = Duration::from_micros(200);
 
 /// Most packets taken from one source and waiting to be processed; beyond, the rest stays in
 /// the transport (DDS history, iceoryx2 subscriber buffer).
 pub const INBOX_BOUND: usize = 4096;
+
+/// Most samples (per component) waiting in one source's inbox, give or take one chunk of
+/// [`ROS2_CHUNK`] packets: a peer sending huge packets cannot make the node hold more than
+/// ≈ 50 MB per source (a DDS message may carry up to `MAX_SAMPLES_PER_PACKET` samples).
+pub const INBOX_SAMPLES: usize = 1 << 22;
+
+/// Packets taken from a ROS 2 input between two looks at its inbox's sample bound.
+const ROS2_CHUNK: usize = 64;
 
 const WAKE: Token = Token(0);
 const IOX: Token = Token(1);
@@ -228,7 +235,13 @@ impl Reactor {
         let mut resets_due = true;
         while !stop.load(Ordering::Relaxed) {
             let pending = resets_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
-            let timeout = if pending { Duration::ZERO } else { TICK };
+            let timeout = if pending {
+                Duration::ZERO
+            } else if ros2.pending_replies() > 0 {
+                crate::ros2::RESET_MATCH_GRACE // a reset response waits for its client
+            } else {
+                TICK
+            };
             match poll.poll(&mut events, Some(timeout)) {
                 Ok(()) => {}
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
@@ -328,16 +341,26 @@ fn turn(
         if !inbox.due {
             continue;
         }
-        let room = INBOX_BOUND.saturating_sub(inbox.queue.len());
         let clock = &*runtime;
-        let mut push = |packet: AccelPacket| -> anyhow::Result<()> {
-            inbox.queue.push_back((packet, clock.now_ns()));
-            Ok(())
-        };
         inbox.due = match (source, &mut *iox_input) {
-            (0, Some(input)) => input.drain(room, &mut push)?,
+            // iceoryx2 packets are bounded by the service's slice length: bound by count.
+            (0, Some(input)) => {
+                let room = INBOX_BOUND.saturating_sub(inbox.queue.len());
+                input.drain(room, &mut |p| inbox.push(p, clock.now_ns()))?
+            }
             (0, None) => false,
-            (s, _) => ros2.drain(s - 1, room, &mut push)?,
+            // A DDS message may hold up to MAX_SAMPLES_PER_PACKET samples: take in chunks
+            // while the inbox is under both bounds.
+            (s, _) => {
+                let mut more = true;
+                while more && !inbox.full() {
+                    let room = INBOX_BOUND
+                        .saturating_sub(inbox.queue.len())
+                        .min(ROS2_CHUNK);
+                    more = ros2.drain(s - 1, room, &mut |p| inbox.push(p, clock.now_ns()))?;
+                }
+                more
+            }
         };
     }
     // Round robin over the sources, one packet each, until the inboxes are empty, or
@@ -347,7 +370,7 @@ fn turn(
     loop {
         let mut any = false;
         for inbox in inboxes.iter_mut() {
-            if let Some((packet, arrival_ns)) = inbox.queue.pop_front() {
+            if let Some((packet, arrival_ns)) = inbox.pop() {
                 any = true;
                 processed += 1;
                 // A parameter change queued before this packet was taken applies to it.
@@ -368,6 +391,8 @@ fn turn(
 /// ([`NodeRuntime::now_ns`] when taken).
 struct Inbox {
     queue: VecDeque<(AccelPacket, i64)>,
+    /// Samples (per component) of the packets in `queue`.
+    samples: usize,
     /// Ready (or stopped at the bound last turn): take from the source on this turn.
     due: bool,
 }
@@ -376,8 +401,26 @@ impl Inbox {
     fn new() -> Inbox {
         Inbox {
             queue: VecDeque::new(),
+            samples: 0,
             due: true,
         }
+    }
+
+    fn push(&mut self, packet: AccelPacket, arrival_ns: i64) -> anyhow::Result<()> {
+        self.samples += packet.len();
+        self.queue.push_back((packet, arrival_ns));
+        Ok(())
+    }
+
+    fn pop(&mut self) -> Option<(AccelPacket, i64)> {
+        let taken = self.queue.pop_front()?;
+        self.samples -= taken.0.len();
+        Some(taken)
+    }
+
+    /// At [`INBOX_BOUND`] packets or [`INBOX_SAMPLES`] samples: take nothing more.
+    fn full(&self) -> bool {
+        self.queue.len() >= INBOX_BOUND || self.samples >= INBOX_SAMPLES
     }
 }
 
@@ -406,7 +449,7 @@ fn apply_controls(controls: &Receiver<Control>, runtime: &mut NodeRuntime) {
 
 /// Every publisher of the node. The iceoryx2 alert publisher (`now`) publishes at once; the
 /// others (ROS 2, extra) are handed the turn's publications together at its end
-/// ([`Outlet::flush`]): each ROS 2 publication wakes RustDDS's network thread, which would
+/// ([`Outlet::flush`]): each ROS 2 publication wakes RustDDS's event-loop thread, which would
 /// otherwise compete for the CPU with the iceoryx2 subscriber being woken at that moment, and
 /// one batch per turn wakes it once. A failed publication is logged (rate-limited) and the
 /// node goes on.
@@ -417,6 +460,14 @@ struct Outlet<'a> {
     queue: Vec<Publication>,
     errors: u64,
     log: RateLimitedLog,
+}
+
+/// Everything handed to the outlet has been journaled: whatever ends the event loop, an
+/// error included, the queued publications still go out.
+impl Drop for Outlet<'_> {
+    fn drop(&mut self) {
+        self.flush();
+    }
 }
 
 impl Outlet<'_> {
@@ -449,5 +500,43 @@ impl Outlet<'_> {
             "publish_failed",
             &format!("{e:#} ({errors} in all)"),
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn packet(samples: usize) -> AccelPacket {
+        AccelPacket {
+            station: "XX.BIG.00".into(),
+            start_time_ns: 0,
+            sample_rate_hz: 100.0,
+            sequence: 0,
+            east: vec![0.0; samples],
+            north: vec![0.0; samples],
+            up: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn an_inbox_is_full_at_its_packet_or_its_sample_bound() {
+        let mut inbox = Inbox::new();
+        // Huge packets: the sample bound is reached long before the packet bound.
+        let big = crate::engine::packet::MAX_SAMPLES_PER_PACKET;
+        let n = INBOX_SAMPLES.div_ceil(big);
+        for i in 0..n {
+            assert!(!inbox.full(), "full after {i} packets");
+            inbox.push(packet(big), 0).unwrap();
+        }
+        assert!(inbox.full() && inbox.queue.len() < INBOX_BOUND);
+        // Taking a packet out frees its samples.
+        inbox.pop().unwrap();
+        assert_eq!(inbox.samples, (n - 1) * big);
+        assert!(!inbox.full());
+        // Small packets: the packet bound.
+        let mut inbox = Inbox::new();
+        (0..INBOX_BOUND).for_each(|_| inbox.push(packet(10), 0).unwrap());
+        assert!(inbox.full() && inbox.samples < INBOX_SAMPLES);
     }
 }

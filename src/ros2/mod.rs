@@ -49,6 +49,9 @@ pub const RESET_SERVICE_MAPPING: ServiceMapping = ServiceMapping::Enhanced;
 /// Longest a reset response waits for the requesting client's response reader to be
 /// discovered (a volatile writer does not send a sample to a reader it has not matched).
 pub const RESET_REPLY_WAIT: Duration = Duration::from_secs(2);
+/// How long a reset response waits after its client's reader is discovered, for RustDDS to
+/// match that reader with the response writer.
+pub const RESET_MATCH_GRACE: Duration = Duration::from_millis(20);
 /// Most reset requests served per turn of the event loop (the rest on the next turn).
 pub const RESET_REQUESTS_PER_TURN: usize = 64;
 /// Most reset responses held for their client (see [`Ros2Node::send_due_replies`]); beyond,
@@ -98,7 +101,7 @@ pub enum InputQos {
     /// Reliable, volatile, keep last `input_depth`.
     #[default]
     Reliable,
-    /// The ROS 2 sensor-data profile: best effort, volatile, keep last 5.
+    /// Best effort, volatile (the ROS 2 sensor-data profile), keep last `input_depth`.
     SensorData,
 }
 
@@ -267,9 +270,14 @@ pub fn input_qos(kind: InputQos, depth: usize) -> QosProfile {
             .history(History::KeepLast {
                 depth: depth.max(1),
             }),
+        // Best effort as the ROS 2 sensor-data profile, but with the deep history of the
+        // reliable one: the reader's depth does not affect matching, and the node's event loop
+        // may be busy for a moment (an alert's fsync) while a 200 Hz Imu keeps sending.
         InputQos::SensorData => QosProfile::subscription_default()
             .reliability(Reliability::BestEffort)
-            .history(History::KeepLast { depth: 5 }),
+            .history(History::KeepLast {
+                depth: depth.max(1),
+            }),
     }
 }
 
@@ -452,6 +460,8 @@ struct PendingReply {
     id: RmwRequestId,
     response: msg::ResetPbrResponse,
     since: Instant,
+    /// When the client's response reader was first seen in the discovery database.
+    discovered: Option<Instant>,
 }
 
 /// The node's output publishers (a [`crate::node::Publisher`]).
@@ -648,6 +658,7 @@ impl Ros2Node {
                             id,
                             response,
                             since: Instant::now(),
+                            discovered: None,
                         });
                     } else if let Err(e) = self.reset.send_response(id, response) {
                         eprintln!("rockwatch: ROS 2 {RESET_SERVICE}: response not sent: {e:?}");
@@ -689,13 +700,22 @@ impl Ros2Node {
         let topic = &self.reset_reply_topic;
         let mut i = 0;
         while i < self.pending_replies.len() {
-            let p = &self.pending_replies[i];
+            let p = &mut self.pending_replies[i];
             let client = ros2_client::dds::rustdds::GUID::from(p.id.writer_gid).prefix;
-            let discovered = readers.iter().any(|r| {
-                r.reader_proxy.remote_reader_guid.prefix == client
-                    && r.subscription_topic_data.topic_name() == topic
-            });
-            if !discovered && p.since.elapsed() < RESET_REPLY_WAIT {
+            if p.discovered.is_none()
+                && readers.iter().any(|r| {
+                    r.reader_proxy.remote_reader_guid.prefix == client
+                        && r.subscription_topic_data.topic_name() == topic
+                })
+            {
+                p.discovered = Some(Instant::now());
+            }
+            // The discovery database learns of the reader before RustDDS's event loop thread
+            // matches it with the response writer: give it RESET_MATCH_GRACE.
+            let matched = p
+                .discovered
+                .is_some_and(|t| t.elapsed() >= RESET_MATCH_GRACE);
+            if !matched && p.since.elapsed() < RESET_REPLY_WAIT {
                 i += 1;
                 continue;
             }
@@ -713,11 +733,6 @@ impl Ros2Node {
                 eprintln!("rockwatch: ROS 2 {RESET_SERVICE}: response not sent: {e:?}");
             }
         }
-    }
-
-    /// The underlying session (graph queries, the network plan).
-    pub fn session(&mut self) -> &mut Ros2Session {
-        &mut self.session
     }
 
     /// Number of input subscriptions: `/pbr/accel` (input 0), then the Imu topics.
@@ -832,6 +847,8 @@ pub struct Ros2PacketSink {
     writer: no_key::DataWriterCdr<msg::AccelPacket>,
     /// Readers matched now, from the writer's publication-matched status events.
     matched: i32,
+    /// A matched reader went away (the node stopped or died mid-replay).
+    lost_reader: bool,
 }
 
 impl Ros2PacketSink {
@@ -855,6 +872,7 @@ impl Ros2PacketSink {
             _session: session,
             writer,
             matched: 0,
+            lost_reader: false,
         })
     }
 
@@ -870,6 +888,7 @@ impl Ros2PacketSink {
         while let Some(status) = self.writer.try_recv_status() {
             if let DataWriterStatus::PublicationMatched { current, .. } = status {
                 self.matched = current.count();
+                self.lost_reader |= current.count_change() < 0;
             }
         }
         self.matched
@@ -895,10 +914,14 @@ impl PacketSink for Ros2PacketSink {
     }
 
     fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
+        // RustDDS also reports "acknowledged" when no reader is left: a reader that went
+        // away mid-replay (the node stopped or died) means it has not got everything.
         let acknowledged = self
             .writer
             .wait_for_acknowledgments(timeout)
-            .map_err(|e| anyhow!("ROS 2 {ACCEL_TOPIC}: waiting for acknowledgements: {e:?}"))?;
+            .map_err(|e| anyhow!("ROS 2 {ACCEL_TOPIC}: waiting for acknowledgements: {e:?}"))?
+            && self.matched_readers() > 0
+            && !self.lost_reader;
         // An acknowledged sample sits in the node's reader cache until the node takes it, and
         // RustDDS 0.15.1 makes the unread samples of a writer that has left unreadable
         // (`forget_reliable_writer` drops the writer's delivery marker): stay a moment so the

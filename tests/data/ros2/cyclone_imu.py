@@ -204,6 +204,9 @@ def main():
         sys.exit(2)
     acked = all(w.wait_for_acks(duration(seconds=10)) for w in writers)
     print(json.dumps({"acked": acked}), flush=True)
+    # Acknowledged is not yet taken: the node's DDS reader (RustDDS 0.15.1) drops what it has
+    # not taken from a writer that has left, so stay a moment, as `rockwatch replay` does.
+    time.sleep(1.0)
 
 
 if __name__ == "__main__":
