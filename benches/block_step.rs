@@ -3,7 +3,7 @@
 //! Criterion reports the time of one `advance` call (one input sample) and the throughput.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use rockwatch::dynamics::{BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock};
+use rockwatch_core::dynamics::{BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock};
 use std::hint::black_box;
 
 const DT: f64 = 0.01; // 100 Hz

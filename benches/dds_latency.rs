@@ -38,10 +38,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use rockwatch::engine::{AccelPacket, StationId};
 use rockwatch::node::{NodeOptions, Reactor};
 use rockwatch::replay::PacketSink;
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2PacketSink};
+use rockwatch_core::engine::{AccelPacket, StationId};
 
 const ALERT_STATIONS: usize = 400;
 const INTAKE_STATIONS: usize = 1000;

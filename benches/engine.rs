@@ -8,8 +8,8 @@
 
 use std::time::Instant;
 
-use rockwatch::dynamics::BlockParams;
-use rockwatch::engine::{
+use rockwatch_core::dynamics::BlockParams;
+use rockwatch_core::engine::{
     AccelPacket, Engine, EngineConfig, Output, PbrSpec, ShardedEngine, StationId,
 };
 
@@ -100,7 +100,7 @@ fn main() {
     latencies_us.sort_by(f64::total_cmp);
     let in_motion = moving
         .values()
-        .filter(|m| !matches!(m, rockwatch::dynamics::Mode::Rest))
+        .filter(|m| !matches!(m, rockwatch_core::dynamics::Mode::Rest))
         .count();
     let overturned = engine.summaries().iter().filter(|s| s.overturned).count();
     println!(

@@ -21,14 +21,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use rockwatch::dynamics::Mode;
-use rockwatch::engine::{AccelPacket, Alert, AlertLevel, StationId};
 use rockwatch::iox::{
     IoxAlertPublisher, IoxAlertSubscriber, IoxConfig, IoxInput, IoxPacketSink, PbrAlertIox,
 };
 use rockwatch::node::{NodeOptions, Publication, Publisher, Reactor};
 use rockwatch::replay::PacketSink;
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config};
+use rockwatch_core::dynamics::Mode;
+use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel, StationId};
 
 const ALERT_STATIONS: usize = 400;
 const INTAKE_STATIONS: usize = 1000;
@@ -193,7 +193,10 @@ fn main() {
     write_catalogue(&catalogue, INTAKE_STATIONS);
     let pid = std::process::id();
     let config = IoxConfig {
-        config_file: Some(PathBuf::from("config/iceoryx2.toml")),
+        config_file: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/iceoryx2.toml"
+        ))),
         accel_service: format!("rockwatch-bench/{pid}/accel"),
         alerts_service: format!("rockwatch-bench/{pid}/alerts"),
         alert_history: 1024,

@@ -4,14 +4,14 @@
 //! comparison. Criterion reports the throughput as elements (= samples) per second.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use rockwatch::ims::{RunningConfig, RunningIms};
-use rockwatch::record::Record;
+use rockwatch_core::ims::{RunningConfig, RunningIms};
+use rockwatch_core::record::Record;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;
 
 fn chichi_record() -> Record {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
         .join("tests/data/records/RSN1476_CHICHI_TCU029-N.AT2");
     Record::read(&path).unwrap_or_else(|e| panic!("{e}"))
 }

@@ -3,16 +3,16 @@
 
 use std::path::{Path, PathBuf};
 
-use rockwatch::catalogue::{
+use rockwatch_core::catalogue::{
     default_seed, project_horizontal, Catalogue, CatalogueError, Distribution, Pbr,
 };
-use rockwatch::dynamics::BlockParams;
-use rockwatch::lhs::{latin_hypercube_seeded, standard_normal_quantile};
-use rockwatch::record::Record;
-use rockwatch::simulate::{simulate, SimulationOptions, Status};
+use rockwatch_core::dynamics::BlockParams;
+use rockwatch_core::lhs::{latin_hypercube_seeded, standard_normal_quantile};
+use rockwatch_core::record::Record;
+use rockwatch_core::simulate::{simulate, SimulationOptions, Status};
 
 fn repo(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join(path)
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -6,7 +6,10 @@ fn simulate_json(block: &[&str]) -> serde_json::Value {
     let mut args = vec![
         "simulate",
         "--record",
-        "tests/data/records/Rinaldi228.AT2",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/records/Rinaldi228.AT2"
+        ),
         "--mu-s",
         "1.5",
         "--mu-k",
@@ -56,7 +59,10 @@ fn geometry_must_be_complete() {
         let mut args = vec![
             "simulate",
             "--record",
-            "tests/data/records/Rinaldi228.AT2",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
             "--mu-s",
             "1.5",
             "--mu-k",

@@ -2,18 +2,22 @@
 
 use std::path::Path;
 
-use rockwatch::dynamics::BlockParams;
-use rockwatch::engine::{
+use rockwatch_core::dynamics::BlockParams;
+use rockwatch_core::engine::{
     AccelPacket, AlertLevel, Engine, EngineConfig, Output, PbrSpec, StationId, StreamConfig,
 };
-use rockwatch::record::Record;
-use rockwatch::simulate::{simulate, SimulationOptions};
+use rockwatch_core::record::Record;
+use rockwatch_core::simulate::{simulate, SimulationOptions};
 
 const T0_NS: i64 = 1_700_000_000_000_000_000;
 
 fn rinaldi_f32() -> Record {
     // Packets carry f32 samples: compare against the simulator on the same rounded values.
-    let mut r = Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).unwrap();
+    let mut r = Record::read(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/records/Rinaldi228.AT2"
+    )))
+    .unwrap();
     r.horizontal_mps2
         .iter_mut()
         .for_each(|a| *a = f64::from(*a as f32));
@@ -408,10 +412,10 @@ fn alert_keys(out: &[Output]) -> Vec<(String, u32, AlertLevel)> {
 }
 
 /// The journal a shell would have written for these outputs (alerts only).
-fn journal_of(out: &[Output]) -> Vec<rockwatch::engine::JournalRecord> {
+fn journal_of(out: &[Output]) -> Vec<rockwatch_core::engine::JournalRecord> {
     out.iter()
         .filter_map(|o| match o {
-            Output::Alert(a) => Some(rockwatch::engine::JournalRecord::Alert(a.clone())),
+            Output::Alert(a) => Some(rockwatch_core::engine::JournalRecord::Alert(a.clone())),
             _ => None,
         })
         .collect()
@@ -419,7 +423,7 @@ fn journal_of(out: &[Output]) -> Vec<rockwatch::engine::JournalRecord> {
 
 #[test]
 fn restart_from_the_journal_neither_loses_nor_duplicates_alerts() {
-    use rockwatch::engine::JournalRecord;
+    use rockwatch_core::engine::JournalRecord;
     let record = rinaldi_f32();
     let zeros = vec![0.0; record.len()];
     let pbrs = [
@@ -471,7 +475,7 @@ fn restart_from_the_journal_neither_loses_nor_duplicates_alerts() {
 
 #[test]
 fn a_fallen_block_stays_fallen_after_restart_until_reset() {
-    use rockwatch::engine::JournalRecord;
+    use rockwatch_core::engine::JournalRecord;
     let record = rinaldi_f32();
     let zeros = vec![0.0; record.len()];
     let pbrs = [spec("slender", "CI.RRS.00", 90.0, slender())];
@@ -517,13 +521,13 @@ fn a_fallen_block_stays_fallen_after_restart_until_reset() {
 }
 
 /// An uncertain slender block: width uniform in [0.28, 0.40] m, as a catalogue ensemble.
-fn uncertain_catalogue(k: usize) -> rockwatch::catalogue::Catalogue {
+fn uncertain_catalogue(k: usize) -> rockwatch_core::catalogue::Catalogue {
     let text = format!(
         "[[pbr]]\nid = \"u\"\nname = \"uncertain pillar\"\nlat = 34.0\nlon = -118.0\nstation = \"CI.RRS.00\"\n\
          azimuth_deg = 90.0\nwidth_m = {{ min = 0.28, max = 0.40 }}\nheight_m = 1.5\nmu_s = 0.8\nmu_k = 0.6\n\
          source = \"test\"\nensemble = {k}\nseed = 7\n"
     );
-    rockwatch::catalogue::Catalogue::from_toml_str(&text, "test.toml").unwrap()
+    rockwatch_core::catalogue::Catalogue::from_toml_str(&text, "test.toml").unwrap()
 }
 
 /// A one-sine acceleration pulse of amplitude `a` (m/s²) and period 1 s, then 5 s of quiet.
@@ -588,7 +592,7 @@ fn overturn_probability_grows_with_the_scale_of_the_record() {
 
 #[test]
 fn sharded_engine_gives_each_station_the_same_results_as_one_engine() {
-    use rockwatch::engine::ShardedEngine;
+    use rockwatch_core::engine::ShardedEngine;
     let record = rinaldi_f32();
     let zeros = vec![0.0; record.len()];
     let stations = [
@@ -639,7 +643,7 @@ fn sharded_engine_gives_each_station_the_same_results_as_one_engine() {
 
 #[test]
 fn clipped_samples_are_flagged_and_counted_but_used() {
-    use rockwatch::engine::StationConfig;
+    use rockwatch_core::engine::StationConfig;
     let id = StationId::parse("CI.RRS.00").unwrap();
     let station = StationConfig {
         full_scale: Some(2.0),
@@ -716,7 +720,7 @@ fn a_changed_sample_rate_is_counted_and_the_blocks_go_on() {
 
 #[test]
 fn channels_oriented_by_azimuth_are_rotated_to_east_north() {
-    use rockwatch::engine::{Orientation, StationConfig};
+    use rockwatch_core::engine::{Orientation, StationConfig};
     // Channel 1 points to 228°, channel 2 to 318°: the record on channel 1 is the motion
     // along 228°, the same as east/north components a·sin 228°, a·cos 228°.
     let record = rinaldi_f32();
@@ -799,7 +803,7 @@ fn a_lift_off_is_reported_and_the_block_is_put_down_again() {
             }
         })
         .unwrap();
-    assert_eq!(last_state.mode, rockwatch::dynamics::Mode::Rest);
+    assert_eq!(last_state.mode, rockwatch_core::dynamics::Mode::Rest);
     let (_, counters, _) = engine.station_counters().next().unwrap();
     assert_eq!(counters.flights, 1);
 }

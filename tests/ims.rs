@@ -2,18 +2,18 @@
 //! implementations written here (never against the library's own output), plus
 //! running == offline on every developer record, plus the `rockwatch ims` CLI.
 
-use rockwatch::ims::spectrum::{period_grid_s, response_spectrum, spectral_intensities};
-use rockwatch::ims::{
+use rockwatch_core::ims::spectrum::{period_grid_s, response_spectrum, spectral_intensities};
+use rockwatch_core::ims::{
     compute_ims, response, study_ims, ImOptions, ImSet, PeriodRange, RunningConfig, RunningIms,
     STUDY_RANGES,
 };
-use rockwatch::record::{Record, STANDARD_GRAVITY_MPS2};
+use rockwatch_core::record::{Record, STANDARD_GRAVITY_MPS2};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn records_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/records")
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join("tests/data/records")
 }
 
 fn read_record(name: &str) -> Record {

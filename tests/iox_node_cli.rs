@@ -65,9 +65,15 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
         .arg(&config)
         .args([
             "--record",
-            "tests/data/records/Rinaldi228.AT2",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
             "--vertical",
-            "tests/data/records/RinaldiUP.AT2",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/RinaldiUP.AT2"
+            ),
         ])
         .args([
             "--azimuth",

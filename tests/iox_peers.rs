@@ -17,17 +17,20 @@ use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
-use rockwatch::engine::AccelPacket;
 use rockwatch::iox::IoxConfig;
 use rockwatch::node::{NodeOptions, Probe, Reactor};
 use rockwatch::ros2::{network_plan, Ros2Config};
+use rockwatch_core::engine::AccelPacket;
 
 const ICEORYX2_VERSION: &str = "0.10.0";
 
 fn test_config(tag: &str) -> IoxConfig {
     let id = std::process::id();
     IoxConfig {
-        config_file: Some(PathBuf::from("config/iceoryx2.toml")),
+        config_file: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/iceoryx2.toml"
+        ))),
         accel_service: format!("rockwatch-peer/{id}/{tag}/accel"),
         alerts_service: format!("rockwatch-peer/{id}/{tag}/alerts"),
         ..IoxConfig::default()
@@ -80,7 +83,10 @@ struct Peer {
 impl Peer {
     fn spawn(script: &str, args: &[&str]) -> Peer {
         let mut child = Command::new("python3")
-            .arg(format!("tests/iox/{script}"))
+            .arg(format!(
+                concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/iox/{}"),
+                script
+            ))
             .args(args)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
@@ -141,7 +147,7 @@ fn python_subscriber(config: &IoxConfig, stop_file: &Path) -> Peer {
     let peer = Peer::spawn(
         "alert_subscriber.py",
         &[
-            "config/iceoryx2.toml",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/iceoryx2.toml"),
             &config.alerts_service,
             stop_file.to_str().unwrap(),
             "90",
@@ -175,7 +181,10 @@ fn run_node(
     drive: impl FnOnce(&Probe) + Send,
 ) -> rockwatch::iox::IoxInputStats {
     let mut options = NodeOptions {
-        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
         ..NodeOptions::default()
     };
     options.config.iceoryx2 = config.clone();
@@ -234,7 +243,7 @@ fn python_publisher_to_node_to_python_subscriber_overturns_the_slender_pillar() 
         let mut publisher = Peer::spawn(
             "accel_publisher.py",
             &[
-                "config/iceoryx2.toml",
+                concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/iceoryx2.toml"),
                 &config.accel_service,
                 packets_file.to_str().unwrap(),
                 "--linger",
@@ -287,7 +296,7 @@ fn killed_publisher_leaves_the_node_serving_the_next_one() {
         let mut killed = Peer::spawn(
             "accel_publisher.py",
             &[
-                "config/iceoryx2.toml",
+                concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/iceoryx2.toml"),
                 &config.accel_service,
                 first.to_str().unwrap(),
                 "--pause-after",
@@ -319,7 +328,7 @@ fn killed_publisher_leaves_the_node_serving_the_next_one() {
         let mut next = Peer::spawn(
             "accel_publisher.py",
             &[
-                "config/iceoryx2.toml",
+                concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/iceoryx2.toml"),
                 &config.accel_service,
                 second.to_str().unwrap(),
                 "--linger",

@@ -15,18 +15,21 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
-use rockwatch::engine::AccelPacket;
 use rockwatch::iox::types::{AccelHeader, AccelSample, PbrAlertIox};
 use rockwatch::iox::{IoxAlertSubscriber, IoxConfig, IoxPacketSink};
 use rockwatch::node::{NodeOptions, Reactor};
 use rockwatch::replay::PacketSink;
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config};
+use rockwatch_core::engine::AccelPacket;
 
 /// Unique service names per test and process, so tests run in parallel.
 fn test_config(tag: &str) -> IoxConfig {
     let id = std::process::id();
     IoxConfig {
-        config_file: Some(PathBuf::from("config/iceoryx2.toml")),
+        config_file: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/iceoryx2.toml"
+        ))),
         accel_service: format!("rockwatch-test/{id}/{tag}/accel"),
         alerts_service: format!("rockwatch-test/{id}/{tag}/alerts"),
         ..IoxConfig::default()
@@ -37,7 +40,10 @@ fn test_config(tag: &str) -> IoxConfig {
 /// loopback-only ROS 2 plan.
 fn node_options(iox: &IoxConfig, shards: usize) -> (NodeOptions, NetworkPlan) {
     let mut options = NodeOptions {
-        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
         shards,
         ..NodeOptions::default()
     };

@@ -16,11 +16,17 @@ fn monitor_rinaldi(state_dir: Option<&Path>, env: &[(&str, &str)]) -> Output {
     let mut args = vec![
         "monitor",
         "--config",
-        "config/node.toml",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml"),
         "--record",
-        "tests/data/records/Rinaldi228.AT2",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/records/Rinaldi228.AT2"
+        ),
         "--vertical",
-        "tests/data/records/RinaldiUP.AT2",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/records/RinaldiUP.AT2"
+        ),
         "--azimuth",
         "228",
         "--station",
@@ -201,9 +207,12 @@ fn bad_invocations_fail_with_one_line() {
         &[
             "monitor",
             "--catalogue",
-            "config/catalogue.toml",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml"),
             "--record",
-            "tests/data/records/Rinaldi228.AT2",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
             "--station",
             "XX.NONE.00",
         ],
@@ -212,14 +221,17 @@ fn bad_invocations_fail_with_one_line() {
             "--catalogue",
             "missing.toml",
             "--record",
-            "tests/data/records/Rinaldi228.AT2",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
             "--station",
             "CI.RRS.00",
         ],
         &[
             "monitor",
             "--catalogue",
-            "config/catalogue.toml",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml"),
             "--record",
             "nope.AT2",
             "--station",
@@ -228,7 +240,10 @@ fn bad_invocations_fail_with_one_line() {
         &[
             "monitor",
             "--record",
-            "tests/data/records/Rinaldi228.AT2",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
             "--station",
             "CI.RRS.00",
         ],
@@ -274,7 +289,10 @@ fn mseed_in_counts_with_station_gain_matches_the_file_in_mps2() {
         "--config",
         config.to_str().unwrap(),
         "--mseed",
-        "tests/data/mseed/knet_AKT013_HNE_counts.mseed",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/mseed/knet_AKT013_HNE_counts.mseed"
+        ),
         "--station",
         "BO.AKT01.",
         "--format",
@@ -285,7 +303,10 @@ fn mseed_in_counts_with_station_gain_matches_the_file_in_mps2() {
         "--catalogue",
         catalogue.to_str().unwrap(),
         "--mseed",
-        "tests/data/mseed/knet_AKT013_HNE_ms2.mseed",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/mseed/knet_AKT013_HNE_ms2.mseed"
+        ),
         "--station",
         "BO.AKT01.",
         "--format",

@@ -10,14 +10,14 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use rockwatch::mseed::{
+use rockwatch_core::mseed::{
     parse_mseed, read_mseed, record_from_channels, record_from_enz, Channel, GapFill, MseedFile,
     SampleKind, NS_PER_S,
 };
-use rockwatch::record::{Record, RecordError};
+use rockwatch_core::record::{Record, RecordError};
 
 fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
         .join("tests/data")
         .join(rel)
 }

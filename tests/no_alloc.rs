@@ -1,7 +1,9 @@
 //! Architecture invariant: `RigidBlock::advance` never allocates, in any mode.
 //! `allocation_counter` installs a counting global allocator for this test binary.
 
-use rockwatch::dynamics::{BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock};
+use rockwatch_core::dynamics::{
+    BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock,
+};
 
 /// A two-cycle 1 Hz sine of `amp_g` g, then 8 s of quiet, at 100 Hz.
 fn input(amp_g: f64) -> Vec<GroundAccel> {

@@ -6,14 +6,18 @@ use support::rinaldi_packets;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use rockwatch::catalogue::Catalogue;
-use rockwatch::engine::{Engine, EngineConfig, Output, PbrSpec};
 use rockwatch::journal::read_journal;
 use rockwatch::node::{NodeOptions, NodeRuntime, Publication, ResetOutcome};
+use rockwatch_core::catalogue::Catalogue;
+use rockwatch_core::engine::{Engine, EngineConfig, Output, PbrSpec};
 
 /// Alert keys of the single-threaded engine on the Rinaldi packets (the reference).
-fn reference_alert_keys() -> Vec<rockwatch::engine::AlertKey> {
-    let catalogue = Catalogue::load("config/catalogue.toml").unwrap();
+fn reference_alert_keys() -> Vec<rockwatch_core::engine::AlertKey> {
+    let catalogue = Catalogue::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../config/catalogue.toml"
+    ))
+    .unwrap();
     let specs: Vec<PbrSpec> = catalogue
         .pbrs()
         .iter()
@@ -44,7 +48,10 @@ fn reference_alert_keys() -> Vec<rockwatch::engine::AlertKey> {
 fn runtime_publishes_the_engines_alerts(shards: usize) {
     let dir = tempfile::tempdir().unwrap();
     let options = NodeOptions {
-        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
         state_dir: Some(dir.path().to_path_buf()),
         shards,
         ..NodeOptions::default()
@@ -62,7 +69,12 @@ fn runtime_publishes_the_engines_alerts(shards: usize) {
     let summaries = node.shutdown(&mut publish).unwrap();
     assert_eq!(
         summaries.len(),
-        Catalogue::load("config/catalogue.toml").unwrap().len()
+        Catalogue::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))
+        .unwrap()
+        .len()
     );
 
     // The same alerts as the single-threaded engine on the same packets.
@@ -95,7 +107,7 @@ fn runtime_publishes_the_engines_alerts(shards: usize) {
     let (records, _) = read_journal(dir.path()).unwrap();
     let journaled = records
         .iter()
-        .filter(|r| matches!(r, rockwatch::engine::JournalRecord::Alert(_)))
+        .filter(|r| matches!(r, rockwatch_core::engine::JournalRecord::Alert(_)))
         .count();
     assert_eq!(journaled, got.len());
 }
@@ -114,7 +126,10 @@ fn sharded_runtime_publishes_the_engines_alerts_journaled_with_latencies() {
 fn inline_runtime_publishes_an_alert_during_submit_after_journaling_it() {
     let dir = tempfile::tempdir().unwrap();
     let options = NodeOptions {
-        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
         state_dir: Some(dir.path().to_path_buf()),
         ..NodeOptions::default()
     };
@@ -129,7 +144,7 @@ fn inline_runtime_publishes_an_alert_during_submit_after_journaling_it() {
                 let (records, _) = read_journal(dir.path()).unwrap();
                 assert!(records.iter().any(|r| matches!(
                     r,
-                    rockwatch::engine::JournalRecord::Alert(a) if a.key() == alert.key()
+                    rockwatch_core::engine::JournalRecord::Alert(a) if a.key() == alert.key()
                 )));
             }
             during.push(p);
@@ -151,12 +166,15 @@ fn inline_runtime_publishes_an_alert_during_submit_after_journaling_it() {
 fn a_restarted_inline_runtime_never_publishes_a_journaled_alert_again() {
     let dir = tempfile::tempdir().unwrap();
     let options = NodeOptions {
-        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
         state_dir: Some(dir.path().to_path_buf()),
         ..NodeOptions::default()
     };
     let packets = rinaldi_packets();
-    let count_alerts = |node: &mut NodeRuntime, packets: &[rockwatch::engine::AccelPacket]| {
+    let count_alerts = |node: &mut NodeRuntime, packets: &[rockwatch_core::engine::AccelPacket]| {
         let mut n = 0;
         for p in packets {
             node.submit(p.clone(), &mut |p| {
@@ -180,7 +198,10 @@ fn a_restarted_inline_runtime_never_publishes_a_journaled_alert_again() {
 fn a_packet_held_for_missing_data_is_released_when_the_station_falls_silent() {
     for shards in [1, 2] {
         let options = NodeOptions {
-            catalogue: Some(PathBuf::from("config/catalogue.toml")),
+            catalogue: Some(PathBuf::from(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../config/catalogue.toml"
+            ))),
             shards,
             ..NodeOptions::default()
         };
@@ -230,7 +251,7 @@ fn a_packet_held_for_missing_data_is_released_when_the_station_falls_silent() {
 
 /// The Rinaldi packets again, as the same station's stream continuing `after_s` seconds after
 /// the end of the first pass (later times, later sequence numbers).
-fn rinaldi_again(after_s: f64) -> Vec<rockwatch::engine::AccelPacket> {
+fn rinaldi_again(after_s: f64) -> Vec<rockwatch_core::engine::AccelPacket> {
     let first = rinaldi_packets();
     let last = first.last().unwrap();
     let end_ns = last.start_time_ns + (last.len() as f64 * 1e9 / last.sample_rate_hz) as i64;
@@ -250,7 +271,7 @@ fn rinaldi_again(after_s: f64) -> Vec<rockwatch::engine::AccelPacket> {
 /// (block, episode, level).
 fn feed(
     node: &mut NodeRuntime,
-    packets: &[rockwatch::engine::AccelPacket],
+    packets: &[rockwatch_core::engine::AccelPacket],
 ) -> Vec<(String, u32, String)> {
     let mut alerts = Vec::new();
     let mut publish = |p: Publication| {
@@ -284,7 +305,10 @@ const SLENDER: &str = "rrs-slender-pillar";
 fn operator_reset_stands_the_block_again(shards: usize) {
     let dir = tempfile::tempdir().unwrap();
     let options = NodeOptions {
-        catalogue: Some(PathBuf::from("config/catalogue.toml")),
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
         state_dir: Some(dir.path().to_path_buf()),
         shards,
         ..NodeOptions::default()
@@ -294,7 +318,7 @@ fn operator_reset_stands_the_block_again(shards: usize) {
             .unwrap()
             .0
             .iter()
-            .filter(|r| matches!(r, rockwatch::engine::JournalRecord::Reset { pbr_id } if pbr_id == SLENDER))
+            .filter(|r| matches!(r, rockwatch_core::engine::JournalRecord::Reset { pbr_id } if pbr_id == SLENDER))
             .count()
     };
     let mut node = NodeRuntime::start(&options).unwrap();
@@ -319,7 +343,7 @@ fn operator_reset_stands_the_block_again(shards: usize) {
         .collect();
     assert!(expected
         .iter()
-        .any(|k| k.1 == 1 && k.2 == rockwatch::engine::AlertLevel::Overturned));
+        .any(|k| k.1 == 1 && k.2 == rockwatch_core::engine::AlertLevel::Overturned));
     let slender_levels = |alerts: &[(String, u32, String)], episode: u32| {
         let mut v: Vec<String> = alerts
             .iter()

@@ -12,8 +12,10 @@
 mod common;
 
 use common::{brent, drive, first_root, horizontal, integrate, newton_euler, Pivot, G_MPS2};
-use rockwatch::dynamics::equations::critical_friction_for_step;
-use rockwatch::dynamics::{BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock};
+use rockwatch_core::dynamics::equations::critical_friction_for_step;
+use rockwatch_core::dynamics::{
+    BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock,
+};
 
 /// Ramp length (s) used to feed a "step" of ground acceleration to the engine, whose input is
 /// piecewise linear.

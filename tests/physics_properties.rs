@@ -16,11 +16,11 @@ use std::process::Command;
 
 use common::{newton_euler, Pivot, G_MPS2};
 use proptest::prelude::*;
-use rockwatch::dynamics::equations::{rocking, slide_rocking, sliding};
-use rockwatch::dynamics::impact::impact;
-use rockwatch::dynamics::{BlockParams, GroundAccel, ImpactKind, Mode};
-use rockwatch::record::Record;
-use rockwatch::simulate::{simulate, SimulationOptions, Status};
+use rockwatch_core::dynamics::equations::{rocking, slide_rocking, sliding};
+use rockwatch_core::dynamics::impact::impact;
+use rockwatch_core::dynamics::{BlockParams, GroundAccel, ImpactKind, Mode};
+use rockwatch_core::record::Record;
+use rockwatch_core::simulate::{simulate, SimulationOptions, Status};
 
 fn sign() -> impl Strategy<Value = f64> {
     prop_oneof![Just(1.0), Just(-1.0)]
@@ -334,7 +334,7 @@ proptest! {
 // =============================================================================================
 
 fn records_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/records")
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join("tests/data/records")
 }
 
 /// A slender block that rocks, slide-rocks (μk > tan α = 0.25) and may overturn.

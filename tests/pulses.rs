@@ -1,7 +1,7 @@
 //! End-to-end tests of `rockwatch pulses`: files written, read back, and consistent with the
 //! printed summary and the pulse model.
 
-use rockwatch::record::Record;
+use rockwatch_core::record::Record;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -233,6 +233,6 @@ fn format_also_names_the_file_format_as_in_the_issue_signature() {
     assert_eq!(names.len(), 3);
     assert!(names.iter().all(|n| n.ends_with(".csv")), "{names:?}");
     for n in &names {
-        rockwatch::record::Record::read(&dir.path().join(n)).unwrap();
+        rockwatch_core::record::Record::read(&dir.path().join(n)).unwrap();
     }
 }

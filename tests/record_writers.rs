@@ -1,6 +1,8 @@
 //! Round trips of the record writers (`write_at2`, `write_csv`) through the readers.
 
-use rockwatch::record::{read_at2, read_csv, write_at2, write_csv, Record, STANDARD_GRAVITY_MPS2};
+use rockwatch_core::record::{
+    read_at2, read_csv, write_at2, write_csv, Record, STANDARD_GRAVITY_MPS2,
+};
 
 fn sample_record(with_vertical: bool) -> Record {
     // Values spanning many magnitudes and both signs, including exact zero.

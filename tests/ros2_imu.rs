@@ -18,7 +18,7 @@
 //!   from the first instant |a_x| = μs (g + a_v);
 //! * the slender block (B/H = 0.2 < μs) starts rocking at the first instant
 //!   |a_x| = tan α (g + a_v) (closed form, on the linearly interpolated input the engine
-//!   integrates) and overturns: `rockwatch::simulate` of the same block on the same samples
+//!   integrates) and overturns: `rockwatch_core::simulate` of the same block on the same samples
 //!   says so and when;
 //! * a copy of the slender block turned 90° (azimuth 318°) gets a_x = 0 from this motion and
 //!   must stay at rest: a sign error on one Imu axis, or a yaw offset, would throw it over.
@@ -34,10 +34,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use rockwatch::dynamics::{BlockParams, Mode};
-use rockwatch::record::Record;
-use rockwatch::simulate::{simulate, SimulationOptions};
-use rockwatch::STANDARD_GRAVITY_MPS2 as G;
+use rockwatch_core::dynamics::{BlockParams, Mode};
+use rockwatch_core::record::Record;
+use rockwatch_core::simulate::{simulate, SimulationOptions};
+use rockwatch_core::STANDARD_GRAVITY_MPS2 as G;
 
 const STATION: &str = "XB.IMU.00";
 /// ROS 2 topic of the Imu (DDS topic `rt/imu/data`).

@@ -5,9 +5,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use rockwatch::dynamics::Mode;
-use rockwatch::engine::AlertLevel;
 use rockwatch::ros2::msg;
+use rockwatch_core::dynamics::Mode;
+use rockwatch_core::engine::AlertLevel;
 use serde_reflection::{ContainerFormat, Format, Tracer, TracerConfig};
 
 #[derive(Debug, Default)]
@@ -21,7 +21,7 @@ struct MsgFile {
 /// A minimal parser of the ROS 2 `.msg` grammar used by pbr_msgs: `type name`,
 /// `type NAME=value`, `#` comments.
 fn parse_msg(name: &str) -> MsgFile {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
         .join("msg")
         .join(format!("{name}.msg"));
     parse_fields(name, &std::fs::read_to_string(&path).unwrap())
@@ -29,7 +29,7 @@ fn parse_msg(name: &str) -> MsgFile {
 
 /// A `.srv` file of `msg/srv/`: the request's fields, a line `---`, the response's.
 fn parse_srv(name: &str) -> (MsgFile, MsgFile) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
         .join("msg/srv")
         .join(format!("{name}.srv"));
     let text = std::fs::read_to_string(&path).unwrap();

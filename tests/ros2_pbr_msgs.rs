@@ -13,8 +13,8 @@
 mod ros2_util;
 use ros2_util::*;
 
-use rockwatch::engine::{Alert, AlertLevel, JournalRecord};
 use rockwatch::ros2::msg::{self as wire, level_code, mode_code};
+use rockwatch_core::engine::{Alert, AlertLevel, JournalRecord};
 
 const STATION: &str = "CI.RRS.00";
 const SLENDER: &str = "slender-pillar";

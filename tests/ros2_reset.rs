@@ -16,11 +16,11 @@ use ros2_util::*;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use rockwatch::dynamics::Mode;
-use rockwatch::engine::{AccelPacket, Alert, AlertLevel, JournalRecord};
 use rockwatch::journal::Journal;
 use rockwatch::replay::{replay, PacketSink, Restamp, Speed};
 use rockwatch::ros2::{network_plan, Ros2Config, Ros2PacketSink};
+use rockwatch_core::dynamics::Mode;
+use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel, JournalRecord};
 
 const SLENDER: &str = "rrs-slender-pillar";
 /// A block of the same station that slides under the record and stands: its alerts show

@@ -12,9 +12,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use rockwatch::engine::AccelPacket;
 use rockwatch::replay::{replay, PacketSink, Restamp, Speed};
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config, Ros2PacketSink};
+use rockwatch_core::engine::AccelPacket;
 
 /// A sink that fails once `stop` is set (ends a replay whose node was killed).
 struct Stoppable {

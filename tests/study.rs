@@ -7,18 +7,21 @@ use std::f64::consts::PI;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use rockwatch::ims::{STUDY_IM_COUNT, STUDY_IM_NAMES};
-use rockwatch::lhs::{rng_from_seed, uniform_open01};
-use rockwatch::pulse::PulseParameters;
-use rockwatch::study::fragility::{fit_lognormal, FragilityError, Z_95};
-use rockwatch::study::regression::{linear_fit, log_log_fit, multiple_fit, residual_dependence_p};
-use rockwatch::study::special::{
+use rockwatch::study::report;
+use rockwatch_core::ims::{STUDY_IM_COUNT, STUDY_IM_NAMES};
+use rockwatch_core::lhs::{rng_from_seed, uniform_open01};
+use rockwatch_core::pulse::PulseParameters;
+use rockwatch_core::study::fragility::{fit_lognormal, FragilityError, Z_95};
+use rockwatch_core::study::regression::{
+    linear_fit, log_log_fit, multiple_fit, residual_dependence_p,
+};
+use rockwatch_core::study::special::{
     ln_gamma, ln_normal_cdf, normal_cdf, regularized_incomplete_beta, student_t_cdf,
     student_t_two_sided_p,
 };
-use rockwatch::study::{
-    analyse, analyse_block, report, run_study, BlockResponse, DemandMeasure, PulseCase,
-    ResponseStatus, StudyBlock, StudyConfig, StudyData,
+use rockwatch_core::study::{
+    analyse, analyse_block, run_study, BlockResponse, DemandMeasure, PulseCase, ResponseStatus,
+    StudyBlock, StudyConfig, StudyData,
 };
 
 // ---------------------------------------------------------------- special functions

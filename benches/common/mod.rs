@@ -4,9 +4,9 @@ use std::path::Path;
 use std::sync::atomic::{AtomicI64, Ordering};
 use std::time::{Duration, Instant};
 
-use rockwatch::engine::AccelPacket;
-use rockwatch::record::Record;
 use rockwatch::replay::{PacketSink, Traces};
+use rockwatch_core::engine::AccelPacket;
+use rockwatch_core::record::Record;
 
 /// Station id of benchmark station `i`.
 pub fn station(i: usize) -> String {
@@ -29,10 +29,16 @@ pub fn write_catalogue(path: &Path, stations: usize) {
 
 /// The bundled Rinaldi record (228° + vertical) as traces along azimuth 228°.
 pub fn rinaldi() -> Traces {
-    let mut record =
-        Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).expect("bundled record");
+    let mut record = Record::read(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/records/Rinaldi228.AT2"
+    )))
+    .expect("bundled record");
     record
-        .attach_vertical(Path::new("tests/data/records/RinaldiUP.AT2"))
+        .attach_vertical(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/records/RinaldiUP.AT2"
+        )))
         .expect("bundled record");
     Traces::from_record(&record, 228.0).expect("finite azimuth")
 }

@@ -8,7 +8,7 @@
 #![allow(dead_code)] // each test crate uses a different subset
 
 use nalgebra::{SMatrix, SVector};
-use rockwatch::dynamics::{BlockEvent, GroundAccel, RigidBlock};
+use rockwatch_core::dynamics::{BlockEvent, GroundAccel, RigidBlock};
 
 /// Standard gravity (m/s²), the gravity every `BlockParams` constructor uses.
 pub const G_MPS2: f64 = 9.80665;

@@ -13,7 +13,7 @@ pub fn rockwatch() -> PathBuf {
 }
 
 pub fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
 }
 
 /// Shell prelude creating the namespace's interfaces.
@@ -166,11 +166,11 @@ pub fn write_node_config(dir: &std::path::Path, catalogue: &std::path::Path) -> 
 }
 
 /// The Rinaldi record (228° + up) as 100 ms packets of station CI.RRS.00 with `tail_s` of quiet.
-pub fn rinaldi_packets(tail_s: f64) -> Vec<rockwatch::engine::AccelPacket> {
+pub fn rinaldi_packets(tail_s: f64) -> Vec<rockwatch_core::engine::AccelPacket> {
     let rec = repo().join("tests/data/records");
-    let mut record = rockwatch::record::Record::read(&rec.join("Rinaldi228.AT2")).unwrap();
+    let mut record = rockwatch_core::record::Record::read(&rec.join("Rinaldi228.AT2")).unwrap();
     record.attach_vertical(&rec.join("RinaldiUP.AT2")).unwrap();
-    let station = rockwatch::engine::StationId::parse("CI.RRS.00").unwrap();
+    let station = rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap();
     rockwatch::replay::Traces::from_record(&record, 228.0)
         .unwrap()
         .packets(&station, 100, tail_s)

@@ -2,17 +2,24 @@
 
 use std::path::Path;
 
-use rockwatch::engine::{AccelPacket, StationId};
-use rockwatch::record::Record;
 use rockwatch::replay::Traces;
+use rockwatch_core::engine::{AccelPacket, StationId};
+use rockwatch_core::record::Record;
 
 /// The bundled Rinaldi record (228° + vertical) as station CI.RRS.00 would send it: 100 ms
 /// packets, horizontal along azimuth 228° (the axis of the example catalogue's CI.RRS.00
 /// blocks), followed by 10 s of quiet.
 pub fn rinaldi_packets() -> Vec<AccelPacket> {
-    let mut record = Record::read(Path::new("tests/data/records/Rinaldi228.AT2")).unwrap();
+    let mut record = Record::read(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/records/Rinaldi228.AT2"
+    )))
+    .unwrap();
     record
-        .attach_vertical(Path::new("tests/data/records/RinaldiUP.AT2"))
+        .attach_vertical(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/records/RinaldiUP.AT2"
+        )))
         .unwrap();
     let station = StationId::parse("CI.RRS.00").unwrap();
     Traces::from_record(&record, 228.0)

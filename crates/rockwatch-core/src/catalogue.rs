@@ -1,0 +1,1308 @@
+//! The PBR catalogue: which precariously balanced rocks (and other freestanding objects) the
+//! monitoring engine watches, where they are, which seismic station drives each of them, how
+//! they are oriented, and their block parameters, possibly uncertain.
+//!
+//! This module parses and validates catalogue files (TOML or CSV) into [`Catalogue`] and turns
+//! each entry ([`Pbr`]) into the [`BlockParams`] the dynamics integrate: [`Pbr::nominal`], and
+//! [`Pbr::members`] for a Latin-hypercube ensemble over the uncertain parameters. Apart from
+//! [`Catalogue::load`] (which reads one file) it is pure: no network, no clock, no global state.
+//!
+//! # TOML format
+//!
+//! A catalogue is an array of `[[pbr]]` tables, and nothing else at the top level:
+//!
+//! ```toml
+//! [[pbr]]
+//! id = "rrs-pillar"            # unique, non-empty, no whitespace
+//! name = "Slender pillar near Rinaldi"
+//! lat = 34.282                 # degrees north, [-90, 90]
+//! lon = -118.478               # degrees east, [-180, 180]
+//! station = "CI.RRS.00"        # SEED NET.STA.LOC driving this block
+//! azimuth_deg = 45.0           # direction of the block's +x axis, clockwise from north, [0, 360)
+//! width_m = 0.30               # base width B (m)
+//! height_m = { min = 1.4, max = 1.6 }   # uniform on [min, max]
+//! mu_s = 0.7                   # static friction coefficient
+//! mu_k = { mean = 0.55, sd = 0.03 }     # normal, truncated to the valid domain
+//! restitution = 0.9            # optional: rocking impact ratio e in [0, 1] (default Housner's η)
+//! source = "illustrative"      # free text: where the numbers come from (non-empty)
+//! ensemble = 50                # optional: K Latin-hypercube members, 1 ≤ K ≤ 10000 (default 1)
+//! seed = 7                     # optional: LHS seed, default default_seed(id)
+//! ```
+//!
+//! Field by field:
+//! - `id`: non-empty, no whitespace or control characters, unique in the catalogue.
+//! - `name`, `source`: free text, not blank. `source` says where the numbers come from.
+//! - `lat`, `lon`: WGS84 degrees, `lat` in [−90, 90], `lon` in [−180, 180].
+//! - `station`: a SEED identifier `NET.STA.LOC`: network 1–2, station 1–5, location 0–2
+//!   characters, each upper-case ASCII letters or digits (the SEED manual's character set; lower
+//!   case is rejected rather than silently never matching the upper-case codes of a live
+//!   stream). An empty location is written with the trailing dot: `"CI.RRS."`.
+//! - `azimuth_deg`: the azimuth of the block's +x axis (the axis of rocking and sliding),
+//!   clockwise from north, in [0, 360). See [`project_horizontal`].
+//! - `width_m`, `height_m` (m, > 0), `mu_s` (> 0), `mu_k` (in [0, 4/3): μk ≥ 4/3 makes
+//!   slide-rocking ill-posed, the Painlevé paradox), optional `restitution` (in [0, 1]): each
+//!   a [`Distribution`]: a number, a range `{ min = .., max = .. }` (uniform, `min < max`, both
+//!   in the domain) or a normal `{ mean = .., sd = .. }` (`mean` in the domain, `sd > 0`).
+//!   The nominal values (midpoint of a range, mean of a normal) must satisfy μk ≤ μs (an
+//!   excess of a few ulps, e.g. from a midpoint, counts as equality: nominal μk = μs).
+//! - `ensemble`: K, from 1 to 10000; K > 1 requires at least one uncertain parameter.
+//! - `seed`: an integer ≥ 0 (TOML integers are signed 64-bit, so at most 2⁶³ − 1 in TOML; the
+//!   CSV form takes the whole `u64` range). Default: [`default_seed`] of the id.
+//!
+//! Unknown fields are rejected (serde `deny_unknown_fields`), naming the field.
+//!
+//! # CSV format
+//!
+//! One header row, then one row per PBR; `#` starts a comment line; cells are trimmed; an empty
+//! cell means "absent". The columns are the TOML field names. An uncertain parameter `P` (one of
+//! `width_m`, `height_m`, `mu_s`, `mu_k`, `restitution`) can use, row by row, exactly one of:
+//! the column `P` (a number), the pair `P_min`,`P_max` (uniform) or the pair `P_mean`,`P_sd`
+//! (normal); the other cells of `P` in that row stay empty. Columns may come in any order;
+//! unknown or repeated column names are rejected at the header, as is a header without `id`,
+//! `name`, `lat`, `lon`, `station`, `azimuth_deg` or `source`. `restitution`, `ensemble` and
+//! `seed` columns are optional. A CSV and a TOML file describing the same PBRs load equal.
+//!
+//! # Errors
+//!
+//! Nothing here panics on bad input. A problem with one entry is reported as
+//! `SOURCE:LINE: pbr[INDEX] (id "ID"): PROBLEM`, e.g.
+//! `catalogue.toml:31: pbr[3] (id "pinnacle-2"): mu_k = 0.9 exceeds mu_s = 0.6`, where INDEX is
+//! the 0-based position of the entry in the file and LINE the line where the entry starts
+//! (TOML: its `[[pbr]]` header; CSV: its row). Sub-fields are named `width_m.min` in TOML and
+//! `width_m_min` in CSV, matching what the user wrote.
+//!
+//! # Uncertainty and ensembles
+//!
+//! [`Pbr::nominal`] is the block built from the nominal values. [`Pbr::members`] returns K
+//! blocks: for K = 1 exactly the nominal block; for K > 1 the `d` uncertain parameters, in the
+//! order `width_m, height_m, mu_s, mu_k, restitution` (fixed ones skipped), are the columns of
+//! [`latin_hypercube_seeded`]`(K, d, seed)`, and member `i` maps sample `i` through each
+//! parameter's quantile function:
+//! - range: `min + u·(max − min)`;
+//! - normal: the normal **truncated to the parameter's valid domain** [a, b] ((0, ∞) for sizes
+//!   and μs, [0, 4/3) for μk, [0, 1] for e), sampled by inverse CDF:
+//!   `mean + sd·Φ⁻¹(Φ(α) + u·(Φ(β) − Φ(α)))` with α, β the standardised bounds. Every margin is
+//!   therefore exactly stratified in the CDF of the distribution actually sampled (one member per
+//!   stratum), no member is clipped onto a bound, and when the bounds are many sd away (the usual
+//!   case) this is the plain normal quantile. The nominal value stays the given `mean`.
+//!
+//! A member whose drawn μk exceeds its drawn μs gets **μk = μs** (kinetic friction cannot exceed
+//! static friction). This keeps every other margin exactly stratified and the member count at
+//! K; only the μk values of those members move (redrawing would break the stratification of
+//! both friction margins). Keep the two friction distributions apart if that matters.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::de::{self, Deserializer, MapAccess, Visitor};
+use serde::Deserialize;
+
+use crate::dynamics::{BlockParams, ParamError};
+use crate::lhs::{latin_hypercube_seeded, standard_normal_quantile};
+
+/// Largest ensemble size K accepted in a catalogue.
+pub const MAX_ENSEMBLE: usize = 10_000;
+
+/// Component of a horizontal ground acceleration along the azimuth `azimuth_deg`:
+/// `a = a_E·sin(az) + a_N·cos(az)`.
+///
+/// `azimuth_deg` is measured clockwise from north (0° = north, 90° = east), `east_mps2` is
+/// positive towards east and `north_mps2` positive towards north (m/s², but any consistent unit
+/// works: the map is linear). The result is positive towards the azimuth, i.e. towards the
+/// block's +x axis when `azimuth_deg` is its [`Pbr::azimuth_deg`]; that is the sign convention of
+/// the horizontal input of the dynamics. Components of a station that is not oriented east/north
+/// (e.g. channels `1`, `2`) must be rotated to east/north first.
+#[must_use]
+pub fn project_horizontal(azimuth_deg: f64, east_mps2: f64, north_mps2: f64) -> f64 {
+    let (sin_az, cos_az) = azimuth_deg.to_radians().sin_cos();
+    east_mps2 * sin_az + north_mps2 * cos_az
+}
+
+/// The default LHS seed of an entry without `seed`: the 64-bit FNV-1a hash of the UTF-8 bytes
+/// of its `id` (offset basis 0xcbf29ce484222325, prime 0x100000001b3, xor then multiply).
+/// Stable across platforms and versions, and different ids give unrelated ensembles.
+#[must_use]
+pub fn default_seed(id: &str) -> u64 {
+    const OFFSET_BASIS: u64 = 0xcbf2_9ce4_8422_2325;
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    id.bytes().fold(OFFSET_BASIS, |hash, byte| {
+        (hash ^ u64::from(byte)).wrapping_mul(PRIME)
+    })
+}
+
+/// A possibly uncertain scalar parameter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Distribution {
+    /// A known value.
+    Fixed(f64),
+    /// Uniform on `[min, max]` (`min < max`). Nominal value: the midpoint.
+    Uniform { min: f64, max: f64 },
+    /// Normal with mean `mean` and standard deviation `sd > 0`, truncated to the parameter's
+    /// valid domain when sampled. Nominal value: `mean`.
+    Normal { mean: f64, sd: f64 },
+}
+
+impl Distribution {
+    /// The nominal value: the value itself, the midpoint of a range, the mean of a normal.
+    #[must_use]
+    pub fn nominal(&self) -> f64 {
+        match *self {
+            Distribution::Fixed(v) => v,
+            Distribution::Uniform { min, max } => 0.5 * (min + max),
+            Distribution::Normal { mean, .. } => mean,
+        }
+    }
+
+    /// Whether the value is known exactly (not sampled in an ensemble).
+    #[must_use]
+    pub fn is_fixed(&self) -> bool {
+        matches!(self, Distribution::Fixed(_))
+    }
+
+    /// The value at cumulative probability `u` ∈ (0, 1) of the distribution restricted to
+    /// `domain` (see the module doc), always inside `domain`.
+    fn quantile(&self, u: f64, domain: Domain) -> f64 {
+        let x = match *self {
+            Distribution::Fixed(v) => v,
+            Distribution::Uniform { min, max } => min + u * (max - min),
+            Distribution::Normal { mean, sd } => {
+                let p_lo = standard_normal_cdf((domain.lo - mean) / sd);
+                let p_hi = standard_normal_cdf((domain.hi - mean) / sd);
+                // Keep p strictly inside (0, 1) so that Φ⁻¹ stays finite whatever the rounding.
+                let p = (p_lo + u * (p_hi - p_lo)).clamp(f64::MIN_POSITIVE, 1.0 - f64::EPSILON);
+                mean + sd * standard_normal_quantile(p)
+            }
+        };
+        domain.clamp(x)
+    }
+}
+
+/// Φ(z), the standard normal CDF, as ½·erfc(−z/√2) (erfc from `libm`, accurate to about one
+/// ulp, also in the tails). Φ(−∞) = 0, Φ(∞) = 1.
+fn standard_normal_cdf(z: f64) -> f64 {
+    0.5 * libm::erfc(-z / std::f64::consts::SQRT_2)
+}
+
+/// The set of valid values of one parameter: from `lo` to `hi`, each end open or closed.
+#[derive(Debug, Clone, Copy)]
+struct Domain {
+    lo: f64,
+    lo_open: bool,
+    hi: f64,
+    hi_open: bool,
+    /// "must be …" completion for error messages.
+    requirement: &'static str,
+}
+
+const SIZE_DOMAIN: Domain = Domain {
+    lo: 0.0,
+    lo_open: true,
+    hi: f64::INFINITY,
+    hi_open: true,
+    requirement: "a finite length > 0 (metres)",
+};
+const MU_S_DOMAIN: Domain = Domain {
+    lo: 0.0,
+    lo_open: true,
+    hi: f64::INFINITY,
+    hi_open: true,
+    requirement: "a finite number > 0",
+};
+const MU_K_DOMAIN: Domain = Domain {
+    lo: 0.0,
+    lo_open: false,
+    hi: 4.0 / 3.0,
+    hi_open: true,
+    requirement: "in [0, 4/3) (mu_k ≥ 4/3 makes slide-rocking ill-posed: Painlevé paradox)",
+};
+const RESTITUTION_DOMAIN: Domain = Domain {
+    lo: 0.0,
+    lo_open: false,
+    hi: 1.0,
+    hi_open: false,
+    requirement: "in [0, 1]",
+};
+
+impl Domain {
+    fn contains(&self, x: f64) -> bool {
+        let above_lo = if self.lo_open {
+            x > self.lo
+        } else {
+            x >= self.lo
+        };
+        let below_hi = if self.hi_open {
+            x < self.hi
+        } else {
+            x <= self.hi
+        };
+        x.is_finite() && above_lo && below_hi
+    }
+
+    /// The nearest value inside the domain (for rounding at the ends of a quantile map).
+    fn clamp(&self, x: f64) -> f64 {
+        let lo = if self.lo_open {
+            self.lo.next_up()
+        } else {
+            self.lo
+        };
+        let hi = if self.hi_open {
+            self.hi.next_down()
+        } else {
+            self.hi
+        };
+        if x.is_nan() {
+            lo
+        } else {
+            x.clamp(lo, hi)
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Distribution {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer.deserialize_any(DistributionVisitor)
+    }
+}
+
+struct DistributionVisitor;
+
+impl<'de> Visitor<'de> for DistributionVisitor {
+    type Value = Distribution;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a number, a range { min = .., max = .. } or a normal { mean = .., sd = .. }")
+    }
+
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Distribution, E> {
+        Ok(Distribution::Fixed(v))
+    }
+
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Distribution, E> {
+        Ok(Distribution::Fixed(v as f64))
+    }
+
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Distribution, E> {
+        Ok(Distribution::Fixed(v as f64))
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Distribution, A::Error> {
+        let (mut min, mut max, mut mean, mut sd) = (None, None, None, None);
+        while let Some(key) = map.next_key::<String>()? {
+            let slot = match key.as_str() {
+                "min" => &mut min,
+                "max" => &mut max,
+                "mean" => &mut mean,
+                "sd" => &mut sd,
+                _ => {
+                    return Err(de::Error::custom(format!(
+                        "unknown key `{key}`: a distribution is {{ min, max }} (uniform) or \
+                         {{ mean, sd }} (normal)"
+                    )))
+                }
+            };
+            *slot = Some(map.next_value::<f64>()?);
+        }
+        match (min, max, mean, sd) {
+            (Some(min), Some(max), None, None) => Ok(Distribution::Uniform { min, max }),
+            (None, None, Some(mean), Some(sd)) => Ok(Distribution::Normal { mean, sd }),
+            _ => {
+                let given: Vec<&str> = [("min", min), ("max", max), ("mean", mean), ("sd", sd)]
+                    .iter()
+                    .filter(|(_, v)| v.is_some())
+                    .map(|(k, _)| *k)
+                    .collect();
+                Err(de::Error::custom(format!(
+                    "a distribution is {{ min, max }} (uniform) or {{ mean, sd }} (normal), got \
+                     {{ {} }}",
+                    given.join(", ")
+                )))
+            }
+        }
+    }
+}
+
+pub use crate::station_id::StationId;
+
+/// One validated catalogue entry: a PBR or other freestanding object modelled as a rigid block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pbr {
+    id: String,
+    name: String,
+    lat_deg: f64,
+    lon_deg: f64,
+    station: StationId,
+    azimuth_deg: f64,
+    width_m: Distribution,
+    height_m: Distribution,
+    mu_s: Distribution,
+    mu_k: Distribution,
+    restitution: Option<Distribution>,
+    source: String,
+    ensemble: usize,
+    seed: u64,
+    nominal: BlockParams,
+}
+
+/// Why an ensemble member could not be built (cannot happen for a validated entry; reported
+/// rather than panicking).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("pbr {id:?}: ensemble member {member}: {reason}")]
+pub struct EnsembleError {
+    pub id: String,
+    pub member: usize,
+    pub reason: ParamError,
+}
+
+impl Pbr {
+    /// The unique identifier.
+    #[must_use]
+    pub fn id(&self) -> &str {
+        &self.id
+    }
+
+    /// The human-readable name.
+    #[must_use]
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Latitude (degrees north).
+    #[must_use]
+    pub fn lat_deg(&self) -> f64 {
+        self.lat_deg
+    }
+
+    /// Longitude (degrees east).
+    #[must_use]
+    pub fn lon_deg(&self) -> f64 {
+        self.lon_deg
+    }
+
+    /// The station whose ground motion drives this block.
+    #[must_use]
+    pub fn station(&self) -> &StationId {
+        &self.station
+    }
+
+    /// Azimuth of the block's +x axis, clockwise from north (degrees, [0, 360)).
+    #[must_use]
+    pub fn azimuth_deg(&self) -> f64 {
+        self.azimuth_deg
+    }
+
+    /// Base width B (m).
+    #[must_use]
+    pub fn width_m(&self) -> Distribution {
+        self.width_m
+    }
+
+    /// Height H (m).
+    #[must_use]
+    pub fn height_m(&self) -> Distribution {
+        self.height_m
+    }
+
+    /// Static friction coefficient μs.
+    #[must_use]
+    pub fn mu_s(&self) -> Distribution {
+        self.mu_s
+    }
+
+    /// Kinetic friction coefficient μk.
+    #[must_use]
+    pub fn mu_k(&self) -> Distribution {
+        self.mu_k
+    }
+
+    /// Rocking impact ratio e, if given (else the dynamics use Housner's η).
+    #[must_use]
+    pub fn restitution(&self) -> Option<Distribution> {
+        self.restitution
+    }
+
+    /// Where the numbers come from (free text).
+    #[must_use]
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+
+    /// Ensemble size K (1 if the entry has no `ensemble`).
+    #[must_use]
+    pub fn ensemble_size(&self) -> usize {
+        self.ensemble
+    }
+
+    /// The LHS seed: `seed` if given, else [`default_seed`]`(id)`.
+    #[must_use]
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// The block with every parameter at its nominal value (midpoint of a range, mean of a
+    /// normal).
+    #[must_use]
+    pub fn nominal(&self) -> BlockParams {
+        self.nominal
+    }
+
+    /// The horizontal ground acceleration along this block's +x axis from the east and north
+    /// components: [`project_horizontal`]`(self.azimuth_deg(), east_mps2, north_mps2)`.
+    #[must_use]
+    pub fn project_horizontal(&self, east_mps2: f64, north_mps2: f64) -> f64 {
+        project_horizontal(self.azimuth_deg, east_mps2, north_mps2)
+    }
+
+    /// The K ensemble members (K = [`Pbr::ensemble_size`]): for K = 1 exactly
+    /// [`Pbr::nominal`]; otherwise a Latin hypercube over the uncertain parameters (see the
+    /// module doc: column order, quantile maps, truncation, μk > μs handling). Reproducible:
+    /// the same entry (same seed) always gives the same members.
+    pub fn members(&self) -> Result<Vec<BlockParams>, EnsembleError> {
+        if self.ensemble <= 1 {
+            return Ok(vec![self.nominal]);
+        }
+        let parameters = self.sampled_parameters();
+        // Column j of the hypercube is the j-th uncertain parameter, in `parameters` order.
+        let uncertain: Vec<(usize, Distribution, Domain)> = parameters
+            .iter()
+            .enumerate()
+            .filter_map(|(k, p)| p.filter(|(d, _)| !d.is_fixed()).map(|(d, dom)| (k, d, dom)))
+            .collect();
+        if uncertain.is_empty() {
+            // Validation rejects K > 1 without uncertainty; K identical blocks would be the answer.
+            return Ok(vec![self.nominal; self.ensemble]);
+        }
+        let lhs = latin_hypercube_seeded(self.ensemble, uncertain.len(), self.seed);
+        let nominal_values = parameters.map(|p| p.map_or(f64::NAN, |(d, _)| d.nominal()));
+        let mut members = Vec::with_capacity(self.ensemble);
+        for (member, sample) in lhs.samples().enumerate() {
+            let mut values = nominal_values;
+            for (&(k, distribution, domain), &u) in uncertain.iter().zip(sample) {
+                values[k] = distribution.quantile(u, domain);
+            }
+            let [width_m, height_m, mu_s, mu_k, restitution] = values;
+            let params = BlockParams::from_width_height(
+                width_m,
+                height_m,
+                mu_s,
+                mu_k.min(mu_s),
+                self.restitution.map(|_| restitution),
+            )
+            .map_err(|reason| EnsembleError {
+                id: self.id.clone(),
+                member,
+                reason,
+            })?;
+            members.push(params);
+        }
+        Ok(members)
+    }
+
+    /// The five block parameters in LHS column order, each with its domain.
+    fn sampled_parameters(&self) -> [Option<(Distribution, Domain)>; 5] {
+        [
+            Some((self.width_m, SIZE_DOMAIN)),
+            Some((self.height_m, SIZE_DOMAIN)),
+            Some((self.mu_s, MU_S_DOMAIN)),
+            Some((self.mu_k, MU_K_DOMAIN)),
+            self.restitution.map(|d| (d, RESTITUTION_DOMAIN)),
+        ]
+    }
+}
+
+/// Why a catalogue could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum CatalogueError {
+    /// The file could not be read.
+    #[error("{}: cannot read the catalogue: {error}", path.display())]
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    /// The file name does not end in `.toml` or `.csv`.
+    #[error("{}: unknown catalogue format: the file name must end in .toml or .csv", path.display())]
+    UnknownFormat { path: PathBuf },
+    /// The file is not valid TOML/CSV or its overall layout is wrong (top-level keys, header).
+    #[error("{location}: {message}")]
+    Syntax { location: String, message: String },
+    /// The file holds no entry.
+    #[error("{source_name}: the catalogue has no PBR entries")]
+    Empty { source_name: String },
+    /// One entry is invalid.
+    #[error(
+        "{source_name}{}: pbr[{index}]{}: {message}",
+        line.map(|l| format!(":{l}")).unwrap_or_default(),
+        id.as_ref().map(|id| format!(" (id {id:?})")).unwrap_or_default()
+    )]
+    Entry {
+        source_name: String,
+        /// 1-based line where the entry starts, when known.
+        line: Option<usize>,
+        /// 0-based position of the entry in the file.
+        index: usize,
+        /// The entry's id, when it has one.
+        id: Option<String>,
+        /// The offending field (`mu_k`, `width_m.min`, …), when one field is to blame.
+        field: Option<String>,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// A validated catalogue: the entries in file order, ids unique.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Catalogue {
+    source_name: String,
+    pbrs: Vec<Pbr>,
+}
+
+impl Catalogue {
+    /// Reads a catalogue file: TOML if the name ends in `.toml`, CSV if `.csv` (any case).
+    pub fn load(path: impl AsRef<Path>) -> Result<Catalogue, CatalogueError> {
+        let path = path.as_ref();
+        let extension = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let is_toml = match extension.as_deref() {
+            Some("toml") => true,
+            Some("csv") => false,
+            _ => {
+                return Err(CatalogueError::UnknownFormat {
+                    path: path.to_owned(),
+                })
+            }
+        };
+        let text = std::fs::read_to_string(path).map_err(|error| CatalogueError::Io {
+            path: path.to_owned(),
+            error,
+        })?;
+        let source_name = path.display().to_string();
+        if is_toml {
+            Catalogue::from_toml_str(&text, &source_name)
+        } else {
+            Catalogue::from_csv_str(&text, &source_name)
+        }
+    }
+
+    /// Parses a TOML catalogue; `source_name` names it in error messages.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Catalogue, CatalogueError> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Document {
+            #[serde(default)]
+            pbr: Vec<toml::Spanned<toml::Table>>,
+        }
+        let document: Document = toml::from_str(text).map_err(|e| CatalogueError::Syntax {
+            location: source_name.to_owned(),
+            message: toml_error_line(text, &e),
+        })?;
+        let mut entries = Vec::with_capacity(document.pbr.len());
+        for (index, spanned) in document.pbr.into_iter().enumerate() {
+            let line = Some(line_of_offset(text, spanned.span().start));
+            let table = spanned.into_inner();
+            let id = table
+                .get("id")
+                .and_then(toml::Value::as_str)
+                .filter(|s| !s.is_empty())
+                .map(str::to_owned);
+            let context = EntryContext {
+                source_name,
+                line,
+                index,
+                id,
+                sub_separator: '.',
+            };
+            let raw: RawPbr = serde_path_to_error::deserialize(table).map_err(|e| {
+                let path = e.path().to_string();
+                let message = e.inner().message().to_owned();
+                if path == "." || path.is_empty() {
+                    context.error(None, message)
+                } else if message.starts_with("unknown field") {
+                    // serde's message already names the field.
+                    context.error(Some(path), message)
+                } else {
+                    let message = format!("{path}: {message}");
+                    context.error(Some(path), message)
+                }
+            })?;
+            entries.push((context, raw));
+        }
+        Catalogue::build(source_name, entries)
+    }
+
+    /// Parses a CSV catalogue (format in the module doc); `source_name` names it in errors.
+    pub fn from_csv_str(text: &str, source_name: &str) -> Result<Catalogue, CatalogueError> {
+        let mut reader = csv::ReaderBuilder::new()
+            .comment(Some(b'#'))
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        let syntax = |line: Option<u64>, message: String| CatalogueError::Syntax {
+            location: match line {
+                Some(l) => format!("{source_name}:{l}"),
+                None => source_name.to_owned(),
+            },
+            message,
+        };
+        let headers = reader
+            .headers()
+            .map_err(|e| syntax(None, format!("cannot read the CSV header: {e}")))?
+            .clone();
+        let header_line = headers.position().map_or(1, csv::Position::line);
+        let columns = CsvColumns::from_header(&headers)
+            .map_err(|message| syntax(Some(header_line), message))?;
+        let mut entries = Vec::new();
+        for (index, record) in reader.records().enumerate() {
+            let record = record.map_err(|e| {
+                let line = e.position().map(csv::Position::line);
+                syntax(line, format!("invalid CSV row: {e}"))
+            })?;
+            let line = record.position().map(|p| p.line() as usize);
+            let id = columns
+                .cell(&record, "id")
+                .filter(|s| !s.is_empty())
+                .map(str::to_owned);
+            let context = EntryContext {
+                source_name,
+                line,
+                index,
+                id,
+                sub_separator: '_',
+            };
+            let raw = columns
+                .raw_pbr(&record)
+                .map_err(|(field, message)| context.error(Some(field), message))?;
+            entries.push((context, raw));
+        }
+        Catalogue::build(source_name, entries)
+    }
+
+    /// Validates the parsed entries and checks that the ids are unique.
+    fn build(
+        source_name: &str,
+        entries: Vec<(EntryContext<'_>, RawPbr)>,
+    ) -> Result<Catalogue, CatalogueError> {
+        if entries.is_empty() {
+            return Err(CatalogueError::Empty {
+                source_name: source_name.to_owned(),
+            });
+        }
+        let mut pbrs: Vec<Pbr> = Vec::with_capacity(entries.len());
+        let mut lines: Vec<Option<usize>> = Vec::with_capacity(entries.len());
+        for (context, raw) in entries {
+            let pbr = validate(raw, context.sub_separator)
+                .map_err(|(field, message)| context.error(Some(field), message))?;
+            if let Some(first) = pbrs.iter().position(|p| p.id == pbr.id) {
+                let at = lines[first]
+                    .map(|l| format!(" (line {l})"))
+                    .unwrap_or_default();
+                let message = format!("id {:?} is already used by pbr[{first}]{at}", pbr.id);
+                return Err(context.error(Some("id".to_owned()), message));
+            }
+            lines.push(context.line);
+            pbrs.push(pbr);
+        }
+        Ok(Catalogue {
+            source_name: source_name.to_owned(),
+            pbrs,
+        })
+    }
+
+    /// The name the catalogue was loaded under (file path or the given source name).
+    #[must_use]
+    pub fn source_name(&self) -> &str {
+        &self.source_name
+    }
+
+    /// All entries, in file order.
+    #[must_use]
+    pub fn pbrs(&self) -> &[Pbr] {
+        &self.pbrs
+    }
+
+    /// Number of entries (never 0 for a loaded catalogue).
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.pbrs.len()
+    }
+
+    /// Whether the catalogue has no entry (never true for a loaded catalogue).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.pbrs.is_empty()
+    }
+
+    /// The entry with this id.
+    #[must_use]
+    pub fn get(&self, id: &str) -> Option<&Pbr> {
+        self.pbrs.iter().find(|p| p.id == id)
+    }
+
+    /// The entries driven by the station `NET.STA.LOC` (exact, case-sensitive match), in file
+    /// order.
+    pub fn pbrs_for_station<'a>(&'a self, station: &'a str) -> impl Iterator<Item = &'a Pbr> + 'a {
+        self.pbrs
+            .iter()
+            .filter(move |p| p.station.as_str() == station)
+    }
+
+    /// The distinct stations of the catalogue, in order of first appearance.
+    #[must_use]
+    pub fn stations(&self) -> Vec<&StationId> {
+        let mut stations: Vec<&StationId> = Vec::new();
+        for pbr in &self.pbrs {
+            if !stations.contains(&&pbr.station) {
+                stations.push(&pbr.station);
+            }
+        }
+        stations
+    }
+}
+
+/// A TOML error as one line, `line N: message` (toml's own rendering spans several lines).
+pub fn toml_error_line(text: &str, error: &toml::de::Error) -> String {
+    let message = error.message().replace('\n', " ");
+    match error.span() {
+        Some(span) => format!("line {}: {message}", line_of_offset(text, span.start)),
+        None => message,
+    }
+}
+
+fn line_of_offset(text: &str, offset: usize) -> usize {
+    let end = offset.min(text.len());
+    text.as_bytes()[..end]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// Where an entry came from, to name it in errors.
+struct EntryContext<'a> {
+    source_name: &'a str,
+    line: Option<usize>,
+    index: usize,
+    id: Option<String>,
+    /// Separator between a parameter and its sub-field in messages: `.` (TOML) or `_` (CSV).
+    sub_separator: char,
+}
+
+impl EntryContext<'_> {
+    fn error(&self, field: Option<String>, message: String) -> CatalogueError {
+        CatalogueError::Entry {
+            source_name: self.source_name.to_owned(),
+            line: self.line,
+            index: self.index,
+            id: self.id.clone(),
+            field,
+            message,
+        }
+    }
+}
+
+/// One entry as written, before validation (shared by the TOML and CSV readers).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPbr {
+    id: String,
+    name: String,
+    lat: f64,
+    lon: f64,
+    station: String,
+    azimuth_deg: f64,
+    width_m: Distribution,
+    height_m: Distribution,
+    mu_s: Distribution,
+    mu_k: Distribution,
+    #[serde(default)]
+    restitution: Option<Distribution>,
+    source: String,
+    #[serde(default)]
+    ensemble: Option<Integer>,
+    #[serde(default)]
+    seed: Option<Integer>,
+}
+
+/// An integer of either sign up to the `u64` range (TOML integers are `i64`, CSV seeds `u64`);
+/// range checks happen in validation, with the field's own message.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Integer(i128);
+
+impl<'de> Deserialize<'de> for Integer {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct IntegerVisitor;
+        impl Visitor<'_> for IntegerVisitor {
+            type Value = Integer;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an integer")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Integer, E> {
+                Ok(Integer(i128::from(v)))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Integer, E> {
+                Ok(Integer(i128::from(v)))
+            }
+        }
+        deserializer.deserialize_any(IntegerVisitor)
+    }
+}
+
+/// Validates one entry; the error is (field, message).
+fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
+    let fail = |field: &str, message: String| Err((field.to_owned(), message));
+
+    if raw.id.is_empty() {
+        return fail("id", "id must not be empty".to_owned());
+    }
+    if raw.id.chars().any(|c| c.is_whitespace() || c.is_control()) {
+        return fail(
+            "id",
+            format!(
+                "id {:?} must not contain whitespace or control characters",
+                raw.id
+            ),
+        );
+    }
+    for (field, text) in [("name", &raw.name), ("source", &raw.source)] {
+        if text.trim().is_empty() {
+            let why = if field == "source" {
+                " (say where the numbers come from)"
+            } else {
+                ""
+            };
+            return fail(field, format!("{field} must not be blank{why}"));
+        }
+    }
+    if !(raw.lat.is_finite() && (-90.0..=90.0).contains(&raw.lat)) {
+        return fail(
+            "lat",
+            format!("lat = {} must be in [-90, 90] degrees", raw.lat),
+        );
+    }
+    if !(raw.lon.is_finite() && (-180.0..=180.0).contains(&raw.lon)) {
+        return fail(
+            "lon",
+            format!("lon = {} must be in [-180, 180] degrees", raw.lon),
+        );
+    }
+    let station = StationId::parse(&raw.station)
+        .map_err(|why| ("station".to_owned(), format!("station {why}")))?;
+    if !(raw.azimuth_deg.is_finite() && (0.0..360.0).contains(&raw.azimuth_deg)) {
+        return fail(
+            "azimuth_deg",
+            format!(
+                "azimuth_deg = {} must be in [0, 360) degrees clockwise from north",
+                raw.azimuth_deg
+            ),
+        );
+    }
+    check_distribution("width_m", &raw.width_m, SIZE_DOMAIN, sep)?;
+    check_distribution("height_m", &raw.height_m, SIZE_DOMAIN, sep)?;
+    check_distribution("mu_s", &raw.mu_s, MU_S_DOMAIN, sep)?;
+    check_distribution("mu_k", &raw.mu_k, MU_K_DOMAIN, sep)?;
+    if let Some(e) = &raw.restitution {
+        check_distribution("restitution", e, RESTITUTION_DOMAIN, sep)?;
+    }
+    let (mu_s, mu_k) = (raw.mu_s.nominal(), raw.mu_k.nominal());
+    // A midpoint such as (0.4 + 0.8)/2 = 0.6000000000000001 must not count as exceeding 0.6:
+    // an excess of a few ulps is rounding, and the nominal μk is then taken equal to μs.
+    if mu_k > mu_s * (1.0 + 4.0 * f64::EPSILON) {
+        let nominal = if raw.mu_s.is_fixed() && raw.mu_k.is_fixed() {
+            ""
+        } else {
+            "nominal "
+        };
+        return fail(
+            "mu_k",
+            format!("{nominal}mu_k = {mu_k} exceeds {nominal}mu_s = {mu_s}"),
+        );
+    }
+    let n_uncertain = [raw.width_m, raw.height_m, raw.mu_s, raw.mu_k]
+        .iter()
+        .chain(raw.restitution.iter())
+        .filter(|d| !d.is_fixed())
+        .count();
+    let ensemble = match raw.ensemble.map(|k| k.0) {
+        None => 1,
+        Some(k) if (1..=MAX_ENSEMBLE as i128).contains(&k) => k as usize,
+        Some(k) => {
+            return fail(
+                "ensemble",
+                format!("ensemble = {k} must be an integer from 1 to {MAX_ENSEMBLE}"),
+            )
+        }
+    };
+    if ensemble > 1 && n_uncertain == 0 {
+        return fail(
+            "ensemble",
+            format!(
+                "ensemble = {ensemble} but no parameter is uncertain: give a range or a normal \
+                 for at least one of width_m, height_m, mu_s, mu_k, restitution, or drop ensemble"
+            ),
+        );
+    }
+    let seed = match raw.seed.map(|s| s.0) {
+        None => default_seed(&raw.id),
+        Some(s) => match u64::try_from(s) {
+            Ok(s) => s,
+            Err(_) => {
+                return fail(
+                    "seed",
+                    format!("seed = {s} must be an integer from 0 to {}", u64::MAX),
+                )
+            }
+        },
+    };
+    let nominal = BlockParams::from_width_height(
+        raw.width_m.nominal(),
+        raw.height_m.nominal(),
+        mu_s,
+        mu_k.min(mu_s),
+        raw.restitution.map(|d| d.nominal()),
+    )
+    .map_err(|e| ("width_m".to_owned(), format!("nominal block rejected: {e}")))?;
+    Ok(Pbr {
+        id: raw.id,
+        name: raw.name,
+        lat_deg: raw.lat,
+        lon_deg: raw.lon,
+        station,
+        azimuth_deg: raw.azimuth_deg,
+        width_m: raw.width_m,
+        height_m: raw.height_m,
+        mu_s: raw.mu_s,
+        mu_k: raw.mu_k,
+        restitution: raw.restitution,
+        source: raw.source,
+        ensemble,
+        seed,
+        nominal,
+    })
+}
+
+/// Checks one distribution against its parameter's domain; errors name `field` or
+/// `field{sep}min` etc.
+fn check_distribution(
+    field: &str,
+    distribution: &Distribution,
+    domain: Domain,
+    sep: char,
+) -> Result<(), (String, String)> {
+    let need = |name: String, value: f64| -> Result<(), (String, String)> {
+        if domain.contains(value) {
+            Ok(())
+        } else {
+            let message = format!("{name} = {value} must be {}", domain.requirement);
+            Err((name, message))
+        }
+    };
+    match *distribution {
+        Distribution::Fixed(v) => need(field.to_owned(), v),
+        Distribution::Uniform { min, max } => {
+            need(format!("{field}{sep}min"), min)?;
+            need(format!("{field}{sep}max"), max)?;
+            if min < max {
+                Ok(())
+            } else {
+                let name = format!("{field}{sep}min");
+                let message = format!(
+                    "{name} = {min} must be less than {field}{sep}max = {max} (use a plain number \
+                     for a known value)"
+                );
+                Err((name, message))
+            }
+        }
+        Distribution::Normal { mean, sd } => {
+            need(format!("{field}{sep}mean"), mean)?;
+            if sd.is_finite() && sd > 0.0 {
+                Ok(())
+            } else {
+                let name = format!("{field}{sep}sd");
+                let message = format!(
+                    "{name} = {sd} must be a finite number > 0 (use a plain number for a known \
+                     value)"
+                );
+                Err((name, message))
+            }
+        }
+    }
+}
+
+/// The uncertain parameters, in LHS column order (also their CSV column stems).
+const UNCERTAIN_FIELDS: [&str; 5] = ["width_m", "height_m", "mu_s", "mu_k", "restitution"];
+/// Scalar CSV columns that must be present.
+const REQUIRED_SCALAR_COLUMNS: [&str; 7] = [
+    "id",
+    "name",
+    "lat",
+    "lon",
+    "station",
+    "azimuth_deg",
+    "source",
+];
+/// Scalar CSV columns that may be absent.
+const OPTIONAL_SCALAR_COLUMNS: [&str; 2] = ["ensemble", "seed"];
+/// Suffixes of the columns of an uncertain parameter `P`: `P`, `P_min`, `P_max`, `P_mean`,
+/// `P_sd`.
+const DISTRIBUTION_SUFFIXES: [&str; 5] = ["", "_min", "_max", "_mean", "_sd"];
+
+/// The column layout of a CSV catalogue: name → index.
+struct CsvColumns {
+    index: std::collections::HashMap<String, usize>,
+}
+
+impl CsvColumns {
+    fn from_header(headers: &csv::StringRecord) -> Result<CsvColumns, String> {
+        let mut index = std::collections::HashMap::new();
+        for (i, name) in headers.iter().enumerate() {
+            let known = REQUIRED_SCALAR_COLUMNS
+                .iter()
+                .chain(OPTIONAL_SCALAR_COLUMNS.iter())
+                .any(|c| *c == name)
+                || UNCERTAIN_FIELDS.iter().any(|stem| {
+                    DISTRIBUTION_SUFFIXES
+                        .iter()
+                        .any(|suffix| name.strip_prefix(stem) == Some(suffix))
+                });
+            if !known {
+                return Err(format!(
+                    "unknown column {name:?} in the CSV header (known: {}, and for P in {}: P, \
+                     P_min + P_max, or P_mean + P_sd)",
+                    REQUIRED_SCALAR_COLUMNS
+                        .iter()
+                        .chain(OPTIONAL_SCALAR_COLUMNS.iter())
+                        .copied()
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    UNCERTAIN_FIELDS.join(", ")
+                ));
+            }
+            if index.insert(name.to_owned(), i).is_some() {
+                return Err(format!("column {name:?} appears twice in the CSV header"));
+            }
+        }
+        for required in REQUIRED_SCALAR_COLUMNS {
+            if !index.contains_key(required) {
+                return Err(format!("the CSV header has no {required:?} column"));
+            }
+        }
+        for stem in &UNCERTAIN_FIELDS[..4] {
+            if !DISTRIBUTION_SUFFIXES
+                .iter()
+                .any(|suffix| index.contains_key(&format!("{stem}{suffix}")))
+            {
+                return Err(format!(
+                    "the CSV header has no column for {stem} ({stem}, {stem}_min + {stem}_max, \
+                     or {stem}_mean + {stem}_sd)"
+                ));
+            }
+        }
+        Ok(CsvColumns { index })
+    }
+
+    /// The trimmed cell of `column` in `record`, `None` if there is no such column.
+    fn cell<'r>(&self, record: &'r csv::StringRecord, column: &str) -> Option<&'r str> {
+        self.index.get(column).and_then(|&i| record.get(i))
+    }
+
+    /// The non-empty cell of `column`, `None` if the column is absent or the cell empty.
+    fn value<'r>(&self, record: &'r csv::StringRecord, column: &str) -> Option<&'r str> {
+        self.cell(record, column).filter(|s| !s.is_empty())
+    }
+
+    fn string(&self, record: &csv::StringRecord, column: &str) -> String {
+        self.cell(record, column).unwrap_or("").to_owned()
+    }
+
+    fn number(&self, record: &csv::StringRecord, column: &str) -> Result<f64, (String, String)> {
+        match self.value(record, column) {
+            None => Err((
+                column.to_owned(),
+                format!("{column} is missing (empty cell)"),
+            )),
+            Some(text) => parse_number(column, text),
+        }
+    }
+
+    fn integer(
+        &self,
+        record: &csv::StringRecord,
+        column: &str,
+    ) -> Result<Option<Integer>, (String, String)> {
+        self.value(record, column)
+            .map(|text| {
+                text.parse::<i128>().map(Integer).map_err(|_| {
+                    (
+                        column.to_owned(),
+                        format!("{column} = {text:?} is not an integer"),
+                    )
+                })
+            })
+            .transpose()
+    }
+
+    /// The distribution of `stem` in this row: exactly one of the three column forms.
+    fn distribution(
+        &self,
+        record: &csv::StringRecord,
+        stem: &str,
+    ) -> Result<Option<Distribution>, (String, String)> {
+        let cells: Vec<(String, Option<&str>)> = DISTRIBUTION_SUFFIXES
+            .iter()
+            .map(|suffix| {
+                let column = format!("{stem}{suffix}");
+                let value = self.value(record, &column);
+                (column, value)
+            })
+            .collect();
+        let present: Vec<bool> = cells.iter().map(|(_, v)| v.is_some()).collect();
+        let number = |k: usize| -> Result<f64, (String, String)> {
+            parse_number(&cells[k].0, cells[k].1.unwrap_or(""))
+        };
+        match present[..] {
+            [false, false, false, false, false] => Ok(None),
+            [true, false, false, false, false] => Ok(Some(Distribution::Fixed(number(0)?))),
+            [false, true, true, false, false] => Ok(Some(Distribution::Uniform {
+                min: number(1)?,
+                max: number(2)?,
+            })),
+            [false, false, false, true, true] => Ok(Some(Distribution::Normal {
+                mean: number(3)?,
+                sd: number(4)?,
+            })),
+            _ => {
+                let given: Vec<&str> = cells
+                    .iter()
+                    .filter(|(_, v)| v.is_some())
+                    .map(|(c, _)| c.as_str())
+                    .collect();
+                Err((
+                    stem.to_owned(),
+                    format!(
+                        "{stem}: fill exactly one of {stem}, {stem}_min + {stem}_max, or \
+                         {stem}_mean + {stem}_sd (got {})",
+                        given.join(", ")
+                    ),
+                ))
+            }
+        }
+    }
+
+    fn raw_pbr(&self, record: &csv::StringRecord) -> Result<RawPbr, (String, String)> {
+        let required = |stem: &str| -> Result<Distribution, (String, String)> {
+            self.distribution(record, stem)?.ok_or_else(|| {
+                (
+                    stem.to_owned(),
+                    format!(
+                        "{stem} is missing (fill {stem}, {stem}_min + {stem}_max, or \
+                         {stem}_mean + {stem}_sd)"
+                    ),
+                )
+            })
+        };
+        Ok(RawPbr {
+            id: self.string(record, "id"),
+            name: self.string(record, "name"),
+            lat: self.number(record, "lat")?,
+            lon: self.number(record, "lon")?,
+            station: self.string(record, "station"),
+            azimuth_deg: self.number(record, "azimuth_deg")?,
+            width_m: required("width_m")?,
+            height_m: required("height_m")?,
+            mu_s: required("mu_s")?,
+            mu_k: required("mu_k")?,
+            restitution: self.distribution(record, "restitution")?,
+            source: self.string(record, "source"),
+            ensemble: self.integer(record, "ensemble")?,
+            seed: self.integer(record, "seed")?,
+        })
+    }
+}
+
+fn parse_number(column: &str, text: &str) -> Result<f64, (String, String)> {
+    text.parse::<f64>().map_err(|_| {
+        (
+            column.to_owned(),
+            format!("{column} = {text:?} is not a number"),
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv1a_default_seed_matches_published_test_vectors() {
+        // Test vectors of the FNV reference (Landon Curt Noll, www.isthe.com/chongo/tech/comp/fnv,
+        // and draft-eastlake-fnv): FNV-1a 64 of "", "a" and "foobar".
+        assert_eq!(default_seed(""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(default_seed("a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(default_seed("foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn station_id_splits_into_seed_codes() {
+        let s = StationId::parse("CI.RRS.00").unwrap();
+        assert_eq!(
+            (s.network(), s.station(), s.location()),
+            ("CI", "RRS", "00")
+        );
+        assert_eq!(s.to_string(), "CI.RRS.00");
+        let s = StationId::parse("N4.ABCDE.").unwrap();
+        assert_eq!(
+            (s.network(), s.station(), s.location()),
+            ("N4", "ABCDE", "")
+        );
+        for bad in [
+            "CI.RRS",
+            "CI.RRS.00.HNE",
+            "CIX.RRS.00",
+            ".RRS.00",
+            "CI.RRSXYZ.00",
+            "CI..00",
+            "CI.RRS.000",
+            "ci.RRS.00",
+            "CI.R-S.00",
+        ] {
+            assert!(StationId::parse(bad).is_err(), "{bad} accepted");
+        }
+    }
+
+    #[test]
+    fn domain_clamp_stays_inside_open_and_closed_ends() {
+        assert!(SIZE_DOMAIN.contains(SIZE_DOMAIN.clamp(-1.0)));
+        assert!(SIZE_DOMAIN.contains(SIZE_DOMAIN.clamp(0.0)));
+        assert!(MU_K_DOMAIN.contains(MU_K_DOMAIN.clamp(4.0 / 3.0)));
+        assert_eq!(MU_K_DOMAIN.clamp(-0.5), 0.0);
+        assert_eq!(RESTITUTION_DOMAIN.clamp(1.5), 1.0);
+        assert!(!MU_K_DOMAIN.contains(4.0 / 3.0));
+        assert!(!SIZE_DOMAIN.contains(f64::INFINITY));
+    }
+
+    #[test]
+    fn standard_normal_cdf_matches_published_values() {
+        // Φ(1) = 0.841344746068542948…, Φ(−1.959963984540054) = 0.025, Φ(−6) = 9.8658765e−10
+        // (A&S table 26.1 / R pnorm); erfc is ~1 ulp, so 1e−15 relative is generous.
+        assert!((standard_normal_cdf(1.0) - 0.841_344_746_068_542_9).abs() < 1e-15);
+        assert!((standard_normal_cdf(-1.959_963_984_540_054) - 0.025).abs() < 1e-16);
+        assert!((standard_normal_cdf(-6.0) / 9.865_876_450_376_98e-10 - 1.0).abs() < 1e-12);
+        assert_eq!(standard_normal_cdf(f64::NEG_INFINITY), 0.0);
+        assert_eq!(standard_normal_cdf(f64::INFINITY), 1.0);
+    }
+
+    #[test]
+    fn truncated_normal_quantile_hits_the_domain_ends_at_u_extremes() {
+        // A normal with mean 0.05, sd 0.1 on [0, 4/3): u → 0 gives values near 0 (never below),
+        // u = ½ gives the median of the truncated law: Φ⁻¹(Φ(−0.5) + ½(1 − Φ(−0.5)))·sd + mean.
+        let d = Distribution::Normal {
+            mean: 0.05,
+            sd: 0.1,
+        };
+        let lo = d.quantile(1e-12, MU_K_DOMAIN);
+        assert!((0.0..1e-9).contains(&lo), "{lo}");
+        // Φ(−0.5) = 0.308537538725987; median p = 0.654268769362994, Φ⁻¹(p) = 0.396...
+        let p_med = 0.308_537_538_725_987 + 0.5 * (1.0 - 0.308_537_538_725_987);
+        let expected = 0.05 + 0.1 * standard_normal_quantile(p_med);
+        assert!((d.quantile(0.5, MU_K_DOMAIN) - expected).abs() < 1e-12);
+    }
+}

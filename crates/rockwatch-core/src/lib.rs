@@ -1,0 +1,23 @@
+//! rockwatch-core: the functional core of rockwatch, live seismic monitoring of precariously
+//! balanced rocks (PBRs).
+//!
+//! Pure, deterministic and transport-free: no network, no clock, no threads but the engine's
+//! optional shards and the study's data-parallel loop. The shell (`crates/rockwatch`: ROS 2,
+//! iceoryx2, the live node, files of state, CLI) is built on this crate and never the reverse.
+//! See ARCHITECTURE.md for the map of modules and their invariants.
+
+pub mod catalogue;
+pub mod dynamics;
+pub mod engine;
+pub mod ims;
+pub mod lhs;
+pub mod mseed;
+pub mod ode;
+pub mod pulse;
+pub mod record;
+pub mod simulate;
+pub mod station_id;
+pub mod study;
+
+/// Standard gravity g (m/s²): the unit of AT2 records and the gravity of the block dynamics.
+pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;

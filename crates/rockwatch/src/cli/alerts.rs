@@ -1,0 +1,188 @@
+//! `rockwatch alerts` and `rockwatch reset`: the alert history of a state directory, and
+//! the operator reset of a fallen block (in a state directory, or live through a running
+//! node's ROS 2 service `/pbr/reset`).
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{bail, Context as _};
+use rockwatch::journal::{read_journal, Journal};
+use rockwatch::node_config::NodeConfig;
+use rockwatch::ros2::{network_plan_from_env, Ros2ResetClient, RESET_SERVICE};
+use rockwatch_core::engine::JournalRecord;
+
+use super::OutputFormat;
+
+/// List the alert history kept in a state directory (alerts, episode ends, resets).
+#[derive(Debug, clap::Args)]
+pub struct AlertsArgs {
+    /// State directory written by `rockwatch monitor` or the node.
+    #[arg(long = "state-dir", value_name = "DIR")]
+    state_dir: PathBuf,
+    /// Output format: a table, or one JSON array of records.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
+    format: OutputFormat,
+}
+
+/// Reset a fallen block: it stands again at rest and a new episode can raise alerts.
+///
+/// A block that overturned stays overturned (no further alerts) until an operator resets it.
+/// Give exactly one of:
+///
+/// --node: reset it on the running node, now. Calls the node's ROS 2 service /pbr/reset
+/// (pbr_msgs/srv/ResetPbr) from a participant of its own, on the DDS domain and interfaces
+/// that ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE and --config's [ros2] section give (as
+/// for `rockwatch replay`), waits up to --wait-s for the service and then for the response,
+/// and prints the node's message. The node writes the reset to its state directory before
+/// applying it, so a restart keeps it. A block that has not overturned is left alone (the
+/// request succeeds: nothing to reset); an id not in the node's catalogue fails. Exits 1 with
+/// a one-line reason when the node refuses, or no node answers in time.
+///
+/// --state-dir: append a reset record to a state directory's journal, for a node that is
+/// not running (it applies the reset when it next starts). Do not use it on the state
+/// directory of a running node: that node would not see the reset until it restarts.
+#[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("target").required(true).args(["state_dir", "node"])))]
+pub struct ResetArgs {
+    /// Id of the block to reset (its `id` in the catalogue).
+    #[arg(long, value_name = "ID")]
+    pbr: String,
+    /// Reset offline: the state directory written by `rockwatch monitor` or a stopped node.
+    #[arg(long = "state-dir", value_name = "DIR")]
+    state_dir: Option<PathBuf>,
+    /// Reset live: call the running node's ROS 2 service /pbr/reset.
+    #[arg(long)]
+    node: bool,
+    /// With --node: node configuration whose [ros2] section (domain, discovery range,
+    /// interfaces) to use.
+    #[arg(long, value_name = "FILE", conflicts_with = "state_dir")]
+    config: Option<PathBuf>,
+    /// With --node: seconds to wait for the node's service, and then for its response.
+    #[arg(
+        long = "wait-s",
+        default_value_t = 30.0,
+        value_name = "S",
+        conflicts_with = "state_dir"
+    )]
+    wait_s: f64,
+}
+
+pub fn run_alerts(args: AlertsArgs) -> anyhow::Result<()> {
+    if !args.state_dir.is_dir() {
+        bail!("{}: not a directory", args.state_dir.display());
+    }
+    let (records, report) = read_journal(&args.state_dir)?;
+    if !report.corrupt_lines.is_empty() {
+        eprintln!(
+            "rockwatch: warning: {}: skipped corrupt journal lines {:?}",
+            args.state_dir.display(),
+            report.corrupt_lines
+        );
+    }
+    match args.format {
+        OutputFormat::Json => outln!("{}", serde_json::to_string_pretty(&records)?),
+        OutputFormat::Text => {
+            outln!(
+                "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8} {:>9}",
+                "pbr",
+                "station",
+                "episode",
+                "level",
+                "mode",
+                "θ/α",
+                "data time (ns)"
+            );
+            for r in &records {
+                match r {
+                    JournalRecord::Alert(a) => outln!(
+                        "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8.3} {:>9}",
+                        a.pbr_id,
+                        a.station,
+                        a.episode,
+                        a.level.as_str(),
+                        a.mode.as_str(),
+                        a.theta_over_alpha,
+                        a.data_time_ns
+                    ),
+                    JournalRecord::EpisodeEnd { pbr_id, episode } => {
+                        outln!("{pbr_id:<24} {:<12} {episode:>7} episode ended", "")
+                    }
+                    JournalRecord::Reset { pbr_id } => {
+                        outln!("{pbr_id:<24} {:<12} {:>7} reset by operator", "", "")
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+pub fn run_reset(args: ResetArgs) -> anyhow::Result<()> {
+    match &args.state_dir {
+        Some(dir) => reset_offline(dir, &args.pbr),
+        None => reset_live(&args),
+    }
+}
+
+/// `--state-dir`: a reset record appended to the journal.
+fn reset_offline(state_dir: &std::path::Path, pbr: &str) -> anyhow::Result<()> {
+    if !state_dir.is_dir() {
+        bail!("{}: not a directory", state_dir.display());
+    }
+    let (mut journal, records, _) = Journal::open(state_dir)?;
+    let known = records
+        .iter()
+        .any(|r| matches!(r, JournalRecord::Alert(a) if a.pbr_id == pbr));
+    if !known {
+        bail!(
+            "{}: no alert recorded for block {pbr:?}; nothing to reset",
+            state_dir.display()
+        );
+    }
+    journal.append(&JournalRecord::Reset {
+        pbr_id: pbr.to_string(),
+    })?;
+    outln!("block {pbr} reset in {}", state_dir.display());
+    Ok(())
+}
+
+/// `--node`: the running node's `/pbr/reset` service.
+fn reset_live(args: &ResetArgs) -> anyhow::Result<()> {
+    if !(args.wait_s.is_finite() && args.wait_s >= 0.0) {
+        bail!("--wait-s must be ≥ 0, got {}", args.wait_s);
+    }
+    let wait = Duration::from_secs_f64(args.wait_s);
+    let config = match &args.config {
+        Some(path) => NodeConfig::load(path).map_err(anyhow::Error::msg)?,
+        None => NodeConfig::default(),
+    };
+    let plan = network_plan_from_env(&config.ros2).map_err(anyhow::Error::msg)?;
+    let mut client = Ros2ResetClient::open(&plan, &config.ros2.namespace)
+        .context("cannot join the ROS 2 graph")?;
+    if !client.wait_for_service(wait) {
+        bail!(
+            "no node offered {RESET_SERVICE} within {} s (is `rockwatch node` running on the \
+             same domain and network?)",
+            args.wait_s
+        );
+    }
+    let response = client.reset(&args.pbr, wait)?;
+    if !response.success {
+        bail!("the node refused: {}", one_line(&response.message));
+    }
+    outln!("{}", one_line(&response.message));
+    Ok(())
+}
+
+/// `text` on one line: control characters (a hostile or broken peer's) escaped.
+fn one_line(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}

@@ -1,0 +1,246 @@
+//! `rockwatch demo`: the README's first command. With no arguments it starts the live node
+//! in-process with the bundled example catalogue on DDS restricted to loopback, replays the
+//! bundled Rinaldi Receiving Station record of the 1994 Northridge earthquake (228° + UP,
+//! PEER NGA RSN1063) through ROS 2 as station CI.RRS.00, prints each alert as it arrives on
+//! a real ROS 2 subscription to `/pbr/alerts`, then a table of every block.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, Context};
+use rockwatch::node::{NodeOptions, Publication, Publisher};
+use rockwatch::node_config::NodeConfig;
+use rockwatch::replay::{replay, PacketSink, Restamp, Speed, Traces};
+use rockwatch::ros2::{msg, network_plan, Ros2AlertListener, Ros2Config, Ros2PacketSink};
+use rockwatch_core::engine::{AlertLevel, StationId};
+use rockwatch_core::record::parse_at2_text;
+
+const HORIZONTAL_AT2: &str = include_str!("../../../../tests/data/records/Rinaldi228.AT2");
+const VERTICAL_AT2: &str = include_str!("../../../../tests/data/records/RinaldiUP.AT2");
+const CATALOGUE_TOML: &str = include_str!("../../../../config/catalogue.toml");
+const NODE_TOML: &str = include_str!("../../../../config/node.toml");
+const STATION: &str = "CI.RRS.00";
+const AZIMUTH_DEG: f64 = 228.0;
+
+/// Run the built-in demonstration: the live node, over ROS 2 on loopback, watching the
+/// bundled example blocks while a bundled near-fault record is replayed (no arguments
+/// needed; nothing leaves the host).
+#[derive(Debug, clap::Args)]
+pub struct DemoArgs {
+    /// Replay speed (× real time; "max" = as fast as the node takes packets).
+    #[arg(long, default_value = "10", value_name = "N|max")]
+    speed: Speed,
+    /// Seconds of quiet replayed after the record (blocks may fall after the shaking).
+    #[arg(long, default_value_t = 10.0, value_name = "S")]
+    tail: f64,
+}
+
+/// Records each alert's node latency (arrival of the triggering packet → publication).
+struct LatencyRecorder(Arc<Mutex<BTreeMap<(String, AlertLevel), i64>>>);
+
+impl Publisher for LatencyRecorder {
+    fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
+        if let Publication::Alert { alert, latency_ns } = publication {
+            self.0
+                .lock()
+                .map_err(|_| anyhow!("latency table poisoned"))?
+                .insert((alert.pbr_id.clone(), alert.level), *latency_ns);
+        }
+        Ok(())
+    }
+}
+
+/// A scratch directory removed on drop.
+struct ScratchDir(PathBuf);
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn bundled_traces() -> anyhow::Result<Traces> {
+    let h = Path::new("bundled:Rinaldi228.AT2");
+    let v = Path::new("bundled:RinaldiUP.AT2");
+    let mut record = parse_at2_text(HORIZONTAL_AT2, h)?.into_record(h);
+    record.vertical_mps2 = Some(
+        parse_at2_text(VERTICAL_AT2, v)?
+            .into_record(v)
+            .horizontal_mps2,
+    );
+    Traces::from_record(&record, AZIMUTH_DEG).map_err(anyhow::Error::msg)
+}
+
+pub fn run(args: DemoArgs) -> anyhow::Result<()> {
+    // The bundled configuration and catalogue, written where the node can load them.
+    let dir = ScratchDir(std::env::temp_dir().join(format!(
+        "rockwatch-demo-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos())
+    )));
+    std::fs::create_dir_all(&dir.0).with_context(|| format!("{}", dir.0.display()))?;
+    std::fs::write(dir.0.join("catalogue.toml"), CATALOGUE_TOML)?;
+    std::fs::write(dir.0.join("node.toml"), NODE_TOML)?;
+    let mut config = NodeConfig::load(&dir.0.join("node.toml")).map_err(anyhow::Error::msg)?;
+    // Loopback only, whatever ROS_AUTOMATIC_DISCOVERY_RANGE says; ROS_DOMAIN_ID is honoured.
+    config.ros2 = Ros2Config::loopback_only();
+    // ROS 2 only: the bundled node.toml names an iceoryx2 config file beside it, which the
+    // demo does not ship, and the default iceoryx2 services could clash with a real node's.
+    config.iceoryx2.config_file = None;
+    let plan = network_plan(
+        &config.ros2,
+        std::env::var("ROS_DOMAIN_ID").ok().as_deref(),
+        None,
+    )
+    .map_err(anyhow::Error::msg)?;
+    let options = NodeOptions {
+        config,
+        catalogue: None,
+        state_dir: None,
+        shards: 1,
+    };
+
+    let station = StationId::parse(STATION).map_err(anyhow::Error::msg)?;
+    let traces = bundled_traces()?;
+    let packets = traces.packets(&station, 100, args.tail);
+    outln!(
+        "rockwatch demo: Northridge 1994, Rinaldi Receiving Sta (228° + UP, PEER NGA RSN1063) as {STATION}, {:.1} s + {} s quiet at {} over ROS 2 (DDS domain {}, loopback only)",
+        traces.len() as f64 / traces.rate_hz,
+        args.tail,
+        match args.speed {
+            Speed::Max => "max speed".to_string(),
+            Speed::Times(f) => format!("{f}× real time"),
+        },
+        plan.domain_id
+    );
+
+    let mut listener = Ros2AlertListener::open(&plan, &options.config.ros2.namespace)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let latencies = Arc::new(Mutex::new(BTreeMap::new()));
+    let node = {
+        let (stop, latencies, plan) = (Arc::clone(&stop), Arc::clone(&latencies), plan.clone());
+        std::thread::Builder::new()
+            .name("demo-node".into())
+            .spawn(move || {
+                let mut recorder = LatencyRecorder(latencies);
+                rockwatch::node::serve(&options, &plan, &stop, &mut [&mut recorder])
+            })?
+    };
+    let replayer = {
+        let (plan, stop) = (plan.clone(), Arc::clone(&stop));
+        let speed = args.speed;
+        std::thread::Builder::new()
+            .name("demo-replay".into())
+            .spawn(move || -> anyhow::Result<()> {
+                let mut sink = Ros2PacketSink::open(&plan, "/")?;
+                if !sink.wait_for_subscriber(Duration::from_secs(30))? {
+                    stop.store(true, Ordering::Relaxed);
+                    anyhow::bail!("the node did not subscribe to /pbr/accel within 30 s");
+                }
+                replay(&packets, &mut sink, speed, Restamp::Now, 1)?;
+                if !sink.finish(Duration::from_secs(30))? {
+                    anyhow::bail!("the node did not acknowledge every packet within 30 s");
+                }
+                Ok(())
+            })?
+    };
+
+    // Alerts as they arrive, until the replay is over and the node has been quiet a while.
+    let started = Instant::now();
+    let mut received: Vec<msg::PbrAlert> = Vec::new();
+    let mut quiet_since: Option<Instant> = None;
+    loop {
+        for alert in listener.recv(Duration::from_millis(200))? {
+            outln!(
+                "[{:6.2} s] ALERT {:<17} {:<24} {}",
+                started.elapsed().as_secs_f64(),
+                msg::level_of_code(alert.level).map_or("?", AlertLevel::as_str),
+                alert.pbr_id,
+                alert.message
+            );
+            received.push(alert);
+            quiet_since = None;
+        }
+        if replayer.is_finished() || node.is_finished() {
+            let since = *quiet_since.get_or_insert_with(Instant::now);
+            if since.elapsed() > Duration::from_millis(1500) || node.is_finished() {
+                break;
+            }
+        }
+        if started.elapsed() > Duration::from_secs(600) {
+            break;
+        }
+    }
+    let replay_result = replayer
+        .join()
+        .map_err(|_| anyhow!("the replay thread panicked"))?;
+    stop.store(true, Ordering::Relaxed);
+    let report = node
+        .join()
+        .map_err(|_| anyhow!("the node thread panicked"))??;
+    replay_result?;
+    // Alerts published while shutting down.
+    received.extend(listener.recv(Duration::from_millis(300))?);
+
+    let latencies = latencies
+        .lock()
+        .map_err(|_| anyhow!("latency table poisoned"))?
+        .clone();
+    outln!();
+    outln!(
+        "{:<24} {:<10} {:>8} {:>10} {:>10} {:>8}  {:<25} {:>10}",
+        "block",
+        "station",
+        "max θ/α",
+        "max slide",
+        "overturned",
+        "P(over)",
+        "alerts",
+        "latency"
+    );
+    for s in &report.summaries {
+        let mine: Vec<&msg::PbrAlert> = received.iter().filter(|a| a.pbr_id == s.pbr_id).collect();
+        let levels: Vec<&str> = mine
+            .iter()
+            .filter_map(|a| {
+                msg::level_of_code(a.level).map(|l| match l {
+                    AlertLevel::MotionOnset => "onset",
+                    AlertLevel::OverturnImminent => "imminent",
+                    AlertLevel::Overturned => "overturned",
+                })
+            })
+            .collect();
+        let latency = AlertLevel::ALL
+            .iter()
+            .rev()
+            .find_map(|l| latencies.get(&(s.pbr_id.clone(), *l)))
+            .map_or("-".to_string(), |ns| format!("{:.3} ms", *ns as f64 * 1e-6));
+        outln!(
+            "{:<24} {:<10} {:>8.3} {:>8.4} m {:>10} {:>8.2}  {:<25} {:>10}",
+            s.pbr_id,
+            s.station,
+            s.max_theta_over_alpha,
+            s.max_slide_m,
+            if s.overturned { "YES" } else { "no" },
+            s.overturn_probability,
+            if levels.is_empty() {
+                "-".to_string()
+            } else {
+                levels.join(",")
+            },
+            latency
+        );
+    }
+    outln!(
+        "{} packets received by the node over ROS 2, {} alerts received on {}; latency = triggering packet's arrival → alert publication (most severe alert)",
+        report.ros2_packets,
+        received.len(),
+        rockwatch::ros2::ALERTS_TOPIC
+    );
+    Ok(())
+}

@@ -1,0 +1,208 @@
+//! `rockwatch replay`: feeds a recorded earthquake or a synthetic pulse to a running node as
+//! a live station would, through ROS 2 (or iceoryx2).
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{anyhow, bail, Context};
+use rockwatch::iox::IoxPacketSink;
+use rockwatch::node_config::NodeConfig;
+use rockwatch::replay::{replay, PacketSink, Restamp, Speed, Traces};
+use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
+use rockwatch_core::engine::StationId;
+use rockwatch_core::pulse::{sample_pulses, PulseScenario};
+use rockwatch_core::record::Record;
+
+/// Transport of the replay.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Transport {
+    /// ROS 2 (DDS): publishes pbr_msgs/AccelPacket on /pbr/accel.
+    Ros2,
+    /// iceoryx2 (zero-copy, same host): the `pbr/accel` service.
+    Iceoryx2,
+}
+
+/// Time stamps of the replayed packets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RestampArg {
+    /// The first sample is stamped "now" (UTC); later ones follow at the data rate.
+    Now,
+    /// As in the record (AT2/CSV records start at the Unix epoch).
+    Original,
+}
+
+/// Replay a record (or a synthetic near-fault pulse) to a running node, as live packets.
+///
+/// Packets of `--packet-ms` are paced by a monotonic clock at `--speed` (no drift), followed
+/// by `--tail` seconds of zero acceleration. The replay waits (up to --wait-s) for the node's
+/// subscription before the first packet, then prints what it sent.
+#[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("input").required(true).args(["record", "mseed", "synthetic"])))]
+pub struct ReplayArgs {
+    /// One horizontal component (AT2 in g, or CSV t,ax[,ay] in m/s²) whose direction is
+    /// --azimuth.
+    #[arg(long, value_name = "FILE")]
+    record: Option<PathBuf>,
+    /// Vertical component for --record (AT2 or CSV, same dt and length).
+    #[arg(long, value_name = "FILE", requires = "record")]
+    vertical: Option<PathBuf>,
+    /// MiniSEED file with the station's channels (E/N/Z or 1/2/3).
+    #[arg(long, value_name = "FILE")]
+    mseed: Option<PathBuf>,
+    /// A synthetic Mavroeidis–Papageorgiou pulse drawn for --mw and --r-km with --seed.
+    #[arg(long, requires_all = ["mw", "r_km"])]
+    synthetic: bool,
+    /// Moment magnitude of the synthetic pulse's scenario.
+    #[arg(long, value_name = "MW")]
+    mw: Option<f64>,
+    /// Distance to the rupture (km) of the synthetic pulse's scenario.
+    #[arg(long = "r-km", value_name = "KM")]
+    r_km: Option<f64>,
+    /// Seed of the synthetic pulse draw.
+    #[arg(long, default_value_t = 1, value_name = "S")]
+    seed: u64,
+    /// Station the packets are sent as (NET.STA.LOC).
+    #[arg(long, value_name = "ID")]
+    station: String,
+    /// Direction of --record's (or the pulse's) component, degrees clockwise from north.
+    #[arg(long, default_value_t = 90.0, value_name = "DEG")]
+    azimuth: f64,
+    /// Multiply every sample by this factor.
+    #[arg(long, default_value_t = 1.0, value_name = "X")]
+    scale: f64,
+    /// Transport.
+    #[arg(long, value_enum)]
+    transport: Transport,
+    /// Pace: 1 = real time, N = N × real time, max = as fast as the node takes them.
+    #[arg(long, default_value = "1", value_name = "1|N|max")]
+    speed: Speed,
+    /// Packet length (ms).
+    #[arg(long = "packet-ms", default_value_t = 100, value_name = "MS")]
+    packet_ms: u32,
+    /// Seconds of quiet (zero acceleration) sent after the record.
+    #[arg(long, default_value_t = 10.0, value_name = "S")]
+    tail: f64,
+    /// Time stamps: now (live) or original.
+    #[arg(long, value_enum, default_value_t = RestampArg::Now)]
+    restamp: RestampArg,
+    /// Send the record this many times as one continuous stream.
+    #[arg(long = "loop", default_value_t = 1, value_name = "N")]
+    loops: u32,
+    /// Node configuration whose [ros2] section (namespace, domain, interfaces) or [iceoryx2]
+    /// section (config file, service names) to use.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Seconds to wait for the node's subscription before the first packet, and for its
+    /// acknowledgement of every packet after the last (ROS 2 is reliable: a replay ends only
+    /// once the node has everything).
+    #[arg(long = "wait-s", default_value_t = 30.0, value_name = "S")]
+    wait_s: f64,
+}
+
+/// The traces the arguments describe, scaled.
+fn traces(args: &ReplayArgs, station: &StationId) -> anyhow::Result<Traces> {
+    let mut traces = if let Some(path) = &args.record {
+        let mut record = Record::read(path)?;
+        if let Some(v) = &args.vertical {
+            record.attach_vertical(v)?;
+        }
+        Traces::from_record(&record, args.azimuth).map_err(anyhow::Error::msg)?
+    } else if let Some(path) = &args.mseed {
+        Traces::from_mseed(path, station)?
+    } else {
+        let (Some(mw), Some(r_km)) = (args.mw, args.r_km) else {
+            bail!("--synthetic needs --mw and --r-km");
+        };
+        let scenario = PulseScenario::new(mw, r_km).map_err(|e| anyhow!("{e}"))?;
+        let pulse = sample_pulses(&scenario, 1, args.seed)
+            .map_err(|e| anyhow!("{e}"))?
+            .first()
+            .map(|p| p.pulse)
+            .context("no pulse drawn")?;
+        let record = pulse
+            .to_record_padded(0.01, 2.0)
+            .map_err(|e| anyhow!("{e}"))?;
+        outln!(
+            "synthetic pulse: Mw {mw}, R {r_km} km, seed {}: Tp {:.2} s, Vp {:.3} m/s",
+            args.seed,
+            pulse.period_s(),
+            pulse.peak_velocity_mps()
+        );
+        Traces::from_record(&record, args.azimuth).map_err(anyhow::Error::msg)?
+    };
+    if !(args.scale.is_finite()) {
+        bail!("--scale must be finite, got {}", args.scale);
+    }
+    if args.scale != 1.0 {
+        let s = args.scale;
+        traces.east.iter_mut().for_each(|a| *a *= s);
+        traces.north.iter_mut().for_each(|a| *a *= s);
+        if let Some(up) = &mut traces.up {
+            up.iter_mut().for_each(|a| *a *= s);
+        }
+    }
+    Ok(traces)
+}
+
+/// Replays `args` through `sink` and prints what was sent.
+pub fn replay_through(args: &ReplayArgs, sink: &mut dyn PacketSink) -> anyhow::Result<()> {
+    let station = StationId::parse(&args.station).map_err(anyhow::Error::msg)?;
+    let traces = traces(args, &station)?;
+    let packets = traces.packets(&station, args.packet_ms, args.tail);
+    if !(args.wait_s.is_finite() && args.wait_s >= 0.0) {
+        bail!("--wait-s must be ≥ 0, got {}", args.wait_s);
+    }
+    if !sink.wait_for_subscriber(Duration::from_secs_f64(args.wait_s))? {
+        bail!(
+            "no node subscribed to the packets within {} s (is `rockwatch node` running on the same domain and network?)",
+            args.wait_s
+        );
+    }
+    let restamp = match args.restamp {
+        RestampArg::Now => Restamp::Now,
+        RestampArg::Original => Restamp::Original,
+    };
+    let report = replay(&packets, sink, args.speed, restamp, args.loops)?;
+    if !sink.finish(Duration::from_secs_f64(args.wait_s))? {
+        bail!(
+            "sent {} packets, but the node did not acknowledge them all within {} s (is it overloaded or gone?)",
+            report.packets,
+            args.wait_s
+        );
+    }
+    outln!(
+        "replayed {} packets ({} samples, {:.2} s of data at {} Hz) as {} in {:.2} s wall, max lag {:.3} s",
+        report.packets,
+        report.samples,
+        report.data_s,
+        traces.rate_hz,
+        station,
+        report.wall_s,
+        report.max_lag_s
+    );
+    Ok(())
+}
+
+pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
+    let config = match &args.config {
+        Some(path) => NodeConfig::load(path).map_err(anyhow::Error::msg)?,
+        None => NodeConfig::default(),
+    };
+    match args.transport {
+        Transport::Ros2 => {
+            let plan = network_plan_from_env(&config.ros2).map_err(anyhow::Error::msg)?;
+            let mut sink = Ros2PacketSink::open(&plan, &config.ros2.namespace)?;
+            replay_through(&args, &mut sink)
+        }
+        Transport::Iceoryx2 => {
+            if config.iceoryx2.config_file.is_none() {
+                bail!(
+                    "--transport iceoryx2 needs the iceoryx2 config file every process loads: \
+                     give --config with an [iceoryx2] config_file (e.g. config/node.toml)"
+                );
+            }
+            let mut sink = IoxPacketSink::new(&config.iceoryx2)?;
+            replay_through(&args, &mut sink)
+        }
+    }
+}

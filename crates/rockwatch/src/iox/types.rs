@@ -1,0 +1,262 @@
+//! The shared-memory layouts of the iceoryx2 services (`#[repr(C)]`, no implicit padding), the
+//! contract with C, C++ and Python clients (docs/iceoryx2.md lists every offset).
+//!
+//! Service `pbr/accel` (publish-subscribe): user header [`AccelHeader`], payload a slice of
+//! [`AccelSample`]. Service `pbr/alerts` (publish-subscribe): payload [`PbrAlertIox`].
+//! Type names are explicit (`#[type_name]`) and must be spelled identically by every client.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+use rockwatch_core::dynamics::Mode;
+use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel};
+
+/// Type name of [`AccelHeader`] on the wire.
+pub const ACCEL_HEADER_TYPE_NAME: &str = "rockwatch::AccelHeader";
+/// Type name of [`AccelSample`] (the slice element) on the wire.
+pub const ACCEL_SAMPLE_TYPE_NAME: &str = "rockwatch::AccelSample";
+/// Type name of [`PbrAlertIox`] on the wire.
+pub const PBR_ALERT_TYPE_NAME: &str = "rockwatch::PbrAlert";
+
+/// [`AccelHeader::flags`] bit: the `up` component of the samples is valid. When clear the
+/// station has no vertical channel and `up` is ignored (send 0).
+pub const ACCEL_FLAG_HAS_UP: u32 = 1;
+
+/// Length of the NUL-padded station field (a SEED id `NET.STA.LOC` has at most 11 bytes).
+pub const STATION_BYTES: usize = 16;
+/// Length of the NUL-padded block-id field of an alert.
+pub const PBR_ID_BYTES: usize = 64;
+
+/// User header of one `pbr/accel` sample (56 bytes, alignment 8).
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[repr(C)]
+#[type_name("rockwatch::AccelHeader")]
+pub struct AccelHeader {
+    /// Station SEED id `NET.STA.LOC`, ASCII, padded with NUL bytes (no NUL inside).
+    pub station: [u8; STATION_BYTES],
+    /// Sample rate (Hz), in [1, 10000].
+    pub sample_rate_hz: f64,
+    /// UTC time of the first sample (ns since the Unix epoch).
+    pub start_time_ns: i64,
+    /// Per-station packet number, incremented by one per packet by the sender: a jump is a
+    /// gap (counted by the node).
+    pub sequence: u64,
+    /// Number of samples in the payload slice (must equal the slice length).
+    pub sample_count: u64,
+    /// Bit set: [`ACCEL_FLAG_HAS_UP`]; other bits must be 0.
+    pub flags: u32,
+    /// Must be 0.
+    pub reserved: u32,
+}
+
+/// One three-component sample (12 bytes, alignment 4): acceleration in m/s² (or counts when the
+/// node's station configuration gives a gain), east/north/up positive.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[repr(C)]
+#[type_name("rockwatch::AccelSample")]
+pub struct AccelSample {
+    pub east: f32,
+    pub north: f32,
+    pub up: f32,
+}
+
+/// [`PbrAlertIox::flags`] bit: the block id was longer than [`PBR_ID_BYTES`] and is truncated.
+pub const ALERT_FLAG_ID_TRUNCATED: u32 = 1;
+
+/// One alert on `pbr/alerts` (160 bytes, alignment 8). Levels and modes are numbered as in
+/// `msg/PbrAlert.msg`.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("rockwatch::PbrAlert")]
+pub struct PbrAlertIox {
+    /// Number of this alert from this publisher, from 0 (a jump means alerts were lost).
+    pub sequence: u64,
+    /// UTC time of the triggering sample (ns).
+    pub data_time_ns: i64,
+    /// Node-side latency: publication time − arrival of the triggering packet (ns).
+    pub latency_ns: i64,
+    /// |θ|/α of the block at the alert (dimensionless; 1 = static overturning angle).
+    pub theta_over_alpha: f64,
+    /// Slip of the contact point (m).
+    pub slide_m: f64,
+    /// Ensemble overturn probability in [0, 1].
+    pub overturn_probability: f64,
+    /// Station's running PGA, larger horizontal component (m/s²).
+    pub pga_mps2: f64,
+    /// Station's running PGV, larger horizontal component (m/s).
+    pub pgv_mps: f64,
+    /// Episode of the block (1 for the first).
+    pub episode: u32,
+    /// Bits: [`ALERT_FLAG_ID_TRUNCATED`].
+    pub flags: u32,
+    /// MOTION_ONSET = 1, OVERTURN_IMMINENT = 2, OVERTURNED = 3.
+    pub level: u8,
+    /// REST = 0, SLIDE = 1, ROCK = 2, SLIDE_ROCK = 3, OVERTURNED = 4, FLIGHT = 5.
+    pub mode: u8,
+    /// Must be 0.
+    pub reserved: [u8; 6],
+    /// Station SEED id, NUL-padded.
+    pub station: [u8; STATION_BYTES],
+    /// Block id from the catalogue, UTF-8, NUL-padded (truncated at a character boundary).
+    pub pbr_id: [u8; PBR_ID_BYTES],
+}
+
+/// Mode numbering of `msg/PbrState.msg` (REST = 0 … FLIGHT = 5).
+#[must_use]
+pub fn mode_code(mode: Mode) -> u8 {
+    match mode {
+        Mode::Rest => 0,
+        Mode::Slide => 1,
+        Mode::Rock => 2,
+        Mode::SlideRock => 3,
+        Mode::Overturned => 4,
+        Mode::Flight => 5,
+    }
+}
+
+/// Copies `text` into a NUL-padded field, truncated at a character boundary; returns whether
+/// it was truncated.
+fn write_padded<const N: usize>(text: &str, field: &mut [u8; N]) -> bool {
+    let mut end = text.len().min(N);
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    *field = [0; N];
+    field[..end].copy_from_slice(&text.as_bytes()[..end]);
+    end < text.len()
+}
+
+/// The text of a NUL-padded field: bytes up to the first NUL, which must be followed by NULs
+/// only and be valid UTF-8.
+pub fn read_padded(field: &[u8]) -> Result<&str, String> {
+    let end = field.iter().position(|&b| b == 0).unwrap_or(field.len());
+    if field[end..].iter().any(|&b| b != 0) {
+        return Err("bytes after the terminating NUL are not NUL".into());
+    }
+    std::str::from_utf8(&field[..end]).map_err(|e| format!("not UTF-8: {e}"))
+}
+
+impl AccelHeader {
+    /// The header of `packet`: station truncated to 16 bytes (a valid SEED id never is).
+    #[must_use]
+    pub fn from_packet(packet: &AccelPacket) -> AccelHeader {
+        let mut station = [0; STATION_BYTES];
+        write_padded(&packet.station, &mut station);
+        AccelHeader {
+            station,
+            sample_rate_hz: packet.sample_rate_hz,
+            start_time_ns: packet.start_time_ns,
+            sequence: packet.sequence,
+            sample_count: packet.east.len() as u64,
+            flags: if packet.up.is_empty() {
+                0
+            } else {
+                ACCEL_FLAG_HAS_UP
+            },
+            reserved: 0,
+        }
+    }
+}
+
+/// Why a received `pbr/accel` sample was rejected before the engine saw it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum WireError {
+    #[error("header sample_count {header} differs from the payload length {payload}")]
+    CountMismatch { header: u64, payload: usize },
+    #[error("station field: {0}")]
+    Station(String),
+    #[error("unknown header flags {0:#x} or non-zero reserved field")]
+    Flags(u32),
+    #[error("{got} samples exceed the limit of {limit}")]
+    TooLarge { got: usize, limit: usize },
+}
+
+/// Rebuilds the engine's packet from a received header and samples, checking the wire-level
+/// structure (count, station bytes, flags, size); value checks are `AccelPacket::validate`'s.
+pub fn packet_from_wire(
+    header: &AccelHeader,
+    samples: &[AccelSample],
+) -> Result<AccelPacket, WireError> {
+    if header.sample_count != samples.len() as u64 {
+        return Err(WireError::CountMismatch {
+            header: header.sample_count,
+            payload: samples.len(),
+        });
+    }
+    let limit = rockwatch_core::engine::packet::MAX_SAMPLES_PER_PACKET;
+    if samples.len() > limit {
+        return Err(WireError::TooLarge {
+            got: samples.len(),
+            limit,
+        });
+    }
+    if header.flags & !ACCEL_FLAG_HAS_UP != 0 || header.reserved != 0 {
+        return Err(WireError::Flags(header.flags));
+    }
+    let station = read_padded(&header.station).map_err(WireError::Station)?;
+    let has_up = header.flags & ACCEL_FLAG_HAS_UP != 0;
+    Ok(AccelPacket {
+        station: station.to_string(),
+        start_time_ns: header.start_time_ns,
+        sample_rate_hz: header.sample_rate_hz,
+        sequence: header.sequence,
+        east: samples.iter().map(|s| s.east).collect(),
+        north: samples.iter().map(|s| s.north).collect(),
+        up: if has_up {
+            samples.iter().map(|s| s.up).collect()
+        } else {
+            Vec::new()
+        },
+    })
+}
+
+impl PbrAlertIox {
+    /// The wire form of an alert (`sequence` = the publisher's alert counter).
+    #[must_use]
+    pub fn from_alert(alert: &Alert, latency_ns: i64, sequence: u64) -> PbrAlertIox {
+        let mut out = PbrAlertIox {
+            sequence,
+            data_time_ns: alert.data_time_ns,
+            latency_ns,
+            theta_over_alpha: alert.theta_over_alpha,
+            slide_m: alert.slide_m,
+            overturn_probability: alert.overturn_probability,
+            pga_mps2: alert.pga_mps2,
+            pgv_mps: alert.pgv_mps,
+            episode: alert.episode,
+            flags: 0,
+            level: alert.level as u8,
+            mode: mode_code(alert.mode),
+            reserved: [0; 6],
+            station: [0; STATION_BYTES],
+            pbr_id: [0; PBR_ID_BYTES],
+        };
+        write_padded(&alert.station, &mut out.station);
+        if write_padded(&alert.pbr_id, &mut out.pbr_id) {
+            out.flags |= ALERT_FLAG_ID_TRUNCATED;
+        }
+        out
+    }
+
+    /// The block id (lossy if a client wrote invalid UTF-8).
+    #[must_use]
+    pub fn pbr_id(&self) -> String {
+        padded_lossy(&self.pbr_id)
+    }
+
+    /// The station id.
+    #[must_use]
+    pub fn station(&self) -> String {
+        padded_lossy(&self.station)
+    }
+
+    /// The alert level, if the byte is a known one.
+    #[must_use]
+    pub fn alert_level(&self) -> Option<AlertLevel> {
+        AlertLevel::ALL.into_iter().find(|l| *l as u8 == self.level)
+    }
+}
+
+fn padded_lossy(field: &[u8]) -> String {
+    let end = field.iter().position(|&b| b == 0).unwrap_or(field.len());
+    String::from_utf8_lossy(&field[..end]).into_owned()
+}

@@ -1,0 +1,15 @@
+//! rockwatch: the shell around [`rockwatch_core`]: the live node and its transports (ROS 2,
+//! iceoryx2), the state directory's journal, replay, plots and report writing.
+//!
+//! Physics, intensity measures, record formats and the monitoring engine are in
+//! `rockwatch_core`; this crate translates the outside world into calls on it.
+//! See ARCHITECTURE.md for the map of crates and modules.
+
+pub mod iox;
+pub mod journal;
+pub mod node;
+pub mod node_config;
+pub mod plot;
+pub mod replay;
+pub mod ros2;
+pub mod study;

@@ -1,0 +1,781 @@
+//! The live node (shell).
+//!
+//! - [`NodeRuntime`]: the transport-independent runtime: the engine (inline on the caller's
+//!   thread with one shard, else sharded over worker threads), the state directory, arrival
+//!   time stamps, rate-limited logging.
+//! - [`serve`] / [`Reactor`] (module `serve`): the node itself, one event loop that takes the
+//!   input of every transport (ROS 2, iceoryx2), runs the engine and publishes.
+//!
+//! Ordering guarantee: an alert is appended to the journal and synced before it is handed to
+//! any publisher, so a published alert is never lost; on restart the journal is restored
+//! into the engine, so an alert is never published twice.
+
+mod serve;
+
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
+use std::sync::mpsc;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+
+pub use serve::{serve, Probe, Reactor, ServeReport};
+
+use crate::journal::Journal;
+use crate::node_config::NodeConfig;
+use rockwatch_core::catalogue::Catalogue;
+use rockwatch_core::engine::{
+    AccelPacket, Alert, AlertConfig, AlertLevel, Engine, JournalRecord, Output, OutputSink,
+    PbrSpec, PbrState, PbrSummary, ShardedEngine, StationIntensity,
+};
+
+/// Longest time a live packet waits in the engine's reorder window for missing data.
+pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// What a transport publishes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Publication {
+    /// An alert, already journaled; `latency_ns` = wall time now − arrival of the packet that
+    /// triggered it.
+    Alert {
+        alert: Alert,
+        latency_ns: i64,
+    },
+    State(PbrState),
+    Intensity(StationIntensity),
+}
+
+/// A transport's output side: publishes what the runtime hands it (alerts already journaled).
+pub trait Publisher {
+    /// Publishes one item; an error is logged (rate-limited) and the node goes on.
+    fn publish(&mut self, publication: &Publication) -> anyhow::Result<()>;
+}
+
+/// Wakes an event loop from another thread.
+pub use rockwatch_core::engine::sharded::Wake;
+
+/// A settings change handed to the node's event loop by another thread (e.g. a ROS 2
+/// parameter service).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Control {
+    /// New alert thresholds.
+    Alerts(AlertConfig),
+    /// New state publication interval (s of data); ignored unless finite and > 0.
+    StateIntervalS(f64),
+}
+
+/// A cloneable, thread-safe handle that queues settings changes for the node's event loop and
+/// wakes it; the loop applies them before the next packet.
+#[derive(Clone)]
+pub struct ControlSender {
+    tx: mpsc::Sender<Control>,
+    wake: Wake,
+}
+
+impl ControlSender {
+    /// A sender and the receiver the event loop drains; `wake` is called after each change.
+    #[must_use]
+    pub fn channel(wake: Wake) -> (ControlSender, mpsc::Receiver<Control>) {
+        let (tx, rx) = mpsc::channel();
+        (ControlSender { tx, wake }, rx)
+    }
+
+    /// Queues a change (dropped silently once the event loop has stopped).
+    pub fn send(&self, control: Control) {
+        if self.tx.send(control).is_ok() {
+            (self.wake)();
+        }
+    }
+
+    /// New alert thresholds, effective for the next packet.
+    pub fn set_alert_config(&self, alerts: AlertConfig) {
+        self.send(Control::Alerts(alerts));
+    }
+
+    /// New state publication interval (s of data), effective for the next packet.
+    pub fn set_state_interval_s(&self, state_interval_s: f64) {
+        self.send(Control::StateIntervalS(state_interval_s));
+    }
+}
+
+/// What an operator reset of a block ([`NodeRuntime::operator_reset`]) did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResetOutcome {
+    /// The block had overturned: the reset was journaled (and synced), then applied; the block
+    /// stands again at rest, its episode closed, and a new episode can raise alerts.
+    Reset,
+    /// The block stands (it never overturned, or was reset already): nothing was journaled or
+    /// changed. A block that is moving is not disturbed.
+    NotOverturned,
+    /// No block of the node's catalogue has this id: nothing was done.
+    UnknownPbr,
+}
+
+impl ResetOutcome {
+    /// Whether the request succeeded: the block is known and now stands (reset or already).
+    #[must_use]
+    pub fn success(self) -> bool {
+        self != ResetOutcome::UnknownPbr
+    }
+
+    /// One line for people about block `pbr_id` (control characters escaped, length bounded).
+    #[must_use]
+    pub fn message(self, pbr_id: &str) -> String {
+        let id = printable(pbr_id, 200);
+        match self {
+            ResetOutcome::Reset => format!(
+                "block {id} reset: it stands again at rest, and a new episode can raise alerts"
+            ),
+            ResetOutcome::NotOverturned => {
+                format!("block {id} has not overturned: nothing to reset")
+            }
+            ResetOutcome::UnknownPbr => {
+                format!("unknown block {id:?}: no such id in the node's catalogue")
+            }
+        }
+    }
+}
+
+/// Blocks that have overturned and not been reset since, by the records of a journal read in
+/// order (an `overturned` alert, then no reset): the fallen blocks the engine restores.
+fn overturned_in(records: &[JournalRecord]) -> HashSet<String> {
+    let mut fallen = HashSet::new();
+    for record in records {
+        match record {
+            JournalRecord::Alert(a) if a.level == AlertLevel::Overturned => {
+                fallen.insert(a.pbr_id.clone());
+            }
+            JournalRecord::Reset { pbr_id } => {
+                fallen.remove(pbr_id);
+            }
+            _ => {}
+        }
+    }
+    fallen
+}
+
+/// Where the runtime's settings come from: the configuration file, overridden by flags.
+#[derive(Debug, Clone)]
+pub struct NodeOptions {
+    pub config: NodeConfig,
+    pub catalogue: Option<PathBuf>,
+    pub state_dir: Option<PathBuf>,
+    /// Engine shards (default 1; 0: one per core). One shard runs the engine inline on the
+    /// node's event loop thread: a packet is processed, journaled and published without any
+    /// thread hand-off (lowest latency). More shards spread stations over worker threads for
+    /// throughput, at the cost of two hand-offs per packet (event loop → worker → event loop).
+    pub shards: usize,
+}
+
+impl Default for NodeOptions {
+    fn default() -> Self {
+        NodeOptions {
+            config: NodeConfig::default(),
+            catalogue: None,
+            state_dir: None,
+            shards: 1,
+        }
+    }
+}
+
+impl NodeOptions {
+    /// The catalogue in force: the flag's, else the configuration's.
+    pub fn catalogue_path(&self) -> anyhow::Result<PathBuf> {
+        self.catalogue
+            .clone()
+            .or(self.config.catalogue.clone())
+            .context("no catalogue: give --catalogue FILE or a --config that names one")
+    }
+
+    /// Loads the catalogue as the engine's blocks (with their ensemble members).
+    pub fn load_blocks(&self) -> anyhow::Result<Vec<PbrSpec>> {
+        let path = self.catalogue_path()?;
+        Catalogue::load(&path)?
+            .pbrs()
+            .iter()
+            .map(PbrSpec::from_catalogue)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+    }
+
+    /// Opens the state directory in force (the flag's, else the configuration's), if any,
+    /// returning the journal and its records; repairs are reported on stderr.
+    pub fn open_state(&self) -> anyhow::Result<Option<(Journal, Vec<JournalRecord>)>> {
+        let Some(dir) = self.state_dir.clone().or(self.config.state_dir.clone()) else {
+            return Ok(None);
+        };
+        let (journal, records, report) = Journal::open(&dir)?;
+        if !report.corrupt_lines.is_empty() || report.truncated_tail {
+            eprintln!(
+                "rockwatch: warning: {}: journal repaired ({report:?})",
+                dir.display()
+            );
+        }
+        Ok(Some((journal, records)))
+    }
+}
+
+/// Counts of what the runtime did (for logs and tests).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NodeStats {
+    pub packets: u64,
+    pub alerts: u64,
+    pub states: u64,
+    pub intensities: u64,
+    pub notices: u64,
+}
+
+/// What the engine made of its input, summed over every shard (the node's closing summary).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct InputTotals {
+    /// Packets the engine examined.
+    pub packets: u64,
+    /// Packets rejected by validation: empty, mismatched component lengths, non-finite
+    /// samples, sample rate or start time out of range, too many samples.
+    pub rejected_packets: u64,
+    /// Packets whose station id is not `NET.STA.LOC`.
+    pub malformed_station_packets: u64,
+    /// Packets from stations neither configured nor in the catalogue.
+    pub unknown_station_packets: u64,
+    /// Packets whose every sample had been processed already.
+    pub duplicate_packets: u64,
+    /// Packets that arrived after later data had been processed.
+    pub late_packets: u64,
+}
+
+impl InputTotals {
+    fn add(&mut self, engine: &Engine) {
+        let c = engine.counters();
+        self.packets += c.packets;
+        self.malformed_station_packets += c.malformed_station_packets;
+        self.unknown_station_packets += c.unknown_station_packets;
+        for (_, station, stream) in engine.station_counters() {
+            self.rejected_packets += station.rejected_packets;
+            self.duplicate_packets += stream.duplicate_packets;
+            self.late_packets += stream.late_packets;
+        }
+    }
+}
+
+/// Logs at most one line per (station, kind) every `interval`, with the count suppressed.
+#[derive(Debug)]
+struct RateLimitedLog {
+    interval: Duration,
+    last: HashMap<(String, &'static str), (Instant, u64)>,
+}
+
+/// Distinct (station, kind) keys the log remembers; past this, new stations share one key,
+/// so a flood of invented station ids cannot grow the map without bound.
+const LOG_MAX_KEYS: usize = 4096;
+
+/// `text` fit for one log line: control characters escaped, at most `max_chars` characters
+/// (the rest replaced by a count), so a hostile station id cannot forge or flood log lines.
+fn printable(text: &str, max_chars: usize) -> String {
+    let mut out = String::new();
+    for (n, c) in text.chars().enumerate() {
+        if n == max_chars {
+            out += &format!(
+                "…(+{} bytes)",
+                text.len() - text.char_indices().nth(n).map_or(0, |(i, _)| i)
+            );
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+impl RateLimitedLog {
+    /// At most one line per (station, kind) every 10 s.
+    fn new() -> RateLimitedLog {
+        RateLimitedLog {
+            interval: Duration::from_secs(10),
+            last: HashMap::new(),
+        }
+    }
+
+    fn log(&mut self, station: &str, kind: &'static str, message: &str) {
+        let now = Instant::now();
+        let mut key = (printable(station, 48), kind);
+        if self.last.len() >= LOG_MAX_KEYS && !self.last.contains_key(&key) {
+            key.0 = "(other stations)".into();
+        }
+        let message = printable(message, 400);
+        let station = key.0.clone();
+        let entry = self.last.entry(key).or_insert((now - self.interval, 0));
+        if now.duration_since(entry.0) >= self.interval {
+            let suppressed = std::mem::take(&mut entry.1);
+            let more = if suppressed > 0 {
+                format!(" (+{suppressed} more since last report)")
+            } else {
+                String::new()
+            };
+            eprintln!("rockwatch: {station}: {kind}: {message}{more}");
+            entry.0 = now;
+        } else {
+            entry.1 += 1;
+        }
+    }
+}
+
+/// Where the runtime's outputs go: the journal, the publishers (through a callback), the
+/// stats and the rate-limited log.
+struct Emitter {
+    journal: Option<Journal>,
+    epoch: Instant,
+    log: RateLimitedLog,
+    stats: NodeStats,
+    /// States and intensities held back until the batch's alerts are out (reused).
+    deferred: Vec<Output>,
+    /// Blocks overturned and not reset since: restored from the journal, then every
+    /// `overturned` alert the engine raises (inline or on a worker) until an operator reset.
+    overturned: HashSet<String>,
+}
+
+impl Emitter {
+    fn now_ns(&self) -> i64 {
+        self.epoch.elapsed().as_nanos() as i64
+    }
+
+    /// A sink for one batch of engine outputs (one packet, one flush, one worker batch):
+    /// each alert is journaled (and synced), then published at once, in engine order; episode
+    /// ends are journaled; notices logged; states and intensities are published by
+    /// [`EmitSink::finish`], after the batch (they are not journaled, and an alert must not
+    /// wait for them). After a journal failure nothing more is published and `finish` returns
+    /// the error.
+    fn sink<'a, P: FnMut(Publication)>(&'a mut self, publish: &'a mut P) -> EmitSink<'a, P> {
+        self.deferred.clear();
+        EmitSink {
+            emit: self,
+            publish,
+            error: None,
+        }
+    }
+}
+
+/// See [`Emitter::sink`].
+struct EmitSink<'a, P: FnMut(Publication)> {
+    emit: &'a mut Emitter,
+    publish: &'a mut P,
+    error: Option<anyhow::Error>,
+}
+
+impl<P: FnMut(Publication)> EmitSink<'_, P> {
+    /// Publishes the batch's states and intensities; returns the journal's error, if any.
+    fn finish(self) -> anyhow::Result<()> {
+        let EmitSink {
+            emit,
+            publish,
+            error,
+        } = self;
+        if let Some(e) = error {
+            emit.deferred.clear();
+            return Err(e);
+        }
+        for output in emit.deferred.drain(..) {
+            match output {
+                Output::State(s) => {
+                    emit.stats.states += 1;
+                    publish(Publication::State(s));
+                }
+                Output::Intensity(i) => {
+                    emit.stats.intensities += 1;
+                    publish(Publication::Intensity(i));
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
+    fn push(&mut self, output: Output) {
+        if let Output::Alert(a) = &output {
+            if a.level == AlertLevel::Overturned {
+                self.emit.overturned.insert(a.pbr_id.clone());
+            }
+        }
+        if self.error.is_some() {
+            return; // the state directory failed: publish nothing more
+        }
+        let record = match &output {
+            Output::Alert(alert) => Some(JournalRecord::Alert(alert.clone())),
+            Output::EpisodeEnd { pbr_id, episode } => Some(JournalRecord::EpisodeEnd {
+                pbr_id: pbr_id.clone(),
+                episode: *episode,
+            }),
+            _ => None,
+        };
+        if let (Some(record), Some(journal)) = (record, &mut self.emit.journal) {
+            if let Err(e) = journal.append(&record) {
+                self.error = Some(e.into());
+                return;
+            }
+        }
+        match output {
+            Output::Alert(alert) => {
+                self.emit.stats.alerts += 1;
+                let latency_ns = self.emit.now_ns() - alert.arrival_ns;
+                (self.publish)(Publication::Alert { alert, latency_ns });
+            }
+            Output::EpisodeEnd { .. } => {}
+            Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
+            Output::Notice(n) => {
+                self.emit.stats.notices += 1;
+                self.emit.log.log(&n.station, n.kind, &n.message);
+            }
+        }
+    }
+}
+
+/// The engine of a [`NodeRuntime`].
+enum EngineMode {
+    /// One shard: the engine runs on the caller's thread.
+    Inline(Box<Engine>),
+    /// Stations spread over worker threads.
+    Sharded(ShardedEngine),
+}
+
+/// The running node minus its transports.
+pub struct NodeRuntime {
+    /// Always `Some` until `shutdown`.
+    engine: Option<EngineMode>,
+    /// Journal, stats, logs: where outputs go.
+    emit: Emitter,
+    pbr_ids: Vec<String>,
+    last_flush: Instant,
+}
+
+impl NodeRuntime {
+    /// Loads the catalogue, restores the state directory, and starts the engine (inline for
+    /// one shard, else its workers).
+    pub fn start(options: &NodeOptions) -> anyhow::Result<NodeRuntime> {
+        Self::start_with_wake(options, Arc::new(|| {}))
+    }
+
+    /// As [`NodeRuntime::start`]; with several shards, each worker calls `wake` after queueing
+    /// outputs (so an event loop can sleep until [`NodeRuntime::poll`] has work).
+    pub fn start_with_wake(options: &NodeOptions, wake: Wake) -> anyhow::Result<NodeRuntime> {
+        let specs = options.load_blocks()?;
+        let (journal, records) = match options.open_state()? {
+            Some((journal, records)) => (Some(journal), records),
+            None => (None, Vec::new()),
+        };
+        let overturned = overturned_in(&records);
+        let shards = if options.shards == 0 {
+            std::thread::available_parallelism().map_or(1, usize::from)
+        } else {
+            options.shards
+        };
+        let config = &options.config;
+        let engine = if shards == 1 {
+            let mut engine = Engine::new(config.engine, config.stations.clone(), &specs)
+                .map_err(anyhow::Error::msg)?;
+            engine.restore(&records);
+            EngineMode::Inline(Box::new(engine))
+        } else {
+            EngineMode::Sharded(
+                ShardedEngine::start_with_wake(
+                    config.engine,
+                    &config.stations,
+                    &specs,
+                    &records,
+                    shards,
+                    wake,
+                )
+                .map_err(anyhow::Error::msg)?,
+            )
+        };
+        Ok(NodeRuntime {
+            engine: Some(engine),
+            emit: Emitter {
+                journal,
+                epoch: Instant::now(),
+                log: RateLimitedLog::new(),
+                stats: NodeStats::default(),
+                deferred: Vec::new(),
+                overturned,
+            },
+            pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+            last_flush: Instant::now(),
+        })
+    }
+
+    /// Engine shards: 1 when the engine runs inline.
+    #[must_use]
+    pub fn shards(&self) -> usize {
+        match &self.engine {
+            Some(EngineMode::Sharded(e)) => e.shards(),
+            _ => 1,
+        }
+    }
+
+    /// Monotonic wall time since start (ns): arrival and emission stamps.
+    #[must_use]
+    pub fn now_ns(&self) -> i64 {
+        self.emit.now_ns()
+    }
+
+    /// Counts of what the runtime did so far.
+    #[must_use]
+    pub fn stats(&self) -> NodeStats {
+        self.emit.stats
+    }
+
+    /// The instant [`NodeRuntime::now_ns`] counts from (to compare stamps with other clocks).
+    #[must_use]
+    pub fn epoch(&self) -> Instant {
+        self.emit.epoch
+    }
+
+    /// Ids of the catalogued blocks.
+    #[must_use]
+    pub fn pbr_ids(&self) -> &[String] {
+        &self.pbr_ids
+    }
+
+    /// Hands a packet to the engine, stamped with its arrival time. Inline, the packet is
+    /// processed now: each alert is journaled (and synced) and published the moment the engine
+    /// raises it, mid-packet, and the packet's states and intensities are published after it,
+    /// all before this returns; sharded, it is queued for its station's worker (waiting if
+    /// that queue is full) and the outputs come through [`NodeRuntime::poll`]. An error means
+    /// the state directory failed (the alert was not published).
+    pub fn submit(
+        &mut self,
+        packet: AccelPacket,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<()> {
+        let arrival_ns = self.now_ns();
+        self.submit_arrived(packet, arrival_ns, publish)
+    }
+
+    /// As [`NodeRuntime::submit`], for a packet taken from its transport at `arrival_ns`
+    /// ([`NodeRuntime::now_ns`] then) and queued since.
+    pub fn submit_arrived(
+        &mut self,
+        packet: AccelPacket,
+        arrival: i64,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<()> {
+        self.emit.stats.packets += 1;
+        match &mut self.engine {
+            Some(EngineMode::Inline(engine)) => {
+                // Each alert is journaled and published the moment the engine raises it; the
+                // rest of the packet is processed after.
+                let mut sink = self.emit.sink(publish);
+                engine.process(packet, arrival, &mut sink);
+                sink.finish()
+            }
+            Some(EngineMode::Sharded(engine)) => {
+                engine.submit(packet, arrival);
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Applies a settings change, effective for the next packet.
+    pub fn apply(&mut self, control: Control) {
+        match (control, &mut self.engine) {
+            (Control::Alerts(a), Some(EngineMode::Inline(e))) => e.set_alert_config(a),
+            (Control::Alerts(a), Some(EngineMode::Sharded(e))) => e.set_alert_config(a),
+            (Control::StateIntervalS(s), Some(EngineMode::Inline(e))) => {
+                e.set_state_interval_s(s);
+            }
+            (Control::StateIntervalS(s), Some(EngineMode::Sharded(e))) => {
+                e.set_state_interval_s(s);
+            }
+            (_, None) => {}
+        }
+    }
+
+    /// Whether block `pbr_id` has overturned and not been reset since (None: no such block).
+    /// With several shards, an overturn counts once its alert has come back from the worker
+    /// (through [`NodeRuntime::poll`]).
+    #[must_use]
+    pub fn overturned(&self, pbr_id: &str) -> Option<bool> {
+        self.pbr_ids
+            .iter()
+            .any(|id| id == pbr_id)
+            .then(|| self.emit.overturned.contains(pbr_id))
+    }
+
+    /// An operator's request to reset block `pbr_id`: an overturned block is reset
+    /// ([`NodeRuntime::reset_pbr`]: journaled and synced, then applied, so a restart keeps
+    /// it); a standing or moving block is left alone, an unknown id refused. Logs one line
+    /// per reset naming the block (refusals rate-limited). An error means the state
+    /// directory failed: nothing was applied.
+    pub fn operator_reset(&mut self, pbr_id: &str) -> anyhow::Result<ResetOutcome> {
+        let outcome = match self.overturned(pbr_id) {
+            None => ResetOutcome::UnknownPbr,
+            Some(false) => ResetOutcome::NotOverturned,
+            Some(true) => {
+                if let Err(e) = self.reset_pbr(pbr_id) {
+                    self.emit
+                        .log
+                        .log(pbr_id, "reset_failed", &format!("not reset: {e:#}"));
+                    return Err(e);
+                }
+                ResetOutcome::Reset
+            }
+        };
+        match outcome {
+            ResetOutcome::Reset => eprintln!(
+                "rockwatch: {}: reset by the operator: stands again at rest",
+                printable(pbr_id, 200)
+            ),
+            _ => self
+                .emit
+                .log
+                .log(pbr_id, "reset_refused", &outcome.message(pbr_id)),
+        }
+        Ok(outcome)
+    }
+
+    /// Operator reset of a fallen block, unconditionally: journaled (and synced), then applied
+    /// to the engine (see [`NodeRuntime::operator_reset`] for the checked request). An error
+    /// means the state directory failed and nothing was applied.
+    pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
+        if let Some(j) = &mut self.emit.journal {
+            j.append(&JournalRecord::Reset {
+                pbr_id: pbr_id.to_string(),
+            })?;
+        }
+        self.emit.overturned.remove(pbr_id);
+        match &mut self.engine {
+            Some(EngineMode::Inline(e)) => {
+                e.reset_pbr(pbr_id);
+            }
+            Some(EngineMode::Sharded(e)) => e.reset_pbr(pbr_id),
+            None => {}
+        }
+        Ok(())
+    }
+
+    /// Releases the packets held in the engine's reorder window if `HELD_PACKET_TIMEOUT` has
+    /// passed since the last release. The engine's window counts packets (so replays are
+    /// deterministic); live, a packet held for missing data must not wait forever if its
+    /// station falls silent. Call it regularly (the event loop does, at least every 50 ms).
+    pub fn flush_if_due(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
+        if self.last_flush.elapsed() < HELD_PACKET_TIMEOUT {
+            return Ok(());
+        }
+        self.last_flush = Instant::now();
+        let now = self.now_ns();
+        match &mut self.engine {
+            Some(EngineMode::Inline(engine)) => {
+                let mut sink = self.emit.sink(publish);
+                engine.flush(now, &mut sink);
+                sink.finish()
+            }
+            Some(EngineMode::Sharded(engine)) => {
+                engine.flush(now);
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Journals and publishes `outputs` (drained), as [`Emitter::sink`].
+    fn handle(
+        &mut self,
+        outputs: &mut Vec<Output>,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<()> {
+        let mut sink = self.emit.sink(publish);
+        for output in outputs.drain(..) {
+            sink.push(output);
+        }
+        sink.finish()
+    }
+
+    /// Publishes everything the engine workers have produced so far, without waiting (inline,
+    /// outputs are published by `submit` itself and this does nothing). Alerts are journaled
+    /// first; an error means the state directory failed (the alert was not published).
+    pub fn poll(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
+        let mut outputs: Vec<Output> = match &self.engine {
+            Some(EngineMode::Sharded(e)) => e.try_outputs().collect(),
+            _ => return Ok(()),
+        };
+        self.handle(&mut outputs, publish)
+    }
+
+    /// Waits up to `timeout` for outputs of the engine workers, then publishes them (returns
+    /// at once inline).
+    pub fn poll_wait(
+        &mut self,
+        timeout: Duration,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<()> {
+        if let Some(EngineMode::Sharded(e)) = &self.engine {
+            if let Some(mut first) = e.recv_outputs_timeout(timeout) {
+                self.handle(&mut first, publish)?;
+            }
+        }
+        self.poll(publish)
+    }
+
+    /// Stops intake: releases held packets, lets the workers finish, publishes what remains
+    /// and returns every block's summary.
+    pub fn shutdown(
+        self,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<Vec<PbrSummary>> {
+        Ok(self.shutdown_with_totals(publish)?.0)
+    }
+
+    /// As [`NodeRuntime::shutdown`], also returning what the engine made of its input.
+    pub fn shutdown_with_totals(
+        mut self,
+        publish: &mut impl FnMut(Publication),
+    ) -> anyhow::Result<(Vec<PbrSummary>, InputTotals)> {
+        let now = self.now_ns();
+        let engines = match self.engine.take() {
+            None => return Ok((Vec::new(), InputTotals::default())),
+            Some(EngineMode::Inline(mut engine)) => {
+                let mut sink = self.emit.sink(publish);
+                engine.flush(now, &mut sink);
+                sink.finish()?;
+                vec![*engine]
+            }
+            Some(EngineMode::Sharded(engine)) => {
+                engine.flush(now);
+                let (engines, mut rest) = engine.shutdown();
+                self.handle(&mut rest, publish)?;
+                engines
+            }
+        };
+        let mut totals = InputTotals::default();
+        for e in &engines {
+            totals.add(e);
+        }
+        Ok((engines.iter().flat_map(Engine::summaries).collect(), totals))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::printable;
+
+    #[test]
+    fn printable_escapes_control_characters_and_bounds_the_length() {
+        assert_eq!(printable("CI.RRS.00", 48), "CI.RRS.00");
+        assert_eq!(
+            printable("CI.RRS.00\0\nforged", 48),
+            "CI.RRS.00\\u{0}\\nforged"
+        );
+        let long = "A".repeat(100_000);
+        assert_eq!(
+            printable(&long, 8),
+            format!("AAAAAAAA…(+{} bytes)", 100_000 - 8)
+        );
+        // Multi-byte characters are counted as characters, never split.
+        assert_eq!(printable("ééé", 2), "éé…(+2 bytes)");
+    }
+}

@@ -1,0 +1,542 @@
+//! The live node: ONE event loop thread (the caller's) multiplexes every input with a mio
+//! `Poll` and publishes on the same thread.
+//!
+//! Sources: the ROS 2 subscriptions (`/pbr/accel`, the Imu topics), the ROS 2 service
+//! `/pbr/reset` (operator resets, applied between packets), the iceoryx2 `pbr/accel`
+//! listener, and a `mio::Waker` through which other threads hand work in (ROS 2 parameter
+//! changes from the spinner thread; with several engine shards, the workers' outputs). The
+//! poll timeout ([`TICK`]) bounds how late the stop flag (SIGINT/SIGTERM), the
+//! held-packet flush and the iceoryx2 dead-node check are seen; there is no busy polling.
+//!
+//! With one engine shard (the default) the engine runs inline, so a packet goes subscriber →
+//! engine → journal → publishers without a thread hand-off; an alert is journaled and
+//! published on iceoryx2 the moment the engine raises it (mid-packet), the ROS 2 (and extra)
+//! publications of a turn go out together at its end. Readiness is edge-triggered: a
+//! ready source is drained until empty into its inbox ([`INBOX_BOUND`]); the inboxes are then
+//! processed round robin for at most [`TURN_BUDGET`] or [`DRAIN_BOUND`] packets before the
+//! loop polls and takes again, so a flood on one input cannot starve the others and no
+//! transport holds much unread data.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Receiver;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use mio::{Events, Poll, Token, Waker};
+
+use super::{
+    Control, ControlSender, InputTotals, NodeOptions, NodeRuntime, Publication, Publisher,
+    RateLimitedLog, Wake,
+};
+use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
+use crate::ros2::msg::ResetPbrResponse;
+use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher};
+use rockwatch_core::engine::{AccelPacket, PbrSummary};
+
+/// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
+/// dead-node check are looked at least this often.
+pub const TICK: Duration = Duration::from_millis(50);
+
+/// Most packets processed per turn of the event loop (round robin over the sources).
+pub const DRAIN_BOUND: usize = 256;
+
+/// Longest a turn of the event loop processes packets (plus one packet's time) before it
+/// polls again and takes what arrived meanwhile, so the transports hold little unread data
+/// (RustDDS discards the unread samples of a writer that has left; see `REPLAY_LINGER`).
+pub const TURN_BUDGET: Duration = Duration::from_micros(200);
+
+/// Most packets taken from one source and waiting to be processed; beyond, the rest stays in
+/// the transport (DDS history, iceoryx2 subscriber buffer).
+pub const INBOX_BOUND: usize = 4096;
+
+/// Most samples (per component) waiting in one source's inbox, give or take one chunk of
+/// [`ROS2_CHUNK`] packets: a peer sending huge packets cannot make the node hold more than
+/// ≈ 50 MB per source (a DDS message may carry up to `MAX_SAMPLES_PER_PACKET` samples).
+pub const INBOX_SAMPLES: usize = 1 << 22;
+
+/// Packets taken from a ROS 2 input between two looks at its inbox's sample bound.
+const ROS2_CHUNK: usize = 64;
+
+const WAKE: Token = Token(0);
+const IOX: Token = Token(1);
+/// The ROS 2 service `/pbr/reset`.
+const RESET: Token = Token(2);
+/// ROS 2 input `i` is `Token(ROS2_FIRST + i)`.
+const ROS2_FIRST: usize = 3;
+
+/// What [`serve`] hands back at the end.
+#[derive(Debug, Clone)]
+pub struct ServeReport {
+    pub summaries: Vec<PbrSummary>,
+    pub ros2_packets: u64,
+    pub ros2_decode_errors: u64,
+    /// What the engine made of the input of every transport.
+    pub input: InputTotals,
+    /// iceoryx2 intake, when that transport ran.
+    pub iox: Option<IoxInputStats>,
+}
+
+/// A thread-safe view of a running node's intake counters (tests, benchmarks).
+#[derive(Debug, Clone)]
+pub struct Probe {
+    ros2: Arc<IntakeCounters>,
+    iox: Option<IoxStatsHandle>,
+}
+
+impl Probe {
+    /// Messages taken from the ROS 2 inputs so far.
+    #[must_use]
+    pub fn ros2_packets(&self) -> u64 {
+        self.ros2.packets.load(Ordering::Relaxed)
+    }
+
+    /// Undecodable ROS 2 messages so far.
+    #[must_use]
+    pub fn ros2_decode_errors(&self) -> u64 {
+        self.ros2.decode_errors.load(Ordering::Relaxed)
+    }
+
+    /// The iceoryx2 input's counters, when that transport runs.
+    #[must_use]
+    pub fn iox(&self) -> Option<IoxInputStats> {
+        self.iox.as_ref().map(IoxStatsHandle::stats)
+    }
+}
+
+/// The node, started and subscribed but not yet running its loop. Create it and call
+/// [`Reactor::run`] on the same thread (the iceoryx2 ports are bound to it).
+pub struct Reactor {
+    runtime: NodeRuntime,
+    poll: Poll,
+    /// Kept alive for the workers' and the parameter services' wake-ups.
+    _waker: Arc<Waker>,
+    controls: Receiver<Control>,
+    ros2: Ros2Node,
+    ros2_publisher: Ros2Publisher,
+    iox: Option<(IoxInput, IoxAlertPublisher)>,
+}
+
+/// Runs the node until `stop` is set: [`Reactor::start`], then [`Reactor::run`] with the
+/// `extra` publishers. This is what `rockwatch node` runs.
+pub fn serve(
+    options: &NodeOptions,
+    plan: &NetworkPlan,
+    stop: &AtomicBool,
+    extra: &mut [&mut dyn Publisher],
+) -> anyhow::Result<ServeReport> {
+    Reactor::start(options, plan)?.run(stop, extra)
+}
+
+impl Reactor {
+    /// Starts the runtime (catalogue, state directory, engine) and the transports: ROS 2
+    /// always, iceoryx2 when the configuration names its iceoryx2 config file (every process
+    /// of a deployment must load the same one explicitly). Returns once every input is
+    /// subscribed.
+    pub fn start(options: &NodeOptions, plan: &NetworkPlan) -> anyhow::Result<Reactor> {
+        let poll = Poll::new().context("cannot create the node's event loop (mio Poll)")?;
+        let waker = Arc::new(
+            Waker::new(poll.registry(), WAKE).context("cannot create the event loop's waker")?,
+        );
+        let wake: Wake = {
+            let waker = Arc::clone(&waker);
+            Arc::new(move || {
+                // Fails only if the eventfd is gone, i.e. the loop has ended.
+                let _ = waker.wake();
+            })
+        };
+        let runtime = NodeRuntime::start_with_wake(options, wake.clone())?;
+        let (control_sender, controls) = ControlSender::channel(wake);
+        let config = &options.config;
+
+        let (mut ros2, ros2_publisher) =
+            Ros2Node::start(&config.ros2, plan, &config.engine, control_sender)?;
+        ros2.register(poll.registry(), ROS2_FIRST)
+            .context("cannot register the ROS 2 subscriptions with the event loop")?;
+        ros2.register_reset(poll.registry(), RESET)
+            .context("cannot register the ROS 2 reset service with the event loop")?;
+        let iox = match &config.iceoryx2.config_file {
+            Some(_) => {
+                let mut input = IoxInput::open(&config.iceoryx2)?;
+                poll.registry()
+                    .register(&mut input, IOX, mio::Interest::READABLE)
+                    .context("cannot register the iceoryx2 listener with the event loop")?;
+                let publisher = IoxAlertPublisher::new(&config.iceoryx2)?;
+                Some((input, publisher))
+            }
+            None => None,
+        };
+        Ok(Reactor {
+            runtime,
+            poll,
+            _waker: waker,
+            controls,
+            ros2,
+            ros2_publisher,
+            iox,
+        })
+    }
+
+    /// The instant the node's arrival stamps (`Alert::arrival_ns`) count from.
+    #[must_use]
+    pub fn epoch(&self) -> std::time::Instant {
+        self.runtime.epoch()
+    }
+
+    /// The intake counters, readable from other threads while the node runs.
+    #[must_use]
+    pub fn probe(&self) -> Probe {
+        Probe {
+            ros2: Arc::clone(&self.ros2.counters),
+            iox: self.iox.as_ref().map(|(input, _)| input.stats_handle()),
+        }
+    }
+
+    /// Runs the event loop until `stop` is set (seen within `TICK`, 50 ms), publishing to the
+    /// node's publishers — the iceoryx2 alert publisher at once, ROS 2 and `extra` at the end
+    /// of each turn (see `Outlet`) — then takes what the inputs still hold, shuts the engine
+    /// down (held packets released, remaining outputs published, journal synced) and reports.
+    pub fn run(
+        self,
+        stop: &AtomicBool,
+        extra: &mut [&mut dyn Publisher],
+    ) -> anyhow::Result<ServeReport> {
+        let Reactor {
+            mut runtime,
+            mut poll,
+            _waker,
+            controls,
+            mut ros2,
+            mut ros2_publisher,
+            iox,
+        } = self;
+        let (mut iox_input, mut iox_publisher) = match iox {
+            Some((input, publisher)) => (Some(input), Some(publisher)),
+            None => (None, None),
+        };
+        let mut later: Vec<&mut dyn Publisher> = Vec::with_capacity(1 + extra.len());
+        later.push(&mut ros2_publisher);
+        for p in extra.iter_mut() {
+            later.push(&mut **p);
+        }
+        let mut out = Outlet {
+            now: iox_publisher.as_mut().map(|p| p as &mut dyn Publisher),
+            later,
+            queue: Vec::new(),
+            errors: 0,
+            log: RateLimitedLog::new(),
+        };
+
+        // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
+        let mut inboxes: Vec<Inbox> = (0..1 + ros2.inputs()).map(|_| Inbox::new()).collect();
+        let mut events = Events::with_capacity(64);
+        // Requests of /pbr/reset may be waiting (edge-triggered, like the inputs).
+        let mut resets_due = true;
+        while !stop.load(Ordering::Relaxed) {
+            let pending = resets_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
+            let timeout = if pending {
+                Duration::ZERO
+            } else if ros2.pending_replies() > 0 {
+                crate::ros2::RESET_MATCH_GRACE // a reset response waits for its client
+            } else {
+                TICK
+            };
+            match poll.poll(&mut events, Some(timeout)) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e).context("the node's event loop failed (poll)"),
+            }
+            if events.is_empty() && !pending {
+                // Idle tick: look at every source once (a safety net, cheap when empty).
+                inboxes.iter_mut().for_each(|i| i.due = true);
+                resets_due = true;
+            }
+            for event in &events {
+                let source = match event.token() {
+                    WAKE => continue,
+                    RESET => {
+                        resets_due = true;
+                        continue;
+                    }
+                    IOX => 0,
+                    Token(t) => 1 + t.wrapping_sub(ROS2_FIRST),
+                };
+                if let Some(inbox) = inboxes.get_mut(source) {
+                    inbox.due = true;
+                }
+            }
+            apply_controls(&controls, &mut runtime);
+            // Operator resets apply before the packets of this turn.
+            if resets_due {
+                resets_due = ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
+            }
+            ros2.send_due_replies();
+            turn(
+                &mut inboxes,
+                &mut iox_input,
+                &mut ros2,
+                &mut runtime,
+                &mut out,
+                &controls,
+            )?;
+            runtime.flush_if_due(&mut |p| out.publish(p))?;
+            out.flush();
+            if let Some(input) = &mut iox_input {
+                input.maintain();
+            }
+        }
+
+        // Stop: take what the inputs still hold (bounded) and process every packet taken,
+        // then shut the engine down.
+        inboxes.iter_mut().for_each(|i| i.due = true);
+        loop {
+            turn(
+                &mut inboxes,
+                &mut iox_input,
+                &mut ros2,
+                &mut runtime,
+                &mut out,
+                &controls,
+            )?;
+            if inboxes.iter().all(|i| i.queue.is_empty()) {
+                break;
+            }
+            // Process what was taken; take nothing new.
+            inboxes.iter_mut().for_each(|i| i.due = false);
+        }
+        // Requests waiting at the stop are answered (a bounded number; the responses go out
+        // now, held ones too).
+        ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
+        ros2.flush_replies();
+        let iox_stats = iox_input.as_ref().map(IoxInput::stats);
+        let (summaries, input) = runtime.shutdown_with_totals(&mut |p| out.publish(p))?;
+        out.flush();
+        if let Some(input) = &mut iox_input {
+            let _ = poll.registry().deregister(input);
+        }
+        Ok(ServeReport {
+            summaries,
+            input,
+            ros2_packets: ros2.counters.packets.load(Ordering::Relaxed),
+            ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
+            iox: iox_stats,
+        })
+    }
+}
+
+/// One turn of the event loop after the poll: take what the ready (`due`) sources hold into
+/// their inboxes (fast: no engine work yet), then run the engine on the inboxes' packets for
+/// at most [`TURN_BUDGET`] / [`DRAIN_BOUND`] packets, then publish what the engine workers
+/// produced.
+fn turn(
+    inboxes: &mut [Inbox],
+    iox_input: &mut Option<IoxInput>,
+    ros2: &mut Ros2Node,
+    runtime: &mut NodeRuntime,
+    out: &mut Outlet<'_>,
+    controls: &Receiver<Control>,
+) -> anyhow::Result<()> {
+    for (source, inbox) in inboxes.iter_mut().enumerate() {
+        if !inbox.due {
+            continue;
+        }
+        let clock = &*runtime;
+        inbox.due = match (source, &mut *iox_input) {
+            // iceoryx2 packets are bounded by the service's slice length: bound by count.
+            (0, Some(input)) => {
+                let room = INBOX_BOUND.saturating_sub(inbox.queue.len());
+                input.drain(room, &mut |p| inbox.push(p, clock.now_ns()))?
+            }
+            (0, None) => false,
+            // A DDS message may hold up to MAX_SAMPLES_PER_PACKET samples: take in chunks
+            // while the inbox is under both bounds.
+            (s, _) => {
+                let mut more = true;
+                while more && !inbox.full() {
+                    let room = INBOX_BOUND
+                        .saturating_sub(inbox.queue.len())
+                        .min(ROS2_CHUNK);
+                    more = ros2.drain(s - 1, room, &mut |p| inbox.push(p, clock.now_ns()))?;
+                }
+                more
+            }
+        };
+    }
+    // Round robin over the sources, one packet each, until the inboxes are empty, or
+    // DRAIN_BOUND packets or TURN_BUDGET have gone by (then poll again, taking new data).
+    let deadline = Instant::now() + TURN_BUDGET;
+    let mut processed = 0;
+    loop {
+        let mut any = false;
+        for inbox in inboxes.iter_mut() {
+            if let Some((packet, arrival_ns)) = inbox.pop() {
+                any = true;
+                processed += 1;
+                // A parameter change queued before this packet was taken applies to it.
+                apply_controls(controls, runtime);
+                runtime.submit_arrived(packet, arrival_ns, &mut |p| out.publish(p))?;
+            }
+        }
+        if !any || processed >= DRAIN_BOUND || Instant::now() >= deadline {
+            break;
+        }
+    }
+    runtime.poll(&mut |p| out.publish(p))?;
+    out.flush();
+    Ok(())
+}
+
+/// Packets taken from one source and not yet processed, with their arrival stamps
+/// ([`NodeRuntime::now_ns`] when taken).
+struct Inbox {
+    queue: VecDeque<(AccelPacket, i64)>,
+    /// Samples (per component) of the packets in `queue`.
+    samples: usize,
+    /// Ready (or stopped at the bound last turn): take from the source on this turn.
+    due: bool,
+}
+
+impl Inbox {
+    fn new() -> Inbox {
+        Inbox {
+            queue: VecDeque::new(),
+            samples: 0,
+            due: true,
+        }
+    }
+
+    fn push(&mut self, packet: AccelPacket, arrival_ns: i64) -> anyhow::Result<()> {
+        self.samples += packet.len();
+        self.queue.push_back((packet, arrival_ns));
+        Ok(())
+    }
+
+    fn pop(&mut self) -> Option<(AccelPacket, i64)> {
+        let taken = self.queue.pop_front()?;
+        self.samples -= taken.0.len();
+        Some(taken)
+    }
+
+    /// At [`INBOX_BOUND`] packets or [`INBOX_SAMPLES`] samples: take nothing more.
+    fn full(&self) -> bool {
+        self.queue.len() >= INBOX_BOUND || self.samples >= INBOX_SAMPLES
+    }
+}
+
+/// Serves one `/pbr/reset` request: [`NodeRuntime::operator_reset`] (an overturned block is
+/// reset, journaled first; a standing one left alone; an unknown id refused) and its response.
+/// A failed journal is reported to the client (success false) and logged; the node goes on.
+fn reset_response(runtime: &mut NodeRuntime, pbr_id: &str) -> ResetPbrResponse {
+    match runtime.operator_reset(pbr_id) {
+        Ok(outcome) => ResetPbrResponse {
+            success: outcome.success(),
+            message: outcome.message(pbr_id),
+        },
+        Err(e) => ResetPbrResponse {
+            success: false,
+            message: format!("block {pbr_id} not reset: the state directory failed: {e:#}"),
+        },
+    }
+}
+
+/// Applies every queued settings change.
+fn apply_controls(controls: &Receiver<Control>, runtime: &mut NodeRuntime) {
+    while let Ok(control) = controls.try_recv() {
+        runtime.apply(control);
+    }
+}
+
+/// Every publisher of the node. The iceoryx2 alert publisher (`now`) publishes at once; the
+/// others (ROS 2, extra) are handed the turn's publications together at its end
+/// ([`Outlet::flush`]): each ROS 2 publication wakes RustDDS's event-loop thread, which would
+/// otherwise compete for the CPU with the iceoryx2 subscriber being woken at that moment, and
+/// one batch per turn wakes it once. A failed publication is logged (rate-limited) and the
+/// node goes on.
+struct Outlet<'a> {
+    now: Option<&'a mut dyn Publisher>,
+    later: Vec<&'a mut dyn Publisher>,
+    /// Publications for `later` (reused: no allocation per turn).
+    queue: Vec<Publication>,
+    errors: u64,
+    log: RateLimitedLog,
+}
+
+/// Everything handed to the outlet has been journaled: whatever ends the event loop, an
+/// error included, the queued publications still go out.
+impl Drop for Outlet<'_> {
+    fn drop(&mut self) {
+        self.flush();
+    }
+}
+
+impl Outlet<'_> {
+    fn publish(&mut self, publication: Publication) {
+        if let Some(publisher) = &mut self.now {
+            if let Err(e) = publisher.publish(&publication) {
+                Self::failed(&mut self.errors, &mut self.log, &e);
+            }
+        }
+        if !self.later.is_empty() {
+            self.queue.push(publication);
+        }
+    }
+
+    /// Hands the queued publications to the other publishers.
+    fn flush(&mut self) {
+        for publication in self.queue.drain(..) {
+            for publisher in &mut self.later {
+                if let Err(e) = publisher.publish(&publication) {
+                    Self::failed(&mut self.errors, &mut self.log, &e);
+                }
+            }
+        }
+    }
+
+    fn failed(errors: &mut u64, log: &mut RateLimitedLog, e: &anyhow::Error) {
+        *errors += 1;
+        log.log(
+            "node",
+            "publish_failed",
+            &format!("{e:#} ({errors} in all)"),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn packet(samples: usize) -> AccelPacket {
+        AccelPacket {
+            station: "XX.BIG.00".into(),
+            start_time_ns: 0,
+            sample_rate_hz: 100.0,
+            sequence: 0,
+            east: vec![0.0; samples],
+            north: vec![0.0; samples],
+            up: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn an_inbox_is_full_at_its_packet_or_its_sample_bound() {
+        let mut inbox = Inbox::new();
+        // Huge packets: the sample bound is reached long before the packet bound.
+        let big = rockwatch_core::engine::packet::MAX_SAMPLES_PER_PACKET;
+        let n = INBOX_SAMPLES.div_ceil(big);
+        for i in 0..n {
+            assert!(!inbox.full(), "full after {i} packets");
+            inbox.push(packet(big), 0).unwrap();
+        }
+        assert!(inbox.full() && inbox.queue.len() < INBOX_BOUND);
+        // Taking a packet out frees its samples.
+        inbox.pop().unwrap();
+        assert_eq!(inbox.samples, (n - 1) * big);
+        assert!(!inbox.full());
+        // Small packets: the packet bound.
+        let mut inbox = Inbox::new();
+        (0..INBOX_BOUND).for_each(|_| inbox.push(packet(10), 0).unwrap());
+        assert!(inbox.full() && inbox.samples < INBOX_SAMPLES);
+    }
+}

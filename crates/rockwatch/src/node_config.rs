@@ -1,0 +1,167 @@
+//! The node / monitor configuration file (TOML): which catalogue, which stations, the engine's
+//! thresholds, and where the state directory is. Relative paths are relative to the file.
+//!
+//! ```toml
+//! catalogue = "catalogue.toml"
+//! state_dir = "/var/lib/rockwatch"      # optional
+//!
+//! [engine]
+//! state_interval_s = 1.0
+//! [engine.alerts]
+//! imminent_theta_ratio = 0.8
+//! [engine.stream]
+//! max_bridge_s = 0.5
+//!
+//! [[station]]
+//! id = "CI.RRS.00"
+//! gain_mps2_per_count = 2.384185791015625e-06
+//! full_scale = 8388608
+//! orientation = { kind = "azimuths", h1_deg = 0.0, h2_deg = 90.0 }
+//!
+//! [ros2]
+//! input_qos = "reliable"                # of /pbr/accel (default)
+//!
+//! # A sensor_msgs/msg/Imu topic as a station (see `crate::ros2::ImuInput`): mounted level,
+//! # x east, y north, z up; east = x, north = y, up = z − 9.80665 (remove_gravity).
+//! [[ros2.imu]]
+//! topic = "/imu/data"
+//! station = "XB.IMU.00"
+//! sample_rate_hz = 100.0
+//! remove_gravity = true
+//! qos = "sensor_data"                   # default: best effort, as most Imu drivers publish
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use rockwatch_core::engine::{EngineConfig, StationConfig};
+
+/// A parsed configuration file.
+#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeConfig {
+    /// PBR catalogue (TOML or CSV).
+    #[serde(default)]
+    pub catalogue: Option<PathBuf>,
+    /// State directory (journal of alerts and fallen blocks).
+    #[serde(default)]
+    pub state_dir: Option<PathBuf>,
+    #[serde(default)]
+    pub engine: EngineConfig,
+    #[serde(default, rename = "station")]
+    pub stations: Vec<StationConfig>,
+    /// The `[ros2]` section: namespace, domain, interfaces, input QoS, Imu topics.
+    #[serde(default)]
+    pub ros2: crate::ros2::Ros2Config,
+    /// The iceoryx2 transport (`[iceoryx2]`).
+    #[serde(default)]
+    pub iceoryx2: crate::iox::IoxConfig,
+}
+
+impl NodeConfig {
+    /// Reads and validates `path`; errors name the file (and the line, for TOML syntax).
+    pub fn load(path: &Path) -> Result<NodeConfig, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut config: NodeConfig = toml::from_str(&text).map_err(|e| {
+            format!(
+                "{}: {}",
+                path.display(),
+                rockwatch_core::catalogue::toml_error_line(&text, &e)
+            )
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        config.catalogue = config.catalogue.map(|c| base.join(c));
+        config.state_dir = config.state_dir.map(|d| base.join(d));
+        config
+            .engine
+            .validate()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        config.iceoryx2.config_file = config.iceoryx2.config_file.map(|f| base.join(f));
+        for s in &config.stations {
+            s.validate()
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+        Ok(config)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn load(text: &str) -> Result<NodeConfig, String> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("node.toml");
+        std::fs::write(&path, text).unwrap();
+        NodeConfig::load(&path)
+    }
+
+    #[test]
+    fn full_config_parses_with_paths_relative_to_the_file() {
+        let c = load(
+            "catalogue = \"cat.toml\"\n[engine]\nstate_interval_s = 2.0\n[engine.alerts]\nimminent_theta_ratio = 0.7\n\
+             [[station]]\nid = \"CI.RRS.00\"\ngain_mps2_per_count = 1e-6\norientation = { kind = \"azimuths\", h1_deg = 10.0, h2_deg = 100.0 }\n",
+        )
+        .unwrap();
+        assert!(c.catalogue.unwrap().ends_with("cat.toml"));
+        assert_eq!(c.engine.state_interval_s, 2.0);
+        assert_eq!(c.engine.alerts.imminent_theta_ratio, 0.7);
+        assert_eq!(c.engine.alerts.quiet_s, 30.0); // default kept
+        assert_eq!(c.stations[0].gain_mps2_per_count, Some(1e-6));
+    }
+
+    #[test]
+    fn readme_imu_example_parses_with_the_documented_values() {
+        let readme = include_str!("../../../README.md");
+        let block = readme
+            .split("```toml\n")
+            .skip(1)
+            .filter_map(|b| b.split("```").next())
+            .find(|b| b.contains("[[ros2.imu]]"))
+            .expect("README has a [[ros2.imu]] example");
+        let c = load(block).unwrap();
+        assert_eq!(c.ros2.input_qos, crate::ros2::InputQos::Reliable);
+        assert_eq!(
+            c.ros2.imu,
+            vec![crate::ros2::ImuInput {
+                topic: "/imu/data".into(),
+                station: "XB.IMU.00".into(),
+                sample_rate_hz: 100.0,
+                remove_gravity: true,
+                qos: crate::ros2::InputQos::SensorData,
+            }]
+        );
+        // remove_gravity defaults to true.
+        let c = load(
+            "[[ros2.imu]]\ntopic = \"/imu\"\nstation = \"XB.IMU.00\"\nsample_rate_hz = 200.0\n",
+        )
+        .unwrap();
+        assert!(c.ros2.imu[0].remove_gravity);
+        // qos defaults to the sensor-data profile (best effort), whatever input_qos says.
+        assert_eq!(c.ros2.imu[0].qos, crate::ros2::InputQos::SensorData);
+    }
+
+    #[test]
+    fn bad_config_is_named() {
+        let e = load("[engine]\nstate_intervl_s = 2.0\n").unwrap_err();
+        assert!(
+            e.contains("node.toml") && e.contains("state_intervl_s"),
+            "{e}"
+        );
+        let e = load("[[station]]\nid = \"CI.R-S.00\"\n").unwrap_err();
+        assert!(e.contains("node.toml") && e.contains("R-S"), "{e}");
+        let e = load("[[station]]\nid = \"CI.RRS.00\"\norientation = { kind = \"azimuths\", h1_deg = 0.0, h2_deg = 45.0 }\n").unwrap_err();
+        assert!(e.contains("orthogonal"), "{e}");
+        for bad in [
+            "[engine.stream]\nreorder_window_packets = 9223372036854775807\n",
+            "[engine.alerts]\nimminent_theta_ratio = -1.0\n",
+            "[engine.alerts]\nquiet_s = nan\n",
+            "[engine.stream]\nmax_bridge_s = 1e12\n",
+        ] {
+            let e = load(bad).unwrap_err();
+            assert!(
+                e.contains("node.toml") && e.contains("out of range"),
+                "{bad}: {e}"
+            );
+        }
+    }
+}

@@ -1,0 +1,356 @@
+//! Turning records into the packets a live station would send: aligned east/north/up traces
+//! with their timing, cut into packets of a given length and followed by a quiet tail. Used by
+//! `rockwatch monitor` and the replay tool, so offline and live runs see the same packets.
+
+use std::path::Path;
+
+use rockwatch_core::engine::{AccelPacket, StationId};
+use rockwatch_core::mseed::{read_mseed, Channel, GapFill};
+use rockwatch_core::record::{Record, RecordError};
+
+/// Longest quiet tail a replay or monitor run appends (s): one day.
+pub const MAX_TAIL_S: f64 = 86_400.0;
+
+/// Three aligned components (m/s², or counts for integer MiniSEED) with their timing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Traces {
+    /// UTC time of the first sample (ns).
+    pub start_ns: i64,
+    pub rate_hz: f64,
+    pub east: Vec<f64>,
+    pub north: Vec<f64>,
+    pub up: Option<Vec<f64>>,
+}
+
+impl Traces {
+    /// A record's horizontal component pointing to `azimuth_deg` (clockwise from north) split
+    /// into east and north (a_E = a sin az, a_N = a cos az), its vertical as up. Time 0 is
+    /// the Unix epoch (AT2 and CSV records carry no absolute time).
+    pub fn from_record(record: &Record, azimuth_deg: f64) -> Result<Traces, String> {
+        if !azimuth_deg.is_finite() {
+            return Err(format!(
+                "azimuth must be a finite number of degrees, got {azimuth_deg}"
+            ));
+        }
+        let (s, c) = azimuth_deg.to_radians().sin_cos();
+        Ok(Traces {
+            start_ns: 0,
+            rate_hz: 1.0 / record.dt_s,
+            east: record.horizontal_mps2.iter().map(|a| a * s).collect(),
+            north: record.horizontal_mps2.iter().map(|a| a * c).collect(),
+            up: record.vertical_mps2.clone(),
+        })
+    }
+
+    /// The channels of `station` in a MiniSEED file: …E or …1 as east, …N or …2 as north, …Z
+    /// or …3 as up (a missing horizontal is zero). Gaps inside the file are filled linearly;
+    /// the channels must share rate and start time (to half a sample). Values are as stored
+    /// (counts for integer encodings: the station's gain converts them).
+    pub fn from_mseed(path: &Path, station: &StationId) -> Result<Traces, RecordError> {
+        let err = |problem: String| RecordError::new(path, None, problem);
+        let file = read_mseed(path)?;
+        let mine: Vec<&Channel> = file
+            .channels
+            .iter()
+            .filter(|c| format!("{}.{}.{}", c.net, c.sta, c.loc) == station.as_str())
+            .collect();
+        if mine.is_empty() {
+            let ids: Vec<String> = file.channels.iter().map(Channel::id).collect();
+            return Err(err(format!(
+                "no channel of station {station} (channels: {})",
+                ids.join(", ")
+            )));
+        }
+        let pick = |codes: [char; 2]| mine.iter().find(|c| c.cha.ends_with(codes)).copied();
+        let (east, north, up) = (pick(['E', '1']), pick(['N', '2']), pick(['Z', '3']));
+        let Some(first) = east.or(north) else {
+            return Err(err(format!(
+                "station {station} has no horizontal channel (…E/…N or …1/…2)"
+            )));
+        };
+        let (start_ns, rate_hz) = (first.start_time_ns, first.sample_rate_hz);
+        let samples = |c: Option<&Channel>| -> Result<Option<Vec<f64>>, RecordError> {
+            let Some(c) = c else { return Ok(None) };
+            if (c.sample_rate_hz - rate_hz).abs() > 1e-9 * rate_hz
+                || (c.start_time_ns - start_ns).abs() as f64 > 0.5e9 / rate_hz
+            {
+                return Err(err(format!(
+                    "channel {} is not aligned with {} (rate or start time)",
+                    c.id(),
+                    first.id()
+                )));
+            }
+            c.contiguous_samples(GapFill::Linear).map(Some)
+        };
+        let (e, n, u) = (samples(east)?, samples(north)?, samples(up)?);
+        let len = [&e, &n, &u]
+            .iter()
+            .filter_map(|c| c.as_ref().map(Vec::len))
+            .min()
+            .unwrap_or(0);
+        let cut = |v: Option<Vec<f64>>| {
+            v.map(|mut v| {
+                v.truncate(len);
+                v
+            })
+        };
+        Ok(Traces {
+            start_ns,
+            rate_hz,
+            east: cut(e).unwrap_or_else(|| vec![0.0; len]),
+            north: cut(n).unwrap_or_else(|| vec![0.0; len]),
+            up: cut(u),
+        })
+    }
+
+    /// Number of samples.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.east.len()
+    }
+
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.east.is_empty()
+    }
+
+    /// Cuts the traces, followed by `tail_s` seconds of zeros (at most [`MAX_TAIL_S`]), into
+    /// packets of `packet_ms` (at least one sample), sequence numbers from 0.
+    #[must_use]
+    pub fn packets(&self, station: &StationId, packet_ms: u32, tail_s: f64) -> Vec<AccelPacket> {
+        let per_packet = ((f64::from(packet_ms) * 1e-3 * self.rate_hz).round() as usize).max(1);
+        let tail = (tail_s.clamp(0.0, MAX_TAIL_S) * self.rate_hz).round() as usize;
+        let total = self.len().saturating_add(tail);
+        let at = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(0.0) as f32;
+        (0..total)
+            .step_by(per_packet)
+            .enumerate()
+            .map(|(sequence, first)| {
+                let range = first..(first + per_packet).min(total);
+                AccelPacket {
+                    station: station.to_string(),
+                    start_time_ns: self.start_ns
+                        + (first as f64 * 1e9 / self.rate_hz).round() as i64,
+                    sample_rate_hz: self.rate_hz,
+                    sequence: sequence as u64,
+                    east: range.clone().map(|i| at(&self.east, i)).collect(),
+                    north: range.clone().map(|i| at(&self.north, i)).collect(),
+                    up: self
+                        .up
+                        .as_ref()
+                        .map_or_else(Vec::new, |u| range.map(|i| at(u, i)).collect()),
+                }
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn packets_cover_record_and_tail_contiguously() {
+        let record = Record {
+            source: "test".into(),
+            dt_s: 0.01,
+            horizontal_mps2: (0..25).map(f64::from).collect(),
+            vertical_mps2: None,
+        };
+        let t = Traces::from_record(&record, 90.0).unwrap();
+        let id = StationId::parse("CI.RRS.00").unwrap();
+        let p = t.packets(&id, 100, 0.1);
+        let lens: Vec<usize> = p.iter().map(AccelPacket::len).collect();
+        assert_eq!(lens, vec![10, 10, 10, 5]);
+        assert_eq!(p[2].start_time_ns, 200_000_000);
+        assert_eq!(p[2].east[4], 24.0);
+        assert_eq!(p[3].east, vec![0.0; 5]);
+        assert!(p
+            .iter()
+            .all(|q| q.up.is_empty() && q.north.iter().all(|v| v.abs() < 1e-5)));
+        assert_eq!(
+            p.iter().map(|q| q.sequence).collect::<Vec<_>>(),
+            vec![0, 1, 2, 3]
+        );
+    }
+}
+
+/// A transport's replay side: where replayed packets go.
+pub trait PacketSink {
+    /// Waits until at least one subscriber is connected or `timeout` passes; true if connected.
+    fn wait_for_subscriber(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool>;
+    /// Sends one packet.
+    fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()>;
+    /// Waits up to `timeout` until every connected subscriber has received everything sent
+    /// (reliable transports acknowledge); true if it has. Call before the sink is dropped.
+    fn finish(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool> {
+        let _ = timeout;
+        Ok(true)
+    }
+}
+
+/// Replay pace.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Speed {
+    /// `factor` × real time (1.0 = real time).
+    Times(f64),
+    /// As fast as the sink takes packets.
+    Max,
+}
+
+impl std::str::FromStr for Speed {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s == "max" {
+            return Ok(Speed::Max);
+        }
+        match s.parse::<f64>() {
+            Ok(f) if f.is_finite() && f > 0.0 => Ok(Speed::Times(f)),
+            _ => Err(format!(
+                "speed must be a positive number or \"max\", got {s:?}"
+            )),
+        }
+    }
+}
+
+/// Time stamps of replayed packets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Restamp {
+    /// Shifted so that the first sample is "now" (UTC) and later ones follow at the data rate.
+    Now,
+    /// As in the record.
+    Original,
+}
+
+/// What a replay sent.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ReplayReport {
+    pub packets: u64,
+    pub samples: u64,
+    /// Data seconds sent.
+    pub data_s: f64,
+    /// Wall seconds taken.
+    pub wall_s: f64,
+    /// Largest lateness of a packet behind its schedule (s), at finite speeds.
+    pub max_lag_s: f64,
+}
+
+/// Sends `packets` (of one station, in order) `loops` times through `sink`. At a finite speed
+/// each packet leaves when its last sample would have been recorded, scaled by the speed, on
+/// an absolute schedule from a monotonic clock (no drift). Each loop continues the timeline
+/// and the sequence numbers, so the receiver sees one continuous stream.
+pub fn replay(
+    packets: &[AccelPacket],
+    sink: &mut dyn PacketSink,
+    speed: Speed,
+    restamp: Restamp,
+    loops: u32,
+) -> anyhow::Result<ReplayReport> {
+    use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+    let (Some(first), Some(last)) = (packets.first(), packets.last()) else {
+        return Ok(ReplayReport::default());
+    };
+    let duration_ns = last.start_time_ns - first.start_time_ns
+        + (last.len() as f64 * 1e9 / last.sample_rate_hz).round() as i64;
+    let wall_epoch_ns = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as i64);
+    let shift_ns = match restamp {
+        Restamp::Now => wall_epoch_ns - first.start_time_ns,
+        Restamp::Original => 0,
+    };
+    let start = Instant::now();
+    let mut report = ReplayReport::default();
+    let sequences = packets.len() as u64;
+    for lap in 0..u64::from(loops) {
+        for p in packets {
+            let offset_ns = p.start_time_ns - first.start_time_ns + lap as i64 * duration_ns;
+            let ready_ns = offset_ns + (p.len() as f64 * 1e9 / p.sample_rate_hz).round() as i64;
+            if let Speed::Times(factor) = speed {
+                let due = Duration::from_nanos((ready_ns as f64 / factor).max(0.0) as u64);
+                let now = start.elapsed();
+                if due > now {
+                    std::thread::sleep(due - now);
+                } else {
+                    report.max_lag_s = report.max_lag_s.max((now - due).as_secs_f64());
+                }
+            }
+            let mut packet = p.clone();
+            packet.start_time_ns = first.start_time_ns + offset_ns + shift_ns;
+            packet.sequence = p.sequence + lap * sequences;
+            sink.send(&packet)?;
+            report.packets += 1;
+            report.samples += packet.len() as u64;
+        }
+    }
+    report.data_s = (duration_ns as f64 * f64::from(loops)) * 1e-9;
+    report.wall_s = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+#[cfg(test)]
+mod replay_tests {
+    use super::*;
+    use std::time::Duration;
+
+    struct Recorder(Vec<(std::time::Instant, AccelPacket)>);
+    impl PacketSink for Recorder {
+        fn wait_for_subscriber(&mut self, _: Duration) -> anyhow::Result<bool> {
+            Ok(true)
+        }
+        fn send(&mut self, p: &AccelPacket) -> anyhow::Result<()> {
+            self.0.push((std::time::Instant::now(), p.clone()));
+            Ok(())
+        }
+    }
+
+    fn traces(n: usize) -> Traces {
+        Traces {
+            start_ns: 5_000_000_000,
+            rate_hz: 100.0,
+            east: vec![1.0; n],
+            north: vec![0.0; n],
+            up: None,
+        }
+    }
+
+    #[test]
+    fn paced_replay_follows_the_data_clock_without_drift() {
+        let id = StationId::parse("CI.RRS.00").unwrap();
+        let packets = traces(100).packets(&id, 100, 0.0); // 10 packets, 1 s of data
+        let mut sink = Recorder(Vec::new());
+        let t0 = std::time::Instant::now();
+        let report = replay(&packets, &mut sink, Speed::Times(5.0), Restamp::Original, 2).unwrap();
+        // 2 s of data at 5× → 0.4 s; the last packet leaves at 0.4 s (sleep granularity ~ms).
+        let last = sink.0.last().unwrap().0.duration_since(t0).as_secs_f64();
+        assert!((0.39..0.5).contains(&last), "last packet at {last} s");
+        assert_eq!(report.packets, 20);
+        assert!((report.data_s - 2.0).abs() < 1e-9);
+        // The second loop continues time and sequence numbers.
+        let p10 = &sink.0[10].1;
+        assert_eq!((p10.sequence, p10.start_time_ns), (10, 6_000_000_000));
+    }
+
+    #[test]
+    fn restamp_now_starts_at_the_wall_clock() {
+        let id = StationId::parse("CI.RRS.00").unwrap();
+        let packets = traces(20).packets(&id, 100, 0.0);
+        let mut sink = Recorder(Vec::new());
+        replay(&packets, &mut sink, Speed::Max, Restamp::Now, 1).unwrap();
+        let now = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos() as i64;
+        let first = sink.0[0].1.start_time_ns;
+        assert!((now - first).abs() < 5_000_000_000, "{first} vs {now}");
+        assert_eq!(sink.0[1].1.start_time_ns - first, 100_000_000);
+    }
+
+    #[test]
+    fn speed_parses() {
+        assert_eq!("max".parse::<Speed>(), Ok(Speed::Max));
+        assert_eq!("10".parse::<Speed>(), Ok(Speed::Times(10.0)));
+        assert!("0".parse::<Speed>().is_err());
+        assert!("fast".parse::<Speed>().is_err());
+    }
+}

@@ -1,0 +1,285 @@
+//! The `pbr_msgs` interfaces (`msg/*.msg`, `msg/srv/*.srv`) as Rust structs for the CDR wire
+//! format.
+//!
+//! CDR is positional: the fields below are declared in exactly the order and with exactly the
+//! types of the `.msg` and `.srv` files (checked by `tests/ros2_msgs.rs`, which parses `msg/`).
+//! Field names are those of the files, so they carry no unit suffix; the units are in each doc
+//! comment (SI: m/s², m/s, m, s, rad).
+
+use ros2_client::builtin_interfaces::Time;
+use serde::{Deserialize, Serialize};
+
+use rockwatch_core::dynamics::Mode;
+use rockwatch_core::engine::{self, AlertLevel};
+
+/// The ROS 2 package of the messages (DDS type names `pbr_msgs::msg::dds_::<Name>_`) and of
+/// the service (`pbr_msgs::srv::dds_::ResetPbr_Request_` / `_Response_`).
+pub const PACKAGE: &str = "pbr_msgs";
+
+/// The service type `pbr_msgs/srv/ResetPbr`.
+pub const RESET_SERVICE_TYPE: &str = "ResetPbr";
+
+/// `std_msgs/Header`: `builtin_interfaces/Time stamp`, `string frame_id`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// UTC time (ns since the Unix epoch on the wire as sec + nanosec).
+    pub stamp: Time,
+    pub frame_id: String,
+}
+
+impl Header {
+    /// A header stamped `time_ns` (UTC ns) with `frame_id`.
+    #[must_use]
+    pub fn new(time_ns: i64, frame_id: &str) -> Header {
+        Header {
+            stamp: Time::from_nanos(time_ns),
+            frame_id: frame_id.to_string(),
+        }
+    }
+}
+
+/// `pbr_msgs/AccelPacket`: three-component acceleration of one station.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AccelPacket {
+    /// stamp = UTC time of the first sample; frame_id = station SEED id `NET.STA.LOC`.
+    pub header: Header,
+    /// Samples per second (Hz).
+    pub sample_rate: f64,
+    /// Packet sequence number of the station's stream.
+    pub sequence: u64,
+    /// East acceleration (m/s², or counts for a station with a configured gain).
+    pub east: Vec<f32>,
+    /// North acceleration (same units as `east`).
+    pub north: Vec<f32>,
+    /// Up acceleration (same units; may be empty).
+    pub up: Vec<f32>,
+}
+
+/// `pbr_msgs/StationIntensity`: a station's running intensity measures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StationIntensity {
+    /// stamp = data time of the latest sample; frame_id = station.
+    pub header: Header,
+    /// Peak ground acceleration (m/s²), larger horizontal component.
+    pub pga: f64,
+    /// Peak ground velocity (m/s).
+    pub pgv: f64,
+    /// Peak ground displacement (m).
+    pub pgd: f64,
+    /// Cumulative absolute velocity (m/s).
+    pub cav: f64,
+    /// Arias intensity (m/s).
+    pub arias: f64,
+    /// Acceleration spectrum intensity (m/s).
+    pub asi: f64,
+    /// Significant duration D5–95 (s).
+    pub d5_95: f64,
+    /// Periods of `sa` (s).
+    pub sa_periods: Vec<f64>,
+    /// Pseudo-spectral acceleration, 5 % damping (m/s²).
+    pub sa: Vec<f64>,
+    pub rejected_samples: u64,
+    pub gap_samples: u64,
+    pub late_samples: u64,
+}
+
+/// `pbr_msgs/PbrState`: one block's state.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PbrState {
+    /// stamp = data time of the latest sample integrated; frame_id = station.
+    pub header: Header,
+    pub pbr_id: String,
+    pub station: String,
+    /// One of the `MODE_*` constants.
+    pub mode: u8,
+    /// Rocking angle θ (rad).
+    pub theta: f64,
+    /// |θ|/α (dimensionless).
+    pub theta_over_alpha: f64,
+    /// Slip of the contact point (m).
+    pub slide: f64,
+    pub data_gap: bool,
+    /// Fraction of the ensemble that overturned (0..1).
+    pub overturn_probability: f64,
+}
+
+/// `pbr_msgs/PbrAlert`: an alert about one block.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PbrAlert {
+    /// stamp = data time of the triggering sample; frame_id = station.
+    pub header: Header,
+    pub pbr_id: String,
+    pub station: String,
+    /// One of the `LEVEL_*` constants.
+    pub level: u8,
+    /// One of the `MODE_*` constants.
+    pub mode: u8,
+    /// |θ|/α (dimensionless).
+    pub theta_over_alpha: f64,
+    /// Slip of the contact point (m).
+    pub slide: f64,
+    pub overturn_probability: f64,
+    /// Station's running PGA (m/s²) and PGV (m/s).
+    pub pga: f64,
+    pub pgv: f64,
+    pub message: String,
+}
+
+/// `pbr_msgs/srv/ResetPbr` request (`msg/srv/ResetPbr.srv`): the operator reset of a block.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResetPbrRequest {
+    /// Catalogue id of the block.
+    pub pbr_id: String,
+}
+
+/// `pbr_msgs/srv/ResetPbr` response.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResetPbrResponse {
+    /// True if the block was reset or stood already; false for an unknown id or a failed
+    /// journal.
+    pub success: bool,
+    /// What the node did, for people.
+    pub message: String,
+}
+
+impl ros2_client::Message for Header {}
+impl ros2_client::Message for AccelPacket {}
+impl ros2_client::Message for StationIntensity {}
+impl ros2_client::Message for PbrState {}
+impl ros2_client::Message for PbrAlert {}
+impl ros2_client::Message for ResetPbrRequest {}
+impl ros2_client::Message for ResetPbrResponse {}
+
+/// `PbrState` / `PbrAlert` mode constants.
+pub const MODE_REST: u8 = 0;
+pub const MODE_SLIDE: u8 = 1;
+pub const MODE_ROCK: u8 = 2;
+pub const MODE_SLIDE_ROCK: u8 = 3;
+pub const MODE_OVERTURNED: u8 = 4;
+pub const MODE_FLIGHT: u8 = 5;
+
+/// `PbrAlert` level constants.
+pub const LEVEL_MOTION_ONSET: u8 = 1;
+pub const LEVEL_OVERTURN_IMMINENT: u8 = 2;
+pub const LEVEL_OVERTURNED: u8 = 3;
+
+/// The wire code of a mode.
+#[must_use]
+pub fn mode_code(mode: Mode) -> u8 {
+    match mode {
+        Mode::Rest => MODE_REST,
+        Mode::Slide => MODE_SLIDE,
+        Mode::Rock => MODE_ROCK,
+        Mode::SlideRock => MODE_SLIDE_ROCK,
+        Mode::Overturned => MODE_OVERTURNED,
+        Mode::Flight => MODE_FLIGHT,
+    }
+}
+
+/// The wire code of an alert level.
+#[must_use]
+pub fn level_code(level: AlertLevel) -> u8 {
+    match level {
+        AlertLevel::MotionOnset => LEVEL_MOTION_ONSET,
+        AlertLevel::OverturnImminent => LEVEL_OVERTURN_IMMINENT,
+        AlertLevel::Overturned => LEVEL_OVERTURNED,
+    }
+}
+
+/// The alert level of a wire code, if it is one.
+#[must_use]
+pub fn level_of_code(code: u8) -> Option<AlertLevel> {
+    AlertLevel::ALL.into_iter().find(|l| level_code(*l) == code)
+}
+
+impl From<&AccelPacket> for engine::AccelPacket {
+    /// The engine's packet: station = frame_id, start = stamp (UTC ns). Nothing is
+    /// validated here: the engine validates and counts bad packets.
+    fn from(m: &AccelPacket) -> engine::AccelPacket {
+        engine::AccelPacket {
+            station: m.header.frame_id.clone(),
+            start_time_ns: m.header.stamp.to_nanos(),
+            sample_rate_hz: m.sample_rate,
+            sequence: m.sequence,
+            east: m.east.clone(),
+            north: m.north.clone(),
+            up: m.up.clone(),
+        }
+    }
+}
+
+impl From<&engine::AccelPacket> for AccelPacket {
+    fn from(p: &engine::AccelPacket) -> AccelPacket {
+        AccelPacket {
+            header: Header::new(p.start_time_ns, &p.station),
+            sample_rate: p.sample_rate_hz,
+            sequence: p.sequence,
+            east: p.east.clone(),
+            north: p.north.clone(),
+            up: p.up.clone(),
+        }
+    }
+}
+
+impl From<&engine::StationIntensity> for StationIntensity {
+    fn from(i: &engine::StationIntensity) -> StationIntensity {
+        StationIntensity {
+            header: Header::new(i.data_time_ns, &i.station),
+            pga: i.pga_mps2,
+            pgv: i.pgv_mps,
+            pgd: i.pgd_m,
+            cav: i.cav_mps,
+            arias: i.arias_mps,
+            asi: i.asi_mps,
+            d5_95: i.d5_95_s,
+            sa_periods: i.sa_periods_s.clone(),
+            sa: i.sa_mps2.clone(),
+            rejected_samples: i.rejected_samples,
+            gap_samples: i.gap_samples,
+            late_samples: i.late_samples,
+        }
+    }
+}
+
+impl From<&engine::PbrState> for PbrState {
+    fn from(s: &engine::PbrState) -> PbrState {
+        PbrState {
+            header: Header::new(s.data_time_ns, &s.station),
+            pbr_id: s.pbr_id.clone(),
+            station: s.station.clone(),
+            mode: mode_code(s.mode),
+            theta: s.theta_rad,
+            theta_over_alpha: s.theta_over_alpha,
+            slide: s.slide_m,
+            data_gap: s.data_gap,
+            overturn_probability: s.overturn_probability,
+        }
+    }
+}
+
+impl From<&engine::Alert> for PbrAlert {
+    fn from(a: &engine::Alert) -> PbrAlert {
+        PbrAlert {
+            header: Header::new(a.data_time_ns, &a.station),
+            pbr_id: a.pbr_id.clone(),
+            station: a.station.clone(),
+            level: level_code(a.level),
+            mode: mode_code(a.mode),
+            theta_over_alpha: a.theta_over_alpha,
+            slide: a.slide_m,
+            overturn_probability: a.overturn_probability,
+            pga: a.pga_mps2,
+            pgv: a.pgv_mps,
+            message: format!(
+                "{} {}: {} (episode {}, |θ|/α {:.2}, slide {:.3} m, PGA {:.2} m/s²)",
+                a.level.as_str(),
+                a.pbr_id,
+                a.mode,
+                a.episode,
+                a.theta_over_alpha,
+                a.slide_m,
+                a.pga_mps2
+            ),
+        }
+    }
+}

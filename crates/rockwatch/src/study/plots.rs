@@ -1,0 +1,367 @@
+//! Plots of the study, as SVG and PNG: DM against the five best IMs for each block (like the
+//! seed's Figures 4 and 5: responding, no response and overturned runs in different colours,
+//! best-fit line of the linear regression) and the fragility curve of overturning with its
+//! 95 % band and the observed fractions.
+//!
+//! PNG text uses the font bundled with the crate ([`crate::plot::ensure_font`]), so the
+//! plots render on a machine with no fonts installed.
+
+use std::error::Error;
+use std::path::{Path, PathBuf};
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::report::display_name;
+use crate::plot::ensure_font;
+use rockwatch_core::study::fragility::Z_95;
+use rockwatch_core::study::{BlockAnalysis, Category, StudyAnalysis, StudyConfig, StudyData};
+
+/// Size of the scatter figure (pixels).
+const SCATTER_SIZE: (u32, u32) = (1500, 950);
+/// Size of the fragility figure (pixels).
+const FRAGILITY_SIZE: (u32, u32) = (900, 600);
+
+/// A plot could not be drawn or written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot draw {path}: {message}")]
+pub struct PlotError {
+    /// The file.
+    pub path: PathBuf,
+    /// What went wrong.
+    pub message: String,
+}
+
+type DrawResult = Result<(), Box<dyn Error>>;
+
+/// Marker colour of a category (the seed's colours: blue response, orange none, yellow
+/// overturned; other exclusions grey).
+fn category_colour(c: Category) -> RGBColor {
+    match c {
+        Category::Responding => RGBColor(0, 114, 178),
+        Category::NoResponse => RGBColor(230, 159, 0),
+        Category::Overturned => RGBColor(204, 170, 0),
+        _ => RGBColor(150, 150, 150),
+    }
+}
+
+const FIT_COLOUR: RGBColor = RGBColor(0, 158, 115);
+
+fn legend_entries() -> [(Category, &'static str); 4] {
+    [
+        (Category::Responding, "response (used)"),
+        (Category::NoResponse, "no response (used)"),
+        (Category::Overturned, "overturned (excluded)"),
+        (Category::SlideAbove, "other exclusion"),
+    ]
+}
+
+fn draw_scatter<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    config: &StudyConfig,
+    data: &StudyData,
+    block: &BlockAnalysis,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let params = &config.blocks[block.block_index].params;
+    let (head, body) = root.split_vertically(40);
+    head.titled(
+        &format!(
+            "Block {}: {} vs the five best IMs — R = {:.2} m, α = {:.2}°, μs = {}, μk = {}",
+            block.name,
+            block.dm.label(),
+            params.half_diagonal_m,
+            params.alpha_rad.to_degrees(),
+            params.mu_s,
+            params.mu_k
+        ),
+        ("sans-serif", 20),
+    )?;
+    let cells = body.split_evenly((2, 3));
+    let dm_of = |i: usize| block.dm.of(&data.responses[i][block.block_index]);
+    // y range from the used runs; excluded runs above it are drawn at the top edge.
+    let y_max = (0..data.cases.len())
+        .filter(|&i| block.categories[i].is_used())
+        .map(dm_of)
+        .filter(|v| v.is_finite())
+        .fold(0.0_f64, f64::max)
+        .max(1e-3)
+        * 1.08;
+    for (cell, score) in cells.iter().zip(block.ranking.iter().take(5)) {
+        let j = score.im_index;
+        let x_max = data
+            .cases
+            .iter()
+            .map(|c| c.ims[j])
+            .filter(|v| v.is_finite())
+            .fold(0.0_f64, f64::max)
+            .max(1e-9)
+            * 1.05;
+        let mut chart = ChartBuilder::on(cell)
+            .caption(
+                format!("{} — R² = {:.4}", display_name(score.name()), score.r2()),
+                ("sans-serif", 16),
+            )
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
+        chart
+            .configure_mesh()
+            .x_desc(format!("{} ({})", display_name(score.name()), score.unit()))
+            .y_desc(block.dm.label())
+            .light_line_style(WHITE)
+            .label_style(("sans-serif", 12))
+            .draw()?;
+        // Draw order: exclusions, no response, responding (the data of interest on top).
+        for pass in [false, true] {
+            let points = (0..data.cases.len()).filter_map(|i| {
+                let c = block.categories[i];
+                let on_top = c == Category::Responding;
+                if on_top != pass {
+                    return None;
+                }
+                let (x, y) = (data.cases[i].ims[j], dm_of(i));
+                if !(x.is_finite() && y.is_finite()) {
+                    return None;
+                }
+                Some(Circle::new(
+                    (x, y.min(y_max)),
+                    2,
+                    category_colour(c).mix(0.6).filled(),
+                ))
+            });
+            chart.draw_series(points)?;
+        }
+        if let Some(fit) = score.linear {
+            let line = [0.0, x_max].map(|x| (x, fit.predict(x)));
+            chart.draw_series(LineSeries::new(line, FIT_COLOUR.stroke_width(2)))?;
+        }
+    }
+    // Legend in the sixth cell.
+    if let Some(cell) = cells.get(5) {
+        let c = &block.counts;
+        let mut y = 40;
+        for (cat, label) in legend_entries() {
+            cell.draw(&Circle::new((40, y), 5, category_colour(cat).filled()))?;
+            cell.draw(&Text::new(label, (55, y - 8), ("sans-serif", 16)))?;
+            y += 28;
+        }
+        cell.draw(&PathElement::new(
+            vec![(30, y), (50, y)],
+            FIT_COLOUR.stroke_width(2),
+        ))?;
+        cell.draw(&Text::new(
+            "linear fit (used runs)",
+            (55, y - 8),
+            ("sans-serif", 16),
+        ))?;
+        y += 40;
+        for line in [
+            format!("{} pulses", data.cases.len()),
+            format!(
+                "used {} (responding {}, none {})",
+                c.used(),
+                c.responding,
+                c.no_response
+            ),
+            format!(
+                "excluded {} (overturned {}, other {})",
+                c.excluded(),
+                c.overturned,
+                c.excluded() - c.overturned
+            ),
+        ] {
+            cell.draw(&Text::new(line, (30, y), ("sans-serif", 15)))?;
+            y += 24;
+        }
+    }
+    root.present()?;
+    Ok(())
+}
+
+fn draw_fragility<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    data: &StudyData,
+    block: &BlockAnalysis,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let Some(curve) = &block.fragility.selected else {
+        return Ok(());
+    };
+    let j = rockwatch_core::ims::STUDY_IM_NAMES
+        .iter()
+        .position(|n| *n == curve.im)
+        .unwrap_or(0);
+    let values: Vec<(f64, bool)> = (0..data.cases.len())
+        .filter(|&i| block.categories[i] != Category::Failed)
+        .map(|i| {
+            (
+                data.cases[i].ims[j],
+                data.responses[i][block.block_index].status
+                    == rockwatch_core::study::ResponseStatus::Overturned,
+            )
+        })
+        .filter(|(v, _)| *v > 0.0 && v.is_finite())
+        .collect();
+    let (lo, hi) = values
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), (v, _)| {
+            (lo.min(*v), hi.max(*v))
+        });
+    if !(lo.is_finite() && hi > lo) {
+        return Ok(());
+    }
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            format!(
+                "Block {}: P(overturn | {}) — median {:.4} {}, β = {:.3}",
+                block.name,
+                display_name(&curve.im),
+                curve.median,
+                curve.im_unit,
+                curve.beta
+            ),
+            ("sans-serif", 18),
+        )
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d((lo..hi).log_scale(), 0.0..1.0)?;
+    chart
+        .configure_mesh()
+        .x_desc(format!("{} ({})", display_name(&curve.im), curve.im_unit))
+        .y_desc("probability of overturning")
+        .label_style(("sans-serif", 13))
+        .draw()?;
+    let n = 120;
+    let grid: Vec<f64> = (0..n)
+        .map(|k| (lo.ln() + (hi.ln() - lo.ln()) * k as f64 / (n - 1) as f64).exp())
+        .collect();
+    let mut band: Vec<(f64, f64)> = grid.iter().map(|&x| (x, curve.band(x, Z_95).1)).collect();
+    band.extend(grid.iter().rev().map(|&x| (x, curve.band(x, Z_95).0)));
+    chart
+        .draw_series(std::iter::once(Polygon::new(
+            band,
+            RGBColor(0, 114, 178).mix(0.2).filled(),
+        )))?
+        .label("95 % band (delta method)")
+        .legend(|(x, y)| {
+            Rectangle::new(
+                [(x, y - 5), (x + 20, y + 5)],
+                RGBColor(0, 114, 178).mix(0.2).filled(),
+            )
+        });
+    chart
+        .draw_series(LineSeries::new(
+            grid.iter().map(|&x| (x, curve.probability(x))),
+            RGBColor(0, 114, 178).stroke_width(2),
+        ))?
+        .label("lognormal MLE")
+        .legend(|(x, y)| {
+            PathElement::new(
+                vec![(x, y), (x + 20, y)],
+                RGBColor(0, 114, 178).stroke_width(2),
+            )
+        });
+    // Observed fractions in 12 log-spaced bins.
+    let bins = 12;
+    let width = (hi.ln() - lo.ln()) / bins as f64;
+    let mut counts = vec![(0usize, 0usize); bins];
+    for (v, e) in &values {
+        let k = (((v.ln() - lo.ln()) / width) as usize).min(bins - 1);
+        counts[k].0 += 1;
+        counts[k].1 += usize::from(*e);
+    }
+    chart
+        .draw_series(
+            counts
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| c.0 > 0)
+                .map(|(k, c)| {
+                    let x = (lo.ln() + (k as f64 + 0.5) * width).exp();
+                    Circle::new(
+                        (x, c.1 as f64 / c.0 as f64),
+                        4,
+                        RGBColor(213, 94, 0).filled(),
+                    )
+                }),
+        )?
+        .label("observed fraction (binned)")
+        .legend(|(x, y)| Circle::new((x + 10, y), 4, RGBColor(213, 94, 0).filled()));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+fn plot_error(path: &Path, e: &dyn Error) -> PlotError {
+    PlotError {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Draws `draw` into `<stem>.svg` and `<stem>.png`.
+fn both_formats(
+    stem: &Path,
+    size: (u32, u32),
+    svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> DrawResult,
+    png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> DrawResult,
+) -> Result<Vec<PathBuf>, PlotError> {
+    ensure_font();
+    let svg_path = stem.with_extension("svg");
+    let png_path = stem.with_extension("png");
+    {
+        let root = SVGBackend::new(&svg_path, size).into_drawing_area();
+        svg(&root).map_err(|e| plot_error(&svg_path, e.as_ref()))?;
+    }
+    {
+        let root = BitMapBackend::new(&png_path, size).into_drawing_area();
+        png(&root).map_err(|e| plot_error(&png_path, e.as_ref()))?;
+    }
+    Ok(vec![svg_path, png_path])
+}
+
+/// Writes `scatter_<block>.svg/.png` for every block and `fragility_<block>.svg/.png` for
+/// every block with a fragility curve; returns the paths.
+pub fn write_plots(
+    out_dir: &Path,
+    config: &StudyConfig,
+    data: &StudyData,
+    analysis: &StudyAnalysis,
+) -> Result<Vec<PathBuf>, PlotError> {
+    std::fs::create_dir_all(out_dir).map_err(|e| plot_error(out_dir, &e))?;
+    let mut written = Vec::new();
+    for block in &analysis.blocks {
+        let stem = out_dir.join(format!("scatter_{}", block.name));
+        written.extend(both_formats(
+            &stem,
+            SCATTER_SIZE,
+            |root| draw_scatter(root, config, data, block),
+            |root| draw_scatter(root, config, data, block),
+        )?);
+        if block.fragility.selected.is_some() {
+            let stem = out_dir.join(format!("fragility_{}", block.name));
+            written.extend(both_formats(
+                &stem,
+                FRAGILITY_SIZE,
+                |root| draw_fragility(root, data, block),
+                |root| draw_fragility(root, data, block),
+            )?);
+        }
+    }
+    Ok(written)
+}
