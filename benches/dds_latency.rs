@@ -39,7 +39,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use rockwatch::node::{NodeOptions, Reactor};
-use rockwatch::replay::PacketSink;
+use rockwatch::ports::PacketSink;
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2PacketSink};
 use rockwatch_core::engine::{AccelPacket, StationId};
 

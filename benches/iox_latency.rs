@@ -24,8 +24,9 @@ use std::time::{Duration, Instant};
 use rockwatch::iox::{
     IoxAlertPublisher, IoxAlertSubscriber, IoxConfig, IoxInput, IoxPacketSink, PbrAlertIox,
 };
-use rockwatch::node::{NodeOptions, Publication, Publisher, Reactor};
-use rockwatch::replay::PacketSink;
+use rockwatch::node::{NodeOptions, Reactor};
+use rockwatch::ports::PacketSink;
+use rockwatch::ports::{Publication, Publisher};
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config};
 use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel, StationId};

@@ -18,7 +18,7 @@ use iceoryx2::prelude::*;
 use rockwatch::iox::types::{AccelHeader, AccelSample, PbrAlertIox};
 use rockwatch::iox::{IoxAlertSubscriber, IoxConfig, IoxPacketSink};
 use rockwatch::node::{NodeOptions, Reactor};
-use rockwatch::replay::PacketSink;
+use rockwatch::ports::PacketSink;
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config};
 use rockwatch_core::engine::AccelPacket;
 

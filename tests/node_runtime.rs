@@ -7,7 +7,8 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use rockwatch::journal::read_journal;
-use rockwatch::node::{NodeOptions, NodeRuntime, Publication, ResetOutcome};
+use rockwatch::node::{NodeOptions, NodeRuntime, ResetOutcome};
+use rockwatch::ports::Publication;
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{Engine, EngineConfig, Output, PbrSpec};
 

@@ -10,7 +10,8 @@ use ros2_util::*;
 
 use std::time::{Duration, Instant};
 
-use rockwatch::replay::{replay, PacketSink, Restamp, Speed};
+use rockwatch::ports::PacketSink;
+use rockwatch::replay::{replay, Restamp, Speed};
 use rockwatch::ros2::msg::{self, Header};
 use rockwatch::ros2::{
     network_plan, replay_qos, Ros2AlertListener, Ros2Config, Ros2PacketSink, Ros2Session,

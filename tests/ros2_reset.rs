@@ -17,7 +17,8 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use rockwatch::journal::Journal;
-use rockwatch::replay::{replay, PacketSink, Restamp, Speed};
+use rockwatch::ports::PacketSink;
+use rockwatch::replay::{replay, Restamp, Speed};
 use rockwatch::ros2::{network_plan, Ros2Config, Ros2PacketSink};
 use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel, JournalRecord};

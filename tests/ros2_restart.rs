@@ -12,7 +12,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use rockwatch::replay::{replay, PacketSink, Restamp, Speed};
+use rockwatch::ports::PacketSink;
+use rockwatch::replay::{replay, Restamp, Speed};
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2Config, Ros2PacketSink};
 use rockwatch_core::engine::AccelPacket;
 

@@ -4,7 +4,8 @@ use std::path::Path;
 use std::sync::atomic::{AtomicI64, Ordering};
 use std::time::{Duration, Instant};
 
-use rockwatch::replay::{PacketSink, Traces};
+use rockwatch::ports::PacketSink;
+use rockwatch::replay::Traces;
 use rockwatch_core::engine::AccelPacket;
 use rockwatch_core::record::Record;
 

@@ -10,6 +10,7 @@ pub mod journal;
 pub mod node;
 pub mod node_config;
 pub mod plot;
+pub mod ports;
 pub mod replay;
 pub mod ros2;
 pub mod study;

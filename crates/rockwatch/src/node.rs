@@ -14,7 +14,7 @@ mod serve;
 
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
-use std::sync::mpsc;
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -22,82 +22,18 @@ use anyhow::Context;
 
 pub use serve::{serve, Probe, Reactor, ServeReport};
 
+use crate::ports::{Control, ControlSender, Publication, Publisher, Wake};
+
 use crate::journal::Journal;
 use crate::node_config::NodeConfig;
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
-    AccelPacket, Alert, AlertConfig, AlertLevel, Engine, JournalRecord, Output, OutputSink,
-    PbrSpec, PbrState, PbrSummary, ShardedEngine, StationIntensity,
+    AccelPacket, AlertLevel, Engine, JournalRecord, Output, OutputSink, PbrSpec, PbrSummary,
+    ShardedEngine,
 };
 
 /// Longest time a live packet waits in the engine's reorder window for missing data.
 pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
-
-/// What a transport publishes.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Publication {
-    /// An alert, already journaled; `latency_ns` = wall time now − arrival of the packet that
-    /// triggered it.
-    Alert {
-        alert: Alert,
-        latency_ns: i64,
-    },
-    State(PbrState),
-    Intensity(StationIntensity),
-}
-
-/// A transport's output side: publishes what the runtime hands it (alerts already journaled).
-pub trait Publisher {
-    /// Publishes one item; an error is logged (rate-limited) and the node goes on.
-    fn publish(&mut self, publication: &Publication) -> anyhow::Result<()>;
-}
-
-/// Wakes an event loop from another thread.
-pub use rockwatch_core::engine::sharded::Wake;
-
-/// A settings change handed to the node's event loop by another thread (e.g. a ROS 2
-/// parameter service).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Control {
-    /// New alert thresholds.
-    Alerts(AlertConfig),
-    /// New state publication interval (s of data); ignored unless finite and > 0.
-    StateIntervalS(f64),
-}
-
-/// A cloneable, thread-safe handle that queues settings changes for the node's event loop and
-/// wakes it; the loop applies them before the next packet.
-#[derive(Clone)]
-pub struct ControlSender {
-    tx: mpsc::Sender<Control>,
-    wake: Wake,
-}
-
-impl ControlSender {
-    /// A sender and the receiver the event loop drains; `wake` is called after each change.
-    #[must_use]
-    pub fn channel(wake: Wake) -> (ControlSender, mpsc::Receiver<Control>) {
-        let (tx, rx) = mpsc::channel();
-        (ControlSender { tx, wake }, rx)
-    }
-
-    /// Queues a change (dropped silently once the event loop has stopped).
-    pub fn send(&self, control: Control) {
-        if self.tx.send(control).is_ok() {
-            (self.wake)();
-        }
-    }
-
-    /// New alert thresholds, effective for the next packet.
-    pub fn set_alert_config(&self, alerts: AlertConfig) {
-        self.send(Control::Alerts(alerts));
-    }
-
-    /// New state publication interval (s of data), effective for the next packet.
-    pub fn set_state_interval_s(&self, state_interval_s: f64) {
-        self.send(Control::StateIntervalS(state_interval_s));
-    }
-}
 
 /// What an operator reset of a block ([`NodeRuntime::operator_reset`]) did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

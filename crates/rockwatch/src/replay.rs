@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use crate::ports::PacketSink;
 use rockwatch_core::engine::{AccelPacket, StationId};
 use rockwatch_core::mseed::{read_mseed, Channel, GapFill};
 use rockwatch_core::record::{Record, RecordError};
@@ -172,20 +173,6 @@ mod tests {
             p.iter().map(|q| q.sequence).collect::<Vec<_>>(),
             vec![0, 1, 2, 3]
         );
-    }
-}
-
-/// A transport's replay side: where replayed packets go.
-pub trait PacketSink {
-    /// Waits until at least one subscriber is connected or `timeout` passes; true if connected.
-    fn wait_for_subscriber(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool>;
-    /// Sends one packet.
-    fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()>;
-    /// Waits up to `timeout` until every connected subscriber has received everything sent
-    /// (reliable transports acknowledge); true if it has. Call before the sink is dropped.
-    fn finish(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool> {
-        let _ = timeout;
-        Ok(true)
     }
 }
 

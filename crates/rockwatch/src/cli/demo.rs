@@ -11,9 +11,11 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context};
-use rockwatch::node::{NodeOptions, Publication, Publisher};
+use rockwatch::node::NodeOptions;
 use rockwatch::node_config::NodeConfig;
-use rockwatch::replay::{replay, PacketSink, Restamp, Speed, Traces};
+use rockwatch::ports::PacketSink;
+use rockwatch::ports::{Publication, Publisher};
+use rockwatch::replay::{replay, Restamp, Speed, Traces};
 use rockwatch::ros2::{msg, network_plan, Ros2AlertListener, Ros2Config, Ros2PacketSink};
 use rockwatch_core::engine::{AlertLevel, StationId};
 use rockwatch_core::record::parse_at2_text;

@@ -30,8 +30,7 @@ use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 use mio::unix::SourceFd;
 
-use crate::node::{Publication, Publisher};
-use crate::replay::PacketSink;
+use crate::ports::{PacketSink, Publication, Publisher};
 use rockwatch_core::engine::AccelPacket;
 pub use types::{
     packet_from_wire, AccelHeader, AccelSample, PbrAlertIox, WireError, ACCEL_FLAG_HAS_UP,

@@ -26,8 +26,7 @@ use ros2_client::{
     QosProfile, RmwRequestId, Server, ServiceMapping, ServiceTypeName, Subscription,
 };
 
-use crate::node::{ControlSender, Publication};
-use crate::replay::PacketSink;
+use crate::ports::{ControlSender, PacketSink, Publication};
 use rockwatch_core::engine::{AccelPacket, AlertConfig, EngineConfig};
 
 /// The node's name in the ROS graph.
@@ -464,14 +463,14 @@ struct PendingReply {
     discovered: Option<Instant>,
 }
 
-/// The node's output publishers (a [`crate::node::Publisher`]).
+/// The node's output publishers (a [`crate::ports::Publisher`]).
 pub struct Ros2Publisher {
     alerts: ros2_client::Publisher<msg::PbrAlert>,
     states: ros2_client::Publisher<msg::PbrState>,
     ims: ros2_client::Publisher<msg::StationIntensity>,
 }
 
-impl crate::node::Publisher for Ros2Publisher {
+impl crate::ports::Publisher for Ros2Publisher {
     fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
         let result = match publication {
             Publication::Alert { alert, .. } => self

@@ -1,0 +1,90 @@
+//! The ports between the node and its transports: what a transport publishes
+//! ([`Publication`] through a [`Publisher`]), what it sends when replaying ([`PacketSink`]), and
+//! how another thread hands the node's event loop a settings change ([`ControlSender`]).
+//!
+//! Architecture invariant: this module depends only on the engine's types (`rockwatch_core`);
+//! the transports (`ros2`, `iox`) and the node (`node`) depend on it, never the reverse.
+
+use std::sync::mpsc;
+
+use rockwatch_core::engine::{AccelPacket, Alert, AlertConfig, PbrState, StationIntensity};
+
+/// What a transport publishes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Publication {
+    /// An alert, already journaled; `latency_ns` = wall time now − arrival of the packet that
+    /// triggered it.
+    Alert {
+        alert: Alert,
+        latency_ns: i64,
+    },
+    State(PbrState),
+    Intensity(StationIntensity),
+}
+
+/// A transport's output side: publishes what the runtime hands it (alerts already journaled).
+pub trait Publisher {
+    /// Publishes one item; an error is logged (rate-limited) and the node goes on.
+    fn publish(&mut self, publication: &Publication) -> anyhow::Result<()>;
+}
+
+/// Wakes an event loop from another thread.
+pub use rockwatch_core::engine::sharded::Wake;
+
+/// A settings change handed to the node's event loop by another thread (e.g. a ROS 2
+/// parameter service).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Control {
+    /// New alert thresholds.
+    Alerts(AlertConfig),
+    /// New state publication interval (s of data); ignored unless finite and > 0.
+    StateIntervalS(f64),
+}
+
+/// A cloneable, thread-safe handle that queues settings changes for the node's event loop and
+/// wakes it; the loop applies them before the next packet.
+#[derive(Clone)]
+pub struct ControlSender {
+    tx: mpsc::Sender<Control>,
+    wake: Wake,
+}
+
+impl ControlSender {
+    /// A sender and the receiver the event loop drains; `wake` is called after each change.
+    #[must_use]
+    pub fn channel(wake: Wake) -> (ControlSender, mpsc::Receiver<Control>) {
+        let (tx, rx) = mpsc::channel();
+        (ControlSender { tx, wake }, rx)
+    }
+
+    /// Queues a change (dropped silently once the event loop has stopped).
+    pub fn send(&self, control: Control) {
+        if self.tx.send(control).is_ok() {
+            (self.wake)();
+        }
+    }
+
+    /// New alert thresholds, effective for the next packet.
+    pub fn set_alert_config(&self, alerts: AlertConfig) {
+        self.send(Control::Alerts(alerts));
+    }
+
+    /// New state publication interval (s of data), effective for the next packet.
+    pub fn set_state_interval_s(&self, state_interval_s: f64) {
+        self.send(Control::StateIntervalS(state_interval_s));
+    }
+}
+
+/// A transport's replay side: where replayed packets go.
+pub trait PacketSink {
+    /// Waits until at least one subscriber is connected or `timeout` passes; true if connected.
+    fn wait_for_subscriber(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool>;
+    /// Sends one packet.
+    fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()>;
+    /// Waits up to `timeout` until every connected subscriber has received everything sent
+    /// (reliable transports acknowledge); true if it has. Call before the sink is dropped.
+    fn finish(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool> {
+        let _ = timeout;
+        Ok(true)
+    }
+}
