@@ -213,27 +213,26 @@ impl StationRuntime {
         }
     }
 
-    /// Restores a block's alerts, episodes and fallen state from the journal.
-    pub(crate) fn restore(&mut self, records: &[JournalRecord]) {
+    /// Restores the blocks' alerts and episodes from the journal `records`; the blocks in
+    /// `fallen` ([`super::output::fallen_blocks`] of the same records) are restored fallen.
+    pub(crate) fn restore(&mut self, records: &[JournalRecord], fallen: &HashSet<String>) {
         for pbr in &mut self.pbrs {
-            let (mut last_episode, mut ended, mut overturned) = (0, 0, false);
+            let (mut last_episode, mut ended) = (0, 0);
             for record in records {
                 match record {
                     JournalRecord::Alert(a) if a.pbr_id == pbr.id => {
                         last_episode = last_episode.max(a.episode);
-                        overturned |= a.level == AlertLevel::Overturned;
                     }
                     JournalRecord::EpisodeEnd { pbr_id, episode } if *pbr_id == pbr.id => {
                         ended = ended.max(*episode);
                     }
                     JournalRecord::Reset { pbr_id } if *pbr_id == pbr.id => {
-                        overturned = false;
                         ended = last_episode;
                     }
                     _ => {}
                 }
             }
-            if overturned {
+            if fallen.contains(&pbr.id) {
                 pbr.nominal.set_overturned();
                 pbr.members.iter_mut().for_each(RigidBlock::set_overturned);
                 pbr.members_overturned = pbr.members.len();
