@@ -102,9 +102,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     .map_err(anyhow::Error::msg)?;
     let options = NodeOptions {
         config,
-        catalogue: None,
-        state_dir: None,
-        shards: 1,
+        ..NodeOptions::default()
     };
 
     let station = StationId::parse(STATION).map_err(anyhow::Error::msg)?;
