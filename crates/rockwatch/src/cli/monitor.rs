@@ -1,5 +1,6 @@
 //! `rockwatch monitor`: the monitoring engine offline — a record cut into packets, then
-//! `--tail` seconds of quiet, through the same engine as the live node, as fast as it can.
+//! `--tail` seconds of quiet, through the live node's runtime (`NodeRuntime`, one inline
+//! shard: engine, journal, then report), as fast as it can.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
