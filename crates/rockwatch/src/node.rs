@@ -2,7 +2,9 @@
 //!
 //! - [`NodeRuntime`]: the transport-independent runtime: the engine (inline on the caller's
 //!   thread with one shard, else sharded over worker threads), the state directory, arrival
-//!   time stamps, rate-limited logging.
+//!   time stamps, rate-limited logging. `rockwatch monitor` runs on it too (one inline shard,
+//!   notices counted: [`NoticeLog::Counted`]), so the CLI and the node share one path from
+//!   the engine to the outside.
 //! - [`serve`] / [`Reactor`] (module `serve`): the node itself, one event loop that takes the
 //!   input of every transport (ROS 2, iceoryx2), runs the engine and publishes.
 //!
