@@ -7,6 +7,7 @@
 
 pub mod iox;
 pub mod journal;
+pub mod log_text;
 pub mod node;
 pub mod node_config;
 pub mod plot;

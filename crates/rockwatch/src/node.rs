@@ -2,7 +2,9 @@
 //!
 //! - [`NodeRuntime`]: the transport-independent runtime: the engine (inline on the caller's
 //!   thread with one shard, else sharded over worker threads), the state directory, arrival
-//!   time stamps, rate-limited logging.
+//!   time stamps, rate-limited logging. `rockwatch monitor` runs on it too (one inline shard,
+//!   notices counted: [`NoticeLog::Counted`]), so the CLI and the node share one path from
+//!   the engine to the outside.
 //! - [`serve`] / [`Reactor`] (module `serve`): the node itself, one event loop that takes the
 //!   input of every transport (ROS 2, iceoryx2), runs the engine and publishes.
 //!
@@ -12,7 +14,7 @@
 
 mod serve;
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 
 use std::sync::Arc;
@@ -25,15 +27,21 @@ pub use serve::{serve, Probe, Reactor, ServeReport};
 use crate::ports::{Control, ControlSender, Publication, Publisher, Wake};
 
 use crate::journal::Journal;
+use crate::log_text::{printable, MESSAGE_CHARS, PBR_ID_CHARS, STATION_CHARS};
 use crate::node_config::NodeConfig;
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
-    AccelPacket, AlertLevel, Engine, JournalRecord, Output, OutputSink, PbrSpec, PbrSummary,
-    ShardedEngine,
+    fallen_blocks, AccelPacket, AlertLevel, Engine, JournalRecord, Notice, Output, OutputSink,
+    PbrSpec, PbrSummary, ShardedEngine,
 };
 
 /// Longest time a live packet waits in the engine's reorder window for missing data.
 pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// Fault injection for the crash-safety tests: with this variable set to N, the process
+/// aborts right after the N-th alert has been journaled (and synced), before it is handed to
+/// any publisher — the worst moment for a crash.
+pub const FAULT_ABORT_AFTER_JOURNAL_ENV: &str = "ROCKWATCH_FAULT_ABORT_AFTER_JOURNAL";
 
 /// What an operator reset of a block ([`NodeRuntime::operator_reset`]) did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,7 +66,7 @@ impl ResetOutcome {
     /// One line for people about block `pbr_id` (control characters escaped, length bounded).
     #[must_use]
     pub fn message(self, pbr_id: &str) -> String {
-        let id = printable(pbr_id, 200);
+        let id = printable(pbr_id, PBR_ID_CHARS);
         match self {
             ResetOutcome::Reset => format!(
                 "block {id} reset: it stands again at rest, and a new episode can raise alerts"
@@ -73,24 +81,6 @@ impl ResetOutcome {
     }
 }
 
-/// Blocks that have overturned and not been reset since, by the records of a journal read in
-/// order (an `overturned` alert, then no reset): the fallen blocks the engine restores.
-fn overturned_in(records: &[JournalRecord]) -> HashSet<String> {
-    let mut fallen = HashSet::new();
-    for record in records {
-        match record {
-            JournalRecord::Alert(a) if a.level == AlertLevel::Overturned => {
-                fallen.insert(a.pbr_id.clone());
-            }
-            JournalRecord::Reset { pbr_id } => {
-                fallen.remove(pbr_id);
-            }
-            _ => {}
-        }
-    }
-    fallen
-}
-
 /// Where the runtime's settings come from: the configuration file, overridden by flags.
 #[derive(Debug, Clone)]
 pub struct NodeOptions {
@@ -102,6 +92,20 @@ pub struct NodeOptions {
     /// thread hand-off (lowest latency). More shards spread stations over worker threads for
     /// throughput, at the cost of two hand-offs per packet (event loop → worker → event loop).
     pub shards: usize,
+    /// How the engine's notices are reported (default: rate-limited, as the live node).
+    pub notices: NoticeLog,
+}
+
+/// How the runtime reports the engine's notices (a station's data irregularities) on stderr.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NoticeLog {
+    /// The live node: at most one line per (station, kind) every 10 s, with the count of the
+    /// lines suppressed since.
+    #[default]
+    RateLimited,
+    /// An offline run: every notice is counted per (station, kind)
+    /// ([`Stopped::notice_counts`]), and the first `lines` of each (station, kind) are logged.
+    Counted { lines: u64 },
 }
 
 impl Default for NodeOptions {
@@ -111,6 +115,7 @@ impl Default for NodeOptions {
             catalogue: None,
             state_dir: None,
             shards: 1,
+            notices: NoticeLog::default(),
         }
     }
 }
@@ -205,27 +210,6 @@ struct RateLimitedLog {
 /// so a flood of invented station ids cannot grow the map without bound.
 const LOG_MAX_KEYS: usize = 4096;
 
-/// `text` fit for one log line: control characters escaped, at most `max_chars` characters
-/// (the rest replaced by a count), so a hostile station id cannot forge or flood log lines.
-fn printable(text: &str, max_chars: usize) -> String {
-    let mut out = String::new();
-    for (n, c) in text.chars().enumerate() {
-        if n == max_chars {
-            out += &format!(
-                "…(+{} bytes)",
-                text.len() - text.char_indices().nth(n).map_or(0, |(i, _)| i)
-            );
-            break;
-        }
-        if c.is_control() {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    out
-}
-
 impl RateLimitedLog {
     /// At most one line per (station, kind) every 10 s.
     fn new() -> RateLimitedLog {
@@ -237,11 +221,11 @@ impl RateLimitedLog {
 
     fn log(&mut self, station: &str, kind: &'static str, message: &str) {
         let now = Instant::now();
-        let mut key = (printable(station, 48), kind);
+        let mut key = (printable(station, STATION_CHARS), kind);
         if self.last.len() >= LOG_MAX_KEYS && !self.last.contains_key(&key) {
             key.0 = "(other stations)".into();
         }
-        let message = printable(message, 400);
+        let message = printable(message, MESSAGE_CHARS);
         let station = key.0.clone();
         let entry = self.last.entry(key).or_insert((now - self.interval, 0));
         if now.duration_since(entry.0) >= self.interval {
@@ -260,11 +244,17 @@ impl RateLimitedLog {
 }
 
 /// Where the runtime's outputs go: the journal, the publishers (through a callback), the
-/// stats and the rate-limited log.
+/// stats and the logs. The one path from the engine to the outside, the node's and
+/// `rockwatch monitor`'s: journal (and sync), then publish.
 struct Emitter {
     journal: Option<Journal>,
     epoch: Instant,
     log: RateLimitedLog,
+    notice_log: NoticeLog,
+    /// Notices per (station, kind), with [`NoticeLog::Counted`] (else empty).
+    notice_counts: BTreeMap<(String, &'static str), u64>,
+    /// [`FAULT_ABORT_AFTER_JOURNAL_ENV`]: abort after journaling this many alerts.
+    abort_after_alert: Option<u64>,
     stats: NodeStats,
     /// States and intensities held back until the batch's alerts are out (reused).
     deferred: Vec<Output>,
@@ -276,6 +266,29 @@ struct Emitter {
 impl Emitter {
     fn now_ns(&self) -> i64 {
         self.epoch.elapsed().as_nanos() as i64
+    }
+
+    /// Reports one of the engine's notices as [`NoticeLog`] says.
+    fn notice(&mut self, notice: &Notice) {
+        self.stats.notices += 1;
+        match self.notice_log {
+            NoticeLog::RateLimited => self.log.log(&notice.station, notice.kind, &notice.message),
+            NoticeLog::Counted { lines } => {
+                let count = self
+                    .notice_counts
+                    .entry((notice.station.clone(), notice.kind))
+                    .or_insert(0);
+                *count += 1;
+                if *count <= lines {
+                    eprintln!(
+                        "rockwatch: {}: {}: {}",
+                        printable(&notice.station, STATION_CHARS),
+                        notice.kind,
+                        printable(&notice.message, MESSAGE_CHARS)
+                    );
+                }
+            }
+        }
     }
 
     /// A sink for one batch of engine outputs (one packet, one flush, one worker batch):
@@ -356,16 +369,16 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
         }
         match output {
             Output::Alert(alert) => {
+                if self.emit.abort_after_alert == Some(self.emit.stats.alerts + 1) {
+                    std::process::abort(); // fault injection: journaled, not published
+                }
                 self.emit.stats.alerts += 1;
                 let latency_ns = self.emit.now_ns() - alert.arrival_ns;
                 (self.publish)(Publication::Alert { alert, latency_ns });
             }
             Output::EpisodeEnd { .. } => {}
             Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
-            Output::Notice(n) => {
-                self.emit.stats.notices += 1;
-                self.emit.log.log(&n.station, n.kind, &n.message);
-            }
+            Output::Notice(n) => self.emit.notice(&n),
         }
     }
 }
@@ -398,12 +411,21 @@ impl NodeRuntime {
     /// As [`NodeRuntime::start`]; with several shards, each worker calls `wake` after queueing
     /// outputs (so an event loop can sleep until [`NodeRuntime::poll`] has work).
     pub fn start_with_wake(options: &NodeOptions, wake: Wake) -> anyhow::Result<NodeRuntime> {
-        let specs = options.load_blocks()?;
+        Self::start_with_blocks(options, options.load_blocks()?, wake)
+    }
+
+    /// As [`NodeRuntime::start_with_wake`], with the catalogue's blocks already loaded
+    /// ([`NodeOptions::load_blocks`]).
+    pub fn start_with_blocks(
+        options: &NodeOptions,
+        specs: Vec<PbrSpec>,
+        wake: Wake,
+    ) -> anyhow::Result<NodeRuntime> {
         let (journal, records) = match options.open_state()? {
             Some((journal, records)) => (Some(journal), records),
             None => (None, Vec::new()),
         };
-        let overturned = overturned_in(&records);
+        let overturned = fallen_blocks(&records);
         let shards = if options.shards == 0 {
             std::thread::available_parallelism().map_or(1, usize::from)
         } else {
@@ -434,6 +456,11 @@ impl NodeRuntime {
                 journal,
                 epoch: Instant::now(),
                 log: RateLimitedLog::new(),
+                notice_log: options.notices,
+                notice_counts: BTreeMap::new(),
+                abort_after_alert: std::env::var(FAULT_ABORT_AFTER_JOURNAL_ENV)
+                    .ok()
+                    .and_then(|v| v.parse().ok()),
                 stats: NodeStats::default(),
                 deferred: Vec::new(),
                 overturned,
@@ -564,7 +591,7 @@ impl NodeRuntime {
         match outcome {
             ResetOutcome::Reset => eprintln!(
                 "rockwatch: {}: reset by the operator: stands again at rest",
-                printable(pbr_id, 200)
+                printable(pbr_id, PBR_ID_CHARS)
             ),
             _ => self
                 .emit
@@ -663,17 +690,14 @@ impl NodeRuntime {
         self,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<Vec<PbrSummary>> {
-        Ok(self.shutdown_with_totals(publish)?.0)
+        Ok(self.stop(publish)?.summaries())
     }
 
-    /// As [`NodeRuntime::shutdown`], also returning what the engine made of its input.
-    pub fn shutdown_with_totals(
-        mut self,
-        publish: &mut impl FnMut(Publication),
-    ) -> anyhow::Result<(Vec<PbrSummary>, InputTotals)> {
+    /// As [`NodeRuntime::shutdown`], returning the stopped engines and what the runtime did.
+    pub fn stop(mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<Stopped> {
         let now = self.now_ns();
         let engines = match self.engine.take() {
-            None => return Ok((Vec::new(), InputTotals::default())),
+            None => Vec::new(),
             Some(EngineMode::Inline(mut engine)) => {
                 let mut sink = self.emit.sink(publish);
                 engine.flush(now, &mut sink);
@@ -687,31 +711,39 @@ impl NodeRuntime {
                 engines
             }
         };
-        let mut totals = InputTotals::default();
-        for e in &engines {
-            totals.add(e);
-        }
-        Ok((engines.iter().flat_map(Engine::summaries).collect(), totals))
+        Ok(Stopped {
+            engines,
+            stats: self.emit.stats,
+            notice_counts: self.emit.notice_counts,
+        })
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::printable;
+/// What is left of a [`NodeRuntime`] once it has stopped ([`NodeRuntime::stop`]).
+#[derive(Debug)]
+pub struct Stopped {
+    /// The engines, one per shard, every packet processed.
+    pub engines: Vec<Engine>,
+    /// Counts of what the runtime did.
+    pub stats: NodeStats,
+    /// Notices per (station, kind), with [`NoticeLog::Counted`] (else empty).
+    pub notice_counts: BTreeMap<(String, &'static str), u64>,
+}
 
-    #[test]
-    fn printable_escapes_control_characters_and_bounds_the_length() {
-        assert_eq!(printable("CI.RRS.00", 48), "CI.RRS.00");
-        assert_eq!(
-            printable("CI.RRS.00\0\nforged", 48),
-            "CI.RRS.00\\u{0}\\nforged"
-        );
-        let long = "A".repeat(100_000);
-        assert_eq!(
-            printable(&long, 8),
-            format!("AAAAAAAA…(+{} bytes)", 100_000 - 8)
-        );
-        // Multi-byte characters are counted as characters, never split.
-        assert_eq!(printable("ééé", 2), "éé…(+2 bytes)");
+impl Stopped {
+    /// Response summaries of every block, by shard, station, then catalogue order.
+    #[must_use]
+    pub fn summaries(&self) -> Vec<PbrSummary> {
+        self.engines.iter().flat_map(Engine::summaries).collect()
+    }
+
+    /// What the engines made of their input, summed over the shards.
+    #[must_use]
+    pub fn input_totals(&self) -> InputTotals {
+        let mut totals = InputTotals::default();
+        for e in &self.engines {
+            totals.add(e);
+        }
+        totals
     }
 }

@@ -31,8 +31,8 @@ use std::collections::{BTreeMap, HashSet};
 
 pub use config::{AlertConfig, EngineConfig, Orientation, PbrSpec, StationConfig};
 pub use output::{
-    Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink, PbrState,
-    StationIntensity,
+    fallen_blocks, Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink,
+    PbrState, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use sharded::{EngineHandle, ShardedEngine};
@@ -173,8 +173,9 @@ impl Engine {
                 self.journaled.insert(a.key());
             }
         }
+        let fallen = fallen_blocks(records);
         for station in self.stations.values_mut() {
-            station.restore(records);
+            station.restore(records, &fallen);
         }
     }
 

@@ -1,5 +1,7 @@
 //! What the engine emits: alerts, block states, station intensities and notices.
 
+use std::collections::HashSet;
+
 use crate::dynamics::Mode;
 
 /// Where the engine puts its outputs, each as soon as it is produced (an alert mid-packet
@@ -151,6 +153,25 @@ pub enum JournalRecord {
     Reset { pbr_id: String },
 }
 
+/// Ids of the blocks that are fallen according to the journal `records` (read in order): an
+/// `overturned` alert and no operator reset since. A restart restores them fallen.
+#[must_use]
+pub fn fallen_blocks(records: &[JournalRecord]) -> HashSet<String> {
+    let mut fallen = HashSet::new();
+    for record in records {
+        match record {
+            JournalRecord::Alert(a) if a.level == AlertLevel::Overturned => {
+                fallen.insert(a.pbr_id.clone());
+            }
+            JournalRecord::Reset { pbr_id } => {
+                fallen.remove(pbr_id);
+            }
+            _ => {}
+        }
+    }
+    fallen
+}
+
 /// Identity of an alert: block, episode, level.
 pub type AlertKey = (String, u32, AlertLevel);
 
@@ -171,5 +192,45 @@ impl RaisedLevels {
     #[must_use]
     pub fn all() -> Self {
         RaisedLevels([true; 3])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn alert(pbr_id: &str, level: AlertLevel) -> JournalRecord {
+        JournalRecord::Alert(Alert {
+            pbr_id: pbr_id.into(),
+            station: "CI.RRS.00".into(),
+            level,
+            episode: 1,
+            mode: Mode::Rock,
+            theta_over_alpha: 0.0,
+            slide_m: 0.0,
+            overturn_probability: 0.0,
+            pga_mps2: 0.0,
+            pgv_mps: 0.0,
+            data_time_ns: 0,
+            arrival_ns: 0,
+        })
+    }
+
+    #[test]
+    fn a_block_is_fallen_from_its_overturned_alert_until_a_reset() {
+        let reset = |id: &str| JournalRecord::Reset { pbr_id: id.into() };
+        let records = [
+            alert("a", AlertLevel::MotionOnset),
+            alert("a", AlertLevel::Overturned),
+            alert("b", AlertLevel::Overturned),
+            alert("c", AlertLevel::OverturnImminent),
+            reset("b"),
+            alert("b", AlertLevel::MotionOnset),
+        ];
+        assert_eq!(fallen_blocks(&records), HashSet::from(["a".to_string()]));
+        assert_eq!(
+            fallen_blocks(&[alert("a", AlertLevel::Overturned), reset("a")]),
+            HashSet::new()
+        );
     }
 }

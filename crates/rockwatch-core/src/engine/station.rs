@@ -116,6 +116,133 @@ impl PbrRuntime {
         }
     }
 
+    /// Advances the nominal block and the ensemble members over one sample interval of
+    /// `dt_s` seconds, from the ground sample `prev` (at data time `t_prev_ns`) to `next`.
+    fn advance(&mut self, prev: Sample, next: Sample, dt_s: f64, t_prev_ns: i64) -> BlockStep {
+        let project = |x: Sample| GroundAccel {
+            horizontal_mps2: x.east * self.sin_az + x.north * self.cos_az,
+            vertical_mps2: x.up,
+        };
+        let mut first_change_ns: Option<i64> = None;
+        let mut landed_after_flight = false;
+        let (from, to) = (project(prev), project(next));
+        let t_before = self.nominal.time_s();
+        let result = self.nominal.advance(dt_s, from, to, |e| {
+            if let BlockEvent::ModeChange { t_s, .. } = e {
+                first_change_ns.get_or_insert(t_prev_ns + ((t_s - t_before) * 1e9).round() as i64);
+            }
+        });
+        let mut failed = result.is_err();
+        // A lift-off is reported (state, notice); the block is put down again as soon
+        // as the effective gravity is positive (flight is not modelled, spec §10).
+        if self.nominal.mode() == Mode::Flight {
+            landed_after_flight = self.nominal.land_after_flight(to);
+        }
+        let mut overturned = 0;
+        for m in &mut self.members {
+            failed |= m.advance(dt_s, from, to, |_| {}).is_err();
+            m.land_after_flight(to);
+            overturned += usize::from(m.mode() == Mode::Overturned);
+        }
+        self.members_overturned = overturned;
+        BlockStep {
+            first_change_ns,
+            failed,
+            landed_after_flight,
+        }
+    }
+
+    /// Raises each alert whose condition holds, once per episode (an alert journaled before
+    /// a restart is not emitted again). The onset is dated at the step's first mode change
+    /// (`first_change_ns`), the others at the sample.
+    fn raise_alerts(
+        &mut self,
+        at: &SampleContext<'_>,
+        first_change_ns: Option<i64>,
+        ctx: &PacketContext<'_>,
+        out: &mut dyn OutputSink,
+    ) {
+        let ratio = self.theta_over_alpha();
+        let probability = self.overturn_probability();
+        let mode = self.nominal.mode();
+        let conditions = [
+            (AlertLevel::MotionOnset, mode != Mode::Rest),
+            (
+                AlertLevel::OverturnImminent,
+                ratio >= ctx.alerts.imminent_theta_ratio
+                    || (!self.members.is_empty() && probability >= ctx.alerts.imminent_probability),
+            ),
+            (AlertLevel::Overturned, mode == Mode::Overturned),
+        ];
+        for (level, holds) in conditions {
+            if holds && !self.raised.contains(level) {
+                if !self.in_episode {
+                    self.in_episode = true;
+                    self.episode += 1;
+                }
+                self.raised.insert(level);
+                if ctx
+                    .journaled
+                    .contains(&(self.id.clone(), self.episode, level))
+                {
+                    continue; // published before a restart
+                }
+                let data_time_ns = if level == AlertLevel::MotionOnset {
+                    first_change_ns.unwrap_or(at.t_ns)
+                } else {
+                    at.t_ns
+                };
+                out.push(Output::Alert(Alert {
+                    pbr_id: self.id.clone(),
+                    station: at.station.to_string(),
+                    level,
+                    episode: self.episode,
+                    mode,
+                    theta_over_alpha: self.nominal.theta_rad() / self.nominal.params().alpha_rad,
+                    slide_m: self.nominal.slide_m(),
+                    overturn_probability: probability,
+                    pga_mps2: at.pga_mps2,
+                    pgv_mps: at.pgv_mps,
+                    data_time_ns,
+                    arrival_ns: ctx.arrival_ns,
+                }));
+            }
+        }
+    }
+
+    /// Episode end: back at rest on a quiet station (a fallen block stays fallen).
+    fn end_episode_if_settled(&mut self, at: &SampleContext<'_>, out: &mut dyn OutputSink) {
+        if self.in_episode
+            && at.quiet_long
+            && self.at_rest()
+            && self.nominal.mode() != Mode::Overturned
+        {
+            self.in_episode = false;
+            self.raised = RaisedLevels::default();
+            out.push(Output::EpisodeEnd {
+                pbr_id: self.id.clone(),
+                episode: self.episode,
+            });
+        }
+    }
+
+    /// The block's state, on a mode change (`mode_changed`) and at the state rate.
+    fn emit_state_if_due(
+        &mut self,
+        at: &SampleContext<'_>,
+        mode_changed: bool,
+        ctx: &PacketContext<'_>,
+        out: &mut dyn OutputSink,
+    ) {
+        let due = self
+            .last_state_ns
+            .is_none_or(|last| (at.t_ns - last) as f64 * 1e-9 >= ctx.state_interval_s);
+        if mode_changed || due {
+            self.last_state_ns = Some(at.t_ns);
+            out.push(Output::State(self.state(at.station, at.t_ns)));
+        }
+    }
+
     pub(crate) fn summary(&self, station: &str) -> PbrSummary {
         let stats = self.nominal.stats();
         PbrSummary {
@@ -161,6 +288,38 @@ pub(crate) struct PacketContext<'a> {
     pub(crate) journaled: &'a HashSet<AlertKey>,
     pub(crate) state_interval_s: f64,
     pub(crate) arrival_ns: i64,
+}
+
+/// One sample of a station, as its blocks see it.
+struct SampleContext<'a> {
+    station: &'a str,
+    /// Data time of the sample (ns).
+    t_ns: i64,
+    /// The station's running PGA and PGV, larger horizontal component (m/s², m/s).
+    pga_mps2: f64,
+    pgv_mps: f64,
+    /// The station has been quiet for `quiet_s`.
+    quiet_long: bool,
+}
+
+/// What one step of a block's integrators did.
+#[derive(Debug, Clone, Copy, Default)]
+struct BlockStep {
+    /// Data time of the nominal block's first mode change during the step (ns).
+    first_change_ns: Option<i64>,
+    /// An integrator could not complete the step.
+    failed: bool,
+    /// The nominal block lifted off and was put down again.
+    landed_after_flight: bool,
+}
+
+/// Hands `out` a notice about `station`.
+fn notice(station: &str, kind: &'static str, message: String, out: &mut dyn OutputSink) {
+    out.push(Output::Notice(Notice {
+        station: station.to_string(),
+        kind,
+        message,
+    }));
 }
 
 impl StationRuntime {
@@ -213,27 +372,26 @@ impl StationRuntime {
         }
     }
 
-    /// Restores a block's alerts, episodes and fallen state from the journal.
-    pub(crate) fn restore(&mut self, records: &[JournalRecord]) {
+    /// Restores the blocks' alerts and episodes from the journal `records`; the blocks in
+    /// `fallen` ([`super::output::fallen_blocks`] of the same records) are restored fallen.
+    pub(crate) fn restore(&mut self, records: &[JournalRecord], fallen: &HashSet<String>) {
         for pbr in &mut self.pbrs {
-            let (mut last_episode, mut ended, mut overturned) = (0, 0, false);
+            let (mut last_episode, mut ended) = (0, 0);
             for record in records {
                 match record {
                     JournalRecord::Alert(a) if a.pbr_id == pbr.id => {
                         last_episode = last_episode.max(a.episode);
-                        overturned |= a.level == AlertLevel::Overturned;
                     }
                     JournalRecord::EpisodeEnd { pbr_id, episode } if *pbr_id == pbr.id => {
                         ended = ended.max(*episode);
                     }
                     JournalRecord::Reset { pbr_id } if *pbr_id == pbr.id => {
-                        overturned = false;
                         ended = last_episode;
                     }
                     _ => {}
                 }
             }
-            if overturned {
+            if fallen.contains(&pbr.id) {
                 pbr.nominal.set_overturned();
                 pbr.members.iter_mut().for_each(RigidBlock::set_overturned);
                 pbr.members_overturned = pbr.members.len();
@@ -268,14 +426,6 @@ impl StationRuntime {
         true
     }
 
-    fn notice(&self, kind: &'static str, message: String, out: &mut dyn OutputSink) {
-        out.push(Output::Notice(Notice {
-            station: self.name.clone(),
-            kind,
-            message,
-        }));
-    }
-
     /// The ground input of every block jumps here: drop their integrators' stale state.
     fn input_discontinuity(&mut self) {
         self.last = None;
@@ -293,7 +443,8 @@ impl StationRuntime {
         match r.gap {
             Gap::Start | Gap::RateChange => {
                 if r.gap == Gap::RateChange {
-                    self.notice(
+                    notice(
+                        &self.name,
                         "rate_change",
                         format!("sample rate changed to {} Hz: intensity window restarted, blocks resume", r.packet.sample_rate_hz),
                         out,
@@ -313,7 +464,8 @@ impl StationRuntime {
             Gap::None => {}
             Gap::Bridge(n) => {
                 if let (Some(prev), Some(next)) = (self.last, self.sample(&r.packet, r.skip)) {
-                    self.notice(
+                    notice(
+                        &self.name,
                         "gap_bridged",
                         format!("{n} missing samples bridged by linear interpolation"),
                         out,
@@ -331,7 +483,8 @@ impl StationRuntime {
                 }
             }
             Gap::Break(n) => {
-                self.notice(
+                notice(
+                    &self.name,
                     "gap",
                     format!("{n} missing samples ({:.3} s): blocks flagged data_gap, integration resumes from the last state", n as f64 * dt_s),
                     out,
@@ -386,7 +539,8 @@ impl StationRuntime {
         })
     }
 
-    /// One new sample at data time `t_ns`.
+    /// One new sample at data time `t_ns`: the station's intensities and quiet, then every
+    /// block bound to it (step, alerts, episode, state), then the station's intensity output.
     fn feed(
         &mut self,
         s: Sample,
@@ -395,6 +549,45 @@ impl StationRuntime {
         ctx: &PacketContext<'_>,
         out: &mut dyn OutputSink,
     ) {
+        self.push_intensities(s);
+        let quiet_long = self.track_quiet(s, t_ns, ctx);
+        let prev = self.last.replace(s);
+        let (pga_mps2, pgv_mps) = self.horizontal_pga_pgv();
+        let at = SampleContext {
+            station: &self.name,
+            t_ns,
+            pga_mps2,
+            pgv_mps,
+            quiet_long,
+        };
+        let t_prev_ns = t_ns - (dt_s * 1e9).round() as i64;
+        for pbr in &mut self.pbrs {
+            let step = prev.map_or_else(BlockStep::default, |prev| {
+                pbr.advance(prev, s, dt_s, t_prev_ns)
+            });
+            if step.failed {
+                self.counters.integration_errors += 1;
+            }
+            if step.landed_after_flight {
+                self.counters.flights += 1;
+                notice(
+                    at.station,
+                    "flight",
+                    format!("block {} lost contact with the ground (g + a_up ≤ 0 or N → 0); put down flat at rest", pbr.id),
+                    out,
+                );
+            }
+            pbr.raise_alerts(&at, step.first_change_ns, ctx, out);
+            pbr.end_episode_if_settled(&at, out);
+            pbr.emit_state_if_due(&at, step.first_change_ns.is_some(), ctx, out);
+        }
+        self.emit_intensity_if_due(t_ns, ctx, out);
+        self.restart_intensity_window_if_settled(quiet_long, dt_s, ctx);
+    }
+
+    /// Adds the sample to the running intensity measures (the vertical once the station has
+    /// sent one).
+    fn push_intensities(&mut self, s: Sample) {
         if let Some([e, n, u]) = &mut self.ims {
             e.push(s.east);
             n.push(s.north);
@@ -402,6 +595,11 @@ impl StationRuntime {
                 u.push(s.up);
             }
         }
+    }
+
+    /// Follows how long the station has been quiet (every component within
+    /// `quiet_threshold_mps2`); true once that has lasted `quiet_s`.
+    fn track_quiet(&mut self, s: Sample, t_ns: i64, ctx: &PacketContext<'_>) -> bool {
         let loud =
             s.east.abs().max(s.north.abs()).max(s.up.abs()) > ctx.alerts.quiet_threshold_mps2;
         if loud {
@@ -409,127 +607,17 @@ impl StationRuntime {
         } else if self.quiet_since_ns.is_none() {
             self.quiet_since_ns = Some(t_ns);
         }
-        let quiet_long = self
-            .quiet_since_ns
-            .is_some_and(|since| (t_ns - since) as f64 * 1e-9 >= ctx.alerts.quiet_s);
+        self.quiet_since_ns
+            .is_some_and(|since| (t_ns - since) as f64 * 1e-9 >= ctx.alerts.quiet_s)
+    }
 
-        let prev = self.last;
-        self.last = Some(s);
-        let (pga, pgv) = self.horizontal_pga_pgv();
-        let t_prev_ns = t_ns - (dt_s * 1e9).round() as i64;
-        for index in 0..self.pbrs.len() {
-            let pbr = &mut self.pbrs[index];
-            let project = |x: Sample| GroundAccel {
-                horizontal_mps2: x.east * pbr.sin_az + x.north * pbr.cos_az,
-                vertical_mps2: x.up,
-            };
-            let mut first_change_ns: Option<i64> = None;
-            let mut failed = false;
-            let mut landed_after_flight = false;
-            if let Some(prev) = prev {
-                let (from, to) = (project(prev), project(s));
-                let t_before = pbr.nominal.time_s();
-                let result = pbr.nominal.advance(dt_s, from, to, |e| {
-                    if let BlockEvent::ModeChange { t_s, .. } = e {
-                        first_change_ns
-                            .get_or_insert(t_prev_ns + ((t_s - t_before) * 1e9).round() as i64);
-                    }
-                });
-                failed |= result.is_err();
-                // A lift-off is reported (state, notice); the block is put down again as soon
-                // as the effective gravity is positive (flight is not modelled, spec §10).
-                if pbr.nominal.mode() == Mode::Flight {
-                    landed_after_flight = pbr.nominal.land_after_flight(to);
-                }
-                let mut overturned = 0;
-                for m in &mut pbr.members {
-                    failed |= m.advance(dt_s, from, to, |_| {}).is_err();
-                    m.land_after_flight(to);
-                    overturned += usize::from(m.mode() == Mode::Overturned);
-                }
-                pbr.members_overturned = overturned;
-            }
-            if failed {
-                self.counters.integration_errors += 1;
-            }
-            if landed_after_flight {
-                self.counters.flights += 1;
-                let id = self.pbrs[index].id.clone();
-                self.notice(
-                    "flight",
-                    format!("block {id} lost contact with the ground (g + a_up ≤ 0 or N → 0); put down flat at rest"),
-                    out,
-                );
-            }
-            let pbr = &mut self.pbrs[index];
-            let mode_changed = first_change_ns.is_some();
-            // Alerts, each once per episode.
-            let ratio = pbr.theta_over_alpha();
-            let probability = pbr.overturn_probability();
-            let mode = pbr.nominal.mode();
-            let conditions = [
-                (AlertLevel::MotionOnset, mode != Mode::Rest),
-                (
-                    AlertLevel::OverturnImminent,
-                    ratio >= ctx.alerts.imminent_theta_ratio
-                        || (!pbr.members.is_empty()
-                            && probability >= ctx.alerts.imminent_probability),
-                ),
-                (AlertLevel::Overturned, mode == Mode::Overturned),
-            ];
-            for (level, holds) in conditions {
-                if holds && !pbr.raised.contains(level) {
-                    if !pbr.in_episode {
-                        pbr.in_episode = true;
-                        pbr.episode += 1;
-                    }
-                    pbr.raised.insert(level);
-                    if ctx
-                        .journaled
-                        .contains(&(pbr.id.clone(), pbr.episode, level))
-                    {
-                        continue; // published before a restart
-                    }
-                    let data_time_ns = if level == AlertLevel::MotionOnset {
-                        first_change_ns.unwrap_or(t_ns)
-                    } else {
-                        t_ns
-                    };
-                    out.push(Output::Alert(Alert {
-                        pbr_id: pbr.id.clone(),
-                        station: self.name.clone(),
-                        level,
-                        episode: pbr.episode,
-                        mode,
-                        theta_over_alpha: pbr.nominal.theta_rad() / pbr.nominal.params().alpha_rad,
-                        slide_m: pbr.nominal.slide_m(),
-                        overturn_probability: probability,
-                        pga_mps2: pga,
-                        pgv_mps: pgv,
-                        data_time_ns,
-                        arrival_ns: ctx.arrival_ns,
-                    }));
-                }
-            }
-            // Episode end: back at rest on a quiet station (a fallen block stays fallen).
-            if pbr.in_episode && quiet_long && pbr.at_rest() && mode != Mode::Overturned {
-                pbr.in_episode = false;
-                pbr.raised = RaisedLevels::default();
-                out.push(Output::EpisodeEnd {
-                    pbr_id: pbr.id.clone(),
-                    episode: pbr.episode,
-                });
-            }
-            // States: on mode change and at the state rate.
-            let due = pbr
-                .last_state_ns
-                .is_none_or(|last| (t_ns - last) as f64 * 1e-9 >= ctx.state_interval_s);
-            if mode_changed || due {
-                pbr.last_state_ns = Some(t_ns);
-                out.push(Output::State(pbr.state(&self.name, t_ns)));
-            }
-        }
-        // Station intensities at the state rate; the window restarts when all is quiet.
+    /// Station intensities at the state rate.
+    fn emit_intensity_if_due(
+        &mut self,
+        t_ns: i64,
+        ctx: &PacketContext<'_>,
+        out: &mut dyn OutputSink,
+    ) {
         if self
             .last_intensity_ns
             .is_none_or(|last| (t_ns - last) as f64 * 1e-9 >= ctx.state_interval_s)
@@ -537,9 +625,17 @@ impl StationRuntime {
             self.last_intensity_ns = Some(t_ns);
             out.push(Output::Intensity(self.intensity(t_ns)));
         }
-        // The intensity window restarts once the station is quiet and no standing block is in
-        // an episode (a fallen block keeps its episode until reset, not the window), and in
-        // any case after MAX_INTENSITY_WINDOW_S, which bounds the running IMs' memory.
+    }
+
+    /// The intensity window restarts once the station is quiet and no standing block is in
+    /// an episode (a fallen block keeps its episode until reset, not the window), and in
+    /// any case after MAX_INTENSITY_WINDOW_S, which bounds the running IMs' memory.
+    fn restart_intensity_window_if_settled(
+        &mut self,
+        quiet_long: bool,
+        dt_s: f64,
+        ctx: &PacketContext<'_>,
+    ) {
         let settled = self
             .pbrs
             .iter()

@@ -7,6 +7,7 @@ use std::time::Duration;
 
 use anyhow::{bail, Context as _};
 use rockwatch::journal::{read_journal, Journal};
+use rockwatch::log_text::printable;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ros2::{network_plan_from_env, Ros2ResetClient, RESET_SERVICE};
 use rockwatch_core::engine::JournalRecord;
@@ -167,22 +168,11 @@ fn reset_live(args: &ResetArgs) -> anyhow::Result<()> {
         );
     }
     let response = client.reset(&args.pbr, wait)?;
+    // A peer's text, on one line (control characters escaped); its length is not bounded.
+    let message = printable(&response.message, usize::MAX);
     if !response.success {
-        bail!("the node refused: {}", one_line(&response.message));
+        bail!("the node refused: {message}");
     }
-    outln!("{}", one_line(&response.message));
+    outln!("{message}");
     Ok(())
-}
-
-/// `text` on one line: control characters (a hostile or broken peer's) escaped.
-fn one_line(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        if c.is_control() {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    out
 }

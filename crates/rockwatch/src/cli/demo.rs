@@ -11,13 +11,15 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context};
-use rockwatch::node::NodeOptions;
+use rockwatch::node::{NodeOptions, ServeReport};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::PacketSink;
 use rockwatch::ports::{Publication, Publisher};
 use rockwatch::replay::{replay, Restamp, Speed, Traces};
-use rockwatch::ros2::{msg, network_plan, Ros2AlertListener, Ros2Config, Ros2PacketSink};
-use rockwatch_core::engine::{AlertLevel, StationId};
+use rockwatch::ros2::{
+    msg, network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2PacketSink,
+};
+use rockwatch_core::engine::{AccelPacket, AlertLevel, StationId};
 use rockwatch_core::record::parse_at2_text;
 
 const HORIZONTAL_AT2: &str = include_str!("../../../../tests/data/records/Rinaldi228.AT2");
@@ -76,25 +78,60 @@ fn bundled_traces() -> anyhow::Result<Traces> {
     Traces::from_record(&record, AZIMUTH_DEG).map_err(anyhow::Error::msg)
 }
 
+/// The demonstration to run: the bundled configuration, catalogue and record, ready.
+struct DemoPlan {
+    /// Where the bundled configuration and catalogue are written for the node to load.
+    scratch: ScratchDir,
+    /// The node's settings (loopback-only ROS 2, no iceoryx2 configuration file).
+    options: NodeOptions,
+    network: NetworkPlan,
+    /// The record as packets of station [`STATION`], then the quiet tail.
+    packets: Vec<AccelPacket>,
+    /// Length of the record (s).
+    record_s: f64,
+    tail_s: f64,
+    speed: Speed,
+}
+
+/// What the demonstration saw.
+struct DemoOutcome {
+    /// Alerts received on `/pbr/alerts`, in order.
+    received: Vec<msg::PbrAlert>,
+    /// Node latency of each alert published (ns), by block and level.
+    latencies: BTreeMap<(String, AlertLevel), i64>,
+    /// The node's closing report.
+    report: ServeReport,
+}
+
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
-    // The bundled configuration and catalogue, written where the node can load them.
-    let dir = ScratchDir(std::env::temp_dir().join(format!(
+    let plan = parse(args)?;
+    print_header(&plan);
+    let outcome = execute(plan)?;
+    print_blocks(&outcome);
+    Ok(())
+}
+
+/// Writes the bundled configuration and catalogue where the node can load them, and cuts
+/// the bundled record into packets.
+fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
+    let scratch = ScratchDir(std::env::temp_dir().join(format!(
         "rockwatch-demo-{}-{}",
         std::process::id(),
         std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_nanos())
     )));
-    std::fs::create_dir_all(&dir.0).with_context(|| format!("{}", dir.0.display()))?;
-    std::fs::write(dir.0.join("catalogue.toml"), CATALOGUE_TOML)?;
-    std::fs::write(dir.0.join("node.toml"), NODE_TOML)?;
-    let mut config = NodeConfig::load(&dir.0.join("node.toml")).map_err(anyhow::Error::msg)?;
+    let dir = &scratch.0;
+    std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
+    std::fs::write(dir.join("catalogue.toml"), CATALOGUE_TOML)?;
+    std::fs::write(dir.join("node.toml"), NODE_TOML)?;
+    let mut config = NodeConfig::load(&dir.join("node.toml")).map_err(anyhow::Error::msg)?;
     // Loopback only, whatever ROS_AUTOMATIC_DISCOVERY_RANGE says; ROS_DOMAIN_ID is honoured.
     config.ros2 = Ros2Config::loopback_only();
     // ROS 2 only: the bundled node.toml names an iceoryx2 config file beside it, which the
     // demo does not ship, and the default iceoryx2 services could clash with a real node's.
     config.iceoryx2.config_file = None;
-    let plan = network_plan(
+    let network = network_plan(
         &config.ros2,
         std::env::var("ROS_DOMAIN_ID").ok().as_deref(),
         None,
@@ -102,44 +139,66 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     .map_err(anyhow::Error::msg)?;
     let options = NodeOptions {
         config,
-        catalogue: None,
-        state_dir: None,
-        shards: 1,
+        ..NodeOptions::default()
     };
 
     let station = StationId::parse(STATION).map_err(anyhow::Error::msg)?;
     let traces = bundled_traces()?;
-    let packets = traces.packets(&station, 100, args.tail);
+    Ok(DemoPlan {
+        scratch,
+        options,
+        network,
+        packets: traces.packets(&station, 100, args.tail),
+        record_s: traces.len() as f64 / traces.rate_hz,
+        tail_s: args.tail,
+        speed: args.speed,
+    })
+}
+
+fn print_header(plan: &DemoPlan) {
     outln!(
         "rockwatch demo: Northridge 1994, Rinaldi Receiving Sta (228° + UP, PEER NGA RSN1063) as {STATION}, {:.1} s + {} s quiet at {} over ROS 2 (DDS domain {}, loopback only)",
-        traces.len() as f64 / traces.rate_hz,
-        args.tail,
-        match args.speed {
+        plan.record_s,
+        plan.tail_s,
+        match plan.speed {
             Speed::Max => "max speed".to_string(),
             Speed::Times(f) => format!("{f}× real time"),
         },
-        plan.domain_id
+        plan.network.domain_id
     );
+}
 
-    let mut listener = Ros2AlertListener::open(&plan, &options.config.ros2.namespace)?;
+/// Runs the node and the replay on threads of their own, and prints each alert as it
+/// arrives on a ROS 2 subscription to `/pbr/alerts`, until the replay is over and the node
+/// has been quiet a while.
+fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
+    let DemoPlan {
+        scratch,
+        options,
+        network,
+        packets,
+        speed,
+        ..
+    } = plan;
+    let mut listener = Ros2AlertListener::open(&network, &options.config.ros2.namespace)?;
     let stop = Arc::new(AtomicBool::new(false));
     let latencies = Arc::new(Mutex::new(BTreeMap::new()));
     let node = {
-        let (stop, latencies, plan) = (Arc::clone(&stop), Arc::clone(&latencies), plan.clone());
+        let (stop, latencies, network) =
+            (Arc::clone(&stop), Arc::clone(&latencies), network.clone());
         std::thread::Builder::new()
             .name("demo-node".into())
             .spawn(move || {
                 let mut recorder = LatencyRecorder(latencies);
-                rockwatch::node::serve(&options, &plan, &stop, &mut [&mut recorder])
+                rockwatch::node::serve(&options, &network, &stop, &mut [&mut recorder])
             })?
     };
     let replayer = {
-        let (plan, stop) = (plan.clone(), Arc::clone(&stop));
-        let speed = args.speed;
+        let (network, stop) = (network.clone(), Arc::clone(&stop));
         std::thread::Builder::new()
             .name("demo-replay".into())
             .spawn(move || -> anyhow::Result<()> {
-                let mut sink = Ros2PacketSink::open(&plan, "/")?;
+                let mut sink = Ros2PacketSink::open(&network, "/")?;
                 if !sink.wait_for_subscriber(Duration::from_secs(30))? {
                     stop.store(true, Ordering::Relaxed);
                     anyhow::bail!("the node did not subscribe to /pbr/accel within 30 s");
@@ -193,6 +252,21 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         .lock()
         .map_err(|_| anyhow!("latency table poisoned"))?
         .clone();
+    drop(scratch); // the node has stopped: its configuration can go
+    Ok(DemoOutcome {
+        received,
+        latencies,
+        report,
+    })
+}
+
+/// The table of every block, and what went over ROS 2.
+fn print_blocks(outcome: &DemoOutcome) {
+    let DemoOutcome {
+        received,
+        latencies,
+        report,
+    } = outcome;
     outln!();
     outln!(
         "{:<24} {:<10} {:>8} {:>10} {:>10} {:>8}  {:<25} {:>10}",
@@ -244,5 +318,4 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         received.len(),
         rockwatch::ros2::ALERTS_TOPIC
     );
-    Ok(())
 }

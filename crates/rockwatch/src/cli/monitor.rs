@@ -1,15 +1,20 @@
 //! `rockwatch monitor`: the monitoring engine offline — a record cut into packets, then
-//! `--tail` seconds of quiet, through the same engine as the live node, as fast as it can.
+//! `--tail` seconds of quiet, through the live node's runtime (`NodeRuntime`, one inline
+//! shard: engine, journal, then report), as fast as it can.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 
-use anyhow::bail;
-use rockwatch::journal::Journal;
-use rockwatch::node::NodeOptions;
+use anyhow::{bail, Context as _};
+use rockwatch::log_text::{printable, STATION_CHARS};
+use rockwatch::node::{NodeOptions, NodeRuntime, NoticeLog};
 use rockwatch::node_config::NodeConfig;
+use rockwatch::ports::Publication;
 use rockwatch::replay::Traces;
-use rockwatch_core::engine::{Alert, Engine, EngineConfig, JournalRecord, Output, StationId};
+use rockwatch_core::engine::{
+    Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StreamCounters,
+};
 use rockwatch_core::mseed::format_time_ns;
 use rockwatch_core::record::Record;
 
@@ -66,6 +71,49 @@ pub enum MonitorFormat {
     Jsonl,
 }
 
+/// Notices of each (station, kind) logged in text output; the rest are counted at the end.
+const NOTICE_LINES: u64 = 3;
+
+/// A monitoring run, its flags checked.
+struct MonitorPlan {
+    /// The node's settings: configuration, catalogue, state directory, one engine shard.
+    options: NodeOptions,
+    /// The catalogue's blocks, at least one bound to `station`.
+    blocks: Vec<PbrSpec>,
+    station: StationId,
+    input: MonitorInput,
+    packet_ms: u32,
+    /// Seconds of quiet appended after the record.
+    tail_s: f64,
+    format: MonitorFormat,
+}
+
+/// Where the acceleration comes from.
+enum MonitorInput {
+    /// One horizontal component in direction `azimuth_deg` (degrees clockwise from north),
+    /// and optionally its vertical.
+    Record {
+        path: PathBuf,
+        vertical: Option<PathBuf>,
+        azimuth_deg: f64,
+    },
+    /// A MiniSEED file with the station's channels.
+    Mseed(PathBuf),
+}
+
+/// What a monitoring run leaves once its alerts have been reported.
+struct MonitorOutcome {
+    /// Alerts journaled and reported.
+    alerts: u64,
+    /// Blocks of the monitored station only: the others received no data.
+    summaries: Vec<PbrSummary>,
+    engine: EngineCounters,
+    /// Per station: its own and its stream's counters.
+    stations: Vec<(String, StationCounters, StreamCounters)>,
+    /// Notices per (station, kind).
+    notice_counts: BTreeMap<(String, &'static str), u64>,
+}
+
 fn alert_json(a: &Alert, t0_ns: i64, latency_ns: i64) -> serde_json::Value {
     serde_json::json!({
         "type": "alert",
@@ -87,19 +135,34 @@ fn alert_json(a: &Alert, t0_ns: i64, latency_ns: i64) -> serde_json::Value {
 }
 
 pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
+    let plan = parse(args)?;
+    let format = plan.format;
+    let outcome = execute(plan)?;
+    print_summary(&outcome, format);
+    Ok(())
+}
+
+/// Checks the flags and loads the configuration and the catalogue.
+fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
     let config = match &args.config {
         Some(path) => NodeConfig::load(path).map_err(anyhow::Error::msg)?,
         None => NodeConfig::default(),
     };
     let options = NodeOptions {
         config,
-        catalogue: args.catalogue.clone(),
-        state_dir: args.state_dir.clone(),
+        catalogue: args.catalogue,
+        state_dir: args.state_dir,
         shards: 1,
+        notices: NoticeLog::Counted {
+            lines: match args.format {
+                MonitorFormat::Text => NOTICE_LINES,
+                MonitorFormat::Jsonl => 0,
+            },
+        },
     };
-    let specs = options.load_blocks()?;
+    let blocks = options.load_blocks()?;
     let station = StationId::parse(&args.station).map_err(|e| anyhow::anyhow!("--station: {e}"))?;
-    if !specs.iter().any(|s| s.station == station) {
+    if !blocks.iter().any(|s| s.station == station) {
         bail!(
             "{}: no block is bound to station {station}",
             options.catalogue_path()?.display()
@@ -111,157 +174,170 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
     if !(args.tail.is_finite() && (0.0..=rockwatch::replay::MAX_TAIL_S).contains(&args.tail)) {
         bail!("--tail must be 0 to 86400 s, got {}", args.tail);
     }
-    let traces = match (&args.record, &args.mseed) {
-        (Some(path), _) => {
-            let mut record = Record::read(path)?;
-            if let Some(v) = &args.vertical {
-                record.attach_vertical(v)?;
-            }
-            Traces::from_record(&record, args.azimuth).map_err(anyhow::Error::msg)?
-        }
-        (None, Some(path)) => Traces::from_mseed(path, &station)?,
+    let input = match (args.record, args.mseed) {
+        (Some(path), _) => MonitorInput::Record {
+            path,
+            vertical: args.vertical,
+            azimuth_deg: args.azimuth,
+        },
+        (None, Some(path)) => MonitorInput::Mseed(path),
         (None, None) => bail!("give --record FILE or --mseed FILE"),
     };
-    let engine_config: EngineConfig = options.config.engine;
-    let mut engine = Engine::new(engine_config, options.config.stations.clone(), &specs)
-        .map_err(anyhow::Error::msg)?;
+    Ok(MonitorPlan {
+        options,
+        blocks,
+        station,
+        input,
+        packet_ms: args.packet_ms,
+        tail_s: args.tail,
+        format: args.format,
+    })
+}
 
-    let mut journal = match options.open_state()? {
-        Some((journal, records)) => {
-            engine.restore(&records);
-            Some(journal)
-        }
-        None => None,
-    };
-
-    let jsonl = args.format == MonitorFormat::Jsonl;
-    let epoch = std::time::Instant::now();
-    // Fault injection for the crash-safety tests: abort right after the N-th journal append,
-    // before the alert is reported (the worst moment for a crash).
-    let abort_after: Option<usize> = std::env::var("ROCKWATCH_FAULT_ABORT_AFTER_JOURNAL")
-        .ok()
-        .and_then(|v| v.parse().ok());
-    let mut notices: BTreeMap<(String, &'static str), u64> = BTreeMap::new();
-    let mut alerts = 0usize;
-    let mut out = Vec::new();
-    let mut handle = |out: &mut Vec<Output>, journal: &mut Option<Journal>| -> anyhow::Result<()> {
-        for o in out.drain(..) {
-            match o {
-                Output::Alert(a) => {
-                    // Processing latency: now (before journaling) minus the packet's arrival.
-                    let latency_ns = epoch.elapsed().as_nanos() as i64 - a.arrival_ns;
-                    // Journaled (and synced) before it is reported.
-                    if let Some(j) = journal {
-                        j.append(&JournalRecord::Alert(a.clone()))?;
-                    }
-                    alerts += 1;
-                    if abort_after == Some(alerts) {
-                        std::process::abort();
-                    }
-                    if jsonl {
-                        outln!("{}", alert_json(&a, traces.start_ns, latency_ns));
-                    } else {
-                        outln!(
-                            "t = {:>8.3} s  {:<18} {:<28} mode {:<10} θ/α {:>7.3}  slide {:>8.4} m  P(overturn) {:.2}  PGA {:.2} m/s²  PGV {:.3} m/s  latency {:.0} µs",
-                            (a.data_time_ns - traces.start_ns) as f64 * 1e-9,
-                            a.level.as_str(),
-                            a.pbr_id,
-                            a.mode.as_str(),
-                            a.theta_over_alpha,
-                            a.slide_m,
-                            a.overturn_probability,
-                            a.pga_mps2,
-                            a.pgv_mps,
-                            latency_ns as f64 * 1e-3
-                        );
-                    }
-                }
-                Output::EpisodeEnd { pbr_id, episode } => {
-                    if let Some(j) = journal {
-                        j.append(&JournalRecord::EpisodeEnd { pbr_id, episode })?;
-                    }
-                }
-                Output::Notice(n) => {
-                    let count = notices.entry((n.station.clone(), n.kind)).or_insert(0);
-                    *count += 1;
-                    if *count <= 3 && !jsonl {
-                        eprintln!("rockwatch: {}: {}: {}", n.station, n.kind, n.message);
-                    }
-                }
-                Output::State(_) | Output::Intensity(_) => {}
+/// Reads the input as the station's traces.
+fn read_traces(input: &MonitorInput, station: &StationId) -> anyhow::Result<Traces> {
+    Ok(match input {
+        MonitorInput::Record {
+            path,
+            vertical,
+            azimuth_deg,
+        } => {
+            let mut record = Record::read(path)?;
+            if let Some(v) = vertical {
+                record.attach_vertical(v)?;
             }
+            Traces::from_record(&record, *azimuth_deg).map_err(anyhow::Error::msg)?
         }
-        Ok(())
-    };
-    for packet in traces.packets(&station, args.packet_ms, args.tail) {
-        engine.process(packet, epoch.elapsed().as_nanos() as i64, &mut out);
-        handle(&mut out, &mut journal)?;
-    }
-    engine.flush(epoch.elapsed().as_nanos() as i64, &mut out);
-    handle(&mut out, &mut journal)?;
+        MonitorInput::Mseed(path) => Traces::from_mseed(path, station)?,
+    })
+}
 
-    // Blocks of the monitored station only: the others received no data.
-    let summaries: Vec<_> = engine
-        .summaries()
-        .into_iter()
-        .filter(|s| s.station == station.as_str())
-        .collect();
-    let counters: BTreeMap<String, serde_json::Value> = engine
-        .station_counters()
-        .map(|(id, own, stream)| {
-            (
-                id.to_string(),
-                serde_json::json!({"station": own, "stream": stream}),
-            )
-        })
-        .collect();
-    if jsonl {
-        let pbrs: Vec<_> = summaries
-            .iter()
-            .map(|s| {
-                serde_json::json!({
-                    "pbr_id": s.pbr_id, "station": s.station,
-                    "max_theta_over_alpha": s.max_theta_over_alpha, "max_slide_m": s.max_slide_m,
-                    "overturned": s.overturned, "overturn_probability": s.overturn_probability,
-                    "data_gap": s.data_gap,
+/// Runs the node's runtime (one inline shard) over the input's packets, then the tail, as
+/// fast as it goes: each alert is journaled (and synced) and then reported ([`print_alert`])
+/// the moment the engine raises it.
+fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
+    let MonitorPlan {
+        options,
+        blocks,
+        station,
+        input,
+        packet_ms,
+        tail_s,
+        format,
+    } = plan;
+    let traces = read_traces(&input, &station)?;
+    let mut runtime = NodeRuntime::start_with_blocks(&options, blocks, Arc::new(|| {}))?;
+    let mut report = |publication: Publication| {
+        if let Publication::Alert { alert, latency_ns } = publication {
+            print_alert(format, &alert, traces.start_ns, latency_ns);
+        }
+    };
+    for packet in traces.packets(&station, packet_ms, tail_s) {
+        runtime.submit(packet, &mut report)?;
+    }
+    let stopped = runtime.stop(&mut report)?;
+    let engine = stopped.engines.first().context("the engine did not run")?;
+    Ok(MonitorOutcome {
+        alerts: stopped.stats.alerts,
+        summaries: engine
+            .summaries()
+            .into_iter()
+            .filter(|s| s.station == station.as_str())
+            .collect(),
+        engine: engine.counters(),
+        stations: engine
+            .station_counters()
+            .map(|(id, own, stream)| (id.to_string(), own, stream))
+            .collect(),
+        notice_counts: stopped.notice_counts,
+    })
+}
+
+/// One alert, as it is raised; `t0_ns`: start of the record.
+fn print_alert(format: MonitorFormat, a: &Alert, t0_ns: i64, latency_ns: i64) {
+    match format {
+        MonitorFormat::Jsonl => outln!("{}", alert_json(a, t0_ns, latency_ns)),
+        MonitorFormat::Text => outln!(
+            "t = {:>8.3} s  {:<18} {:<28} mode {:<10} θ/α {:>7.3}  slide {:>8.4} m  P(overturn) {:.2}  PGA {:.2} m/s²  PGV {:.3} m/s  latency {:.0} µs",
+            (a.data_time_ns - t0_ns) as f64 * 1e-9,
+            a.level.as_str(),
+            a.pbr_id,
+            a.mode.as_str(),
+            a.theta_over_alpha,
+            a.slide_m,
+            a.overturn_probability,
+            a.pga_mps2,
+            a.pgv_mps,
+            latency_ns as f64 * 1e-3
+        ),
+    }
+}
+
+/// The closing summary: every block of the station, and (text) the notice counts.
+fn print_summary(outcome: &MonitorOutcome, format: MonitorFormat) {
+    match format {
+        MonitorFormat::Jsonl => {
+            let pbrs: Vec<_> = outcome
+                .summaries
+                .iter()
+                .map(|s| {
+                    serde_json::json!({
+                        "pbr_id": s.pbr_id, "station": s.station,
+                        "max_theta_over_alpha": s.max_theta_over_alpha, "max_slide_m": s.max_slide_m,
+                        "overturned": s.overturned, "overturn_probability": s.overturn_probability,
+                        "data_gap": s.data_gap,
+                    })
                 })
-            })
-            .collect();
-        outln!(
-            "{}",
-            serde_json::json!({
-                "type": "summary", "pbrs": pbrs,
-                "counters": {"engine": engine.counters(), "stations": counters},
-            })
-        );
-    } else {
-        outln!("\n{alerts} alerts. Blocks:");
-        outln!(
-            "{:<28} {:<11} {:>9} {:>11} {:>10} {:>13}",
-            "pbr",
-            "station",
-            "max θ/α",
-            "max slide",
-            "overturned",
-            "P(overturn)"
-        );
-        for s in &summaries {
+                .collect();
+            let stations: BTreeMap<&str, serde_json::Value> = outcome
+                .stations
+                .iter()
+                .map(|(id, own, stream)| {
+                    (
+                        id.as_str(),
+                        serde_json::json!({"station": own, "stream": stream}),
+                    )
+                })
+                .collect();
             outln!(
-                "{:<28} {:<11} {:>9.3} {:>9.4} m {:>10} {:>13.2}{}",
-                s.pbr_id,
-                s.station,
-                s.max_theta_over_alpha,
-                s.max_slide_m,
-                if s.overturned { "yes" } else { "no" },
-                s.overturn_probability,
-                if s.data_gap { "  (data gap)" } else { "" }
+                "{}",
+                serde_json::json!({
+                    "type": "summary", "pbrs": pbrs,
+                    "counters": {"engine": outcome.engine, "stations": stations},
+                })
             );
         }
-        for ((station, kind), count) in &notices {
-            if *count > 3 {
-                eprintln!("rockwatch: {station}: {kind}: {count} in all");
+        MonitorFormat::Text => {
+            outln!("\n{} alerts. Blocks:", outcome.alerts);
+            outln!(
+                "{:<28} {:<11} {:>9} {:>11} {:>10} {:>13}",
+                "pbr",
+                "station",
+                "max θ/α",
+                "max slide",
+                "overturned",
+                "P(overturn)"
+            );
+            for s in &outcome.summaries {
+                outln!(
+                    "{:<28} {:<11} {:>9.3} {:>9.4} m {:>10} {:>13.2}{}",
+                    s.pbr_id,
+                    s.station,
+                    s.max_theta_over_alpha,
+                    s.max_slide_m,
+                    if s.overturned { "yes" } else { "no" },
+                    s.overturn_probability,
+                    if s.data_gap { "  (data gap)" } else { "" }
+                );
+            }
+            for ((station, kind), count) in &outcome.notice_counts {
+                if *count > NOTICE_LINES {
+                    eprintln!(
+                        "rockwatch: {}: {kind}: {count} in all",
+                        printable(station, STATION_CHARS)
+                    );
+                }
             }
         }
     }
-    Ok(())
 }

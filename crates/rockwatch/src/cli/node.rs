@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use anyhow::Context;
-use rockwatch::node::{serve, NodeOptions};
+use rockwatch::node::{serve, NodeOptions, NoticeLog};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ros2::network_plan_from_env;
 
@@ -62,6 +62,7 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         catalogue: args.catalogue,
         state_dir: args.state_dir,
         shards: args.shards,
+        notices: NoticeLog::RateLimited,
     };
     let stop = stop_on_signals()?;
     eprintln!(

@@ -7,7 +7,7 @@ use anyhow::{bail, Context};
 use rockwatch_core::mseed::{
     write_mseed, ChannelData, FloatEncoding, SampleRateFactors, Samples, WriteOptions,
 };
-use rockwatch_core::pulse::{sample_pulses, PulseScenario};
+use rockwatch_core::pulse::{sample_pulses, PulseScenario, SampledPulse};
 use rockwatch_core::record::{write_at2, write_csv};
 use std::path::PathBuf;
 
@@ -159,8 +159,36 @@ struct Summary {
     pulses: Vec<PulseSummary>,
 }
 
+/// A pulse set to generate, its flags checked.
+struct PulsesPlan {
+    scenario: PulseScenario,
+    count: usize,
+    seed: u64,
+    /// Sampling interval of the records (s).
+    dt_s: f64,
+    /// Zeros appended after each pulse (s).
+    pad_s: f64,
+    out_dir: PathBuf,
+    file_format: FileFormat,
+    mseed_encoding: FloatEncoding,
+    stdout_format: OutputFormat,
+}
+
 /// Generates the pulses, writes one file each, prints the summary.
 pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
+    let plan = parse(&args)?;
+    let pulses = execute(&plan)?;
+    match plan.stdout_format {
+        OutputFormat::Json => {
+            outln!("{}", serde_json::to_string_pretty(&Summary { pulses })?);
+        }
+        OutputFormat::Text => print_table(&pulses),
+    }
+    Ok(())
+}
+
+/// Checks the flags.
+fn parse(args: &PulsesArgs) -> anyhow::Result<PulsesPlan> {
     let scenario = PulseScenario::new(args.mw, args.r_km).context("invalid scenario")?;
     if !(args.dt.is_finite() && args.dt > 0.0) {
         bail!("--dt must be a positive number of seconds, got {}", args.dt);
@@ -177,95 +205,107 @@ pub fn run(args: PulsesArgs) -> anyhow::Result<()> {
             anyhow::anyhow!("--dt {} s cannot be written as MiniSEED: {e}", args.dt)
         })?;
     }
-    let count = args.count as usize;
-    let sampled = sample_pulses(&scenario, count, args.seed).context("generating pulses")?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    Ok(PulsesPlan {
+        scenario,
+        count: args.count as usize,
+        seed: args.seed,
+        dt_s: args.dt,
+        pad_s: args.pad_s,
+        out_dir: args.out.clone(),
+        file_format,
+        mseed_encoding: match args.mseed_encoding {
+            MseedEncoding::Float64 => FloatEncoding::Float64,
+            MseedEncoding::Float32 => FloatEncoding::Float32,
+        },
+        stdout_format,
+    })
+}
 
-    let width = count.to_string().len().max(4);
-    let extension = match file_format {
+/// Samples the pulses and writes one record file each.
+fn execute(plan: &PulsesPlan) -> anyhow::Result<Vec<PulseSummary>> {
+    let sampled =
+        sample_pulses(&plan.scenario, plan.count, plan.seed).context("generating pulses")?;
+    std::fs::create_dir_all(&plan.out_dir)
+        .with_context(|| format!("cannot create output directory {}", plan.out_dir.display()))?;
+    sampled
+        .iter()
+        .enumerate()
+        .map(|(index, item)| write_pulse(plan, index + 1, item))
+        .collect()
+}
+
+/// Writes the record file of pulse `id` (from 1).
+fn write_pulse(plan: &PulsesPlan, id: usize, item: &SampledPulse) -> anyhow::Result<PulseSummary> {
+    let (mw, r_km) = (plan.scenario.mw(), plan.scenario.r_km());
+    let width = plan.count.to_string().len().max(4);
+    let extension = match plan.file_format {
         FileFormat::At2 => "AT2",
         FileFormat::Csv => "csv",
         FileFormat::Mseed => "mseed",
     };
-    let mut pulses = Vec::with_capacity(count);
-    for (index, item) in sampled.iter().enumerate() {
-        let id = index + 1;
-        let (p, pulse) = (&item.parameters, &item.pulse);
-        let mut record = pulse
-            .to_record_padded(args.dt, args.pad_s)
-            .with_context(|| format!("sampling pulse {id}"))?;
-        let name = format!("pulse_M{}_R{}_{id:0width$}.{extension}", args.mw, args.r_km);
-        let path = args.out.join(&name);
-        record.source = path.display().to_string();
-        match file_format {
-            FileFormat::At2 => {
-                let description = format!(
-                    "Synthetic Mavroeidis-Papageorgiou pulse {id}: Mw {} R {} km seed {} \
-                     Tp {:.6} s Vp {:.6} m/s gamma {:.6} nu {:.6} rad A {:.6} m/s",
-                    args.mw,
-                    args.r_km,
-                    args.seed,
-                    p.tp_s,
-                    p.vp_mps,
-                    p.gamma,
-                    p.nu_rad,
-                    pulse.amplitude_mps()
-                );
-                write_at2(
-                    &path,
-                    &record,
-                    [
-                        "PEER NGA STRONG MOTION DATABASE RECORD (synthetic, rockwatch pulses)",
-                        &description,
-                        "ACCELERATION TIME SERIES IN UNITS OF G",
-                    ],
-                )?;
-            }
-            FileFormat::Csv => write_csv(&path, &record)?,
-            FileFormat::Mseed => {
-                let options = WriteOptions {
-                    float_encoding: match args.mseed_encoding {
-                        MseedEncoding::Float64 => FloatEncoding::Float64,
-                        MseedEncoding::Float32 => FloatEncoding::Float32,
-                    },
-                    ..WriteOptions::default()
-                };
-                let channel = ChannelData {
-                    id: pulse_seed_id(id, 1.0 / args.dt),
-                    start_time_ns: 0,
-                    sample_rate_hz: 1.0 / args.dt,
-                    samples: Samples::Float(&record.horizontal_mps2),
-                };
-                write_mseed(&path, &[channel], options)?;
-            }
+    let (p, pulse) = (&item.parameters, &item.pulse);
+    let mut record = pulse
+        .to_record_padded(plan.dt_s, plan.pad_s)
+        .with_context(|| format!("sampling pulse {id}"))?;
+    let name = format!("pulse_M{mw}_R{r_km}_{id:0width$}.{extension}");
+    let path = plan.out_dir.join(&name);
+    record.source = path.display().to_string();
+    match plan.file_format {
+        FileFormat::At2 => {
+            let description = format!(
+                "Synthetic Mavroeidis-Papageorgiou pulse {id}: Mw {} R {} km seed {} \
+                 Tp {:.6} s Vp {:.6} m/s gamma {:.6} nu {:.6} rad A {:.6} m/s",
+                mw,
+                r_km,
+                plan.seed,
+                p.tp_s,
+                p.vp_mps,
+                p.gamma,
+                p.nu_rad,
+                pulse.amplitude_mps()
+            );
+            write_at2(
+                &path,
+                &record,
+                [
+                    "PEER NGA STRONG MOTION DATABASE RECORD (synthetic, rockwatch pulses)",
+                    &description,
+                    "ACCELERATION TIME SERIES IN UNITS OF G",
+                ],
+            )?;
         }
-        let pga_mps2 = record
-            .horizontal_mps2
-            .iter()
-            .fold(0.0_f64, |m, a| m.max(a.abs()));
-        pulses.push(PulseSummary {
-            id,
-            mw: args.mw,
-            r_km: args.r_km,
-            tp_s: p.tp_s,
-            vp_mps: p.vp_mps,
-            gamma: p.gamma,
-            nu_rad: p.nu_rad,
-            a_mps: pulse.amplitude_mps(),
-            duration_s: pulse.duration_s(),
-            pga_mps2,
-            file: path.display().to_string(),
-        });
-    }
-
-    match stdout_format {
-        OutputFormat::Json => {
-            outln!("{}", serde_json::to_string_pretty(&Summary { pulses })?);
+        FileFormat::Csv => write_csv(&path, &record)?,
+        FileFormat::Mseed => {
+            let options = WriteOptions {
+                float_encoding: plan.mseed_encoding,
+                ..WriteOptions::default()
+            };
+            let channel = ChannelData {
+                id: pulse_seed_id(id, 1.0 / plan.dt_s),
+                start_time_ns: 0,
+                sample_rate_hz: 1.0 / plan.dt_s,
+                samples: Samples::Float(&record.horizontal_mps2),
+            };
+            write_mseed(&path, &[channel], options)?;
         }
-        OutputFormat::Text => print_table(&pulses),
     }
-    Ok(())
+    let pga_mps2 = record
+        .horizontal_mps2
+        .iter()
+        .fold(0.0_f64, |m, a| m.max(a.abs()));
+    Ok(PulseSummary {
+        id,
+        mw,
+        r_km,
+        tp_s: p.tp_s,
+        vp_mps: p.vp_mps,
+        gamma: p.gamma,
+        nu_rad: p.nu_rad,
+        a_mps: pulse.amplitude_mps(),
+        duration_s: pulse.duration_s(),
+        pga_mps2,
+        file: path.display().to_string(),
+    })
 }
 
 /// SEED id of pulse `id` (from 1) sampled at `rate_hz`: `XX.P<last four digits of id>.<loc>.

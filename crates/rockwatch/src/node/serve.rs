@@ -310,14 +310,14 @@ impl Reactor {
         ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
         ros2.flush_replies();
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
-        let (summaries, input) = runtime.shutdown_with_totals(&mut |p| out.publish(p))?;
+        let stopped = runtime.stop(&mut |p| out.publish(p))?;
         out.flush();
         if let Some(input) = &mut iox_input {
             let _ = poll.registry().deregister(input);
         }
         Ok(ServeReport {
-            summaries,
-            input,
+            summaries: stopped.summaries(),
+            input: stopped.input_totals(),
             ros2_packets: ros2.counters.packets.load(Ordering::Relaxed),
             ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
             iox: iox_stats,
