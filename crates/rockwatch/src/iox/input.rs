@@ -109,10 +109,8 @@ impl IoxInput {
     /// Cleans up dead iceoryx2 nodes when [`IoxConfig::dead_node_check_s`] has passed since
     /// the last clean-up (cheap otherwise: call it on every turn of the event loop).
     pub fn maintain(&mut self) {
-        let cleaned = self.cleanup.maintain(&self.node);
-        if cleaned > 0 {
-            self.counters.add(DEAD_NODES, cleaned);
-        }
+        self.counters
+            .add(DEAD_NODES, self.cleanup.maintain(&self.node));
     }
 
     fn raw_fd(&self) -> i32 {

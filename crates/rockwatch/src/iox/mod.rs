@@ -15,21 +15,21 @@
 //! refuse to open. Layouts and the client protocol: docs/iceoryx2.md.
 //!
 //! - [`types`]: the wire layouts;
-//! - [`config`]: the `[iceoryx2]` configuration section and the iceoryx2 configuration file;
-//! - [`service`]: the iceoryx2 node and services every endpoint opens;
-//! - [`input`] (with [`intake`], [`stats`] and [`cleanup`] of dead nodes), [`alert_publisher`]:
-//!   the node's side;
-//! - [`alert_subscriber`], [`replay_sink`]: clients.
+//! - `config.rs`: the `[iceoryx2]` configuration section and the iceoryx2 configuration file;
+//! - `service.rs`: the iceoryx2 node and services every endpoint opens;
+//! - the node's side: `input.rs` (with `intake.rs`, `stats.rs` and `cleanup.rs`, the clean-up
+//!   of dead nodes) and `alert_publisher.rs`;
+//! - `alert_subscriber.rs`, `replay_sink.rs`: clients.
 
-pub mod alert_publisher;
-pub mod alert_subscriber;
-pub mod cleanup;
-pub mod config;
-pub mod input;
-pub mod intake;
-pub mod replay_sink;
-pub mod service;
-pub mod stats;
+mod alert_publisher;
+mod alert_subscriber;
+mod cleanup;
+mod config;
+mod input;
+mod intake;
+mod replay_sink;
+mod service;
+mod stats;
 pub mod types;
 
 pub use alert_publisher::IoxAlertPublisher;

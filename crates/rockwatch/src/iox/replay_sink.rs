@@ -23,7 +23,7 @@ pub struct IoxPacketSink {
 }
 
 impl IoxPacketSink {
-    /// Opens (or creates) `pbr/accel` as [`IoxInput`] does.
+    /// Opens (or creates) `pbr/accel` as [`IoxInput`](super::IoxInput) does.
     pub fn new(config: &IoxConfig) -> anyhow::Result<IoxPacketSink> {
         let node = create_node(config)?;
         let service = open_accel_service(&node, config)?;

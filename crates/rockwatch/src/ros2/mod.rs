@@ -8,30 +8,30 @@
 //! section of the node configuration may override both and name the interfaces to use.
 //!
 //! - [`msg`]: the `pbr_msgs` messages and service on the wire;
-//! - [`names`]: the node, topic and service names;
-//! - [`config`]: the `[ros2]` configuration section;
-//! - [`network`]: the DDS domain and interfaces ([`NetworkPlan`]);
-//! - [`qos`]: the QoS profiles;
-//! - [`session`]: a participant with one ROS 2 node ([`Ros2Session`]);
-//! - [`node`]: the node's ROS 2 side ([`Ros2Node`]), made of [`parameters`], [`input`] (with
-//!   [`imu`]), [`publish`] and [`reset`];
-//! - clients: [`replay_sink`], [`reset_client`], [`alert_listener`].
+//! - `names.rs`: the node, topic and service names;
+//! - `config.rs`: the `[ros2]` configuration section;
+//! - `network.rs`: the DDS domain and interfaces ([`NetworkPlan`]);
+//! - `qos.rs`: the QoS profiles;
+//! - `session.rs`: a participant with one ROS 2 node ([`Ros2Session`]);
+//! - `node.rs`: the node's ROS 2 side ([`Ros2Node`]), made of `parameters.rs`, `input.rs` (with
+//!   `imu.rs`), `publish.rs` and `reset.rs`;
+//! - clients: `replay_sink.rs`, `reset_client.rs`, `alert_listener.rs`.
 
-pub mod alert_listener;
-pub mod config;
-pub mod imu;
-pub mod input;
+mod alert_listener;
+mod config;
+mod imu;
+mod input;
 pub mod msg;
-pub mod names;
-pub mod network;
-pub mod node;
-pub mod parameters;
-pub mod publish;
-pub mod qos;
-pub mod replay_sink;
-pub mod reset;
-pub mod reset_client;
-pub mod session;
+mod names;
+mod network;
+mod node;
+mod parameters;
+mod publish;
+mod qos;
+mod replay_sink;
+mod reset;
+mod reset_client;
+mod session;
 
 pub use alert_listener::Ros2AlertListener;
 pub use config::{DiscoveryRange, ImuInput, InputQos, Ros2Config};
