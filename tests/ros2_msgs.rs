@@ -1,13 +1,15 @@
 //! One source of truth for the wire format: the `.msg` files of `msg/` and the `.srv` files of
 //! `msg/srv/` are parsed here and the Rust structs of `rockwatch::ros2::msg` must have the same
-//! fields, in the same order, with the same types (CDR is positional), and the same constants.
+//! fields, in the same order, with the same types (CDR is positional), and the same constants;
+//! the iceoryx2 alerts carry the same level and mode codes.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use rockwatch::iox::PbrAlertIox;
 use rockwatch::ros2::msg;
 use rockwatch_core::dynamics::Mode;
-use rockwatch_core::engine::AlertLevel;
+use rockwatch_core::engine::{Alert, AlertLevel};
 use serde_reflection::{ContainerFormat, Format, Tracer, TracerConfig};
 
 #[derive(Debug, Default)]
@@ -271,4 +273,43 @@ fn mode_and_level_constants_match_the_msg_files() {
     }
     assert_eq!(msg::level_of_code(0), None);
     assert_eq!(msg::level_of_code(4), None);
+}
+
+#[test]
+fn iceoryx2_alerts_carry_the_ros2_level_and_mode_codes() {
+    let modes = [
+        Mode::Rest,
+        Mode::Slide,
+        Mode::Rock,
+        Mode::SlideRock,
+        Mode::Overturned,
+        Mode::Flight,
+    ];
+    for level in AlertLevel::ALL {
+        for mode in modes {
+            let alert = Alert {
+                pbr_id: "slender-pillar".into(),
+                station: "CI.RRS.00".into(),
+                level,
+                episode: 1,
+                mode,
+                theta_over_alpha: 0.5,
+                slide_m: 0.0,
+                overturn_probability: 0.0,
+                pga_mps2: 1.0,
+                pgv_mps: 0.1,
+                data_time_ns: 0,
+                arrival_ns: 0,
+            };
+            let ros = msg::PbrAlert::from(&alert);
+            let iox = PbrAlertIox::from_alert(&alert, 0, 0);
+            assert_eq!(
+                (iox.level, iox.mode),
+                (ros.level, ros.mode),
+                "{level:?} {mode:?}"
+            );
+            assert_eq!(iox.alert_level(), msg::level_of_code(ros.level));
+            assert_eq!(iox.alert_level(), Some(level));
+        }
+    }
 }

@@ -15,3 +15,4 @@ pub mod ports;
 pub mod replay;
 pub mod ros2;
 pub mod study;
+pub mod wire_codes;

@@ -6,6 +6,7 @@
 //! - [`stream`]: per-station sequencing (gaps, overlaps, duplicates, reordering, rate changes);
 //! - [`config`]: stations, thresholds, blocks;
 //! - [`output`]: alerts, states, intensities, notices;
+//! - [`sensor_frame`]: an accelerometer's specific force as ground acceleration (ENU, gravity);
 //! - `station`: one station's runtime (sample-by-sample processing);
 //! - [`sharded`]: stations spread over worker threads.
 //!
@@ -23,6 +24,7 @@
 pub mod config;
 pub mod output;
 pub mod packet;
+pub mod sensor_frame;
 pub mod sharded;
 mod station;
 pub mod stream;

@@ -7,8 +7,11 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
-use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel};
+
+/// The mode code of [`PbrAlertIox::mode`] (the table shared with ROS 2).
+pub use crate::wire_codes::mode_code;
+use crate::wire_codes::{level_code, level_of_code};
 
 /// Type name of [`AccelHeader`] on the wire.
 pub const ACCEL_HEADER_TYPE_NAME: &str = "rockwatch::AccelHeader";
@@ -63,7 +66,7 @@ pub struct AccelSample {
 pub const ALERT_FLAG_ID_TRUNCATED: u32 = 1;
 
 /// One alert on `pbr/alerts` (160 bytes, alignment 8). Levels and modes are numbered as in
-/// `msg/PbrAlert.msg`.
+/// `msg/PbrAlert.msg` ([`crate::wire_codes`]).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
 #[type_name("rockwatch::PbrAlert")]
@@ -98,19 +101,6 @@ pub struct PbrAlertIox {
     pub station: [u8; STATION_BYTES],
     /// Block id from the catalogue, UTF-8, NUL-padded (truncated at a character boundary).
     pub pbr_id: [u8; PBR_ID_BYTES],
-}
-
-/// Mode numbering of `msg/PbrState.msg` (REST = 0 … FLIGHT = 5).
-#[must_use]
-pub fn mode_code(mode: Mode) -> u8 {
-    match mode {
-        Mode::Rest => 0,
-        Mode::Slide => 1,
-        Mode::Rock => 2,
-        Mode::SlideRock => 3,
-        Mode::Overturned => 4,
-        Mode::Flight => 5,
-    }
 }
 
 /// Copies `text` into a NUL-padded field, truncated at a character boundary; returns whether
@@ -224,7 +214,7 @@ impl PbrAlertIox {
             pgv_mps: alert.pgv_mps,
             episode: alert.episode,
             flags: 0,
-            level: alert.level as u8,
+            level: level_code(alert.level),
             mode: mode_code(alert.mode),
             reserved: [0; 6],
             station: [0; STATION_BYTES],
@@ -252,7 +242,7 @@ impl PbrAlertIox {
     /// The alert level, if the byte is a known one.
     #[must_use]
     pub fn alert_level(&self) -> Option<AlertLevel> {
-        AlertLevel::ALL.into_iter().find(|l| *l as u8 == self.level)
+        level_of_code(self.level)
     }
 }
 

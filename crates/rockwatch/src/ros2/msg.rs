@@ -9,8 +9,14 @@
 use ros2_client::builtin_interfaces::Time;
 use serde::{Deserialize, Serialize};
 
-use rockwatch_core::dynamics::Mode;
-use rockwatch_core::engine::{self, AlertLevel};
+use rockwatch_core::engine;
+
+/// The mode and level codes of the messages (one table for both transports).
+pub use crate::wire_codes::{
+    level_code, level_of_code, mode_code, LEVEL_MOTION_ONSET, LEVEL_OVERTURNED,
+    LEVEL_OVERTURN_IMMINENT, MODE_FLIGHT, MODE_OVERTURNED, MODE_REST, MODE_ROCK, MODE_SLIDE,
+    MODE_SLIDE_ROCK,
+};
 
 /// The ROS 2 package of the messages (DDS type names `pbr_msgs::msg::dds_::<Name>_`) and of
 /// the service (`pbr_msgs::srv::dds_::ResetPbr_Request_` / `_Response_`).
@@ -90,7 +96,7 @@ pub struct PbrState {
     pub header: Header,
     pub pbr_id: String,
     pub station: String,
-    /// One of the `MODE_*` constants.
+    /// One of the `MODE_*` constants ([`mode_code`]).
     pub mode: u8,
     /// Rocking angle θ (rad).
     pub theta: f64,
@@ -110,9 +116,9 @@ pub struct PbrAlert {
     pub header: Header,
     pub pbr_id: String,
     pub station: String,
-    /// One of the `LEVEL_*` constants.
+    /// One of the `LEVEL_*` constants ([`level_code`]).
     pub level: u8,
-    /// One of the `MODE_*` constants.
+    /// One of the `MODE_*` constants ([`mode_code`]).
     pub mode: u8,
     /// |θ|/α (dimensionless).
     pub theta_over_alpha: f64,
@@ -149,48 +155,6 @@ impl ros2_client::Message for PbrState {}
 impl ros2_client::Message for PbrAlert {}
 impl ros2_client::Message for ResetPbrRequest {}
 impl ros2_client::Message for ResetPbrResponse {}
-
-/// `PbrState` / `PbrAlert` mode constants.
-pub const MODE_REST: u8 = 0;
-pub const MODE_SLIDE: u8 = 1;
-pub const MODE_ROCK: u8 = 2;
-pub const MODE_SLIDE_ROCK: u8 = 3;
-pub const MODE_OVERTURNED: u8 = 4;
-pub const MODE_FLIGHT: u8 = 5;
-
-/// `PbrAlert` level constants.
-pub const LEVEL_MOTION_ONSET: u8 = 1;
-pub const LEVEL_OVERTURN_IMMINENT: u8 = 2;
-pub const LEVEL_OVERTURNED: u8 = 3;
-
-/// The wire code of a mode.
-#[must_use]
-pub fn mode_code(mode: Mode) -> u8 {
-    match mode {
-        Mode::Rest => MODE_REST,
-        Mode::Slide => MODE_SLIDE,
-        Mode::Rock => MODE_ROCK,
-        Mode::SlideRock => MODE_SLIDE_ROCK,
-        Mode::Overturned => MODE_OVERTURNED,
-        Mode::Flight => MODE_FLIGHT,
-    }
-}
-
-/// The wire code of an alert level.
-#[must_use]
-pub fn level_code(level: AlertLevel) -> u8 {
-    match level {
-        AlertLevel::MotionOnset => LEVEL_MOTION_ONSET,
-        AlertLevel::OverturnImminent => LEVEL_OVERTURN_IMMINENT,
-        AlertLevel::Overturned => LEVEL_OVERTURNED,
-    }
-}
-
-/// The alert level of a wire code, if it is one.
-#[must_use]
-pub fn level_of_code(code: u8) -> Option<AlertLevel> {
-    AlertLevel::ALL.into_iter().find(|l| level_code(*l) == code)
-}
 
 impl From<&AccelPacket> for engine::AccelPacket {
     /// The engine's packet: station = frame_id, start = stamp (UTC ns). Nothing is

@@ -1,0 +1,74 @@
+//! The `[iceoryx2]` section of the node configuration and the iceoryx2 configuration file
+//! every endpoint loads.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, Context};
+use iceoryx2::config::Config;
+use iceoryx2::prelude::*;
+
+/// The `[iceoryx2]` section of the node configuration.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IoxConfig {
+    /// The iceoryx2 configuration file (required by every endpoint; relative paths are
+    /// relative to the node configuration file).
+    pub config_file: Option<PathBuf>,
+    /// Input service name (publish-subscribe and event).
+    pub accel_service: String,
+    /// Output service name (publish-subscribe and event).
+    pub alerts_service: String,
+    /// Packets a subscriber buffers per publisher; beyond that the oldest is overwritten
+    /// (safe overflow: a slow node never blocks a station) and the loss shows as a sequence gap.
+    pub subscriber_buffer: usize,
+    /// Most publishers (stations) on `pbr/accel`.
+    pub max_publishers: usize,
+    /// Alerts kept for subscribers that join late (`pbr/alerts` history).
+    pub alert_history: usize,
+    /// Dead iceoryx2 nodes (e.g. a `kill -9`ed station) are cleaned at start-up and then
+    /// this often (s).
+    pub dead_node_check_s: f64,
+}
+
+impl Default for IoxConfig {
+    fn default() -> Self {
+        IoxConfig {
+            config_file: None,
+            accel_service: "pbr/accel".into(),
+            alerts_service: "pbr/alerts".into(),
+            subscriber_buffer: 1024,
+            max_publishers: 64,
+            alert_history: 128,
+            dead_node_check_s: 1.0,
+        }
+    }
+}
+
+impl IoxConfig {
+    /// The settings of `config_file` (an error if none is set or it cannot be read: iceoryx2
+    /// defaults are never used silently).
+    pub fn load_iceoryx2_config(&self) -> anyhow::Result<Config> {
+        let path = self.config_file.as_deref().context(
+            "no iceoryx2 configuration file: set [iceoryx2] config_file (e.g. config/iceoryx2.toml)",
+        )?;
+        load_config_file(path)
+    }
+}
+
+/// Reads an iceoryx2 configuration file; the error names the file.
+pub fn load_config_file(path: &Path) -> anyhow::Result<Config> {
+    // Read it ourselves first for a clear error (iceoryx2 reports only an error code).
+    std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read the iceoryx2 configuration", path.display()))?;
+    let text = path
+        .to_str()
+        .with_context(|| format!("{}: path is not UTF-8", path.display()))?;
+    let file_path =
+        FilePath::new(text.as_bytes()).map_err(|e| anyhow!("{}: {e:?}", path.display()))?;
+    Config::from_file(&file_path).map_err(|e| {
+        anyhow!(
+            "{}: not a valid iceoryx2 configuration: {e:?}",
+            path.display()
+        )
+    })
+}

@@ -1,0 +1,147 @@
+//! The iceoryx2 input ([`IoxInput`]): the subscription to `pbr/accel` plus the listener of the
+//! event service of the same name, a mio event source drained by the node's event loop.
+
+use std::sync::Arc;
+
+use iceoryx2::prelude::*;
+use mio::unix::SourceFd;
+
+use super::cleanup::{clean_dead_nodes, DeadNodeCleanup};
+use super::config::IoxConfig;
+use super::intake::Intake;
+use super::service::{create_node, iox_err, open_accel_service, open_event};
+use super::stats::{
+    Counters, IoxInputStats, IoxStatsHandle, DEAD_NODES, RECV_ERRORS, SUBMITTED, WAKEUPS,
+};
+use super::types::{AccelHeader, AccelSample};
+use rockwatch_core::engine::AccelPacket;
+
+/// The input side, subscribed to `pbr/accel`: a subscriber plus the listener of the event
+/// service of the same name. It has no thread: register it with a `mio::Poll` (it is a mio
+/// event source, readable when a station has notified) and call [`IoxInput::drain`] whenever
+/// it is ready, and [`IoxInput::maintain`] regularly (the node's event loop does both).
+pub struct IoxInput {
+    subscriber: iceoryx2::port::subscriber::Subscriber<ipc::Service, [AccelSample], AccelHeader>,
+    listener: iceoryx2::port::listener::Listener<ipc::Service>,
+    intake: Intake,
+    counters: Arc<Counters>,
+    cleanup: DeadNodeCleanup,
+    node: Node<ipc::Service>,
+}
+
+impl IoxInput {
+    /// Cleans up dead iceoryx2 nodes (e.g. `kill -9`ed stations), then opens (or creates)
+    /// `pbr/accel` and subscribes.
+    pub fn open(config: &IoxConfig) -> anyhow::Result<IoxInput> {
+        let node = create_node(config)?;
+        let counters = Arc::new(Counters::default());
+        counters.add(DEAD_NODES, clean_dead_nodes(&node));
+        let service = open_accel_service(&node, config)?;
+        let event = open_event(&node, &config.accel_service)?;
+        let subscriber = service
+            .subscriber_builder()
+            .buffer_size(config.subscriber_buffer)
+            .create()
+            .map_err(iox_err("cannot create the pbr/accel subscriber"))?;
+        let listener = event
+            .listener_builder()
+            .create()
+            .map_err(iox_err("cannot create the pbr/accel listener"))?;
+        Ok(IoxInput {
+            subscriber,
+            listener,
+            intake: Intake::default(),
+            counters,
+            cleanup: DeadNodeCleanup::new(config),
+            node,
+        })
+    }
+
+    /// Counters so far.
+    #[must_use]
+    pub fn stats(&self) -> IoxInputStats {
+        self.counters.snapshot()
+    }
+
+    /// A handle to read the counters from other threads.
+    #[must_use]
+    pub fn stats_handle(&self) -> IoxStatsHandle {
+        IoxStatsHandle(Arc::clone(&self.counters))
+    }
+
+    /// Takes the pending notifications, then up to `max` packets: each is checked (wire
+    /// layout, values; counted when rejected, with per-station sequence gaps) and handed to
+    /// `submit`. Returns true if `max` was reached (more may be waiting: call again without
+    /// waiting for readiness, which is edge-triggered). An error of `submit` is returned.
+    pub fn drain(
+        &mut self,
+        max: usize,
+        submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
+    ) -> anyhow::Result<bool> {
+        self.counters.add(WAKEUPS, 1);
+        // Consume the notifications first: a notifier sends again only once the listener has
+        // taken them, and samples sent before a notification are then all visible below.
+        if self.listener.try_wait(|_| {}).is_err() {
+            self.counters.add(RECV_ERRORS, 1);
+        }
+        for _ in 0..max {
+            match self.subscriber.receive() {
+                Ok(Some(sample)) => {
+                    let packet =
+                        self.intake
+                            .accept(sample.user_header(), sample.payload(), &self.counters);
+                    drop(sample); // return the shared-memory slot before the engine runs
+                    if let Some(packet) = packet {
+                        self.counters.add(SUBMITTED, 1);
+                        submit(packet)?;
+                    }
+                }
+                Ok(None) => return Ok(false),
+                Err(_) => {
+                    self.counters.add(RECV_ERRORS, 1);
+                    return Ok(false);
+                }
+            }
+        }
+        Ok(true)
+    }
+
+    /// Cleans up dead iceoryx2 nodes when [`IoxConfig::dead_node_check_s`] has passed since
+    /// the last clean-up (cheap otherwise: call it on every turn of the event loop).
+    pub fn maintain(&mut self) {
+        self.counters
+            .add(DEAD_NODES, self.cleanup.maintain(&self.node));
+    }
+
+    fn raw_fd(&self) -> i32 {
+        // SAFETY: `native_handle` is unsafe only because the number must not outlive the
+        // listener nor be closed by the caller; it is used transiently to (de)register the
+        // listener's socket with a poller, and the listener lives as long as `self`.
+        unsafe { self.listener.file_descriptor().native_handle() }
+    }
+}
+
+/// Readable when a station has notified `pbr/accel` (the listener's socket).
+impl mio::event::Source for IoxInput {
+    fn register(
+        &mut self,
+        registry: &mio::Registry,
+        token: mio::Token,
+        interests: mio::Interest,
+    ) -> std::io::Result<()> {
+        SourceFd(&self.raw_fd()).register(registry, token, interests)
+    }
+
+    fn reregister(
+        &mut self,
+        registry: &mio::Registry,
+        token: mio::Token,
+        interests: mio::Interest,
+    ) -> std::io::Result<()> {
+        SourceFd(&self.raw_fd()).reregister(registry, token, interests)
+    }
+
+    fn deregister(&mut self, registry: &mio::Registry) -> std::io::Result<()> {
+        SourceFd(&self.raw_fd()).deregister(registry)
+    }
+}

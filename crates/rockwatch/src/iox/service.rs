@@ -1,0 +1,83 @@
+//! What every iceoryx2 endpoint opens: an iceoryx2 node with the configured settings, the
+//! `pbr/accel` and `pbr/alerts` publish-subscribe services, their event services, and the
+//! conversion of iceoryx2's errors.
+
+use std::fmt::Debug;
+
+use anyhow::anyhow;
+use iceoryx2::prelude::*;
+
+use super::config::IoxConfig;
+use super::types::{AccelHeader, AccelSample, PbrAlertIox};
+
+pub(super) fn iox_err<E: Debug>(what: impl std::fmt::Display) -> impl FnOnce(E) -> anyhow::Error {
+    move |e| anyhow!("{what}: {e:?}")
+}
+
+pub(super) fn service_name(name: &str) -> anyhow::Result<ServiceName> {
+    ServiceName::new(name).map_err(iox_err(format!("invalid iceoryx2 service name {name:?}")))
+}
+
+pub(super) type AccelService = iceoryx2::service::port_factory::publish_subscribe::PortFactory<
+    ipc::Service,
+    [AccelSample],
+    AccelHeader,
+>;
+
+pub(super) fn open_accel_service(
+    node: &Node<ipc::Service>,
+    config: &IoxConfig,
+) -> anyhow::Result<AccelService> {
+    node.service_builder(&service_name(&config.accel_service)?)
+        .publish_subscribe::<[AccelSample]>()
+        .user_header::<AccelHeader>()
+        .enable_safe_overflow(true)
+        .subscriber_max_buffer_size(config.subscriber_buffer)
+        .max_publishers(config.max_publishers)
+        .open_or_create()
+        .map_err(iox_err(format!(
+            "iceoryx2 service {:?} (publish-subscribe)",
+            config.accel_service
+        )))
+}
+
+pub(super) fn open_event(
+    node: &Node<ipc::Service>,
+    name: &str,
+) -> anyhow::Result<iceoryx2::service::port_factory::event::PortFactory<ipc::Service>> {
+    node.service_builder(&service_name(name)?)
+        .event()
+        .open_or_create()
+        .map_err(iox_err(format!("iceoryx2 service {name:?} (event)")))
+}
+
+pub(super) type AlertService =
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, PbrAlertIox, ()>;
+
+/// `pbr/alerts` with its history: whoever creates it first (node or client) must ask for the
+/// same history, else the other cannot open it.
+pub(super) fn open_alert_service(
+    node: &Node<ipc::Service>,
+    config: &IoxConfig,
+) -> anyhow::Result<AlertService> {
+    let name = &config.alerts_service;
+    node.service_builder(&service_name(name)?)
+        .publish_subscribe::<PbrAlertIox>()
+        .enable_safe_overflow(true)
+        .history_size(config.alert_history)
+        .subscriber_max_buffer_size(config.alert_history.max(1))
+        .open_or_create()
+        .map_err(iox_err(format!(
+            "iceoryx2 service {name:?} (publish-subscribe)"
+        )))
+}
+
+/// An iceoryx2 node that leaves SIGINT/SIGTERM to the application.
+pub(super) fn create_node(config: &IoxConfig) -> anyhow::Result<Node<ipc::Service>> {
+    let iox_config = config.load_iceoryx2_config()?;
+    NodeBuilder::new()
+        .config(&iox_config)
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<ipc::Service>()
+        .map_err(iox_err("cannot create the iceoryx2 node"))
+}

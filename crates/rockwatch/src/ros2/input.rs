@@ -1,0 +1,147 @@
+//! The node's ROS 2 inputs: the subscriptions to `/pbr/accel` and to the configured
+//! `sensor_msgs/msg/Imu` topics, drained by the node's event loop, and the intake's counters
+//! (packets taken, undecodable messages, the latter logged at most once per 10 s).
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::anyhow;
+use ros2_client::dds::rustdds::mio1::{Interest, Registry, Token};
+use ros2_client::Subscription;
+
+use super::config::{ImuInput, Ros2Config};
+use super::imu::{imu_packet, ImuMsg};
+use super::msg;
+use super::names::ACCEL_TOPIC;
+use super::qos::input_qos;
+use super::session::Ros2Session;
+use rockwatch_core::engine::AccelPacket;
+
+/// Counters of the node's ROS 2 intake.
+#[derive(Debug, Default)]
+pub struct IntakeCounters {
+    /// Packets received and handed to the engine.
+    pub packets: AtomicU64,
+    /// Messages that could not be decoded (reported by DDS as read errors).
+    pub decode_errors: AtomicU64,
+}
+
+/// Counts what the intake takes and logs undecodable messages (at most one line per 10 s).
+pub(super) struct IntakeLog {
+    counters: Arc<IntakeCounters>,
+    last_error_report: Option<Instant>,
+}
+
+impl IntakeLog {
+    pub(super) fn new(counters: Arc<IntakeCounters>) -> IntakeLog {
+        IntakeLog {
+            counters,
+            last_error_report: None,
+        }
+    }
+
+    fn packet(&self) {
+        self.counters.packets.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Counts an undecodable message of `what` (a topic or service) and logs `error`.
+    pub(super) fn undecodable(&mut self, what: &str, error: &str) {
+        let n = self.counters.decode_errors.fetch_add(1, Ordering::Relaxed) + 1;
+        if self
+            .last_error_report
+            .is_none_or(|t| t.elapsed() >= Duration::from_secs(10))
+        {
+            eprintln!("rockwatch: ROS 2 {what}: undecodable message ({error}; {n} in all)");
+            self.last_error_report = Some(Instant::now());
+        }
+    }
+}
+
+/// The input subscriptions: `/pbr/accel` (input 0), then the Imu topics (inputs 1..).
+pub(super) struct Inputs {
+    accel: Subscription<msg::AccelPacket>,
+    /// Imu inputs with the sequence number of their next one-sample packet.
+    imus: Vec<(ImuInput, Subscription<ImuMsg>, u64)>,
+}
+
+impl Inputs {
+    /// Subscribes `/pbr/accel` and every configured Imu topic on `session`'s node.
+    pub(super) fn subscribe(
+        session: &mut Ros2Session,
+        config: &Ros2Config,
+    ) -> anyhow::Result<Inputs> {
+        let accel: Subscription<msg::AccelPacket> = session.subscription(
+            ACCEL_TOPIC,
+            msg::PACKAGE,
+            "AccelPacket",
+            input_qos(config.input_qos, config.input_depth),
+        )?;
+        let mut imus = Vec::new();
+        for imu in &config.imu {
+            if !(imu.sample_rate_hz.is_finite() && imu.sample_rate_hz > 0.0) {
+                return Err(anyhow!(
+                    "[[ros2.imu]] {}: sample_rate_hz must be > 0",
+                    imu.topic
+                ));
+            }
+            let qos = input_qos(imu.qos, config.input_depth);
+            let sub: Subscription<ImuMsg> =
+                session.subscription(&imu.topic, "sensor_msgs", "Imu", qos)?;
+            imus.push((imu.clone(), sub, 0));
+        }
+        Ok(Inputs { accel, imus })
+    }
+
+    /// Number of input subscriptions.
+    pub(super) fn len(&self) -> usize {
+        1 + self.imus.len()
+    }
+
+    /// Registers input `i` with `registry` as `Token(first + i)`, readable.
+    pub(super) fn register(&mut self, registry: &Registry, first: usize) -> std::io::Result<()> {
+        registry.register(&mut self.accel, Token(first), Interest::READABLE)?;
+        for (i, (_, sub, _)) in self.imus.iter_mut().enumerate() {
+            registry.register(sub, Token(first + 1 + i), Interest::READABLE)?;
+        }
+        Ok(())
+    }
+
+    /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`,
+    /// counting them (and the undecodable ones) in `log`. Returns true if `max` was reached.
+    pub(super) fn drain(
+        &mut self,
+        input: usize,
+        max: usize,
+        log: &mut IntakeLog,
+        submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
+    ) -> anyhow::Result<bool> {
+        for _ in 0..max {
+            if input == 0 {
+                match self.accel.take() {
+                    Ok(Some((m, _))) => {
+                        log.packet();
+                        submit(AccelPacket::from(&m))?;
+                    }
+                    Ok(None) => return Ok(false),
+                    Err(e) => log.undecodable(ACCEL_TOPIC, &format!("{e:?}")),
+                }
+            } else {
+                let Some((imu, sub, sequence)) = self.imus.get_mut(input - 1) else {
+                    return Ok(false);
+                };
+                match sub.take() {
+                    Ok(Some((m, _))) => {
+                        log.packet();
+                        let packet = imu_packet(imu, &m, *sequence);
+                        *sequence += 1;
+                        submit(packet)?;
+                    }
+                    Ok(None) => return Ok(false),
+                    Err(e) => log.undecodable(&imu.topic, &format!("{e:?}")),
+                }
+            }
+        }
+        Ok(true)
+    }
+}

@@ -1,0 +1,105 @@
+//! The network plan: which DDS domain and interfaces a participant uses, resolved like rclcpp
+//! from `ROS_DOMAIN_ID` (default 0) and `ROS_AUTOMATIC_DISCOVERY_RANGE` (`LOCALHOST` or `OFF`:
+//! the loopback interface only), which the `[ros2]` configuration may override.
+
+use std::net::{IpAddr, Ipv4Addr};
+
+use super::config::{DiscoveryRange, Ros2Config};
+
+/// Which DDS domain and interfaces a participant uses.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NetworkPlan {
+    pub domain_id: u16,
+    /// `None`: every interface.
+    pub only_networks: Option<Vec<IpAddr>>,
+}
+
+/// Resolves the configuration and the values of `ROS_DOMAIN_ID` and
+/// `ROS_AUTOMATIC_DISCOVERY_RANGE` (the environment variables, passed in) into a plan.
+pub fn network_plan(
+    config: &Ros2Config,
+    ros_domain_id: Option<&str>,
+    ros_discovery_range: Option<&str>,
+) -> Result<NetworkPlan, String> {
+    let domain_id = match (config.domain_id, ros_domain_id.map(str::trim)) {
+        (Some(d), _) => d,
+        (None, None | Some("")) => 0,
+        (None, Some(s)) => s
+            .parse::<u16>()
+            .map_err(|_| format!("ROS_DOMAIN_ID must be an integer 0..=232, got {s:?}"))?,
+    };
+    if domain_id > 232 {
+        return Err(format!("DDS domain id must be 0..=232, got {domain_id}"));
+    }
+    let range = match (config.discovery_range, ros_discovery_range) {
+        (Some(r), _) => r,
+        (None, None) => DiscoveryRange::SystemDefault,
+        (None, Some(s)) => s.trim().parse()?,
+    };
+    let only_networks = match range {
+        DiscoveryRange::Off | DiscoveryRange::Localhost => {
+            Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)])
+        }
+        DiscoveryRange::Subnet | DiscoveryRange::SystemDefault if !config.interfaces.is_empty() => {
+            Some(config.interfaces.clone())
+        }
+        DiscoveryRange::Subnet | DiscoveryRange::SystemDefault => None,
+    };
+    Ok(NetworkPlan {
+        domain_id,
+        only_networks,
+    })
+}
+
+/// The plan for this process's environment.
+pub fn network_plan_from_env(config: &Ros2Config) -> Result<NetworkPlan, String> {
+    let domain = std::env::var("ROS_DOMAIN_ID").ok();
+    let range = std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").ok();
+    network_plan(config, domain.as_deref(), range.as_deref())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn localhost_range_means_loopback_only_whatever_the_config_names() {
+        let mut config = Ros2Config {
+            interfaces: vec!["10.0.0.5".parse().unwrap()],
+            ..Ros2Config::default()
+        };
+        let plan = network_plan(&config, Some("7"), Some("LOCALHOST")).unwrap();
+        assert_eq!(plan.domain_id, 7);
+        assert_eq!(plan.only_networks, Some(vec!["127.0.0.1".parse().unwrap()]));
+        let plan = network_plan(&config, None, Some("OFF")).unwrap();
+        assert_eq!(plan.only_networks, Some(vec!["127.0.0.1".parse().unwrap()]));
+        // SUBNET: the configured interfaces, or every interface when none is named.
+        let plan = network_plan(&config, None, Some("SUBNET")).unwrap();
+        assert_eq!(plan.only_networks, Some(vec!["10.0.0.5".parse().unwrap()]));
+        config.interfaces.clear();
+        assert_eq!(
+            network_plan(&config, None, None).unwrap().only_networks,
+            None
+        );
+        // The configuration overrides the environment.
+        let demo = Ros2Config::loopback_only();
+        let plan = network_plan(&demo, Some("3"), Some("SUBNET")).unwrap();
+        assert_eq!(plan.only_networks, Some(vec!["127.0.0.1".parse().unwrap()]));
+        assert_eq!(plan.domain_id, 3);
+    }
+
+    #[test]
+    fn bad_environment_values_are_named() {
+        let config = Ros2Config::default();
+        let e = network_plan(&config, Some("x"), None).unwrap_err();
+        assert!(e.contains("ROS_DOMAIN_ID"), "{e}");
+        let e = network_plan(&config, Some("300"), None).unwrap_err();
+        assert!(e.contains("300"), "{e}");
+        let e = network_plan(&config, None, Some("localhost")).unwrap_err();
+        assert!(e.contains("ROS_AUTOMATIC_DISCOVERY_RANGE"), "{e}");
+        assert_eq!(
+            network_plan(&config, Some(""), Some("")).unwrap().domain_id,
+            0
+        );
+    }
+}

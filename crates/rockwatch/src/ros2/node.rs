@@ -1,0 +1,125 @@
+//! The node's ROS 2 side ([`Ros2Node`]): its session, parameters, input subscriptions and
+//! reset service, driven by the node's event loop; [`Ros2Node::start`] also returns the
+//! output publishers.
+
+use std::sync::Arc;
+
+use ros2_client::dds::rustdds::mio1::{Registry, Token};
+use ros2_client::NodeOptions;
+
+use super::config::Ros2Config;
+use super::input::{Inputs, IntakeCounters, IntakeLog};
+use super::msg;
+use super::names::NODE_NAME;
+use super::network::NetworkPlan;
+use super::parameters::with_parameters;
+use super::publish::Ros2Publisher;
+use super::reset::ResetServer;
+use super::session::Ros2Session;
+use crate::ports::ControlSender;
+use rockwatch_core::engine::{AccelPacket, EngineConfig};
+
+/// The node's ROS 2 side: parameters, the input subscriptions, the reset service and (returned
+/// separately by [`Ros2Node::start`]) the output publishers. It has no intake thread: the
+/// node's event loop registers the subscriptions ([`Ros2Node::register`]) and the service
+/// ([`Ros2Node::register_reset`]), drains the subscriptions that are ready
+/// ([`Ros2Node::drain`]) and serves the service ([`Ros2Node::serve_resets`]).
+pub struct Ros2Node {
+    session: Ros2Session,
+    inputs: Inputs,
+    pub counters: Arc<IntakeCounters>,
+    log: IntakeLog,
+    reset: ResetServer,
+}
+
+impl Ros2Node {
+    /// Joins the ROS 2 graph as `<namespace>/rockwatch`, declares the parameters (initial
+    /// values from `engine`; changes go to `controls`, i.e. the node's event loop), subscribes
+    /// the inputs, creates the output publishers and the server of
+    /// [`RESET_SERVICE`](super::RESET_SERVICE).
+    pub fn start(
+        config: &Ros2Config,
+        plan: &NetworkPlan,
+        engine: &EngineConfig,
+        controls: ControlSender,
+    ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
+        let options = with_parameters(NodeOptions::new().enable_rosout(true), engine, controls);
+        let mut session = Ros2Session::open(plan, &config.namespace, NODE_NAME, options)?;
+        let publisher = Ros2Publisher::open(&mut session)?;
+        let inputs = Inputs::subscribe(&mut session, config)?;
+        let reset = ResetServer::open(&mut session, &config.namespace)?;
+        let counters = Arc::new(IntakeCounters::default());
+        Ok((
+            Ros2Node {
+                session,
+                inputs,
+                log: IntakeLog::new(Arc::clone(&counters)),
+                counters,
+                reset,
+            },
+            publisher,
+        ))
+    }
+
+    /// Registers the `/pbr/reset` server with `registry` as `token`, readable (edge-triggered:
+    /// serve every request once it is reported, see [`Ros2Node::serve_resets`]).
+    pub fn register_reset(&mut self, registry: &Registry, token: Token) -> std::io::Result<()> {
+        self.reset.register(registry, token)
+    }
+
+    /// Serves up to [`RESET_REQUESTS_PER_TURN`](super::RESET_REQUESTS_PER_TURN) requests of `/pbr/reset`: `handle` gets each
+    /// block id and gives the response, which is sent once the client can receive it
+    /// ([`Ros2Node::send_due_replies`]). Undecodable requests are counted and logged like
+    /// undecodable packets. Returns true if the bound was reached (more may be waiting).
+    pub fn serve_resets(&mut self, handle: &mut impl FnMut(&str) -> msg::ResetPbrResponse) -> bool {
+        self.reset.serve(&self.session, &mut self.log, handle)
+    }
+
+    /// Reset responses not sent yet.
+    #[must_use]
+    pub fn pending_replies(&self) -> usize {
+        self.reset.pending()
+    }
+
+    /// Sends each waiting reset response whose client's response reader has been discovered
+    /// (a reader of the service's response topic in the requester's DDS participant: the
+    /// request id names the client's writer, or with Fast DDS its reader, whose GUID prefix
+    /// is its participant's), or that has waited [`RESET_REPLY_WAIT`](super::RESET_REPLY_WAIT).
+    /// The response writer is
+    /// volatile, as ROS 2 services are: a response written before it has matched the client's
+    /// reader would never reach it, and the request can arrive before that match (discovery
+    /// is two-sided). Fast DDS servers wait in the same way. Costs nothing when none waits.
+    pub fn send_due_replies(&mut self) {
+        self.reset.send_due(&self.session);
+    }
+
+    /// Sends every waiting reset response now (at shutdown).
+    pub fn flush_replies(&mut self) {
+        self.reset.flush();
+    }
+
+    /// Number of input subscriptions: `/pbr/accel` (input 0), then the Imu topics.
+    #[must_use]
+    pub fn inputs(&self) -> usize {
+        self.inputs.len()
+    }
+
+    /// Registers input `i` (0..[`Ros2Node::inputs`]) with `registry` as `Token(first + i)`,
+    /// readable. Readiness is edge-triggered: drain an input fully once it is reported.
+    pub fn register(&mut self, registry: &Registry, first: usize) -> std::io::Result<()> {
+        self.inputs.register(registry, first)
+    }
+
+    /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`
+    /// (an Imu message is a one-sample packet of its station). Undecodable messages are
+    /// counted and logged (at most one line per 10 s). Returns true if `max` was reached
+    /// (more may be waiting: bounded so that a flood on one input cannot starve the others).
+    pub fn drain(
+        &mut self,
+        input: usize,
+        max: usize,
+        submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
+    ) -> anyhow::Result<bool> {
+        self.inputs.drain(input, max, &mut self.log, submit)
+    }
+}

@@ -1,0 +1,48 @@
+//! The node's output publishers: alerts on `/pbr/alerts`, block states on `/pbr/state` and
+//! station intensity measures on `/pbr/ims`.
+
+use anyhow::anyhow;
+
+use super::msg;
+use super::names::{ALERTS_TOPIC, IMS_TOPIC, STATE_TOPIC};
+use super::qos::{alerts_qos, output_qos};
+use super::session::Ros2Session;
+use crate::ports::{Publication, Publisher};
+
+/// The node's output publishers (a [`Publisher`]).
+pub struct Ros2Publisher {
+    alerts: ros2_client::Publisher<msg::PbrAlert>,
+    states: ros2_client::Publisher<msg::PbrState>,
+    ims: ros2_client::Publisher<msg::StationIntensity>,
+}
+
+impl Ros2Publisher {
+    /// Creates the publishers on `session`'s node.
+    pub(super) fn open(session: &mut Ros2Session) -> anyhow::Result<Ros2Publisher> {
+        Ok(Ros2Publisher {
+            alerts: session.publisher(ALERTS_TOPIC, "PbrAlert", alerts_qos())?,
+            states: session.publisher(STATE_TOPIC, "PbrState", output_qos())?,
+            ims: session.publisher(IMS_TOPIC, "StationIntensity", output_qos())?,
+        })
+    }
+}
+
+impl Publisher for Ros2Publisher {
+    fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
+        let result = match publication {
+            Publication::Alert { alert, .. } => self
+                .alerts
+                .publish(msg::PbrAlert::from(alert))
+                .map_err(|e| format!("{ALERTS_TOPIC}: {e:?}")),
+            Publication::State(s) => self
+                .states
+                .publish(msg::PbrState::from(s))
+                .map_err(|e| format!("{STATE_TOPIC}: {e:?}")),
+            Publication::Intensity(i) => self
+                .ims
+                .publish(msg::StationIntensity::from(i))
+                .map_err(|e| format!("{IMS_TOPIC}: {e:?}")),
+        };
+        result.map_err(|e| anyhow!("ROS 2 publish failed: {e}"))
+    }
+}

@@ -1,0 +1,71 @@
+//! The QoS profiles of the node's topics and service, of its inputs and of the replay writer.
+
+use std::time::Duration;
+
+use ros2_client::qos::{Durability, History, Reliability, WhenFull};
+use ros2_client::QosProfile;
+
+use super::config::InputQos;
+
+/// History depth of `/pbr/alerts` (transient local: a late subscriber gets this many).
+pub const ALERTS_DEPTH: usize = 1000;
+
+/// QoS of `/pbr/alerts`: reliable, transient local, keep last [`ALERTS_DEPTH`].
+#[must_use]
+pub fn alerts_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_secs(1)))
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast {
+            depth: ALERTS_DEPTH,
+        })
+}
+
+/// QoS of `/pbr/state` and `/pbr/ims`: reliable, volatile, keep last 100.
+#[must_use]
+pub fn output_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 100 })
+}
+
+/// QoS of an input subscription: `kind`, with `depth` for the reliable one.
+#[must_use]
+pub fn input_qos(kind: InputQos, depth: usize) -> QosProfile {
+    match kind {
+        InputQos::Reliable => QosProfile::subscription_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+            .history(History::KeepLast {
+                depth: depth.max(1),
+            }),
+        // Best effort as the ROS 2 sensor-data profile, but with the deep history of the
+        // reliable one: the reader's depth does not affect matching, and the node's event loop
+        // may be busy for a moment (an alert's fsync) while a 200 Hz Imu keeps sending.
+        InputQos::SensorData => QosProfile::subscription_default()
+            .reliability(Reliability::BestEffort)
+            .history(History::KeepLast {
+                depth: depth.max(1),
+            }),
+    }
+}
+
+/// QoS of the reset service's requests and responses: ROS 2's services default (reliable,
+/// volatile, keep last 10).
+#[must_use]
+pub fn service_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 10 })
+}
+
+/// QoS of the replay publisher: reliable and keep-all, so `publish` waits for the
+/// subscriber instead of dropping packets.
+#[must_use]
+pub fn replay_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_secs(5)))
+        .durability(Durability::Volatile)
+        .history(History::KeepAll)
+}

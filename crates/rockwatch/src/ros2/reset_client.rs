@@ -1,0 +1,117 @@
+//! A client of a running node's `/pbr/reset` service ([`Ros2ResetClient`]):
+//! `rockwatch reset --node`.
+
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, Context as _};
+use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::{Client, Name, ServiceTypeName};
+
+use super::msg;
+use super::names::{RESET_SERVICE, RESET_SERVICE_MAPPING};
+use super::network::NetworkPlan;
+use super::qos::service_qos;
+use super::session::Ros2Session;
+
+/// Runs `future` on this thread until it completes (true) or `timeout` passes (false).
+fn block_on_with_timeout(future: impl std::future::Future<Output = ()>, timeout: Duration) -> bool {
+    use futures::future::{select, Either};
+    let (tx, rx) = futures::channel::oneshot::channel::<()>();
+    // The timer: a thread that completes `rx` after `timeout`. If the future wins, the
+    // thread's send fails later and it ends (a CLI's process usually ends first).
+    let timer = std::thread::Builder::new()
+        .name("rockwatch-timeout".into())
+        .spawn(move || {
+            std::thread::sleep(timeout);
+            let _ = tx.send(());
+        });
+    if timer.is_err() {
+        return false;
+    }
+    let future = std::pin::pin!(future);
+    matches!(
+        futures::executor::block_on(select(future, rx)),
+        Either::Left(_)
+    )
+}
+
+/// A client of a running node's `/pbr/reset` service (`pbr_msgs/srv/ResetPbr`), as node
+/// `rockwatch_reset` of its own DDS participant: `rockwatch reset --node`.
+pub struct Ros2ResetClient {
+    session: Ros2Session,
+    client: Client<msg::ResetPbrRequest, msg::ResetPbrResponse>,
+    poll: Poll,
+    events: Events,
+}
+
+impl Ros2ResetClient {
+    /// Joins the graph following `plan` (the node's namespace: the service name is absolute).
+    pub fn open(plan: &NetworkPlan, namespace: &str) -> anyhow::Result<Ros2ResetClient> {
+        let mut session = Ros2Session::open_client(plan, namespace, "rockwatch_reset")?;
+        let name =
+            Name::parse(RESET_SERVICE).map_err(|e| anyhow!("service {RESET_SERVICE}: {e:?}"))?;
+        let mut client = session
+            .node
+            .create_client(
+                RESET_SERVICE_MAPPING,
+                &name,
+                &ServiceTypeName::new(msg::PACKAGE, msg::RESET_SERVICE_TYPE),
+                service_qos(),
+                service_qos(),
+            )
+            .map_err(|e| anyhow!("ROS 2 client of {RESET_SERVICE}: {e:?}"))?;
+        let poll = Poll::new().context("reset client poller")?;
+        poll.registry()
+            .register(&mut client, Token(0), Interest::READABLE)
+            .context("reset client registration")?;
+        Ok(Ros2ResetClient {
+            session,
+            client,
+            poll,
+            events: Events::with_capacity(4),
+        })
+    }
+
+    /// Waits up to `timeout` for a server of the service (a matched request reader and
+    /// response writer); false if none appeared.
+    pub fn wait_for_service(&mut self, timeout: Duration) -> bool {
+        block_on_with_timeout(self.client.wait_for_service(&self.session.node), timeout)
+    }
+
+    /// Asks for the reset of block `pbr_id` and waits up to `timeout` for the response.
+    pub fn reset(
+        &mut self,
+        pbr_id: &str,
+        timeout: Duration,
+    ) -> anyhow::Result<msg::ResetPbrResponse> {
+        let deadline = Instant::now() + timeout;
+        let id = self
+            .client
+            .send_request(msg::ResetPbrRequest {
+                pbr_id: pbr_id.to_string(),
+            })
+            .map_err(|e| anyhow!("ROS 2 {RESET_SERVICE}: request not sent: {e:?}"))?;
+        loop {
+            // Responses to other clients' requests share the topic: keep only ours.
+            while let Some((rid, response)) = self
+                .client
+                .receive_response()
+                .map_err(|e| anyhow!("ROS 2 {RESET_SERVICE}: bad response: {e:?}"))?
+            {
+                if rid == id {
+                    return Ok(response);
+                }
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return Err(anyhow!(
+                    "no response from {RESET_SERVICE} within {} s (the node may be overloaded or gone; \
+                     the reset may or may not have been applied: see `rockwatch alerts`)",
+                    timeout.as_secs_f64()
+                ));
+            }
+            let wait = (deadline - now).min(Duration::from_millis(50));
+            let _ = self.poll.poll(&mut self.events, Some(wait));
+        }
+    }
+}

@@ -1,0 +1,140 @@
+//! A ROS 2 session: one DDS participant following a [`NetworkPlan`], one ROS 2 node on it and
+//! the node's spinner thread (discovery, parameter services); the topics, publishers and
+//! subscriptions of every endpoint are made through it.
+
+use std::thread::JoinHandle;
+
+use anyhow::anyhow;
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, QosProfile, Subscription,
+};
+
+use super::msg;
+use super::network::NetworkPlan;
+
+fn dds_err(what: &str) -> impl Fn(ros2_client::CreateError) -> anyhow::Error + '_ {
+    move |e| anyhow!("ROS 2: {what}: {e:?}")
+}
+
+/// A DDS participant with one ROS 2 node and its spinner thread (discovery, parameters).
+pub struct Ros2Session {
+    pub(super) node: Node,
+    pub(super) context: Context,
+    plan: NetworkPlan,
+    spinner: Option<JoinHandle<()>>,
+}
+
+impl Ros2Session {
+    /// Creates the participant following `plan` and the node `namespace`/`name`.
+    pub fn open(
+        plan: &NetworkPlan,
+        namespace: &str,
+        name: &str,
+        options: NodeOptions,
+    ) -> anyhow::Result<Ros2Session> {
+        let mut builder = DomainParticipantBuilder::new(plan.domain_id);
+        if let Some(networks) = &plan.only_networks {
+            builder = builder.with_only_networks(networks.iter().copied());
+        }
+        let participant = builder
+            .build()
+            .map_err(|e| anyhow!("DDS participant (domain {}): {e:?}", plan.domain_id))?;
+        let context = Context::from_domain_participant(participant).map_err(dds_err("context"))?;
+        let node_name = NodeName::new(namespace, name)
+            .map_err(|e| anyhow!("ROS 2 node name {namespace:?}/{name:?}: {e:?}"))?;
+        let mut node = context
+            .new_node(node_name, options)
+            .map_err(|e| anyhow!("ROS 2 node: {e:?}"))?;
+        let spinner = node.spinner().map_err(dds_err("spinner"))?;
+        let spinner = std::thread::Builder::new()
+            .name(format!("ros2-spin-{name}"))
+            .spawn(move || {
+                if let Err(e) = futures::executor::block_on(spinner.spin()) {
+                    eprintln!("rockwatch: ROS 2 spinner stopped: {e:?}");
+                }
+            })?;
+        Ok(Ros2Session {
+            node,
+            context,
+            plan: plan.clone(),
+            spinner: Some(spinner),
+        })
+    }
+
+    /// A session for the client node `name` of a tool (replay, listener, reset client):
+    /// without `/rosout`.
+    pub fn open_client(
+        plan: &NetworkPlan,
+        namespace: &str,
+        name: &str,
+    ) -> anyhow::Result<Ros2Session> {
+        Ros2Session::open(
+            plan,
+            namespace,
+            name,
+            NodeOptions::new().enable_rosout(false),
+        )
+    }
+
+    /// The network plan the participant was built with.
+    #[must_use]
+    pub fn plan(&self) -> &NetworkPlan {
+        &self.plan
+    }
+
+    /// The ROS 2 node.
+    pub fn node(&mut self) -> &mut Node {
+        &mut self.node
+    }
+
+    /// The topic `<package>/<type_name>` on `name`.
+    pub(super) fn topic(
+        &mut self,
+        name: &str,
+        package: &str,
+        type_name: &str,
+        qos: &QosProfile,
+    ) -> anyhow::Result<ros2_client::dds::rustdds::Topic> {
+        let topic_name = Name::parse(name).map_err(|e| anyhow!("topic {name:?}: {e:?}"))?;
+        self.node
+            .create_topic(&topic_name, MessageTypeName::new(package, type_name), qos)
+            .map_err(|e| anyhow!("ROS 2 topic {name}: {e:?}"))
+    }
+
+    /// A publisher of `pbr_msgs/<type_name>` on `name`.
+    pub fn publisher<M: serde::Serialize>(
+        &mut self,
+        name: &str,
+        type_name: &str,
+        qos: QosProfile,
+    ) -> anyhow::Result<ros2_client::Publisher<M>> {
+        let topic = self.topic(name, msg::PACKAGE, type_name, &qos)?;
+        self.node
+            .create_publisher(&topic, Some(qos))
+            .map_err(|e| anyhow!("ROS 2 publisher {name}: {e:?}"))
+    }
+
+    /// A subscription to `<package>/<type_name>` on `name`.
+    pub fn subscription<M: 'static>(
+        &mut self,
+        name: &str,
+        package: &str,
+        type_name: &str,
+        qos: QosProfile,
+    ) -> anyhow::Result<Subscription<M>> {
+        let topic = self.topic(name, package, type_name, &qos)?;
+        self.node
+            .create_subscription(&topic, Some(qos))
+            .map_err(|e| anyhow!("ROS 2 subscription {name}: {e:?}"))
+    }
+}
+
+impl Drop for Ros2Session {
+    fn drop(&mut self) {
+        self.node.stop_spinner();
+        if let Some(spinner) = self.spinner.take() {
+            let _ = spinner.join();
+        }
+    }
+}

@@ -1,0 +1,54 @@
+//! The wire codes of block modes and alert levels: the single table used by both transports,
+//! ROS 2 (`pbr_msgs/PbrState.mode`, `pbr_msgs/PbrAlert.level` and `.mode`) and iceoryx2
+//! (`PbrAlertIox::level` and `::mode`).
+//!
+//! The numbering is an interface contract, fixed by the constants of `msg/PbrState.msg` and
+//! `msg/PbrAlert.msg` (which docs/iceoryx2.md repeats for the C, C++ and Python clients), not a
+//! property of the physics: it lives here in the shell, next to the transports, and the core's
+//! [`Mode`] and [`AlertLevel`] stay free of wire concerns. `tests/ros2_msgs.rs` checks this
+//! table against the `.msg` files and that both transports send the same codes.
+
+use rockwatch_core::dynamics::Mode;
+use rockwatch_core::engine::AlertLevel;
+
+/// `PbrState` / `PbrAlert` mode constants.
+pub const MODE_REST: u8 = 0;
+pub const MODE_SLIDE: u8 = 1;
+pub const MODE_ROCK: u8 = 2;
+pub const MODE_SLIDE_ROCK: u8 = 3;
+pub const MODE_OVERTURNED: u8 = 4;
+pub const MODE_FLIGHT: u8 = 5;
+
+/// `PbrAlert` level constants.
+pub const LEVEL_MOTION_ONSET: u8 = 1;
+pub const LEVEL_OVERTURN_IMMINENT: u8 = 2;
+pub const LEVEL_OVERTURNED: u8 = 3;
+
+/// The wire code of a mode.
+#[must_use]
+pub fn mode_code(mode: Mode) -> u8 {
+    match mode {
+        Mode::Rest => MODE_REST,
+        Mode::Slide => MODE_SLIDE,
+        Mode::Rock => MODE_ROCK,
+        Mode::SlideRock => MODE_SLIDE_ROCK,
+        Mode::Overturned => MODE_OVERTURNED,
+        Mode::Flight => MODE_FLIGHT,
+    }
+}
+
+/// The wire code of an alert level.
+#[must_use]
+pub fn level_code(level: AlertLevel) -> u8 {
+    match level {
+        AlertLevel::MotionOnset => LEVEL_MOTION_ONSET,
+        AlertLevel::OverturnImminent => LEVEL_OVERTURN_IMMINENT,
+        AlertLevel::Overturned => LEVEL_OVERTURNED,
+    }
+}
+
+/// The alert level of a wire code, if it is one.
+#[must_use]
+pub fn level_of_code(code: u8) -> Option<AlertLevel> {
+    AlertLevel::ALL.into_iter().find(|l| level_code(*l) == code)
+}
