@@ -3,7 +3,7 @@
 //! rocking demand of a freestanding block best (efficiency, R²) and most independently of
 //! magnitude and distance (sufficiency).
 //!
-//! Pipeline (pure; the writers are in [`report`] and [`plots`]):
+//! Pipeline (pure; the writers of its reports and plots are in the shell, `rockwatch::study`):
 //! 1. [`run_study`]: for each Mw–R pair, `pulses_per_pair` Mavroeidis–Papageorgiou pulses by
 //!    Latin hypercube ([`crate::pulse::sample_pulses`], seed derived from the study seed and
 //!    the pair's index by [`pair_seed`]); for every pulse the 37 study IMs
