@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use rockwatch_core::mseed::{
+use rockwatch_core::record::mseed::{
     parse_mseed, read_mseed, record_from_channels, record_from_enz, Channel, GapFill, MseedFile,
     SampleKind, NS_PER_S,
 };

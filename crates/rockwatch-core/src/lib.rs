@@ -11,7 +11,6 @@ pub mod dynamics;
 pub mod engine;
 pub mod ims;
 pub mod lhs;
-pub mod mseed;
 pub mod ode;
 pub mod pulse;
 pub mod record;

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use crate::ports::PacketSink;
 use rockwatch_core::engine::{AccelPacket, StationId};
-use rockwatch_core::mseed::{read_mseed, Channel, GapFill};
+use rockwatch_core::record::mseed::{read_mseed, Channel, GapFill};
 use rockwatch_core::record::{Record, RecordError};
 
 /// Longest quiet tail a replay or monitor run appends (s): one day.

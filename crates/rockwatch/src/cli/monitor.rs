@@ -10,7 +10,7 @@ use rockwatch::node::NodeOptions;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::replay::Traces;
 use rockwatch_core::engine::{Alert, Engine, EngineConfig, JournalRecord, Output, StationId};
-use rockwatch_core::mseed::format_time_ns;
+use rockwatch_core::record::mseed::format_time_ns;
 use rockwatch_core::record::Record;
 
 /// Run the monitoring engine over a record: "which of my rocks should have toppled?".

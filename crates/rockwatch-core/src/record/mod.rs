@@ -8,6 +8,8 @@
 //! Readers never panic on bad input: every problem is a [`RecordError`] whose message names
 //! the file, the line where it applies, and what is wrong.
 
+pub mod mseed;
+
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -57,13 +59,13 @@ impl Record {
     /// Reads a horizontal record from `path`, choosing the format by extension
     /// (`.at2` → PEER NGA AT2, `.csv` → CSV, `.mseed`/`.ms`/`.miniseed` → MiniSEED;
     /// case-insensitive). A MiniSEED file must hold exactly one channel of floating-point
-    /// samples in m/s² (see [`crate::mseed::read_single_channel_record`]; counts need a gain
-    /// and go through [`crate::mseed::read_mseed`]).
+    /// samples in m/s² (see [`mseed::read_single_channel_record`]; counts need a gain
+    /// and go through [`mseed::read_mseed`]).
     pub fn read(path: &Path) -> Result<Record, RecordError> {
         match extension_lowercase(path).as_deref() {
             Some("at2") => read_at2(path).map(|at2| at2.into_record(path)),
             Some("csv") => read_csv(path),
-            Some("mseed" | "ms" | "miniseed") => crate::mseed::read_single_channel_record(path),
+            Some("mseed" | "ms" | "miniseed") => mseed::read_single_channel_record(path),
             _ => Err(RecordError::new(
                 path,
                 None,

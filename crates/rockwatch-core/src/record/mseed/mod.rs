@@ -34,7 +34,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::record::{Record, RecordError};
+use super::{Record, RecordError};
 
 // ---------------------------------------------------------------------------------------
 // Writing (MiniSEED 2.4): see src/mseed/writer.rs
@@ -429,7 +429,7 @@ pub fn read_single_channel_record(path: &Path) -> Result<Record, RecordError> {
                 None,
                 format!(
                     "holds {} channels ({}); a record file must hold exactly one \
-                     (read it with rockwatch::mseed::read_mseed and pick channels)",
+                     (read it with rockwatch_core::record::mseed::read_mseed and pick channels)",
                     many.len(),
                     ids.join(", ")
                 ),
@@ -442,7 +442,7 @@ pub fn read_single_channel_record(path: &Path) -> Result<Record, RecordError> {
             None,
             format!(
                 "channel {} holds integer counts, not m/s²: convert it with a gain \
-                 ((m/s²)/count) via rockwatch::mseed::read_mseed and Channel::to_record",
+                 ((m/s²)/count) via rockwatch_core::record::mseed::read_mseed and Channel::to_record",
                 channel.id()
             ),
         ));

@@ -1,4 +1,4 @@
-//! MiniSEED 2.4 writer (pure Rust, no `unsafe`): the "Writing" half of [`crate::mseed`].
+//! MiniSEED 2.4 writer (pure Rust, no `unsafe`): the "Writing" half of [`crate::record::mseed`].
 //!
 //! [`write_mseed`] writes channels of uniformly sampled data as MiniSEED 2.4 data records:
 //! a 48-byte fixed header, blockette 1000 (encoding, word order, record length) and, when a
@@ -25,8 +25,8 @@
 
 use std::path::Path;
 
+use super::RecordError;
 use super::{days_to_year, v2_sample_rate, NS_PER_S};
-use crate::record::RecordError;
 
 /// Length of every record of a file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
