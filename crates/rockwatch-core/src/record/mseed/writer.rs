@@ -25,8 +25,7 @@
 
 use std::path::Path;
 
-use super::RecordError;
-use super::{days_to_year, v2_sample_rate, NS_PER_S};
+use super::{days_to_year, encode_steim2, fits, v2_sample_rate, RecordError, NS_PER_S};
 
 /// Length of every record of a file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -361,9 +360,6 @@ fn seed_time(t_ns: i64) -> Result<SeedTime, String> {
 /// 1000 (8) + room for blockette 1001 (8); a multiple of 64 as Steim frames require.
 const DATA_OFFSET: usize = 64;
 
-/// Steim frame size (bytes).
-const FRAME_BYTES: usize = 64;
-
 /// A channel checked and ready to encode.
 struct Prepared<'a> {
     id: SeedId,
@@ -475,12 +471,6 @@ fn prepare<'a>(channel: &ChannelData<'a>, options: WriteOptions) -> Result<Prepa
         start_time_ns: channel.start_time_ns,
         samples: channel.samples,
     })
-}
-
-/// Whether `value` fits a signed field of `bits` bits.
-fn fits(value: i64, bits: u32) -> bool {
-    let half = 1i64 << (bits - 1);
-    (-half..half).contains(&value)
 }
 
 /// Time of sample `index` of a channel (ns since the epoch), exact for the rational rate
@@ -638,87 +628,6 @@ fn write_header(record: &mut [u8], h: &Header<'_>) {
             &[0, h.time.microseconds as u8, 0, h.steim_frames],
         );
     }
-}
-
-/// Steim-2 packings of one 32-bit word, densest first: (differences, bits each, 2-bit
-/// code in the control word, 2-bit sub-code "dnib" at the top of the word; none for code 1).
-const STEIM2_PACKINGS: [(usize, u32, u32, Option<u32>); 7] = [
-    (7, 4, 3, Some(2)),
-    (6, 5, 3, Some(1)),
-    (5, 6, 3, Some(0)),
-    (4, 8, 1, None),
-    (3, 10, 2, Some(3)),
-    (2, 15, 2, Some(2)),
-    (1, 30, 2, Some(1)),
-];
-
-/// Encodes as many of `samples` as fit into the Steim-2 frames of `data` (big-endian; the
-/// section length is a multiple of 64). `previous` is the channel's sample before
-/// `samples[0]` (the first difference refers to it; 0 for the first record). Returns the
-/// number of samples and of frames used. Differences must fit 30 bits (checked before).
-/// Greedy: each word takes the densest packing that the next differences fit.
-fn encode_steim2(samples: &[i32], previous: Option<i32>, data: &mut [u8]) -> (usize, usize) {
-    let difference = |j: usize| -> i64 {
-        match (j, previous) {
-            (0, None) => 0,
-            (0, Some(p)) => i64::from(samples[0]) - i64::from(p),
-            (j, _) => i64::from(samples[j]) - i64::from(samples[j - 1]),
-        }
-    };
-    let frames = data.len() / FRAME_BYTES;
-    let mut next = 0usize; // next sample (difference) to pack
-    let mut frames_used = 0usize;
-    for frame in 0..frames {
-        if next == samples.len() {
-            break;
-        }
-        let base = frame * FRAME_BYTES;
-        let mut control = 0u32;
-        let first_word = if frame == 0 { 3 } else { 1 };
-        for w in first_word..16 {
-            if next == samples.len() {
-                break;
-            }
-            let remaining = samples.len() - next;
-            let Some(&(count, bits, nibble, dnib)) =
-                STEIM2_PACKINGS.iter().find(|(count, bits, _, _)| {
-                    *count <= remaining && (next..next + count).all(|j| fits(difference(j), *bits))
-                })
-            else {
-                // Unreachable when differences fit 30 bits (checked in `prepare`).
-                break;
-            };
-            let word = match dnib {
-                None => {
-                    let mut bytes = [0u8; 4];
-                    for (k, b) in bytes.iter_mut().enumerate() {
-                        *b = difference(next + k) as i8 as u8;
-                    }
-                    u32::from_be_bytes(bytes)
-                }
-                Some(dnib) => {
-                    let mask = (1u32 << bits) - 1;
-                    let mut word = dnib << 30;
-                    for k in 0..count {
-                        let shift = bits * (count - 1 - k) as u32;
-                        word |= ((difference(next + k) as i32 as u32) & mask) << shift;
-                    }
-                    word
-                }
-            };
-            data[base + 4 * w..base + 4 * w + 4].copy_from_slice(&word.to_be_bytes());
-            control |= nibble << (30 - 2 * w);
-            next += count;
-        }
-        data[base..base + 4].copy_from_slice(&control.to_be_bytes());
-        frames_used = frame + 1;
-    }
-    if next > 0 {
-        // Forward (X0) and reverse (Xn) integration constants in frame 0, words 1 and 2.
-        data[4..8].copy_from_slice(&samples[0].to_be_bytes());
-        data[8..12].copy_from_slice(&samples[next - 1].to_be_bytes());
-    }
-    (next, frames_used)
 }
 
 #[cfg(test)]
