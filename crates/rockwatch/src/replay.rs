@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use crate::ports::PacketSink;
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{AccelPacket, StationId};
 use rockwatch_core::record::mseed::{read_mseed, Channel, GapFill};
 use rockwatch_core::record::{Record, RecordError};
@@ -24,23 +25,23 @@ pub struct Traces {
 }
 
 impl Traces {
-    /// A record's horizontal component pointing to `azimuth_deg` (clockwise from north) split
-    /// into east and north (a_E = a sin az, a_N = a cos az), its vertical as up. Time 0 is
-    /// the Unix epoch (AT2 and CSV records carry no absolute time).
-    pub fn from_record(record: &Record, azimuth_deg: f64) -> Result<Traces, String> {
-        if !azimuth_deg.is_finite() {
-            return Err(format!(
-                "azimuth must be a finite number of degrees, got {azimuth_deg}"
-            ));
-        }
-        let (s, c) = azimuth_deg.to_radians().sin_cos();
-        Ok(Traces {
+    /// A record's horizontal component pointing to `azimuth` split into east and north
+    /// ([`Azimuth::to_east_north`]: a_E = a sin az, a_N = a cos az), its vertical as up.
+    /// Time 0 is the Unix epoch (AT2 and CSV records carry no absolute time).
+    #[must_use]
+    pub fn from_record(record: &Record, azimuth: Azimuth) -> Traces {
+        let (east, north) = record
+            .horizontal_mps2
+            .iter()
+            .map(|&a| azimuth.to_east_north(a))
+            .unzip();
+        Traces {
             start_ns: 0,
             rate_hz: 1.0 / record.dt_s,
-            east: record.horizontal_mps2.iter().map(|a| a * s).collect(),
-            north: record.horizontal_mps2.iter().map(|a| a * c).collect(),
+            east,
+            north,
             up: record.vertical_mps2.clone(),
-        })
+        }
     }
 
     /// The channels of `station` in a MiniSEED file: …E or …1 as east, …N or …2 as north, …Z
@@ -158,7 +159,7 @@ mod tests {
             horizontal_mps2: (0..25).map(f64::from).collect(),
             vertical_mps2: None,
         };
-        let t = Traces::from_record(&record, 90.0).unwrap();
+        let t = Traces::from_record(&record, Azimuth::from_degrees(90.0).unwrap());
         let id = StationId::parse("CI.RRS.00").unwrap();
         let p = t.packets(&id, 100, 0.1);
         let lens: Vec<usize> = p.iter().map(AccelPacket::len).collect();

@@ -2,6 +2,7 @@
 
 use super::packet::StationId;
 use super::stream::StreamConfig;
+use crate::azimuth::Azimuth;
 use crate::dynamics::BlockParams;
 
 /// How a station's horizontal channels are oriented.
@@ -11,8 +12,15 @@ pub enum Orientation {
     /// `east` carries east, `north` carries north.
     EastNorth,
     /// `east` carries channel 1 and `north` channel 2, whose directions are given as
-    /// azimuths (degrees clockwise from north).
-    Azimuths { h1_deg: f64, h2_deg: f64 },
+    /// azimuths (keys `h1_deg`, `h2_deg`: degrees clockwise from north); they must be
+    /// orthogonal (to 1°). East/north are recovered as the sum of the channels' vectors
+    /// (see [`crate::azimuth`]).
+    Azimuths {
+        #[serde(rename = "h1_deg")]
+        h1: Azimuth,
+        #[serde(rename = "h2_deg")]
+        h2: Azimuth,
+    },
 }
 
 /// One station as configured.
@@ -69,9 +77,10 @@ impl StationConfig {
                 return Err(format!("station {id}: full_scale must be > 0, got {f}"));
             }
         }
-        if let Orientation::Azimuths { h1_deg, h2_deg } = self.orientation {
+        if let Orientation::Azimuths { h1, h2 } = self.orientation {
+            let (h1_deg, h2_deg) = (h1.degrees(), h2.degrees());
             let d = (h2_deg - h1_deg).rem_euclid(180.0);
-            if !(h1_deg.is_finite() && h2_deg.is_finite()) || (d - 90.0).abs() > 1.0 {
+            if (d - 90.0).abs() > 1.0 {
                 return Err(format!(
                     "station {id}: horizontal azimuths {h1_deg}° and {h2_deg}° must be orthogonal"
                 ));
@@ -196,8 +205,8 @@ impl EngineConfig {
 pub struct PbrSpec {
     pub id: String,
     pub station: StationId,
-    /// Direction of the block's +x axis, degrees clockwise from north.
-    pub azimuth_deg: f64,
+    /// Direction of the block's +x axis.
+    pub azimuth: Azimuth,
     pub nominal: BlockParams,
     /// Ensemble members (empty: nominal only).
     pub members: Vec<BlockParams>,
@@ -216,7 +225,7 @@ impl PbrSpec {
         Ok(PbrSpec {
             id: pbr.id().to_string(),
             station: pbr.station().clone(),
-            azimuth_deg: pbr.azimuth_deg(),
+            azimuth: pbr.azimuth(),
             nominal: pbr.nominal(),
             members,
         })

@@ -17,6 +17,7 @@ use rockwatch::ports::PacketSink;
 use rockwatch::ports::{Publication, Publisher};
 use rockwatch::replay::{replay, Restamp, Speed, Traces};
 use rockwatch::ros2::{msg, network_plan, Ros2AlertListener, Ros2Config, Ros2PacketSink};
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{AlertLevel, StationId};
 use rockwatch_core::record::parse_at2_text;
 
@@ -73,7 +74,10 @@ fn bundled_traces() -> anyhow::Result<Traces> {
             .into_record(v)
             .horizontal_mps2,
     );
-    Traces::from_record(&record, AZIMUTH_DEG).map_err(anyhow::Error::msg)
+    Ok(Traces::from_record(
+        &record,
+        Azimuth::from_degrees(AZIMUTH_DEG)?,
+    ))
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {

@@ -9,6 +9,7 @@ use rockwatch::journal::Journal;
 use rockwatch::node::NodeOptions;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::replay::Traces;
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{Alert, Engine, EngineConfig, JournalRecord, Output, StationId};
 use rockwatch_core::record::mseed::format_time_ns;
 use rockwatch_core::record::Record;
@@ -117,7 +118,7 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
             if let Some(v) = &args.vertical {
                 record.attach_vertical(v)?;
             }
-            Traces::from_record(&record, args.azimuth).map_err(anyhow::Error::msg)?
+            Traces::from_record(&record, Azimuth::from_degrees(args.azimuth)?)
         }
         (None, Some(path)) => Traces::from_mseed(path, &station)?,
         (None, None) => bail!("give --record FILE or --mseed FILE"),

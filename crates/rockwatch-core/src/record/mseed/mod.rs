@@ -43,6 +43,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::{Record, RecordError};
+use crate::azimuth::Azimuth;
 use steim::{decode_steim, encode_steim2, fits, Steim};
 
 pub use reader::{parse_mseed, read_mseed};
@@ -374,22 +375,15 @@ pub fn record_from_channels(
 
 /// Builds a [`Record`] (m/s²) from east, north and optional vertical channels (each with its
 /// gain in (m/s²)/count). The horizontal component is the ground acceleration along the
-/// azimuth `azimuth_deg` (degrees clockwise from north) of the block's +x axis:
-/// `a_h = a_N·cos(az) + a_E·sin(az)`. All channels are cut to their common time window.
+/// block's +x axis `azimuth`: `a_h = a_E·sin(az) + a_N·cos(az)` ([`Azimuth::component`]).
+/// All channels are cut to their common time window.
 pub fn record_from_enz(
     east: (&Channel, f64),
     north: (&Channel, f64),
     vertical: Option<(&Channel, f64)>,
-    azimuth_deg: f64,
+    azimuth: Azimuth,
     fill: GapFill,
 ) -> Result<Record, RecordError> {
-    if !azimuth_deg.is_finite() {
-        return Err(RecordError::new(
-            Path::new(&east.0.source),
-            None,
-            format!("azimuth must be a finite number of degrees, got {azimuth_deg}"),
-        ));
-    }
     let mut channels = vec![east.0, north.0];
     let mut joined = vec![
         join_scaled(east.0, east.1, fill)?,
@@ -400,18 +394,18 @@ pub fn record_from_enz(
         joined.push(join_scaled(v, gain, fill)?);
     }
     let (cut, dt_s) = align(&channels, joined)?;
-    let (sin, cos) = azimuth_deg.to_radians().sin_cos();
     let horizontal_mps2 = cut[0]
         .iter()
         .zip(&cut[1])
-        .map(|(e, n)| n * cos + e * sin)
+        .map(|(&e, &n)| azimuth.component(e, n))
         .collect();
     let ids: Vec<String> = channels.iter().map(|c| c.id()).collect();
     Ok(Record {
         source: format!(
-            "{} [{} rotated to azimuth {azimuth_deg}°]",
+            "{} [{} rotated to azimuth {}°]",
             east.0.source,
-            ids.join(" + ")
+            ids.join(" + "),
+            azimuth.degrees()
         ),
         dt_s,
         horizontal_mps2,
