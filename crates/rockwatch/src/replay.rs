@@ -7,7 +7,7 @@ use std::path::Path;
 use crate::ports::PacketSink;
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{AccelPacket, StationId};
-use rockwatch_core::record::mseed::{read_mseed, Channel, GapFill};
+use rockwatch_core::record::mseed::{align_channels, read_mseed, Channel, GapFill};
 use rockwatch_core::record::{Record, RecordError};
 
 /// Longest quiet tail a replay or monitor run appends (s): one day.
@@ -46,8 +46,11 @@ impl Traces {
 
     /// The channels of `station` in a MiniSEED file: …E or …1 as east, …N or …2 as north, …Z
     /// or …3 as up (a missing horizontal is zero). Gaps inside the file are filled linearly;
-    /// the channels must share rate and start time (to half a sample). Values are as stored
-    /// (counts for integer encodings: the station's gain converts them).
+    /// the channels are aligned and cut to their common time window by
+    /// [`align_channels`] (same rate, sample instants within
+    /// [`MAX_ALIGNMENT_OFFSET_SAMPLES`](rockwatch_core::record::mseed::MAX_ALIGNMENT_OFFSET_SAMPLES)
+    /// of a sample). Values are as stored (counts for integer encodings: the station's gain
+    /// converts them).
     pub fn from_mseed(path: &Path, station: &StationId) -> Result<Traces, RecordError> {
         let err = |problem: String| RecordError::new(path, None, problem);
         let file = read_mseed(path)?;
@@ -64,44 +67,24 @@ impl Traces {
             )));
         }
         let pick = |codes: [char; 2]| mine.iter().find(|c| c.cha.ends_with(codes)).copied();
-        let (east, north, up) = (pick(['E', '1']), pick(['N', '2']), pick(['Z', '3']));
-        let Some(first) = east.or(north) else {
+        let picked = [pick(['E', '1']), pick(['N', '2']), pick(['Z', '3'])];
+        if picked[0].is_none() && picked[1].is_none() {
             return Err(err(format!(
                 "station {station} has no horizontal channel (…E/…N or …1/…2)"
             )));
-        };
-        let (start_ns, rate_hz) = (first.start_time_ns, first.sample_rate_hz);
-        let samples = |c: Option<&Channel>| -> Result<Option<Vec<f64>>, RecordError> {
-            let Some(c) = c else { return Ok(None) };
-            if (c.sample_rate_hz - rate_hz).abs() > 1e-9 * rate_hz
-                || (c.start_time_ns - start_ns).abs() as f64 > 0.5e9 / rate_hz
-            {
-                return Err(err(format!(
-                    "channel {} is not aligned with {} (rate or start time)",
-                    c.id(),
-                    first.id()
-                )));
-            }
-            c.contiguous_samples(GapFill::Linear).map(Some)
-        };
-        let (e, n, u) = (samples(east)?, samples(north)?, samples(up)?);
-        let len = [&e, &n, &u]
-            .iter()
-            .filter_map(|c| c.as_ref().map(Vec::len))
-            .min()
-            .unwrap_or(0);
-        let cut = |v: Option<Vec<f64>>| {
-            v.map(|mut v| {
-                v.truncate(len);
-                v
-            })
-        };
+        }
+        // Values as stored: gain 1.
+        let present: Vec<(&Channel, f64)> = picked.iter().flatten().map(|&c| (c, 1.0)).collect();
+        let aligned = align_channels(&present, GapFill::Linear)?;
+        let len = aligned.samples[0].len();
+        let mut series = aligned.samples.into_iter();
+        let [east, north, up] = picked.map(|c| c.and_then(|_| series.next()));
         Ok(Traces {
-            start_ns,
-            rate_hz,
-            east: cut(e).unwrap_or_else(|| vec![0.0; len]),
-            north: cut(n).unwrap_or_else(|| vec![0.0; len]),
-            up: cut(u),
+            start_ns: aligned.start_time_ns,
+            rate_hz: aligned.sample_rate_hz,
+            east: east.unwrap_or_else(|| vec![0.0; len]),
+            north: north.unwrap_or_else(|| vec![0.0; len]),
+            up,
         })
     }
 

@@ -286,31 +286,77 @@ fn check_gain(channel: &Channel, mps2_per_count: f64) -> Result<(), RecordError>
     }
 }
 
-/// One channel joined into a uniform series (see [`Channel::contiguous_samples`]) and scaled
-/// to m/s².
-struct Joined {
-    start_ns: i64,
-    samples_mps2: Vec<f64>,
+/// Largest offset (in sampling intervals) between the sample instants of channels that
+/// [`align_channels`] accepts as simultaneous.
+///
+/// Why 0.1: channels of one instrument are sampled at the same instants, and their time
+/// stamps agree to the stamp resolution (MiniSEED 2: 100 µs, or 1 µs with blockette 1001;
+/// MiniSEED 3: 1 ns), which is at most 0.02 of a sample at the 200 Hz of strong-motion data.
+/// A larger offset means the channels were not sampled together, and combining them (e.g.
+/// rotating east/north to a block's axis) would skew one component by that fraction of a
+/// sample: a phase error of 2π·f·offset·dt, 18° at the Nyquist frequency for 0.1 sample and
+/// 90° for the half sample a nearest-sample match would allow, but at most 3.6° for 0.1
+/// sample at the ≤ 10 Hz that rock blocks respond to at 100 Hz sampling.
+pub const MAX_ALIGNMENT_OFFSET_SAMPLES: f64 = 0.1;
+
+/// Largest relative difference between the sampling rates of aligned channels: 1e-6 accepts
+/// the same nominal rate written as a SEED factor/multiplier or as a FLOAT32 blockette 100
+/// (relative rounding 6e-8) and refuses channels at genuinely different rates.
+pub const MAX_ALIGNMENT_RATE_DIFFERENCE: f64 = 1e-6;
+
+/// Channels joined into uniform series, scaled, and cut to their common time window
+/// (see [`align_channels`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AlignedChannels {
+    /// Time of the first common sample (ns since the Unix epoch, UTC): the latest start.
+    pub start_time_ns: i64,
+    /// The common sampling rate (Hz): the first channel's.
+    pub sample_rate_hz: f64,
+    /// One series per channel, in the order given, all of the same length (≥ 1), in the
+    /// channel's units times its gain.
+    pub samples: Vec<Vec<f64>>,
 }
 
-fn join_scaled(channel: &Channel, gain: f64, fill: GapFill) -> Result<Joined, RecordError> {
-    check_gain(channel, gain)?;
-    let mut samples_mps2 = channel.contiguous_samples(fill)?;
-    samples_mps2.iter_mut().for_each(|x| *x *= gain);
-    Ok(Joined {
-        start_ns: channel.start_time_ns,
-        samples_mps2,
-    })
+impl AlignedChannels {
+    /// Sampling interval (s).
+    #[must_use]
+    pub fn dt_s(&self) -> f64 {
+        1.0 / self.sample_rate_hz
+    }
 }
 
-/// Cuts channels (all at the same sampling rate) to their common time window. The channels'
-/// sample instants must coincide to within 10 % of a sampling interval.
-fn align(channels: &[&Channel], joined: Vec<Joined>) -> Result<(Vec<Vec<f64>>, f64), RecordError> {
-    let first = channels[0];
+/// The one channel-alignment routine (records from MiniSEED channels, and the replay's
+/// station traces): joins each channel's segments ([`Channel::contiguous_samples`] with
+/// `fill`), multiplies it by its gain ((m/s²)/count, finite and > 0; 1.0 keeps the stored
+/// units), and cuts all of them to their common time window, from the latest start to the
+/// earliest end, skipping whole samples.
+///
+/// Refused, naming the channels: sampling rates that differ by more than
+/// [`MAX_ALIGNMENT_RATE_DIFFERENCE`] (relative); sample instants that differ by more than
+/// [`MAX_ALIGNMENT_OFFSET_SAMPLES`] of a sampling interval (after the whole-sample skip);
+/// no sample in common. `channels` must not be empty.
+pub fn align_channels(
+    channels: &[(&Channel, f64)],
+    fill: GapFill,
+) -> Result<AlignedChannels, RecordError> {
+    let Some(&(first, _)) = channels.first() else {
+        return Err(RecordError::new(
+            Path::new(""),
+            None,
+            "no channels to align",
+        ));
+    };
     let err = |problem: String| RecordError::new(Path::new(&first.source), None, problem);
+    let mut joined = Vec::with_capacity(channels.len());
+    for &(c, gain) in channels {
+        check_gain(c, gain)?;
+        let mut samples = c.contiguous_samples(fill)?;
+        samples.iter_mut().for_each(|x| *x *= gain);
+        joined.push(samples);
+    }
     let rate = first.sample_rate_hz;
-    for c in channels {
-        if (c.sample_rate_hz - rate).abs() > 1e-6 * rate {
+    for (c, _) in channels {
+        if (c.sample_rate_hz - rate).abs() > MAX_ALIGNMENT_RATE_DIFFERENCE * rate {
             return Err(err(format!(
                 "channels {} ({} Hz) and {} ({} Hz) have different sampling rates",
                 first.id(),
@@ -320,51 +366,58 @@ fn align(channels: &[&Channel], joined: Vec<Joined>) -> Result<(Vec<Vec<f64>>, f
             )));
         }
     }
+    // The window starts with the channel that starts last.
+    let latest = channels
+        .iter()
+        .map(|&(c, _)| c)
+        .max_by_key(|c| c.start_time_ns)
+        .unwrap_or(first);
+    let start_time_ns = latest.start_time_ns;
     let dt_ns = NS_PER_S as f64 / rate;
-    let start = joined.iter().map(|j| j.start_ns).max().unwrap_or(0);
-    let mut cut = Vec::with_capacity(joined.len());
-    for (c, j) in channels.iter().zip(joined) {
-        let skip_f = start.saturating_sub(j.start_ns) as f64 / dt_ns;
+    for ((c, _), samples) in channels.iter().zip(&mut joined) {
+        let skip_f = start_time_ns.saturating_sub(c.start_time_ns) as f64 / dt_ns;
         let skip = skip_f.round();
-        if (skip_f - skip).abs() > 0.1 {
+        if (skip_f - skip).abs() > MAX_ALIGNMENT_OFFSET_SAMPLES {
             return Err(err(format!(
-                "channels {} and {} are not sampled at the same instants (offset {:.3} samples)",
-                first.id(),
+                "channels {} and {} are not sampled at the same instants (offset {:.3} \
+                 samples; at most {MAX_ALIGNMENT_OFFSET_SAMPLES} allowed)",
+                latest.id(),
                 c.id(),
                 skip_f - skip
             )));
         }
-        let skip = skip as usize;
-        cut.push(j.samples_mps2.get(skip..).unwrap_or(&[]).to_vec());
+        samples.drain(..(skip as usize).min(samples.len()));
     }
-    let len = cut.iter().map(Vec::len).min().unwrap_or(0);
+    let len = joined.iter().map(Vec::len).min().unwrap_or(0);
     if len == 0 {
-        let ids: Vec<String> = channels.iter().map(|c| c.id()).collect();
+        let ids: Vec<String> = channels.iter().map(|(c, _)| c.id()).collect();
         return Err(err(format!(
             "channels {} have no samples in common",
             ids.join(", ")
         )));
     }
-    cut.iter_mut().for_each(|v| v.truncate(len));
-    Ok((cut, 1.0 / rate))
+    joined.iter_mut().for_each(|v| v.truncate(len));
+    Ok(AlignedChannels {
+        start_time_ns,
+        sample_rate_hz: rate,
+        samples: joined,
+    })
 }
 
 /// Builds a [`Record`] (m/s²) from a horizontal channel and an optional vertical channel,
-/// each with its gain in (m/s²)/count. Both are cut to their common time window.
+/// each with its gain in (m/s²)/count. Both are cut to their common time window
+/// ([`align_channels`]).
 pub fn record_from_channels(
     horizontal: (&Channel, f64),
     vertical: Option<(&Channel, f64)>,
     fill: GapFill,
 ) -> Result<Record, RecordError> {
-    let mut channels = vec![horizontal.0];
-    let mut joined = vec![join_scaled(horizontal.0, horizontal.1, fill)?];
-    if let Some((v, gain)) = vertical {
-        channels.push(v);
-        joined.push(join_scaled(v, gain, fill)?);
-    }
-    let (mut cut, dt_s) = align(&channels, joined)?;
+    let channels: Vec<(&Channel, f64)> = std::iter::once(horizontal).chain(vertical).collect();
+    let aligned = align_channels(&channels, fill)?;
+    let dt_s = aligned.dt_s();
+    let mut cut = aligned.samples;
     let vertical_mps2 = (cut.len() > 1).then(|| cut.remove(1));
-    let ids: Vec<String> = channels.iter().map(|c| c.id()).collect();
+    let ids: Vec<String> = channels.iter().map(|(c, _)| c.id()).collect();
     Ok(Record {
         source: format!("{} [{}]", horizontal.0.source, ids.join(" + ")),
         dt_s,
@@ -376,7 +429,7 @@ pub fn record_from_channels(
 /// Builds a [`Record`] (m/s²) from east, north and optional vertical channels (each with its
 /// gain in (m/s²)/count). The horizontal component is the ground acceleration along the
 /// block's +x axis `azimuth`: `a_h = a_E·sin(az) + a_N·cos(az)` ([`Azimuth::component`]).
-/// All channels are cut to their common time window.
+/// All channels are cut to their common time window ([`align_channels`]).
 pub fn record_from_enz(
     east: (&Channel, f64),
     north: (&Channel, f64),
@@ -384,22 +437,15 @@ pub fn record_from_enz(
     azimuth: Azimuth,
     fill: GapFill,
 ) -> Result<Record, RecordError> {
-    let mut channels = vec![east.0, north.0];
-    let mut joined = vec![
-        join_scaled(east.0, east.1, fill)?,
-        join_scaled(north.0, north.1, fill)?,
-    ];
-    if let Some((v, gain)) = vertical {
-        channels.push(v);
-        joined.push(join_scaled(v, gain, fill)?);
-    }
-    let (cut, dt_s) = align(&channels, joined)?;
+    let channels: Vec<(&Channel, f64)> = [east, north].into_iter().chain(vertical).collect();
+    let aligned = align_channels(&channels, fill)?;
+    let cut = &aligned.samples;
     let horizontal_mps2 = cut[0]
         .iter()
         .zip(&cut[1])
         .map(|(&e, &n)| azimuth.component(e, n))
         .collect();
-    let ids: Vec<String> = channels.iter().map(|c| c.id()).collect();
+    let ids: Vec<String> = channels.iter().map(|(c, _)| c.id()).collect();
     Ok(Record {
         source: format!(
             "{} [{} rotated to azimuth {}°]",
@@ -407,7 +453,7 @@ pub fn record_from_enz(
             ids.join(" + "),
             azimuth.degrees()
         ),
-        dt_s,
+        dt_s: aligned.dt_s(),
         horizontal_mps2,
         vertical_mps2: cut.get(2).cloned(),
     })
@@ -562,5 +608,71 @@ mod tests {
             channel.contiguous_samples(GapFill::Zeros).unwrap(),
             vec![0.0, 1.0, 0.0, 0.0, 0.0, 5.0, 6.0]
         );
+    }
+
+    /// A one-segment 100 Hz float channel `cha` starting at `start_ns`.
+    fn channel_at(cha: &str, start_ns: i64, samples: Vec<f64>) -> Channel {
+        Channel {
+            source: "test".into(),
+            net: "XX".into(),
+            sta: "S".into(),
+            loc: String::new(),
+            cha: cha.into(),
+            sample_rate_hz: 100.0,
+            start_time_ns: start_ns,
+            sample_kind: SampleKind::Float,
+            segments: vec![Segment {
+                start_time_ns: start_ns,
+                samples,
+            }],
+            gaps: vec![],
+            overlaps: vec![],
+        }
+    }
+
+    #[test]
+    fn alignment_accepts_offsets_up_to_a_tenth_of_a_sample_and_refuses_beyond() {
+        // dt = 10 ms; the north channel starts 2 samples plus a fraction later.
+        let east = channel_at("HNE", 0, (0..10).map(f64::from).collect());
+        let dt_ns = 10_000_000;
+        let north_at = |fraction: f64| {
+            let start = 2 * dt_ns + (fraction * dt_ns as f64).round() as i64;
+            channel_at("HNN", start, vec![-1.0; 10])
+        };
+        // Inside: ±0.09 sample counts as simultaneous; the common window starts at the later
+        // channel and skips 2 east samples.
+        for fraction in [0.09, -0.09] {
+            let north = north_at(fraction);
+            let aligned = align_channels(&[(&east, 2.0), (&north, 1.0)], GapFill::Reject).unwrap();
+            assert_eq!(aligned.start_time_ns, north.start_time_ns);
+            assert_eq!(aligned.sample_rate_hz, 100.0);
+            assert_eq!(
+                aligned.samples[0],
+                vec![4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0]
+            );
+            assert_eq!(aligned.samples[1], vec![-1.0; 8]);
+        }
+        // Outside: 0.11 sample is refused, naming both channels and the offset.
+        let north = north_at(0.11);
+        let e = align_channels(&[(&east, 1.0), (&north, 1.0)], GapFill::Reject).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "test: channels XX.S..HNN and XX.S..HNE are not sampled at the same instants \
+             (offset 0.110 samples; at most 0.1 allowed)"
+        );
+    }
+
+    #[test]
+    fn alignment_refuses_different_rates_and_disjoint_windows() {
+        let east = channel_at("HNE", 0, vec![0.0; 10]);
+        let mut north = channel_at("HNN", 0, vec![0.0; 10]);
+        north.sample_rate_hz = 100.0 * (1.0 + 2.0 * MAX_ALIGNMENT_RATE_DIFFERENCE);
+        let e = align_channels(&[(&east, 1.0), (&north, 1.0)], GapFill::Reject).unwrap_err();
+        assert!(e.to_string().contains("different sampling rates"), "{e}");
+        north.sample_rate_hz = 100.0 * (1.0 + 0.5 * MAX_ALIGNMENT_RATE_DIFFERENCE);
+        assert!(align_channels(&[(&east, 1.0), (&north, 1.0)], GapFill::Reject).is_ok());
+        let late = channel_at("HNN", 1_000_000_000, vec![0.0; 10]);
+        let e = align_channels(&[(&east, 1.0), (&late, 1.0)], GapFill::Reject).unwrap_err();
+        assert!(e.to_string().contains("no samples in common"), "{e}");
     }
 }
