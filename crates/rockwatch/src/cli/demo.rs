@@ -111,7 +111,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         shards: 1,
     };
 
-    let station = StationId::parse(STATION).map_err(anyhow::Error::msg)?;
+    let station = StationId::parse(STATION)?;
     let traces = bundled_traces()?;
     let packets = traces.packets(&station, 100, args.tail);
     outln!(

@@ -124,8 +124,7 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
         (None, None) => bail!("give --record FILE or --mseed FILE"),
     };
     let engine_config: EngineConfig = options.config.engine;
-    let mut engine = Engine::new(engine_config, options.config.stations.clone(), &specs)
-        .map_err(anyhow::Error::msg)?;
+    let mut engine = Engine::new(engine_config, options.config.stations.clone(), &specs)?;
 
     let mut journal = match options.open_state()? {
         Some((journal, records)) => {

@@ -145,7 +145,7 @@ fn traces(args: &ReplayArgs, station: &StationId) -> anyhow::Result<Traces> {
 
 /// Replays `args` through `sink` and prints what was sent.
 pub fn replay_through(args: &ReplayArgs, sink: &mut dyn PacketSink) -> anyhow::Result<()> {
-    let station = StationId::parse(&args.station).map_err(anyhow::Error::msg)?;
+    let station = StationId::parse(&args.station)?;
     let traces = traces(args, &station)?;
     let packets = traces.packets(&station, args.packet_ms, args.tail);
     if !(args.wait_s.is_finite() && args.wait_s >= 0.0) {

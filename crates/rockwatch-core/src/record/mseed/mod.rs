@@ -49,7 +49,8 @@ use steim::{decode_steim, encode_steim2, fits, Steim};
 pub use reader::{parse_mseed, read_mseed};
 pub use writer::{
     encode_mseed, write_mseed, Blockette1001, ChannelData, FloatEncoding, RecordLength,
-    SampleRateFactors, Samples, SeedId, WriteOptions, MAX_WRITE_RATE_HZ,
+    SampleRateError, SampleRateFactors, Samples, SeedId, SeedIdError, WriteOptions,
+    MAX_WRITE_RATE_HZ,
 };
 
 /// Nanoseconds per second.
