@@ -8,6 +8,7 @@
 
 use std::time::Instant;
 
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::engine::{
     AccelPacket, Engine, EngineConfig, Output, PbrSpec, ShardedEngine, StationId,
@@ -35,7 +36,7 @@ fn pbrs() -> Vec<PbrSpec> {
                 PbrSpec {
                     id: format!("{}-{b}", station(s)),
                     station: StationId::parse(&station(s)).expect("valid id"),
-                    azimuth_deg: 36.0 * b as f64,
+                    azimuth: Azimuth::from_degrees(36.0 * b as f64).expect("finite azimuth"),
                     nominal: BlockParams::from_width_height(width, height, 0.9, 0.7, None)
                         .expect("valid block"),
                     members: vec![],

@@ -3,9 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use rockwatch_core::catalogue::{
-    default_seed, project_horizontal, Catalogue, CatalogueError, Distribution, Pbr,
-};
+use rockwatch_core::azimuth::Azimuth;
+use rockwatch_core::catalogue::{default_seed, Catalogue, CatalogueError, Distribution, Pbr};
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::lhs::{latin_hypercube_seeded, standard_normal_quantile};
 use rockwatch_core::record::Record;
@@ -844,6 +843,13 @@ fn members_with_mu_k_above_mu_s_get_mu_k_equal_to_mu_s() {
 
 // ---------------------------------------------------------------------------------------------
 // Projection.
+
+/// The component along `azimuth_deg` of (east, north), through [`Azimuth`].
+fn project_horizontal(azimuth_deg: f64, east: f64, north: f64) -> f64 {
+    Azimuth::from_degrees(azimuth_deg)
+        .unwrap()
+        .component(east, north)
+}
 
 #[test]
 fn projection_matches_sin_cos_at_cardinal_and_general_azimuths() {

@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::engine::{
     AccelPacket, AlertLevel, Engine, EngineConfig, Output, PbrSpec, StationId, StreamConfig,
@@ -28,7 +29,7 @@ fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpec {
     PbrSpec {
         id: id.into(),
         station: StationId::parse(station).unwrap(),
-        azimuth_deg,
+        azimuth: Azimuth::from_degrees(azimuth_deg).unwrap(),
         nominal: p,
         members: vec![],
     }
@@ -728,8 +729,8 @@ fn channels_oriented_by_azimuth_are_rotated_to_east_north() {
     let id = StationId::parse("CI.RRS.00").unwrap();
     let rotated = StationConfig {
         orientation: Orientation::Azimuths {
-            h1_deg: 228.0,
-            h2_deg: 318.0,
+            h1: Azimuth::from_degrees(228.0).unwrap(),
+            h2: Azimuth::from_degrees(318.0).unwrap(),
         },
         ..StationConfig::default_for(id)
     };

@@ -6,11 +6,12 @@
 //! (through the `mseed` crate) during the reader evaluation (docs/mseed-reader.md): an
 //! independent decoder, so a match is evidence and not a tautology.
 
+use rockwatch_core::azimuth::Azimuth;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use rockwatch_core::mseed::{
+use rockwatch_core::record::mseed::{
     parse_mseed, read_mseed, record_from_channels, record_from_enz, Channel, GapFill, MseedFile,
     SampleKind, NS_PER_S,
 };
@@ -648,16 +649,18 @@ fn enz_triple_rotates_to_the_block_azimuth() {
         1.1687419361571917e-06,
     ];
     let scaled = |c: &Channel, g: f64| all_samples(&c.counts_to_mps2(g).unwrap());
+    let az = |degrees: f64| Azimuth::from_degrees(degrees).unwrap();
     // Azimuth 90° (east): a_h = a_E; azimuth 0° (north): a_h = a_N.
     let east = record_from_enz(
         (e, gains[0]),
         (n, gains[1]),
         Some((z, gains[2])),
-        90.0,
+        az(90.0),
         GapFill::Reject,
     )
     .unwrap();
-    let north = record_from_enz((e, gains[0]), (n, gains[1]), None, 0.0, GapFill::Reject).unwrap();
+    let north =
+        record_from_enz((e, gains[0]), (n, gains[1]), None, az(0.0), GapFill::Reject).unwrap();
     // cos 90° is 6e-17, not 0: allow 1e-15 m/s² (samples are < 0.1 m/s²).
     for (x, y) in east.horizontal_mps2.iter().zip(scaled(e, gains[0])) {
         assert!((x - y).abs() < 1e-15);
@@ -666,7 +669,14 @@ fn enz_triple_rotates_to_the_block_azimuth() {
     assert_eq!(east.vertical_mps2, Some(scaled(z, gains[2])));
     assert_eq!(east.dt_s, 1.0 / 250.0);
     // 45°: (a_N + a_E)/√2.
-    let diag = record_from_enz((e, gains[0]), (n, gains[1]), None, 45.0, GapFill::Reject).unwrap();
+    let diag = record_from_enz(
+        (e, gains[0]),
+        (n, gains[1]),
+        None,
+        az(45.0),
+        GapFill::Reject,
+    )
+    .unwrap();
     let (ae, an) = (scaled(e, gains[0]), scaled(n, gains[1]));
     for (k, x) in diag.horizontal_mps2.iter().enumerate() {
         let want = (ae[k] + an[k]) / 2f64.sqrt();

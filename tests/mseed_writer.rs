@@ -3,7 +3,7 @@
 //! independent read by ObsPy (when installed), and `rockwatch pulses --file-format mseed`
 //! end to end.
 
-use rockwatch_core::mseed::{
+use rockwatch_core::record::mseed::{
     encode_mseed, read_mseed, write_mseed, Blockette1001, ChannelData, FloatEncoding, RecordLength,
     SampleKind, Samples, WriteOptions, NS_PER_S,
 };
@@ -437,7 +437,7 @@ fn steim2_packs_seven_small_differences_per_word() {
         assert_eq!(&r[64..68], &0x03FF_FFFFu32.to_be_bytes());
         assert_eq!(&r[68..72], &1000i32.to_be_bytes());
         assert_eq!(&r[72..76], &data[per_record - 1].to_be_bytes());
-        let file = rockwatch_core::mseed::parse_mseed(&bytes, Path::new("mem")).unwrap();
+        let file = rockwatch_core::record::mseed::parse_mseed(&bytes, Path::new("mem")).unwrap();
         let expected: Vec<f64> = data.iter().map(|&x| f64::from(x)).collect();
         assert_same_samples(&file.channels[0].segments[0].samples, &expected, "steim2");
     }

@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 
 use rockwatch::ports::PacketSink;
 use rockwatch::replay::Traces;
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::AccelPacket;
 use rockwatch_core::record::Record;
 
@@ -41,7 +42,10 @@ pub fn rinaldi() -> Traces {
             "/../../tests/data/records/RinaldiUP.AT2"
         )))
         .expect("bundled record");
-    Traces::from_record(&record, 228.0).expect("finite azimuth")
+    Traces::from_record(
+        &record,
+        Azimuth::from_degrees(228.0).expect("finite azimuth"),
+    )
 }
 
 /// The `p`-th percentile (0–100) of sorted values.

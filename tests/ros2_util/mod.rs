@@ -171,9 +171,8 @@ pub fn rinaldi_packets(tail_s: f64) -> Vec<rockwatch_core::engine::AccelPacket> 
     let mut record = rockwatch_core::record::Record::read(&rec.join("Rinaldi228.AT2")).unwrap();
     record.attach_vertical(&rec.join("RinaldiUP.AT2")).unwrap();
     let station = rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap();
-    rockwatch::replay::Traces::from_record(&record, 228.0)
-        .unwrap()
-        .packets(&station, 100, tail_s)
+    let azimuth = rockwatch_core::azimuth::Azimuth::from_degrees(228.0).unwrap();
+    rockwatch::replay::Traces::from_record(&record, azimuth).packets(&station, 100, tail_s)
 }
 
 /// True if `python3` can import Cyclone DDS's Python binding (`cyclonedds`, pinned in .ci/run).

@@ -22,7 +22,6 @@ pub fn rinaldi_packets() -> Vec<AccelPacket> {
         )))
         .unwrap();
     let station = StationId::parse("CI.RRS.00").unwrap();
-    Traces::from_record(&record, 228.0)
-        .unwrap()
-        .packets(&station, 100, 10.0)
+    let azimuth = rockwatch_core::azimuth::Azimuth::from_degrees(228.0).unwrap();
+    Traces::from_record(&record, azimuth).packets(&station, 100, 10.0)
 }

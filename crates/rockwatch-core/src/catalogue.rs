@@ -38,7 +38,7 @@
 //!   case is rejected rather than silently never matching the upper-case codes of a live
 //!   stream). An empty location is written with the trailing dot: `"CI.RRS."`.
 //! - `azimuth_deg`: the azimuth of the block's +x axis (the axis of rocking and sliding),
-//!   clockwise from north, in [0, 360). See [`project_horizontal`].
+//!   clockwise from north, in [0, 360). See [`Pbr::project_horizontal`] and [`crate::azimuth`].
 //! - `width_m`, `height_m` (m, > 0), `mu_s` (> 0), `mu_k` (in [0, 4/3): μk ≥ 4/3 makes
 //!   slide-rocking ill-posed, the Painlevé paradox), optional `restitution` (in [0, 1]): each
 //!   a [`Distribution`]: a number, a range `{ min = .., max = .. }` (uniform, `min < max`, both
@@ -97,26 +97,12 @@ use std::path::{Path, PathBuf};
 use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 
+use crate::azimuth::Azimuth;
 use crate::dynamics::{BlockParams, ParamError};
 use crate::lhs::{latin_hypercube_seeded, standard_normal_quantile};
 
 /// Largest ensemble size K accepted in a catalogue.
 pub const MAX_ENSEMBLE: usize = 10_000;
-
-/// Component of a horizontal ground acceleration along the azimuth `azimuth_deg`:
-/// `a = a_E·sin(az) + a_N·cos(az)`.
-///
-/// `azimuth_deg` is measured clockwise from north (0° = north, 90° = east), `east_mps2` is
-/// positive towards east and `north_mps2` positive towards north (m/s², but any consistent unit
-/// works: the map is linear). The result is positive towards the azimuth, i.e. towards the
-/// block's +x axis when `azimuth_deg` is its [`Pbr::azimuth_deg`]; that is the sign convention of
-/// the horizontal input of the dynamics. Components of a station that is not oriented east/north
-/// (e.g. channels `1`, `2`) must be rotated to east/north first.
-#[must_use]
-pub fn project_horizontal(azimuth_deg: f64, east_mps2: f64, north_mps2: f64) -> f64 {
-    let (sin_az, cos_az) = azimuth_deg.to_radians().sin_cos();
-    east_mps2 * sin_az + north_mps2 * cos_az
-}
 
 /// The default LHS seed of an entry without `seed`: the 64-bit FNV-1a hash of the UTF-8 bytes
 /// of its `id` (offset basis 0xcbf29ce484222325, prime 0x100000001b3, xor then multiply).
@@ -331,7 +317,7 @@ pub struct Pbr {
     lat_deg: f64,
     lon_deg: f64,
     station: StationId,
-    azimuth_deg: f64,
+    azimuth: Azimuth,
     width_m: Distribution,
     height_m: Distribution,
     mu_s: Distribution,
@@ -387,7 +373,13 @@ impl Pbr {
     /// Azimuth of the block's +x axis, clockwise from north (degrees, [0, 360)).
     #[must_use]
     pub fn azimuth_deg(&self) -> f64 {
-        self.azimuth_deg
+        self.azimuth.degrees()
+    }
+
+    /// The direction of the block's +x axis (see [`Pbr::azimuth_deg`]).
+    #[must_use]
+    pub fn azimuth(&self) -> Azimuth {
+        self.azimuth
     }
 
     /// Base width B (m).
@@ -446,10 +438,12 @@ impl Pbr {
     }
 
     /// The horizontal ground acceleration along this block's +x axis from the east and north
-    /// components: [`project_horizontal`]`(self.azimuth_deg(), east_mps2, north_mps2)`.
+    /// components (m/s²): [`Azimuth::component`] of [`Pbr::azimuth`],
+    /// `a_x = a_E·sin(az) + a_N·cos(az)`. Components of a station that is not oriented
+    /// east/north (e.g. channels `1`, `2`) must be rotated to east/north first.
     #[must_use]
     pub fn project_horizontal(&self, east_mps2: f64, north_mps2: f64) -> f64 {
-        project_horizontal(self.azimuth_deg, east_mps2, north_mps2)
+        self.azimuth.component(east_mps2, north_mps2)
     }
 
     /// The K ensemble members (K = [`Pbr::ensemble_size`]): for K = 1 exactly
@@ -886,15 +880,18 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
     }
     let station = StationId::parse(&raw.station)
         .map_err(|why| ("station".to_owned(), format!("station {why}")))?;
-    if !(raw.azimuth_deg.is_finite() && (0.0..360.0).contains(&raw.azimuth_deg)) {
-        return fail(
-            "azimuth_deg",
-            format!(
-                "azimuth_deg = {} must be in [0, 360) degrees clockwise from north",
-                raw.azimuth_deg
-            ),
-        );
-    }
+    let azimuth = match Azimuth::from_degrees(raw.azimuth_deg) {
+        Ok(azimuth) if (0.0..360.0).contains(&raw.azimuth_deg) => azimuth,
+        _ => {
+            return fail(
+                "azimuth_deg",
+                format!(
+                    "azimuth_deg = {} must be in [0, 360) degrees clockwise from north",
+                    raw.azimuth_deg
+                ),
+            )
+        }
+    };
     check_distribution("width_m", &raw.width_m, SIZE_DOMAIN, sep)?;
     check_distribution("height_m", &raw.height_m, SIZE_DOMAIN, sep)?;
     check_distribution("mu_s", &raw.mu_s, MU_S_DOMAIN, sep)?;
@@ -966,7 +963,7 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
         lat_deg: raw.lat,
         lon_deg: raw.lon,
         station,
-        azimuth_deg: raw.azimuth_deg,
+        azimuth,
         width_m: raw.width_m,
         height_m: raw.height_m,
         mu_s: raw.mu_s,

@@ -6,12 +6,12 @@
 //! iceoryx2, the live node, files of state, CLI) is built on this crate and never the reverse.
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
+pub mod azimuth;
 pub mod catalogue;
 pub mod dynamics;
 pub mod engine;
 pub mod ims;
 pub mod lhs;
-pub mod mseed;
 pub mod ode;
 pub mod pulse;
 pub mod record;

@@ -14,15 +14,35 @@ pub struct StationId {
     station_len: usize,
 }
 
+/// Why a text is not a station identifier (the message does not name the field).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum StationIdError {
+    /// Not three dot-separated codes.
+    #[error(
+        "{text:?} is not NET.STA.LOC (network, station and location codes separated by \
+         two dots, e.g. \"CI.RRS.00\"; an empty location is written \"CI.RRS.\")"
+    )]
+    NotThreeCodes { text: String },
+    /// One code has the wrong length or a character outside A–Z, 0–9.
+    #[error("{text:?}: {code_name} code {code:?} must be {min_len}–{max_len} upper-case letters or digits")]
+    BadCode {
+        text: String,
+        /// `network`, `station` or `location`.
+        code_name: &'static str,
+        code: String,
+        min_len: usize,
+        max_len: usize,
+    },
+}
+
 impl StationId {
     /// Parses `NET.STA.LOC`; the error says what is wrong (without the field name).
-    pub fn parse(text: &str) -> Result<StationId, String> {
+    pub fn parse(text: &str) -> Result<StationId, StationIdError> {
         let parts: Vec<&str> = text.split('.').collect();
         let [net, sta, loc] = parts[..] else {
-            return Err(format!(
-                "{text:?} is not NET.STA.LOC (network, station and location codes separated by \
-                 two dots, e.g. \"CI.RRS.00\"; an empty location is written \"CI.RRS.\")"
-            ));
+            return Err(StationIdError::NotThreeCodes {
+                text: text.to_owned(),
+            });
         };
         for (what, code, lengths) in [
             ("network", net, 1..=2),
@@ -33,11 +53,13 @@ impl StationId {
                 .chars()
                 .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit());
             if !charset_ok || !lengths.contains(&code.len()) {
-                return Err(format!(
-                    "{text:?}: {what} code {code:?} must be {}–{} upper-case letters or digits",
-                    lengths.start(),
-                    lengths.end()
-                ));
+                return Err(StationIdError::BadCode {
+                    text: text.to_owned(),
+                    code_name: what,
+                    code: code.to_owned(),
+                    min_len: *lengths.start(),
+                    max_len: *lengths.end(),
+                });
             }
         }
         Ok(StationId {
@@ -80,7 +102,7 @@ impl fmt::Display for StationId {
 }
 
 impl TryFrom<String> for StationId {
-    type Error = String;
+    type Error = StationIdError;
     fn try_from(value: String) -> Result<Self, Self::Error> {
         StationId::parse(&value)
     }

@@ -433,22 +433,18 @@ impl NodeRuntime {
         };
         let config = &options.config;
         let engine = if shards == 1 {
-            let mut engine = Engine::new(config.engine, config.stations.clone(), &specs)
-                .map_err(anyhow::Error::msg)?;
+            let mut engine = Engine::new(config.engine, config.stations.clone(), &specs)?;
             engine.restore(&records);
             EngineMode::Inline(Box::new(engine))
         } else {
-            EngineMode::Sharded(
-                ShardedEngine::start_with_wake(
-                    config.engine,
-                    &config.stations,
-                    &specs,
-                    &records,
-                    shards,
-                    wake,
-                )
-                .map_err(anyhow::Error::msg)?,
-            )
+            EngineMode::Sharded(ShardedEngine::start_with_wake(
+                config.engine,
+                &config.stations,
+                &specs,
+                &records,
+                shards,
+                wake,
+            )?)
         };
         Ok(NodeRuntime {
             engine: Some(engine),

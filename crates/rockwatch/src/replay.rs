@@ -5,8 +5,9 @@
 use std::path::Path;
 
 use crate::ports::PacketSink;
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{AccelPacket, StationId};
-use rockwatch_core::mseed::{read_mseed, Channel, GapFill};
+use rockwatch_core::record::mseed::{align_channels, read_mseed, Channel, GapFill};
 use rockwatch_core::record::{Record, RecordError};
 
 /// Longest quiet tail a replay or monitor run appends (s): one day.
@@ -24,29 +25,32 @@ pub struct Traces {
 }
 
 impl Traces {
-    /// A record's horizontal component pointing to `azimuth_deg` (clockwise from north) split
-    /// into east and north (a_E = a sin az, a_N = a cos az), its vertical as up. Time 0 is
-    /// the Unix epoch (AT2 and CSV records carry no absolute time).
-    pub fn from_record(record: &Record, azimuth_deg: f64) -> Result<Traces, String> {
-        if !azimuth_deg.is_finite() {
-            return Err(format!(
-                "azimuth must be a finite number of degrees, got {azimuth_deg}"
-            ));
-        }
-        let (s, c) = azimuth_deg.to_radians().sin_cos();
-        Ok(Traces {
+    /// A record's horizontal component pointing to `azimuth` split into east and north
+    /// ([`Azimuth::to_east_north`]: a_E = a sin az, a_N = a cos az), its vertical as up.
+    /// Time 0 is the Unix epoch (AT2 and CSV records carry no absolute time).
+    #[must_use]
+    pub fn from_record(record: &Record, azimuth: Azimuth) -> Traces {
+        let (east, north) = record
+            .horizontal_mps2
+            .iter()
+            .map(|&a| azimuth.to_east_north(a))
+            .unzip();
+        Traces {
             start_ns: 0,
             rate_hz: 1.0 / record.dt_s,
-            east: record.horizontal_mps2.iter().map(|a| a * s).collect(),
-            north: record.horizontal_mps2.iter().map(|a| a * c).collect(),
+            east,
+            north,
             up: record.vertical_mps2.clone(),
-        })
+        }
     }
 
     /// The channels of `station` in a MiniSEED file: …E or …1 as east, …N or …2 as north, …Z
     /// or …3 as up (a missing horizontal is zero). Gaps inside the file are filled linearly;
-    /// the channels must share rate and start time (to half a sample). Values are as stored
-    /// (counts for integer encodings: the station's gain converts them).
+    /// the channels are aligned and cut to their common time window by
+    /// [`align_channels`] (same rate, sample instants within
+    /// [`MAX_ALIGNMENT_OFFSET_SAMPLES`](rockwatch_core::record::mseed::MAX_ALIGNMENT_OFFSET_SAMPLES)
+    /// of a sample). Values are as stored (counts for integer encodings: the station's gain
+    /// converts them).
     pub fn from_mseed(path: &Path, station: &StationId) -> Result<Traces, RecordError> {
         let err = |problem: String| RecordError::new(path, None, problem);
         let file = read_mseed(path)?;
@@ -63,44 +67,24 @@ impl Traces {
             )));
         }
         let pick = |codes: [char; 2]| mine.iter().find(|c| c.cha.ends_with(codes)).copied();
-        let (east, north, up) = (pick(['E', '1']), pick(['N', '2']), pick(['Z', '3']));
-        let Some(first) = east.or(north) else {
+        let picked = [pick(['E', '1']), pick(['N', '2']), pick(['Z', '3'])];
+        if picked[0].is_none() && picked[1].is_none() {
             return Err(err(format!(
                 "station {station} has no horizontal channel (…E/…N or …1/…2)"
             )));
-        };
-        let (start_ns, rate_hz) = (first.start_time_ns, first.sample_rate_hz);
-        let samples = |c: Option<&Channel>| -> Result<Option<Vec<f64>>, RecordError> {
-            let Some(c) = c else { return Ok(None) };
-            if (c.sample_rate_hz - rate_hz).abs() > 1e-9 * rate_hz
-                || (c.start_time_ns - start_ns).abs() as f64 > 0.5e9 / rate_hz
-            {
-                return Err(err(format!(
-                    "channel {} is not aligned with {} (rate or start time)",
-                    c.id(),
-                    first.id()
-                )));
-            }
-            c.contiguous_samples(GapFill::Linear).map(Some)
-        };
-        let (e, n, u) = (samples(east)?, samples(north)?, samples(up)?);
-        let len = [&e, &n, &u]
-            .iter()
-            .filter_map(|c| c.as_ref().map(Vec::len))
-            .min()
-            .unwrap_or(0);
-        let cut = |v: Option<Vec<f64>>| {
-            v.map(|mut v| {
-                v.truncate(len);
-                v
-            })
-        };
+        }
+        // Values as stored: gain 1.
+        let present: Vec<(&Channel, f64)> = picked.iter().flatten().map(|&c| (c, 1.0)).collect();
+        let aligned = align_channels(&present, GapFill::Linear)?;
+        let len = aligned.samples[0].len();
+        let mut series = aligned.samples.into_iter();
+        let [east, north, up] = picked.map(|c| c.and_then(|_| series.next()));
         Ok(Traces {
-            start_ns,
-            rate_hz,
-            east: cut(e).unwrap_or_else(|| vec![0.0; len]),
-            north: cut(n).unwrap_or_else(|| vec![0.0; len]),
-            up: cut(u),
+            start_ns: aligned.start_time_ns,
+            rate_hz: aligned.sample_rate_hz,
+            east: east.unwrap_or_else(|| vec![0.0; len]),
+            north: north.unwrap_or_else(|| vec![0.0; len]),
+            up,
         })
     }
 
@@ -158,7 +142,7 @@ mod tests {
             horizontal_mps2: (0..25).map(f64::from).collect(),
             vertical_mps2: None,
         };
-        let t = Traces::from_record(&record, 90.0).unwrap();
+        let t = Traces::from_record(&record, Azimuth::from_degrees(90.0).unwrap());
         let id = StationId::parse("CI.RRS.00").unwrap();
         let p = t.packets(&id, 100, 0.1);
         let lens: Vec<usize> = p.iter().map(AccelPacket::len).collect();

@@ -2,7 +2,38 @@
 
 use super::packet::StationId;
 use super::stream::StreamConfig;
+use crate::azimuth::Azimuth;
 use crate::dynamics::BlockParams;
+
+/// A configuration value out of its range; the message names the station or key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    #[error("station {station}: gain_mps2_per_count must be > 0, got {gain}")]
+    Gain { station: StationId, gain: f64 },
+    #[error("station {station}: full_scale must be > 0, got {full_scale}")]
+    FullScale { station: StationId, full_scale: f64 },
+    #[error("station {station}: horizontal azimuths {h1_deg}° and {h2_deg}° must be orthogonal")]
+    NotOrthogonal {
+        station: StationId,
+        h1_deg: f64,
+        h2_deg: f64,
+    },
+    #[error("station {station}: lat/lon out of range")]
+    Coordinates { station: StationId },
+    /// An engine key (`engine.…`) out of `range`.
+    #[error("{key} = {value} is out of range: expected {range}")]
+    OutOfRange {
+        key: &'static str,
+        value: f64,
+        range: &'static str,
+    },
+    /// A catalogue entry whose ensemble cannot be drawn.
+    #[error("pbr {pbr:?}: ensemble: {error}")]
+    Ensemble {
+        pbr: String,
+        error: crate::catalogue::EnsembleError,
+    },
+}
 
 /// How a station's horizontal channels are oriented.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -11,8 +42,15 @@ pub enum Orientation {
     /// `east` carries east, `north` carries north.
     EastNorth,
     /// `east` carries channel 1 and `north` channel 2, whose directions are given as
-    /// azimuths (degrees clockwise from north).
-    Azimuths { h1_deg: f64, h2_deg: f64 },
+    /// azimuths (keys `h1_deg`, `h2_deg`: degrees clockwise from north); they must be
+    /// orthogonal (to 1°). East/north are recovered as the sum of the channels' vectors
+    /// (see [`crate::azimuth`]).
+    Azimuths {
+        #[serde(rename = "h1_deg")]
+        h1: Azimuth,
+        #[serde(rename = "h2_deg")]
+        h2: Azimuth,
+    },
 }
 
 /// One station as configured.
@@ -55,32 +93,36 @@ impl StationConfig {
     }
 
     /// Checks gains, full scale, azimuths and coordinates; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
-        let id = &self.id;
-        if let Some(g) = self.gain_mps2_per_count {
-            if !(g.is_finite() && g > 0.0) {
-                return Err(format!(
-                    "station {id}: gain_mps2_per_count must be > 0, got {g}"
-                ));
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let station = self.id.clone();
+        if let Some(gain) = self.gain_mps2_per_count {
+            if !(gain.is_finite() && gain > 0.0) {
+                return Err(ConfigError::Gain { station, gain });
             }
         }
-        if let Some(f) = self.full_scale {
-            if !(f.is_finite() && f > 0.0) {
-                return Err(format!("station {id}: full_scale must be > 0, got {f}"));
+        if let Some(full_scale) = self.full_scale {
+            if !(full_scale.is_finite() && full_scale > 0.0) {
+                return Err(ConfigError::FullScale {
+                    station,
+                    full_scale,
+                });
             }
         }
-        if let Orientation::Azimuths { h1_deg, h2_deg } = self.orientation {
+        if let Orientation::Azimuths { h1, h2 } = self.orientation {
+            let (h1_deg, h2_deg) = (h1.degrees(), h2.degrees());
             let d = (h2_deg - h1_deg).rem_euclid(180.0);
-            if !(h1_deg.is_finite() && h2_deg.is_finite()) || (d - 90.0).abs() > 1.0 {
-                return Err(format!(
-                    "station {id}: horizontal azimuths {h1_deg}° and {h2_deg}° must be orthogonal"
-                ));
+            if (d - 90.0).abs() > 1.0 {
+                return Err(ConfigError::NotOrthogonal {
+                    station,
+                    h1_deg,
+                    h2_deg,
+                });
             }
         }
         if self.lat.is_some_and(|v| !(-90.0..=90.0).contains(&v))
             || self.lon.is_some_and(|v| !(-180.0..=180.0).contains(&v))
         {
-            return Err(format!("station {id}: lat/lon out of range"));
+            return Err(ConfigError::Coordinates { station });
         }
         Ok(())
     }
@@ -134,7 +176,7 @@ impl Default for EngineConfig {
 
 impl EngineConfig {
     /// Checks every threshold; the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let a = &self.alerts;
         let checks: [(&str, f64, bool); 7] = [
             (
@@ -183,7 +225,7 @@ impl EngineConfig {
                     "engine.alerts.quiet_s" => "(0, 86400] s",
                     _ => "a finite positive number",
                 };
-                return Err(format!("{key} = {value} is out of range: expected {range}"));
+                return Err(ConfigError::OutOfRange { key, value, range });
             }
         }
         Ok(())
@@ -196,8 +238,8 @@ impl EngineConfig {
 pub struct PbrSpec {
     pub id: String,
     pub station: StationId,
-    /// Direction of the block's +x axis, degrees clockwise from north.
-    pub azimuth_deg: f64,
+    /// Direction of the block's +x axis.
+    pub azimuth: Azimuth,
     pub nominal: BlockParams,
     /// Ensemble members (empty: nominal only).
     pub members: Vec<BlockParams>,
@@ -206,17 +248,19 @@ pub struct PbrSpec {
 impl PbrSpec {
     /// The engine's view of a catalogue entry: its nominal block, and its Latin-hypercube
     /// members when it declares an ensemble of more than one.
-    pub fn from_catalogue(pbr: &crate::catalogue::Pbr) -> Result<PbrSpec, String> {
+    pub fn from_catalogue(pbr: &crate::catalogue::Pbr) -> Result<PbrSpec, ConfigError> {
         let members = if pbr.ensemble_size() > 1 {
-            pbr.members()
-                .map_err(|e| format!("pbr {:?}: ensemble: {e}", pbr.id()))?
+            pbr.members().map_err(|error| ConfigError::Ensemble {
+                pbr: pbr.id().to_string(),
+                error,
+            })?
         } else {
             Vec::new()
         };
         Ok(PbrSpec {
             id: pbr.id().to_string(),
             station: pbr.station().clone(),
-            azimuth_deg: pbr.azimuth_deg(),
+            azimuth: pbr.azimuth(),
             nominal: pbr.nominal(),
             members,
         })

@@ -31,7 +31,7 @@ pub mod stream;
 
 use std::collections::{BTreeMap, HashSet};
 
-pub use config::{AlertConfig, EngineConfig, Orientation, PbrSpec, StationConfig};
+pub use config::{AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, StationConfig};
 pub use output::{
     fallen_blocks, Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink,
     PbrState, StationIntensity,
@@ -53,6 +53,18 @@ pub struct EngineCounters {
     pub unknown_station_packets: u64,
 }
 
+/// Why an engine cannot be built or started.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error("station {station} is configured twice")]
+    DuplicateStation { station: StationId },
+    /// A worker thread of a [`ShardedEngine`] could not be spawned.
+    #[error("cannot start engine worker: {0}")]
+    Worker(std::io::Error),
+}
+
 /// The monitoring engine.
 #[derive(Debug)]
 pub struct Engine {
@@ -70,12 +82,12 @@ impl Engine {
         config: EngineConfig,
         stations: Vec<StationConfig>,
         pbrs: &[PbrSpec],
-    ) -> Result<Engine, String> {
+    ) -> Result<Engine, EngineError> {
         let mut configs: BTreeMap<StationId, StationConfig> = BTreeMap::new();
         for s in stations {
             s.validate()?;
             if configs.insert(s.id.clone(), s.clone()).is_some() {
-                return Err(format!("station {} is configured twice", s.id));
+                return Err(EngineError::DuplicateStation { station: s.id });
             }
         }
         for p in pbrs {
@@ -127,12 +139,12 @@ impl Engine {
         self.counters.packets += 1;
         let station_id = match StationId::parse(&packet.station) {
             Ok(id) => id,
-            Err(message) => {
+            Err(error) => {
                 self.counters.malformed_station_packets += 1;
                 out.push(Output::Notice(Notice {
                     station: packet.station.clone(),
                     kind: "rejected",
-                    message,
+                    message: error.to_string(),
                 }));
                 return;
             }

@@ -9,6 +9,7 @@ pub const SAMPLE_RATE_RANGE_HZ: (f64, f64) = (1.0, 10_000.0);
 pub const START_TIME_RANGE_NS: (i64, i64) = (-2_208_988_800_000_000_000, 4_102_444_800_000_000_000);
 
 pub use crate::station_id::StationId;
+use crate::station_id::StationIdError;
 
 /// Three-component acceleration from one station, as sent by a transport.
 ///
@@ -32,8 +33,8 @@ pub struct AccelPacket {
 /// Why a packet was rejected as a whole.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PacketError {
-    #[error("{0}")]
-    Station(String),
+    #[error(transparent)]
+    Station(#[from] StationIdError),
     #[error("empty packet")]
     Empty,
     #[error("{got} samples exceed the limit of {MAX_SAMPLES_PER_PACKET}")]
@@ -70,7 +71,7 @@ impl AccelPacket {
 
     /// Checks the packet's structure and values (not its place in the stream).
     pub fn validate(&self) -> Result<StationId, PacketError> {
-        let station = StationId::parse(&self.station).map_err(PacketError::Station)?;
+        let station = StationId::parse(&self.station)?;
         let n = self.east.len();
         if n == 0 {
             return Err(PacketError::Empty);

@@ -8,7 +8,8 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use super::{
-    AccelPacket, AlertConfig, Engine, EngineConfig, JournalRecord, Output, PbrSpec, StationConfig,
+    AccelPacket, AlertConfig, Engine, EngineConfig, EngineError, JournalRecord, Output, PbrSpec,
+    StationConfig,
 };
 
 /// Messages to a worker.
@@ -91,7 +92,7 @@ impl ShardedEngine {
         pbrs: &[PbrSpec],
         journal: &[JournalRecord],
         shards: usize,
-    ) -> Result<ShardedEngine, String> {
+    ) -> Result<ShardedEngine, EngineError> {
         Self::start_with_wake(config, stations, pbrs, journal, shards, Arc::new(|| {}))
     }
 
@@ -104,7 +105,7 @@ impl ShardedEngine {
         journal: &[JournalRecord],
         shards: usize,
         wake: Wake,
-    ) -> Result<ShardedEngine, String> {
+    ) -> Result<ShardedEngine, EngineError> {
         let shards = shards.max(1);
         let (out_tx, outputs): (Sender<Vec<Output>>, _) = mpsc::channel();
         let mut senders = Vec::with_capacity(shards);
@@ -152,7 +153,7 @@ impl ShardedEngine {
                     }
                     engine
                 })
-                .map_err(|e| format!("cannot start engine worker: {e}"))?;
+                .map_err(EngineError::Worker)?;
             senders.push(tx);
             workers.push(handle);
         }

@@ -9,6 +9,7 @@ use super::output::{
     StationIntensity,
 };
 use super::stream::{Gap, Released, Sequencer, StreamConfig};
+use crate::azimuth::Azimuth;
 use crate::dynamics::{BlockEvent, BlockOptions, GroundAccel, Mode, RigidBlock};
 use crate::ims::{RunningConfig, RunningIms};
 
@@ -49,8 +50,8 @@ pub struct PbrSummary {
 #[derive(Debug, Clone)]
 pub(crate) struct PbrRuntime {
     id: String,
-    sin_az: f64,
-    cos_az: f64,
+    /// Direction of the block's +x axis.
+    axis: Azimuth,
     nominal: RigidBlock,
     members: Vec<RigidBlock>,
     members_overturned: usize,
@@ -63,12 +64,10 @@ pub(crate) struct PbrRuntime {
 
 impl PbrRuntime {
     fn new(spec: &PbrSpec) -> Self {
-        let (sin_az, cos_az) = spec.azimuth_deg.to_radians().sin_cos();
         let options = BlockOptions::default();
         PbrRuntime {
             id: spec.id.clone(),
-            sin_az,
-            cos_az,
+            axis: spec.azimuth,
             nominal: RigidBlock::new(spec.nominal, options),
             members: spec
                 .members
@@ -120,7 +119,7 @@ impl PbrRuntime {
     /// `dt_s` seconds, from the ground sample `prev` (at data time `t_prev_ns`) to `next`.
     fn advance(&mut self, prev: Sample, next: Sample, dt_s: f64, t_prev_ns: i64) -> BlockStep {
         let project = |x: Sample| GroundAccel {
-            horizontal_mps2: x.east * self.sin_az + x.north * self.cos_az,
+            horizontal_mps2: self.axis.component(x.east, x.north),
             vertical_mps2: x.up,
         };
         let mut first_change_ns: Option<i64> = None;
@@ -523,10 +522,9 @@ impl StationRuntime {
         let [c1, c2, up] = raw.map(|v| v * scale);
         let (east, north) = match self.config.orientation {
             Orientation::EastNorth => (c1, c2),
-            Orientation::Azimuths { h1_deg, h2_deg } => {
-                let (s1, k1) = h1_deg.to_radians().sin_cos();
-                let (s2, k2) = h2_deg.to_radians().sin_cos();
-                (c1 * s1 + c2 * s2, c1 * k1 + c2 * k2)
+            Orientation::Azimuths { h1, h2 } => {
+                let ((e1, n1), (e2, n2)) = (h1.to_east_north(c1), h2.to_east_north(c2));
+                (e1 + e2, n1 + n2)
             }
         };
         Some(Sample { east, north, up })

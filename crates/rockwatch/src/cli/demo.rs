@@ -19,6 +19,7 @@ use rockwatch::replay::{replay, Restamp, Speed, Traces};
 use rockwatch::ros2::{
     msg, network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2PacketSink,
 };
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{AccelPacket, AlertLevel, StationId};
 use rockwatch_core::record::parse_at2_text;
 
@@ -75,7 +76,10 @@ fn bundled_traces() -> anyhow::Result<Traces> {
             .into_record(v)
             .horizontal_mps2,
     );
-    Traces::from_record(&record, AZIMUTH_DEG).map_err(anyhow::Error::msg)
+    Ok(Traces::from_record(
+        &record,
+        Azimuth::from_degrees(AZIMUTH_DEG)?,
+    ))
 }
 
 /// The demonstration to run: the bundled configuration, catalogue and record, ready.
@@ -142,7 +146,7 @@ fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
         ..NodeOptions::default()
     };
 
-    let station = StationId::parse(STATION).map_err(anyhow::Error::msg)?;
+    let station = StationId::parse(STATION)?;
     let traces = bundled_traces()?;
     Ok(DemoPlan {
         scratch,

@@ -12,10 +12,11 @@ use rockwatch::node::{NodeOptions, NodeRuntime, NoticeLog};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::Publication;
 use rockwatch::replay::Traces;
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{
     Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StreamCounters,
 };
-use rockwatch_core::mseed::format_time_ns;
+use rockwatch_core::record::mseed::format_time_ns;
 use rockwatch_core::record::Record;
 
 /// Run the monitoring engine over a record: "which of my rocks should have toppled?".
@@ -90,12 +91,12 @@ struct MonitorPlan {
 
 /// Where the acceleration comes from.
 enum MonitorInput {
-    /// One horizontal component in direction `azimuth_deg` (degrees clockwise from north),
+    /// One horizontal component in direction `azimuth`,
     /// and optionally its vertical.
     Record {
         path: PathBuf,
         vertical: Option<PathBuf>,
-        azimuth_deg: f64,
+        azimuth: Azimuth,
     },
     /// A MiniSEED file with the station's channels.
     Mseed(PathBuf),
@@ -178,7 +179,7 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
         (Some(path), _) => MonitorInput::Record {
             path,
             vertical: args.vertical,
-            azimuth_deg: args.azimuth,
+            azimuth: Azimuth::from_degrees(args.azimuth)?,
         },
         (None, Some(path)) => MonitorInput::Mseed(path),
         (None, None) => bail!("give --record FILE or --mseed FILE"),
@@ -200,13 +201,13 @@ fn read_traces(input: &MonitorInput, station: &StationId) -> anyhow::Result<Trac
         MonitorInput::Record {
             path,
             vertical,
-            azimuth_deg,
+            azimuth,
         } => {
             let mut record = Record::read(path)?;
             if let Some(v) = vertical {
                 record.attach_vertical(v)?;
             }
-            Traces::from_record(&record, *azimuth_deg).map_err(anyhow::Error::msg)?
+            Traces::from_record(&record, *azimuth)
         }
         MonitorInput::Mseed(path) => Traces::from_mseed(path, station)?,
     })

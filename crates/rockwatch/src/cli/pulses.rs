@@ -4,10 +4,10 @@
 
 use super::OutputFormat;
 use anyhow::{bail, Context};
-use rockwatch_core::mseed::{
+use rockwatch_core::pulse::{sample_pulses, PulseScenario, SampledPulse};
+use rockwatch_core::record::mseed::{
     write_mseed, ChannelData, FloatEncoding, SampleRateFactors, Samples, WriteOptions,
 };
-use rockwatch_core::pulse::{sample_pulses, PulseScenario, SampledPulse};
 use rockwatch_core::record::{write_at2, write_csv};
 use std::path::PathBuf;
 

@@ -4,12 +4,13 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use anyhow::{anyhow, bail, Context};
+use anyhow::{bail, Context};
 use rockwatch::iox::IoxPacketSink;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::PacketSink;
 use rockwatch::replay::{replay, Restamp, Speed, Traces};
 use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
+use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::StationId;
 use rockwatch_core::pulse::{sample_pulses, PulseScenario};
 use rockwatch_core::record::Record;
@@ -107,29 +108,26 @@ fn traces(args: &ReplayArgs, station: &StationId) -> anyhow::Result<Traces> {
         if let Some(v) = &args.vertical {
             record.attach_vertical(v)?;
         }
-        Traces::from_record(&record, args.azimuth).map_err(anyhow::Error::msg)?
+        Traces::from_record(&record, Azimuth::from_degrees(args.azimuth)?)
     } else if let Some(path) = &args.mseed {
         Traces::from_mseed(path, station)?
     } else {
         let (Some(mw), Some(r_km)) = (args.mw, args.r_km) else {
             bail!("--synthetic needs --mw and --r-km");
         };
-        let scenario = PulseScenario::new(mw, r_km).map_err(|e| anyhow!("{e}"))?;
-        let pulse = sample_pulses(&scenario, 1, args.seed)
-            .map_err(|e| anyhow!("{e}"))?
+        let scenario = PulseScenario::new(mw, r_km)?;
+        let pulse = sample_pulses(&scenario, 1, args.seed)?
             .first()
             .map(|p| p.pulse)
             .context("no pulse drawn")?;
-        let record = pulse
-            .to_record_padded(0.01, 2.0)
-            .map_err(|e| anyhow!("{e}"))?;
+        let record = pulse.to_record_padded(0.01, 2.0)?;
         outln!(
             "synthetic pulse: Mw {mw}, R {r_km} km, seed {}: Tp {:.2} s, Vp {:.3} m/s",
             args.seed,
             pulse.period_s(),
             pulse.peak_velocity_mps()
         );
-        Traces::from_record(&record, args.azimuth).map_err(anyhow::Error::msg)?
+        Traces::from_record(&record, Azimuth::from_degrees(args.azimuth)?)
     };
     if !(args.scale.is_finite()) {
         bail!("--scale must be finite, got {}", args.scale);
@@ -147,7 +145,7 @@ fn traces(args: &ReplayArgs, station: &StationId) -> anyhow::Result<Traces> {
 
 /// Replays `args` through `sink` and prints what was sent.
 pub fn replay_through(args: &ReplayArgs, sink: &mut dyn PacketSink) -> anyhow::Result<()> {
-    let station = StationId::parse(&args.station).map_err(anyhow::Error::msg)?;
+    let station = StationId::parse(&args.station)?;
     let traces = traces(args, &station)?;
     let packets = traces.packets(&station, args.packet_ms, args.tail);
     if !(args.wait_s.is_finite() && args.wait_s >= 0.0) {

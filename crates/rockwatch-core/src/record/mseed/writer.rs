@@ -1,4 +1,4 @@
-//! MiniSEED 2.4 writer (pure Rust, no `unsafe`): the "Writing" half of [`crate::mseed`].
+//! MiniSEED 2.4 writer (pure Rust, no `unsafe`): the "Writing" half of [`crate::record::mseed`].
 //!
 //! [`write_mseed`] writes channels of uniformly sampled data as MiniSEED 2.4 data records:
 //! a 48-byte fixed header, blockette 1000 (encoding, word order, record length) and, when a
@@ -25,8 +25,7 @@
 
 use std::path::Path;
 
-use super::{days_to_year, v2_sample_rate, NS_PER_S};
-use crate::record::RecordError;
+use super::{days_to_year, encode_steim2, fits, v2_sample_rate, RecordError, NS_PER_S};
 
 /// Length of every record of a file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -141,17 +140,45 @@ pub struct SeedId {
     pub cha: String,
 }
 
+/// Why a text is not a SEED channel id MiniSEED 2 can hold.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SeedIdError {
+    /// Not four dot-separated codes.
+    #[error(
+        "SEED id {id:?} must have the form NET.STA.LOC.CHA (four codes separated by \
+         dots; LOC may be empty), e.g. XX.P0001..HNX"
+    )]
+    NotFourCodes { id: String },
+    /// A code of the wrong length (`allowed`: `3` or `1 to 2`, …).
+    #[error("SEED id {id:?}: {code_name} code {code:?} has {chars} characters, MiniSEED 2 allows {allowed}")]
+    Length {
+        id: String,
+        code_name: &'static str,
+        code: String,
+        chars: usize,
+        allowed: String,
+    },
+    /// A character outside A–Z, 0–9.
+    #[error(
+        "SEED id {id:?}: {code_name} code {code:?} contains {character:?}; codes hold only \
+         upper-case letters A-Z and digits 0-9"
+    )]
+    Character {
+        id: String,
+        code_name: &'static str,
+        code: String,
+        character: char,
+    },
+}
+
 impl SeedId {
     /// Parses `NET.STA.LOC.CHA` (four dot-separated codes; LOC may be empty). Codes hold
     /// upper-case letters A–Z and digits 0–9 only (SEED manual); lengths: NET 1–2, STA 1–5,
     /// LOC 0–2, CHA 3.
-    pub fn parse(id: &str) -> Result<SeedId, String> {
+    pub fn parse(id: &str) -> Result<SeedId, SeedIdError> {
         let parts: Vec<&str> = id.split('.').collect();
         let [net, sta, loc, cha] = parts.as_slice() else {
-            return Err(format!(
-                "SEED id {id:?} must have the form NET.STA.LOC.CHA (four codes separated by \
-                 dots; LOC may be empty), e.g. XX.P0001..HNX"
-            ));
+            return Err(SeedIdError::NotFourCodes { id: id.to_owned() });
         };
         for (name, code, min, max) in [
             ("network", net, 1, 2),
@@ -165,19 +192,24 @@ impl SeedId {
                 } else {
                     format!("{min} to {max}")
                 };
-                return Err(format!(
-                    "SEED id {id:?}: {name} code {code:?} has {} characters, MiniSEED 2 allows {size}",
-                    code.chars().count()
-                ));
+                return Err(SeedIdError::Length {
+                    id: id.to_owned(),
+                    code_name: name,
+                    code: code.to_string(),
+                    chars: code.chars().count(),
+                    allowed: size,
+                });
             }
             if let Some(c) = code
                 .chars()
                 .find(|c| !(c.is_ascii_uppercase() || c.is_ascii_digit()))
             {
-                return Err(format!(
-                    "SEED id {id:?}: {name} code {code:?} contains {c:?}; codes hold only \
-                     upper-case letters A-Z and digits 0-9"
-                ));
+                return Err(SeedIdError::Character {
+                    id: id.to_owned(),
+                    code_name: name,
+                    code: code.to_string(),
+                    character: c,
+                });
             }
         }
         Ok(SeedId {
@@ -200,6 +232,40 @@ pub const MAX_WRITE_RATE_HZ: f64 = 1.0e6;
 /// SEED can represent.
 const RATE_TOLERANCE: f64 = 1e-12;
 
+/// A sampling rate MiniSEED 2 cannot hold.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum SampleRateError {
+    #[error("sampling rate {rate_hz} Hz: must be a finite number > 0")]
+    NotPositive { rate_hz: f64 },
+    #[error(
+        "sampling rate {rate_hz} Hz is above {MAX_WRITE_RATE_HZ} Hz: the sampling \
+         interval would be shorter than MiniSEED 2's 1 µs time resolution"
+    )]
+    TooHigh { rate_hz: f64 },
+    /// No factor/multiplier pair represents the rate; `nearest` is the closest ratio p/q.
+    #[error(
+        "sampling rate {rate_hz} Hz (interval {} s) cannot be written exactly in \
+         MiniSEED 2, whose rate is a product or ratio of two integers up to 32767{}",
+        1.0 / rate_hz,
+        nearest_hint(*nearest)
+    )]
+    NotRepresentable {
+        rate_hz: f64,
+        nearest: Option<(i64, i64)>,
+    },
+}
+
+/// `; the nearest ratio is p/q = … Hz`, or nothing.
+fn nearest_hint(nearest: Option<(i64, i64)>) -> String {
+    match nearest {
+        Some((p, q)) => format!(
+            "; the nearest ratio is {p}/{q} = {} Hz",
+            p as f64 / q as f64
+        ),
+        None => String::new(),
+    }
+}
+
 /// SEED's sample-rate factor and multiplier (fixed header fields 32 and 34): for factor
 /// F and multiplier M, the rate is F·M (F > 0, M > 0), F/−M (F > 0, M < 0), M/−F (F < 0,
 /// M > 0: −F is the period in s) or 1/(F·M) (both < 0).
@@ -217,17 +283,12 @@ impl SampleRateFactors {
     /// M = 1; up to 32767 s), the ratio p/q with the smallest q (F = p, M = −q; p, q ≤ 32767,
     /// e.g. 1000/3 Hz for dt = 0.003 s), a product F·M for larger integer rates and a
     /// product period for longer ones. The error names the rate and the nearest ratio.
-    pub fn from_rate_hz(rate_hz: f64) -> Result<SampleRateFactors, String> {
+    pub fn from_rate_hz(rate_hz: f64) -> Result<SampleRateFactors, SampleRateError> {
         if !(rate_hz.is_finite() && rate_hz > 0.0) {
-            return Err(format!(
-                "sampling rate {rate_hz} Hz: must be a finite number > 0"
-            ));
+            return Err(SampleRateError::NotPositive { rate_hz });
         }
         if rate_hz > MAX_WRITE_RATE_HZ {
-            return Err(format!(
-                "sampling rate {rate_hz} Hz is above {MAX_WRITE_RATE_HZ} Hz: the sampling \
-                 interval would be shorter than MiniSEED 2's 1 µs time resolution"
-            ));
+            return Err(SampleRateError::TooHigh { rate_hz });
         }
         let close = |value: f64| (value - rate_hz).abs() <= RATE_TOLERANCE * rate_hz;
         let max = f64::from(i16::MAX);
@@ -275,18 +336,10 @@ impl SampleRateFactors {
                 }
             }
         }
-        let hint = match nearest {
-            Some((_, p, q)) => format!(
-                "; the nearest ratio is {p}/{q} = {} Hz",
-                p as f64 / q as f64
-            ),
-            None => String::new(),
-        };
-        Err(format!(
-            "sampling rate {rate_hz} Hz (interval {} s) cannot be written exactly in \
-             MiniSEED 2, whose rate is a product or ratio of two integers up to 32767{hint}",
-            1.0 / rate_hz
-        ))
+        Err(SampleRateError::NotRepresentable {
+            rate_hz,
+            nearest: nearest.map(|(_, p, q)| (p, q)),
+        })
     }
 
     /// The rate (Hz) these factors represent (as every MiniSEED reader computes it).
@@ -361,9 +414,6 @@ fn seed_time(t_ns: i64) -> Result<SeedTime, String> {
 /// 1000 (8) + room for blockette 1001 (8); a multiple of 64 as Steim frames require.
 const DATA_OFFSET: usize = 64;
 
-/// Steim frame size (bytes).
-const FRAME_BYTES: usize = 64;
-
 /// A channel checked and ready to encode.
 struct Prepared<'a> {
     id: SeedId,
@@ -430,8 +480,9 @@ fn channels_id(c: &Prepared<'_>) -> String {
 
 /// Validates one channel: id, rate, samples.
 fn prepare<'a>(channel: &ChannelData<'a>, options: WriteOptions) -> Result<Prepared<'a>, String> {
-    let id = SeedId::parse(&channel.id)?;
-    let factors = SampleRateFactors::from_rate_hz(channel.sample_rate_hz)?;
+    let id = SeedId::parse(&channel.id).map_err(|e| e.to_string())?;
+    let factors =
+        SampleRateFactors::from_rate_hz(channel.sample_rate_hz).map_err(|e| e.to_string())?;
     if channel.samples.is_empty() {
         return Err("no samples: a channel needs at least one".into());
     }
@@ -475,12 +526,6 @@ fn prepare<'a>(channel: &ChannelData<'a>, options: WriteOptions) -> Result<Prepa
         start_time_ns: channel.start_time_ns,
         samples: channel.samples,
     })
-}
-
-/// Whether `value` fits a signed field of `bits` bits.
-fn fits(value: i64, bits: u32) -> bool {
-    let half = 1i64 << (bits - 1);
-    (-half..half).contains(&value)
 }
 
 /// Time of sample `index` of a channel (ns since the epoch), exact for the rational rate
@@ -640,87 +685,6 @@ fn write_header(record: &mut [u8], h: &Header<'_>) {
     }
 }
 
-/// Steim-2 packings of one 32-bit word, densest first: (differences, bits each, 2-bit
-/// code in the control word, 2-bit sub-code "dnib" at the top of the word; none for code 1).
-const STEIM2_PACKINGS: [(usize, u32, u32, Option<u32>); 7] = [
-    (7, 4, 3, Some(2)),
-    (6, 5, 3, Some(1)),
-    (5, 6, 3, Some(0)),
-    (4, 8, 1, None),
-    (3, 10, 2, Some(3)),
-    (2, 15, 2, Some(2)),
-    (1, 30, 2, Some(1)),
-];
-
-/// Encodes as many of `samples` as fit into the Steim-2 frames of `data` (big-endian; the
-/// section length is a multiple of 64). `previous` is the channel's sample before
-/// `samples[0]` (the first difference refers to it; 0 for the first record). Returns the
-/// number of samples and of frames used. Differences must fit 30 bits (checked before).
-/// Greedy: each word takes the densest packing that the next differences fit.
-fn encode_steim2(samples: &[i32], previous: Option<i32>, data: &mut [u8]) -> (usize, usize) {
-    let difference = |j: usize| -> i64 {
-        match (j, previous) {
-            (0, None) => 0,
-            (0, Some(p)) => i64::from(samples[0]) - i64::from(p),
-            (j, _) => i64::from(samples[j]) - i64::from(samples[j - 1]),
-        }
-    };
-    let frames = data.len() / FRAME_BYTES;
-    let mut next = 0usize; // next sample (difference) to pack
-    let mut frames_used = 0usize;
-    for frame in 0..frames {
-        if next == samples.len() {
-            break;
-        }
-        let base = frame * FRAME_BYTES;
-        let mut control = 0u32;
-        let first_word = if frame == 0 { 3 } else { 1 };
-        for w in first_word..16 {
-            if next == samples.len() {
-                break;
-            }
-            let remaining = samples.len() - next;
-            let Some(&(count, bits, nibble, dnib)) =
-                STEIM2_PACKINGS.iter().find(|(count, bits, _, _)| {
-                    *count <= remaining && (next..next + count).all(|j| fits(difference(j), *bits))
-                })
-            else {
-                // Unreachable when differences fit 30 bits (checked in `prepare`).
-                break;
-            };
-            let word = match dnib {
-                None => {
-                    let mut bytes = [0u8; 4];
-                    for (k, b) in bytes.iter_mut().enumerate() {
-                        *b = difference(next + k) as i8 as u8;
-                    }
-                    u32::from_be_bytes(bytes)
-                }
-                Some(dnib) => {
-                    let mask = (1u32 << bits) - 1;
-                    let mut word = dnib << 30;
-                    for k in 0..count {
-                        let shift = bits * (count - 1 - k) as u32;
-                        word |= ((difference(next + k) as i32 as u32) & mask) << shift;
-                    }
-                    word
-                }
-            };
-            data[base + 4 * w..base + 4 * w + 4].copy_from_slice(&word.to_be_bytes());
-            control |= nibble << (30 - 2 * w);
-            next += count;
-        }
-        data[base..base + 4].copy_from_slice(&control.to_be_bytes());
-        frames_used = frame + 1;
-    }
-    if next > 0 {
-        // Forward (X0) and reverse (Xn) integration constants in frame 0, words 1 and 2.
-        data[4..8].copy_from_slice(&samples[0].to_be_bytes());
-        data[8..12].copy_from_slice(&samples[next - 1].to_be_bytes());
-    }
-    (next, frames_used)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -754,7 +718,9 @@ mod tests {
         ] {
             assert!(SampleRateFactors::from_rate_hz(rate).is_err(), "{rate}");
         }
-        let e = SampleRateFactors::from_rate_hz(81.000_012_3).unwrap_err();
+        let e = SampleRateFactors::from_rate_hz(81.000_012_3)
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("cannot be written exactly") && e.contains("nearest"),
             "{e}"
