@@ -109,6 +109,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             args.station
         )
     })?;
+    if !(args.wait_s.is_finite() && (0.0..=86_400.0).contains(&args.wait_s)) {
+        return Err(anyhow!("--wait-s must be 0 to 86400 seconds, got {}", args.wait_s).into());
+    }
     let packets = load_packets(&args, &station)?;
     let samples_per_packet = packets.iter().map(AccelPacket::len).max().unwrap_or(1);
 
@@ -164,7 +167,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         args.service,
         args.iceoryx2_config.display()
     );
-    let deadline = Instant::now() + Duration::from_secs_f64(args.wait_s.clamp(0.0, 86_400.0));
+    let deadline = Instant::now() + Duration::from_secs_f64(args.wait_s);
     while service.dynamic_config().number_of_subscribers() == 0 {
         if Instant::now() >= deadline {
             return Err(anyhow!(
