@@ -65,7 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     // ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE, resolved exactly as the node does.
-    let plan = network_plan_from_env(&Ros2Config::default()).map_err(anyhow::Error::msg)?;
+    let plan = network_plan_from_env(&Ros2Config::default())?;
     let stop = stop_on_signals()?;
 
     // The participant's threads must never take SIGINT/SIGTERM: open it with them blocked.

@@ -57,28 +57,49 @@ pub struct NodeConfig {
     pub iceoryx2: crate::iox::IoxConfig,
 }
 
+/// Why a configuration file could not be loaded: `path: problem`.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {problem}", path.display())]
+pub struct NodeConfigError {
+    /// The configuration file.
+    pub path: PathBuf,
+    pub problem: NodeConfigProblem,
+}
+
+/// What is wrong with a configuration file.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeConfigProblem {
+    /// It could not be read.
+    #[error("{0}")]
+    Read(#[from] std::io::Error),
+    /// It is not valid TOML for this schema: `line N: message`.
+    #[error("{0}")]
+    Syntax(String),
+    /// A value is invalid (engine or station settings).
+    #[error("{0}")]
+    Invalid(#[from] rockwatch_core::engine::ConfigError),
+}
+
 impl NodeConfig {
     /// Reads and validates `path`; errors name the file (and the line, for TOML syntax).
-    pub fn load(path: &Path) -> Result<NodeConfig, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    pub fn load(path: &Path) -> Result<NodeConfig, NodeConfigError> {
+        let error = |problem: NodeConfigProblem| NodeConfigError {
+            path: path.to_owned(),
+            problem,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| error(e.into()))?;
         let mut config: NodeConfig = toml::from_str(&text).map_err(|e| {
-            format!(
-                "{}: {}",
-                path.display(),
-                rockwatch_core::catalogue::toml_error_line(&text, &e)
-            )
+            error(NodeConfigProblem::Syntax(
+                rockwatch_core::catalogue::toml_error_line(&text, &e),
+            ))
         })?;
         let base = path.parent().unwrap_or(Path::new("."));
         config.catalogue = config.catalogue.map(|c| base.join(c));
         config.state_dir = config.state_dir.map(|d| base.join(d));
-        config
-            .engine
-            .validate()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+        config.engine.validate().map_err(|e| error(e.into()))?;
         config.iceoryx2.config_file = config.iceoryx2.config_file.map(|f| base.join(f));
         for s in &config.stations {
-            s.validate()
-                .map_err(|e| format!("{}: {e}", path.display()))?;
+            s.validate().map_err(|e| error(e.into()))?;
         }
         Ok(config)
     }
@@ -88,11 +109,12 @@ impl NodeConfig {
 mod tests {
     use super::*;
 
+    /// Loads `text` as a file; the error as its message.
     fn load(text: &str) -> Result<NodeConfig, String> {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("node.toml");
         std::fs::write(&path, text).unwrap();
-        NodeConfig::load(&path)
+        NodeConfig::load(&path).map_err(|e| e.to_string())
     }
 
     #[test]

@@ -154,10 +154,10 @@ fn reset_live(args: &ResetArgs) -> anyhow::Result<()> {
     }
     let wait = Duration::from_secs_f64(args.wait_s);
     let config = match &args.config {
-        Some(path) => NodeConfig::load(path).map_err(anyhow::Error::msg)?,
+        Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
-    let plan = network_plan_from_env(&config.ros2).map_err(anyhow::Error::msg)?;
+    let plan = network_plan_from_env(&config.ros2)?;
     let mut client = Ros2ResetClient::open(&plan, &config.ros2.namespace)
         .context("cannot join the ROS 2 graph")?;
     if !client.wait_for_service(wait) {

@@ -129,7 +129,7 @@ fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
     std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
     std::fs::write(dir.join("catalogue.toml"), CATALOGUE_TOML)?;
     std::fs::write(dir.join("node.toml"), NODE_TOML)?;
-    let mut config = NodeConfig::load(&dir.join("node.toml")).map_err(anyhow::Error::msg)?;
+    let mut config = NodeConfig::load(&dir.join("node.toml"))?;
     // Loopback only, whatever ROS_AUTOMATIC_DISCOVERY_RANGE says; ROS_DOMAIN_ID is honoured.
     config.ros2 = Ros2Config::loopback_only();
     // ROS 2 only: the bundled node.toml names an iceoryx2 config file beside it, which the
@@ -139,8 +139,7 @@ fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
         &config.ros2,
         std::env::var("ROS_DOMAIN_ID").ok().as_deref(),
         None,
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     let options = NodeOptions {
         config,
         ..NodeOptions::default()

@@ -146,7 +146,7 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
 /// Checks the flags and loads the configuration and the catalogue.
 fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
     let config = match &args.config {
-        Some(path) => NodeConfig::load(path).map_err(anyhow::Error::msg)?,
+        Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
     let options = NodeOptions {

@@ -53,10 +53,10 @@ pub fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
 
 pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     let config = match &args.config {
-        Some(path) => NodeConfig::load(path).map_err(anyhow::Error::msg)?,
+        Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
-    let plan = network_plan_from_env(&config.ros2).map_err(anyhow::Error::msg)?;
+    let plan = network_plan_from_env(&config.ros2)?;
     let options = NodeOptions {
         config,
         catalogue: args.catalogue,

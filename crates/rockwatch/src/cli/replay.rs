@@ -184,12 +184,12 @@ pub fn replay_through(args: &ReplayArgs, sink: &mut dyn PacketSink) -> anyhow::R
 
 pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     let config = match &args.config {
-        Some(path) => NodeConfig::load(path).map_err(anyhow::Error::msg)?,
+        Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
     match args.transport {
         Transport::Ros2 => {
-            let plan = network_plan_from_env(&config.ros2).map_err(anyhow::Error::msg)?;
+            let plan = network_plan_from_env(&config.ros2)?;
             let mut sink = Ros2PacketSink::open(&plan, &config.ros2.namespace)?;
             replay_through(&args, &mut sink)
         }

@@ -1,4 +1,5 @@
-//! iceoryx2 transport (zero-copy, same host): a thin adapter around `crate::node`.
+//! iceoryx2 transport (zero-copy, same host): a thin adapter between the node's ports
+//! (`crate::ports`) and iceoryx2.
 //!
 //! - [`IoxInput`]: the subscription to `pbr/accel` (user header [`AccelHeader`], slice of
 //!   [`AccelSample`]) plus the listener of the event service of the same name: a mio event

@@ -41,7 +41,7 @@ pub use names::{
     ACCEL_TOPIC, ALERTS_TOPIC, IMS_TOPIC, NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING,
     STATE_TOPIC,
 };
-pub use network::{network_plan, network_plan_from_env, NetworkPlan};
+pub use network::{network_plan, network_plan_from_env, NetworkPlan, NetworkPlanError};
 pub use node::Ros2Node;
 pub use parameters::{
     PARAM_IMMINENT_PROBABILITY, PARAM_IMMINENT_THETA_RATIO, PARAM_QUIET_S,

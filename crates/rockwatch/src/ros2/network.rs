@@ -14,27 +14,41 @@ pub struct NetworkPlan {
     pub only_networks: Option<Vec<IpAddr>>,
 }
 
+/// Why the DDS domain or interfaces could not be resolved.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NetworkPlanError {
+    /// `ROS_DOMAIN_ID` is not an integer.
+    #[error("ROS_DOMAIN_ID must be an integer 0..=232, got {0:?}")]
+    DomainIdNotInteger(String),
+    /// The domain id (from the configuration or the environment) is beyond ROS 2's range.
+    #[error("DDS domain id must be 0..=232, got {0}")]
+    DomainIdOutOfRange(u16),
+    /// `ROS_AUTOMATIC_DISCOVERY_RANGE` names no range.
+    #[error("{0}")]
+    DiscoveryRange(String),
+}
+
 /// Resolves the configuration and the values of `ROS_DOMAIN_ID` and
 /// `ROS_AUTOMATIC_DISCOVERY_RANGE` (the environment variables, passed in) into a plan.
 pub fn network_plan(
     config: &Ros2Config,
     ros_domain_id: Option<&str>,
     ros_discovery_range: Option<&str>,
-) -> Result<NetworkPlan, String> {
+) -> Result<NetworkPlan, NetworkPlanError> {
     let domain_id = match (config.domain_id, ros_domain_id.map(str::trim)) {
         (Some(d), _) => d,
         (None, None | Some("")) => 0,
         (None, Some(s)) => s
             .parse::<u16>()
-            .map_err(|_| format!("ROS_DOMAIN_ID must be an integer 0..=232, got {s:?}"))?,
+            .map_err(|_| NetworkPlanError::DomainIdNotInteger(s.to_owned()))?,
     };
     if domain_id > 232 {
-        return Err(format!("DDS domain id must be 0..=232, got {domain_id}"));
+        return Err(NetworkPlanError::DomainIdOutOfRange(domain_id));
     }
     let range = match (config.discovery_range, ros_discovery_range) {
         (Some(r), _) => r,
         (None, None) => DiscoveryRange::SystemDefault,
-        (None, Some(s)) => s.trim().parse()?,
+        (None, Some(s)) => s.trim().parse().map_err(NetworkPlanError::DiscoveryRange)?,
     };
     let only_networks = match range {
         DiscoveryRange::Off | DiscoveryRange::Localhost => {
@@ -52,7 +66,7 @@ pub fn network_plan(
 }
 
 /// The plan for this process's environment.
-pub fn network_plan_from_env(config: &Ros2Config) -> Result<NetworkPlan, String> {
+pub fn network_plan_from_env(config: &Ros2Config) -> Result<NetworkPlan, NetworkPlanError> {
     let domain = std::env::var("ROS_DOMAIN_ID").ok();
     let range = std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").ok();
     network_plan(config, domain.as_deref(), range.as_deref())
@@ -91,11 +105,17 @@ mod tests {
     #[test]
     fn bad_environment_values_are_named() {
         let config = Ros2Config::default();
-        let e = network_plan(&config, Some("x"), None).unwrap_err();
+        let e = network_plan(&config, Some("x"), None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("ROS_DOMAIN_ID"), "{e}");
-        let e = network_plan(&config, Some("300"), None).unwrap_err();
+        let e = network_plan(&config, Some("300"), None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("300"), "{e}");
-        let e = network_plan(&config, None, Some("localhost")).unwrap_err();
+        let e = network_plan(&config, None, Some("localhost"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("ROS_AUTOMATIC_DISCOVERY_RANGE"), "{e}");
         assert_eq!(
             network_plan(&config, Some(""), Some("")).unwrap().domain_id,
