@@ -42,9 +42,27 @@ fn demo_runs_on_loopback_only_and_reports_the_slender_pillar_overturned() {
     assert!(row("rrs-slender-pillar").contains("YES"), "{stdout}");
     assert!(row("rrs-stocky-boulder").contains(" no "), "{stdout}");
     assert!(
-        !stdout.contains("ALERT overturned        rrs-stocky-boulder"),
+        !stdout
+            .lines()
+            .any(|l| l.contains("ALERT overturned ") && l.contains("rrs-stocky-boulder")),
         "{stdout}"
     );
+    // Alert lines carry the data time into the record and the block's mode; the table has
+    // a legend, says which stations had no data, and suggests a next step.
+    let overturned = stdout
+        .lines()
+        .find(|l| l.contains("ALERT overturned ") && l.contains("rrs-slender-pillar"))
+        .unwrap_or_default();
+    let record_t: f64 = overturned
+        .split_whitespace()
+        .next()
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no record time on {overturned:?}"));
+    assert!((0.0..20.0).contains(&record_t), "{overturned}");
+    assert!(overturned.contains(" overturned "), "{overturned}");
+    for needle in ["max |θ|/α:", "P(over):", "no data:    CI.SYL.00", "Next: "] {
+        assert!(stdout.contains(needle), "{needle:?} missing\n{stdout}");
+    }
 }
 
 #[test]

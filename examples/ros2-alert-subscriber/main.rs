@@ -233,7 +233,7 @@ fn mode_name(code: u8) -> &'static str {
 /// One alert for people.
 fn text_line(alert: &msg::PbrAlert) -> String {
     format!(
-        "{} {:<17} {:<24} {} mode {:<10} |θ|/α {:6.3} slide {:7.4} m P(overturn) {:.2} PGA {:.2} m/s² PGV {:.3} m/s",
+        "{} {:<17} {:<24} {} mode {:<10} θ/α {:+6.3} slide {:7.4} m P(overturn) {:.2} PGA {:.2} m/s² PGV {:.3} m/s",
         format_time_ns(alert.header.stamp.to_nanos()),
         level_name(alert.level),
         alert.pbr_id,

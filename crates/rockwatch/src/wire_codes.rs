@@ -52,3 +52,27 @@ pub fn level_code(level: AlertLevel) -> u8 {
 pub fn level_of_code(code: u8) -> Option<AlertLevel> {
     AlertLevel::ALL.into_iter().find(|l| level_code(*l) == code)
 }
+
+/// The block mode of a wire code, if it is one.
+#[must_use]
+pub fn mode_of_code(code: u8) -> Option<Mode> {
+    Mode::ALL.into_iter().find(|m| mode_code(*m) == code)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_mode_and_level_round_trips_and_other_codes_are_refused() {
+        for mode in Mode::ALL {
+            assert_eq!(mode_of_code(mode_code(mode)), Some(mode));
+        }
+        for level in AlertLevel::ALL {
+            assert_eq!(level_of_code(level_code(level)), Some(level));
+        }
+        assert_eq!(mode_of_code(MODE_FLIGHT + 1), None);
+        assert_eq!(level_of_code(0), None);
+        assert_eq!(level_of_code(LEVEL_OVERTURNED + 1), None);
+    }
+}

@@ -37,6 +37,16 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// Every mode, in the order of their wire codes.
+    pub const ALL: [Mode; 6] = [
+        Mode::Rest,
+        Mode::Slide,
+        Mode::Rock,
+        Mode::SlideRock,
+        Mode::Overturned,
+        Mode::Flight,
+    ];
+
     /// The name used in JSON and text output (`"slide-rock"` etc.).
     #[must_use]
     pub fn as_str(self) -> &'static str {

@@ -61,6 +61,8 @@ pub struct Alert {
     /// Episode number of this block (1 for the first), part of the alert's identity.
     pub episode: u32,
     pub mode: Mode,
+    /// θ/α, signed (dimensionless): the rocking angle θ (> 0 clockwise about the +x pivot,
+    /// spec §1) over the block's slenderness α; |θ/α| = 1 is the static overturning angle.
     pub theta_over_alpha: f64,
     /// Slip of the contact point u (m).
     pub slide_m: f64,
@@ -89,6 +91,8 @@ pub struct PbrState {
     pub station: String,
     pub mode: Mode,
     pub theta_rad: f64,
+    /// θ/α, signed (dimensionless): the rocking angle θ (> 0 clockwise about the +x pivot,
+    /// spec §1) over the block's slenderness α; |θ/α| = 1 is the static overturning angle.
     pub theta_over_alpha: f64,
     pub slide_m: f64,
     pub overturned: bool,

@@ -6,20 +6,21 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context};
+use rockwatch::log_text::{printable, PBR_ID_CHARS};
 use rockwatch::node::{NodeOptions, ServeReport};
 use rockwatch::node_config::NodeConfig;
-use rockwatch::ports::PacketSink;
-use rockwatch::ports::{Publication, Publisher};
+use rockwatch::ports::{PacketSink, Publication, Publisher};
 use rockwatch::replay::{replay, Restamp, Speed, Traces};
 use rockwatch::ros2::{
     msg, network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2PacketSink,
 };
 use rockwatch_core::azimuth::Azimuth;
+use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::{AccelPacket, AlertLevel, StationId};
 use rockwatch_core::record::parse_at2_text;
 
@@ -196,8 +197,13 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
                 rockwatch::node::serve(&options, &network, &stop, &mut [&mut recorder])
             })?
     };
+    // UTC time (ns) given to the record's first sample once the replay starts, so that alert
+    // lines can say how far into the record they were raised.
+    let record_origin_ns = Arc::new(AtomicI64::new(i64::MIN));
     let replayer = {
         let (network, stop) = (network.clone(), Arc::clone(&stop));
+        let record_origin_ns = Arc::clone(&record_origin_ns);
+        let mut packets = packets;
         std::thread::Builder::new()
             .name("demo-replay".into())
             .spawn(move || -> anyhow::Result<()> {
@@ -206,7 +212,9 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
                     stop.store(true, Ordering::Relaxed);
                     anyhow::bail!("the node did not subscribe to /pbr/accel within 30 s");
                 }
-                replay(&packets, &mut sink, speed, Restamp::Now, 1)?;
+                let origin_ns = restamp_to_now(&mut packets);
+                record_origin_ns.store(origin_ns, Ordering::Relaxed);
+                replay(&packets, &mut sink, speed, Restamp::Original, 1)?;
                 if !sink.finish(Duration::from_secs(30))? {
                     anyhow::bail!("the node did not acknowledge every packet within 30 s");
                 }
@@ -218,15 +226,19 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
     let started = Instant::now();
     let mut received: Vec<msg::PbrAlert> = Vec::new();
     let mut quiet_since: Option<Instant> = None;
+    outln!(
+        "{:>9}  {:<23} {:<22} {:<10} {:>6} {:>8} {:>9}",
+        "record t",
+        "alert",
+        "block",
+        "mode",
+        "θ/α",
+        "slide",
+        "PGA"
+    );
     loop {
         for alert in listener.recv(Duration::from_millis(200))? {
-            outln!(
-                "[{:6.2} s] ALERT {:<17} {:<24} {}",
-                started.elapsed().as_secs_f64(),
-                msg::level_of_code(alert.level).map_or("?", AlertLevel::as_str),
-                alert.pbr_id,
-                alert.message
-            );
+            print_alert(&alert, record_origin_ns.load(Ordering::Relaxed));
             received.push(alert);
             quiet_since = None;
         }
@@ -263,6 +275,43 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
     })
 }
 
+/// Shifts the packets' time stamps so that the record's first sample is now (UTC); returns
+/// that instant (ns since the Unix epoch).
+fn restamp_to_now(packets: &mut [AccelPacket]) -> i64 {
+    let now_ns = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+    let shift_ns = packets.first().map_or(0, |p| now_ns - p.start_time_ns);
+    for p in packets {
+        p.start_time_ns += shift_ns;
+    }
+    now_ns
+}
+
+/// One alert as a line under the header printed by [`execute`]: the data time of the alert
+/// in seconds into the record (from `record_origin_ns`, the UTC time of the record's first
+/// sample), then what the alert says.
+fn print_alert(alert: &msg::PbrAlert, record_origin_ns: i64) {
+    let record_t = if record_origin_ns == i64::MIN {
+        "?".to_string()
+    } else {
+        format!(
+            "{:.2} s",
+            (alert.header.stamp.to_nanos() - record_origin_ns) as f64 * 1e-9
+        )
+    };
+    outln!(
+        "{:>9}  ALERT {:<17} {:<22} {:<10} {:>+6.2} {:>+6.3} m {:>4.2} m/s²",
+        record_t,
+        msg::level_of_code(alert.level).map_or("?", AlertLevel::as_str),
+        printable(&alert.pbr_id, PBR_ID_CHARS),
+        msg::mode_of_code(alert.mode).map_or("?", Mode::as_str),
+        alert.theta_over_alpha,
+        alert.slide,
+        alert.pga
+    );
+}
+
 /// The table of every block, and what went over ROS 2.
 fn print_blocks(outcome: &DemoOutcome) {
     let DemoOutcome {
@@ -275,7 +324,7 @@ fn print_blocks(outcome: &DemoOutcome) {
         "{:<24} {:<10} {:>8} {:>10} {:>10} {:>8}  {:<25} {:>10}",
         "block",
         "station",
-        "max θ/α",
+        "max |θ|/α",
         "max slide",
         "overturned",
         "P(over)",
@@ -315,10 +364,34 @@ fn print_blocks(outcome: &DemoOutcome) {
             latency
         );
     }
+    outln!();
+    outln!("record t:   data time of the alert, seconds into the record (the replay runs at the speed given)");
+    outln!("θ/α:        rocking angle over the block's slenderness α, signed (+ clockwise about the +x corner); |θ/α| = 1 puts the centre of mass above the pivot");
+    outln!("max |θ|/α:  largest |θ|/α reached; a fallen block shows (π/2)/α, where the integration stops");
+    outln!("P(over):    fraction of the block's uncertainty ensemble that overturned (0 or 1 for a block without ensemble)");
+    outln!("latency:    arrival of the triggering packet at the node → publication of its most severe alert");
+    let silent: Vec<&str> = report
+        .summaries
+        .iter()
+        .filter(|s| s.station != STATION)
+        .map(|s| s.station.as_str())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    if !silent.is_empty() {
+        outln!(
+            "no data:    {} (in the bundled catalogue; the demo replays {STATION} only)",
+            silent.join(", ")
+        );
+    }
+    outln!();
     outln!(
-        "{} packets received by the node over ROS 2, {} alerts received on {}; latency = triggering packet's arrival → alert publication (most severe alert)",
+        "{} packets received by the node over ROS 2, {} alerts received on {}.",
         report.ros2_packets,
         received.len(),
         rockwatch::ros2::ALERTS_TOPIC
+    );
+    outln!(
+        "Next: `rockwatch monitor --config config/node.toml --record FILE.AT2` runs your own record through the same engine; `rockwatch node --config config/node.toml` runs the node live (README: `rockwatch node`)."
     );
 }

@@ -77,7 +77,8 @@ pub struct PbrAlertIox {
     pub data_time_ns: i64,
     /// Node-side latency: publication time − arrival of the triggering packet (ns).
     pub latency_ns: i64,
-    /// |θ|/α of the block at the alert (dimensionless; 1 = static overturning angle).
+    /// θ/α, signed (dimensionless): the rocking angle θ (> 0 clockwise about the +x pivot,
+    /// spec §1) over the block's slenderness α; |θ/α| = 1 is the static overturning angle.
     pub theta_over_alpha: f64,
     /// Slip of the contact point (m).
     pub slide_m: f64,

@@ -13,7 +13,7 @@ use rockwatch_core::engine;
 
 /// The mode and level codes of the messages (one table for both transports).
 pub use crate::wire_codes::{
-    level_code, level_of_code, mode_code, LEVEL_MOTION_ONSET, LEVEL_OVERTURNED,
+    level_code, level_of_code, mode_code, mode_of_code, LEVEL_MOTION_ONSET, LEVEL_OVERTURNED,
     LEVEL_OVERTURN_IMMINENT, MODE_FLIGHT, MODE_OVERTURNED, MODE_REST, MODE_ROCK, MODE_SLIDE,
     MODE_SLIDE_ROCK,
 };
@@ -100,7 +100,8 @@ pub struct PbrState {
     pub mode: u8,
     /// Rocking angle θ (rad).
     pub theta: f64,
-    /// |θ|/α (dimensionless).
+    /// θ/α, signed (dimensionless): the rocking angle θ (> 0 clockwise about the +x pivot,
+    /// spec §1) over the block's slenderness α; |θ/α| = 1 is the static overturning angle.
     pub theta_over_alpha: f64,
     /// Slip of the contact point (m).
     pub slide: f64,
@@ -120,7 +121,8 @@ pub struct PbrAlert {
     pub level: u8,
     /// One of the `MODE_*` constants ([`mode_code`]).
     pub mode: u8,
-    /// |θ|/α (dimensionless).
+    /// θ/α, signed (dimensionless): the rocking angle θ (> 0 clockwise about the +x pivot,
+    /// spec §1) over the block's slenderness α; |θ/α| = 1 is the static overturning angle.
     pub theta_over_alpha: f64,
     /// Slip of the contact point (m).
     pub slide: f64,
@@ -235,7 +237,7 @@ impl From<&engine::Alert> for PbrAlert {
             pga: a.pga_mps2,
             pgv: a.pgv_mps,
             message: format!(
-                "{} {}: {} (episode {}, |θ|/α {:.2}, slide {:.3} m, PGA {:.2} m/s²)",
+                "{} {}: {} (episode {}, θ/α {:+.2}, slide {:+.3} m, PGA {:.2} m/s²)",
                 a.level.as_str(),
                 a.pbr_id,
                 a.mode,
