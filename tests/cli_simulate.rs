@@ -76,3 +76,70 @@ fn geometry_must_be_complete() {
         assert!(!out.status.success(), "{block:?}");
     }
 }
+
+#[test]
+fn plot_is_png_for_png_svg_for_svg_and_other_names_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let plot = |name: &str| {
+        let path = dir.path().join(name);
+        let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+            .args([
+                "simulate",
+                "--record",
+                concat!(
+                    env!("CARGO_MANIFEST_DIR"),
+                    "/../../tests/data/records/Rinaldi228.AT2"
+                ),
+                "--vertical",
+                concat!(
+                    env!("CARGO_MANIFEST_DIR"),
+                    "/../../tests/data/records/RinaldiUP.AT2"
+                ),
+                "--width",
+                "0.5806125494392025",
+                "--height",
+                "2.5",
+                "--mu-s",
+                "1.5",
+                "--mu-k",
+                "1.0",
+                "--scale",
+                "0.5",
+                "--plot",
+            ])
+            .arg(&path)
+            .output()
+            .unwrap();
+        (out, std::fs::read(&path).unwrap_or_default())
+    };
+    let (out, png) = plot("rinaldi.PNG");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
+    let (out, svg) = plot("rinaldi.svg");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let svg = String::from_utf8(svg).unwrap();
+    assert!(svg.starts_with("<svg"), "not an SVG");
+    // Rounded numbers, the scale, the vertical series and the ±1 lines of θ/α.
+    assert!(
+        svg.contains("B = 0.5806 m") && !svg.contains("0.5806125"),
+        "title not rounded"
+    );
+    assert!(svg.contains("× 0.5"), "scale factor missing from the title");
+    assert!(
+        svg.contains("\nvertical\n") && svg.contains("\nhorizontal\n"),
+        "legend"
+    );
+    let (out, jpg) = plot("rinaldi.jpg");
+    assert!(!out.status.success() && jpg.is_empty());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains(".svg or .png"), "{stderr}");
+}

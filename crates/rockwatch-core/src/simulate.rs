@@ -74,6 +74,8 @@ pub struct Summary {
 pub struct Trace {
     pub t_s: Vec<f64>,
     pub horizontal_mps2: Vec<f64>,
+    /// Vertical ground acceleration (m/s², + up); empty when the record has none.
+    pub vertical_mps2: Vec<f64>,
     pub theta_rad: Vec<f64>,
     pub slide_m: Vec<f64>,
     pub mode: Vec<Mode>,
@@ -128,16 +130,20 @@ pub fn simulate(
     let mut events = Vec::new();
     let mut modes = vec![(0.0, Mode::Rest)];
     let mut trace = options.keep_trace.then(Trace::default);
-    let push_trace = |trace: &mut Option<Trace>, block: &RigidBlock, a: f64| {
+    let has_vertical = record.vertical_mps2.is_some();
+    let push_trace = |trace: &mut Option<Trace>, block: &RigidBlock, a: GroundAccel| {
         if let Some(tr) = trace {
             tr.t_s.push(block.time_s());
-            tr.horizontal_mps2.push(a);
+            tr.horizontal_mps2.push(a.horizontal_mps2);
+            if has_vertical {
+                tr.vertical_mps2.push(a.vertical_mps2);
+            }
             tr.theta_rad.push(block.theta_rad());
             tr.slide_m.push(block.slide_m());
             tr.mode.push(block.mode());
         }
     };
-    push_trace(&mut trace, &block, ground_at(0).horizontal_mps2);
+    push_trace(&mut trace, &block, ground_at(0));
     let n_intervals = record.len() - 1 + n_extra;
     for i in 0..n_intervals {
         let (from, to) = (ground_at(i), ground_at(i + 1));
@@ -152,7 +158,7 @@ pub fn simulate(
                 t_s: block.time_s(),
                 reason,
             })?;
-        push_trace(&mut trace, &block, to.horizontal_mps2);
+        push_trace(&mut trace, &block, to);
         if matches!(block.mode(), Mode::Overturned | Mode::Flight) {
             break;
         }

@@ -1,8 +1,11 @@
-//! SVG plots of a simulation: ground acceleration, θ/α and slide against time, with the
-//! response mode shaded (in the manner of the seed paper's Figures 2 and 3).
+//! Plots of a simulation (SVG or PNG by the file's extension): ground acceleration
+//! (horizontal, and vertical when the record has it), θ/α with the ±1 lines of the static
+//! overturning angle, and slide against time, with the response mode shaded (in the manner of
+//! the seed paper's Figures 2 and 3).
 
 use std::path::Path;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use rockwatch_core::dynamics::{BlockParams, Mode};
@@ -56,7 +59,33 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-/// Writes the three-panel SVG plot of `trace` to `path`.
+/// One curve of a panel: values (one per trace sample), colour, legend name.
+type Series<'a> = (&'a [f64], RGBColor, &'static str);
+
+/// One panel: the y-axis label, its curves, and horizontal reference levels.
+type Panel<'a> = (&'static str, Vec<Series<'a>>, &'static [f64]);
+
+/// Size of a simulation plot (pixels; SVG user units).
+const SIZE: (u32, u32) = (1000, 800);
+
+/// `x` with four significant digits at most, without trailing zeros (`0.5806125` → `0.5806`,
+/// `1.25` → `1.25`, `2000` → `2000`): numbers in titles and labels.
+#[must_use]
+pub fn short_number(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let decimals = (3 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let text = format!("{x:.decimals$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    }
+}
+
+/// Writes the three-panel plot of `trace` to `path`: PNG if it ends in `.png`, SVG if it
+/// ends in `.svg` (any other extension is an error, so that the content matches the name).
 pub fn plot_simulation(
     path: &Path,
     trace: &Trace,
@@ -64,36 +93,85 @@ pub fn plot_simulation(
     title: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
     ensure_font();
-    let root = SVGBackend::new(path, (1000, 800)).into_drawing_area();
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match extension.as_deref() {
+        Some("svg") => draw(
+            SVGBackend::new(path, SIZE).into_drawing_area(),
+            trace,
+            params,
+            title,
+        ),
+        Some("png") => draw(
+            BitMapBackend::new(path, SIZE).into_drawing_area(),
+            trace,
+            params,
+            title,
+        ),
+        _ => Err(format!("{}: the plot file must end in .svg or .png", path.display()).into()),
+    }
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    trace: &Trace,
+    params: &BlockParams,
+    title: &str,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
     root.fill(&WHITE)?;
     let (head, body) = root.split_vertically(48);
     head.titled(
         &format!(
-            "{title} — B = {} m, H = {} m, α = {:.3} rad, μs = {}, μk = {}",
-            params.width_m, params.height_m, params.alpha_rad, params.mu_s, params.mu_k
+            "{title} — B = {} m, H = {} m, α = {} rad, μs = {}, μk = {}",
+            short_number(params.width_m),
+            short_number(params.height_m),
+            short_number(params.alpha_rad),
+            short_number(params.mu_s),
+            short_number(params.mu_k)
         ),
         ("sans-serif", 16),
     )?;
     let panels = body.split_evenly((3, 1));
     let t_end = trace.t_s.last().copied().unwrap_or(1.0).max(1e-9);
     let runs = mode_runs(trace);
-    let accel_g: Vec<f64> = trace
-        .horizontal_mps2
-        .iter()
-        .map(|a| a / STANDARD_GRAVITY_MPS2)
-        .collect();
+    let in_g =
+        |values: &[f64]| -> Vec<f64> { values.iter().map(|a| a / STANDARD_GRAVITY_MPS2).collect() };
+    let horizontal_g = in_g(&trace.horizontal_mps2);
+    let vertical_g = in_g(&trace.vertical_mps2);
     let theta_over_alpha: Vec<f64> = trace
         .theta_rad
         .iter()
         .map(|t| t / params.alpha_rad)
         .collect();
-    let series: [(&str, &Vec<f64>, RGBColor); 3] = [
-        ("ground acceleration (g)", &accel_g, RGBColor(0, 0, 0)),
-        ("θ/α", &theta_over_alpha, RGBColor(0, 114, 178)),
-        ("slide u (m)", &trace.slide_m, RGBColor(0, 158, 115)),
+    let mut accel: Vec<Series> = vec![(&horizontal_g, RGBColor(0, 0, 0), "horizontal")];
+    if !vertical_g.is_empty() {
+        accel.push((&vertical_g, RGBColor(153, 153, 153), "vertical"));
+    }
+    let panels_data: [Panel; 3] = [
+        ("ground acceleration (g)", accel, &[]),
+        (
+            "θ/α",
+            vec![(&theta_over_alpha, RGBColor(0, 114, 178), "θ/α")],
+            &[-1.0, 1.0],
+        ),
+        (
+            "slide u (m)",
+            vec![(&trace.slide_m, RGBColor(0, 158, 115), "slide")],
+            &[],
+        ),
     ];
-    for (panel, (label, values, colour)) in panels.iter().zip(series) {
-        let (lo, hi) = range(values.iter().copied());
+    for (panel, (label, series, levels)) in panels.iter().zip(panels_data) {
+        let (lo, hi) = range(
+            series
+                .iter()
+                .flat_map(|(values, _, _)| values.iter().copied())
+                .chain(levels.iter().copied()),
+        );
         let mut chart = ChartBuilder::on(panel)
             .margin(8)
             .x_label_area_size(30)
@@ -113,10 +191,32 @@ pub fn plot_simulation(
                 )))?;
             }
         }
-        chart.draw_series(LineSeries::new(
-            trace.t_s.iter().copied().zip(values.iter().copied()),
-            colour.stroke_width(1),
-        ))?;
+        for &level in levels {
+            chart.draw_series(LineSeries::new(
+                [(0.0, level), (t_end, level)],
+                RGBColor(213, 94, 0).stroke_width(1),
+            ))?;
+        }
+        let labelled = series.len() > 1;
+        for (values, colour, name) in series {
+            let drawn = chart.draw_series(LineSeries::new(
+                trace.t_s.iter().copied().zip(values.iter().copied()),
+                colour.stroke_width(1),
+            ))?;
+            if labelled {
+                drawn.label(name).legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
+                });
+            }
+        }
+        if labelled {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 12))
+                .draw()?;
+        }
     }
     // Legend of the mode colours, under the title.
     let legend = [
@@ -135,4 +235,19 @@ pub fn plot_simulation(
     }
     root.present()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::short_number;
+
+    #[test]
+    fn short_numbers_keep_four_significant_digits_without_trailing_zeros() {
+        assert_eq!(short_number(0.580_612_549_439_202_5), "0.5806");
+        assert_eq!(short_number(1.25), "1.25");
+        assert_eq!(short_number(2000.0), "2000");
+        assert_eq!(short_number(123_456.7), "123457");
+        assert_eq!(short_number(-0.000_123_456), "-0.0001235");
+        assert_eq!(short_number(0.0), "0");
+    }
 }

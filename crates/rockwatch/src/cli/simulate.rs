@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use rockwatch::plot::plot_simulation;
+use rockwatch::plot::{plot_simulation, short_number};
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::ode::Tolerance;
 use rockwatch_core::record::Record;
@@ -68,8 +68,10 @@ pub struct SimulateArgs {
     /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     format: OutputFormat,
-    /// Also draw the ground acceleration, θ/α and slide against time, modes shaded (SVG).
-    #[arg(long, value_name = "OUT.svg")]
+    /// Also draw the ground acceleration (horizontal, and vertical when given), θ/α with its
+    /// ±1 lines and slide against time, modes shaded; PNG if OUT ends in .png, SVG if it ends
+    /// in .svg.
+    #[arg(long, value_name = "OUT.svg|OUT.png")]
     plot: Option<PathBuf>,
 }
 
@@ -115,7 +117,12 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     let sim = simulate(params, &record, &options)
         .with_context(|| format!("simulating {}", args.record.display()))?;
     if let (Some(path), Some(trace)) = (&args.plot, &sim.trace) {
-        plot_simulation(path, trace, &params, &record.source)
+        let title = if args.scale == 1.0 {
+            record.source.clone()
+        } else {
+            format!("{} × {}", record.source, short_number(args.scale))
+        };
+        plot_simulation(path, trace, &params, &title)
             .map_err(|e| anyhow::anyhow!("writing plot {}: {e}", path.display()))?;
     }
     match args.format {
