@@ -626,3 +626,74 @@ fn ims_bad_input_fails_with_one_line_naming_the_file() {
     let stderr = String::from_utf8(out.stderr).unwrap();
     assert!(stderr.contains("RSN15_KERN_TAF021.AT2"), "{stderr}");
 }
+
+/// `rockwatch ims` on the K-NET record whose raw acceleration carries a DC offset: a warning
+/// naming it and --demean; with --demean the pre-event mean (first 5 %, computed here from
+/// the samples) is subtracted, so PGA is max |a − mean| and the offset's PGD of ~75 m is gone.
+#[test]
+fn ims_warns_of_a_dc_offset_and_demean_removes_the_pre_event_mean() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/mseed/knet_AKT013_HNE_ms2.mseed"
+    );
+    let ims = |extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+            .args(["ims", "--format", "json", "--record", path])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        (json, String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (raw, warning) = ims(&[]);
+    assert_eq!(warning.lines().count(), 1, "{warning}");
+    assert!(
+        warning.contains("DC offset") && warning.contains("--demean") && warning.contains(path),
+        "{warning}"
+    );
+    assert!(raw["pgd"].as_f64().unwrap() > 70.0, "{raw}");
+
+    let record = Record::read(Path::new(path)).unwrap();
+    let a = &record.horizontal_mps2;
+    let n = a.len() / 20; // the first 5 %
+    let mean = a[..n].iter().sum::<f64>() / n as f64;
+    let pga = a.iter().fold(0.0f64, |m, x| m.max((x - mean).abs()));
+    let (demeaned, quiet) = ims(&["--demean"]);
+    assert!(quiet.is_empty(), "{quiet}");
+    assert_close("PGA", demeaned["pga"].as_f64().unwrap(), pga, 1e-12, 0.0);
+    assert!(demeaned["pgd"].as_f64().unwrap() < 0.1, "{demeaned}");
+
+    // A processed record starts near zero: no warning.
+    let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(["ims", "--format", "json", "--record"])
+        .arg(records_dir().join("Rinaldi228.AT2"))
+        .output()
+        .unwrap();
+    assert!(out.status.success() && out.stderr.is_empty());
+}
+
+/// The vertical table is labelled with the vertical's own file.
+#[test]
+fn ims_labels_the_vertical_with_its_own_file() {
+    let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(["ims", "--record"])
+        .arg(records_dir().join("Rinaldi228.AT2"))
+        .arg("--vertical")
+        .arg(records_dir().join("RinaldiUP.AT2"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    let headers: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains(" samples, dt"))
+        .collect();
+    assert_eq!(headers.len(), 2, "{text}");
+    assert!(headers[0].contains("Rinaldi228.AT2 (horizontal)"), "{text}");
+    assert!(headers[1].contains("RinaldiUP.AT2 (vertical)"), "{text}");
+}

@@ -30,6 +30,7 @@
 //! the seed's study by stable name; [`running::RunningIms`] keeps the running values of one
 //! component sample by sample, equal to the offline values over the samples received so far.
 
+pub mod baseline;
 pub mod offline;
 pub mod running;
 pub mod spectrum;

@@ -1,6 +1,7 @@
 //! `rockwatch ims`: intensity measures of a record, as a table or as JSON.
 
 use anyhow::Context;
+use rockwatch_core::ims::baseline::{pre_event, remove_offset};
 use rockwatch_core::ims::spectrum::format_period_s;
 use rockwatch_core::ims::{compute_ims, ImOptions, ImSet, DEFAULT_SA_PERIODS_S};
 use rockwatch_core::record::{Record, STANDARD_GRAVITY_MPS2};
@@ -11,9 +12,14 @@ use super::OutputFormat as Format;
 
 /// Computes the intensity measures of a record (definitions: spec/intensity-measures.md).
 ///
-/// The record is used as given (no baseline correction, padding or filtering); spectral IMs
-/// use 5 % damping and the exact piecewise-linear SDOF solution; ASI, SI and VSI integrate
-/// over the 0.10–3.00 s grid (step 0.01 s) for the eight ranges of the seed's study.
+/// The record is used as given (no baseline correction, padding or filtering) unless --demean
+/// is given; spectral IMs use 5 % damping and the exact piecewise-linear SDOF solution; ASI,
+/// SI and VSI integrate over the 0.10–3.00 s grid (step 0.01 s) for the eight ranges of the
+/// seed's study.
+///
+/// A DC offset (raw records often carry one) integrates into PGV and PGD: when the mean of a
+/// component's pre-event part (its first 5 %) exceeds 5 % of its PGA, a warning on stderr says
+/// so and names --demean.
 #[derive(Debug, clap::Args)]
 pub struct ImsArgs {
     /// Record file: PEER NGA .AT2 (values in g), CSV `t,ax[,ay]` (s, m/s²), or MiniSEED
@@ -36,6 +42,12 @@ pub struct ImsArgs {
         allow_negative_numbers = true
     )]
     pub periods: Option<Vec<f64>>,
+
+    /// Subtract from each component the mean of its pre-event part (its first 5 %, at least
+    /// 20 samples) before computing the IMs: removes a DC offset, which would otherwise
+    /// integrate into PGV and PGD.
+    #[arg(long)]
+    pub demean: bool,
 
     /// Output format: `text` (a table with units) or `json` (one object, SI units).
     ///
@@ -65,11 +77,27 @@ pub fn run(args: ImsArgs) -> anyhow::Result<()> {
         ..ImOptions::default()
     };
     let source = record.source.clone();
+    // The vertical's own file names it; a CSV record's second column is the record's.
+    let vertical_source = args
+        .vertical
+        .as_ref()
+        .map_or_else(|| source.clone(), |p| p.display().to_string());
+    let dt_s = record.dt_s;
+    check_baseline(
+        &source,
+        "horizontal",
+        &mut record.horizontal_mps2,
+        dt_s,
+        args.demean,
+    );
+    if let Some(v) = &mut record.vertical_mps2 {
+        check_baseline(&vertical_source, "vertical", v, dt_s, args.demean);
+    }
     let horizontal = compute_ims(&record.horizontal_mps2, record.dt_s, &options)
         .with_context(|| format!("{source}: cannot compute the intensity measures"))?;
     let vertical = match &record.vertical_mps2 {
         Some(v) => Some(compute_ims(v, record.dt_s, &options).with_context(|| {
-            format!("{source}: cannot compute the vertical intensity measures")
+            format!("{vertical_source}: cannot compute the vertical intensity measures")
         })?),
         None => None,
     };
@@ -85,12 +113,29 @@ pub fn run(args: ImsArgs) -> anyhow::Result<()> {
             let mut text = text_table(&source, "horizontal", &horizontal);
             if let Some(v) = &vertical {
                 text.push('\n');
-                text.push_str(&text_table(&source, "vertical", v));
+                text.push_str(&text_table(&vertical_source, "vertical", v));
             }
             text
         }
     };
     write_stdout(&text)
+}
+
+/// Reports a DC offset of one component on stderr, and removes it with `demean`.
+fn check_baseline(source: &str, component: &str, a: &mut [f64], dt_s: f64, demean: bool) {
+    let Some(pre) = pre_event(a, dt_s) else {
+        return;
+    };
+    if demean {
+        remove_offset(a, pre.mean);
+    } else if pre.is_offset() {
+        eprintln!(
+            "rockwatch: warning: {source} ({component}): its first {:.2} s average {:.4} m/s², {:.0} % of its PGA: a DC offset, which integrates into PGV and PGD; --demean removes it",
+            pre.duration_s,
+            pre.mean,
+            100.0 * pre.mean.abs() / pre.peak
+        );
+    }
 }
 
 /// Writes to standard output; a closed pipe (e.g. `| head`) is not an error.
