@@ -131,6 +131,83 @@ mod tests {
         assert_eq!(c.stations[0].gain_mps2_per_count, Some(1e-6));
     }
 
+    /// config/node.toml with every commented `# key = value` line and `# [section]` header
+    /// made live.
+    fn documented_config() -> String {
+        let shipped = include_str!("../../../config/node.toml");
+        shipped
+            .lines()
+            .map(|line| {
+                let body = line.strip_prefix("# ").unwrap_or("");
+                let is_header = body.starts_with('[') && body.trim_end().ends_with(']');
+                let is_key = body.split_once(" = ").is_some_and(|(k, _)| {
+                    !k.is_empty()
+                        && k.chars()
+                            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+                });
+                if is_header || is_key {
+                    body
+                } else {
+                    line
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+
+    #[test]
+    fn every_key_documented_in_config_node_toml_is_valid_with_its_documented_value() {
+        let config = load(&documented_config()).unwrap();
+        assert!(config.state_dir.is_some());
+        assert_eq!(config.stations[0].gain_mps2_per_count, Some(1.0e-6));
+        assert_eq!(config.stations[0].full_scale, Some(8_388_607.0));
+        assert!(matches!(
+            config.stations[0].orientation,
+            rockwatch_core::engine::Orientation::Azimuths { .. }
+        ));
+        assert_eq!(config.ros2.imu.len(), 1);
+        assert_eq!(config.iceoryx2.alert_history, 128);
+    }
+
+    #[test]
+    fn config_node_toml_documents_every_key_of_the_schema() {
+        // deny_unknown_fields lists a section's keys when it meets an unknown one.
+        let documented = documented_config();
+        let sections = [
+            "",
+            "[engine]",
+            "[engine.alerts]",
+            "[engine.stream]",
+            "[[station]]\nid = \"XX.KEYS.00\"",
+            "[ros2]",
+            "[[ros2.imu]]\ntopic = \"/t\"\nstation = \"XX.IMU.00\"\nsample_rate_hz = 100.0",
+            "[iceoryx2]",
+        ];
+        for section in sections {
+            let probe = format!("{section}\nno_such_key = 0\n");
+            let error = load(&probe).unwrap_err();
+            // serde's wording: "expected `a`", "expected `a` or `b`", "expected one of `a`, …".
+            let (_, expected) = error
+                .split_once(", expected ")
+                .unwrap_or_else(|| panic!("{section}: {error}"));
+            let expected = expected.trim_start_matches("one of ").replace(" or ", ", ");
+            for key in expected.split(", ") {
+                let key = key.trim().trim_matches('`');
+                // A key as `key = …`, or a table as `[key]`, `[[key]]` or `[parent.key]`.
+                let table = |l: &str| {
+                    let name = l.trim_matches(|c| c == '[' || c == ']');
+                    l.starts_with('[') && name.rsplit('.').next() == Some(key)
+                };
+                assert!(
+                    documented
+                        .lines()
+                        .any(|l| l.starts_with(&format!("{key} = ")) || table(l)),
+                    "config/node.toml does not document `{key}` of {section:?}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn readme_imu_example_parses_with_the_documented_values() {
         let readme = include_str!("../../../README.md");

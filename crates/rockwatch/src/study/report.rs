@@ -356,8 +356,8 @@ pub fn fragility_fits_csv(analysis: &StudyAnalysis) -> String {
     s
 }
 
-/// `fragility.json`: `{"blocks": {NAME: curve or null}}`, the curves a live node can load
-/// (deserialize into [`LognormalFragility`] and call `probability`).
+/// `fragility.json`: `{"blocks": {NAME: curve or null}}`: each block's selected curve, which
+/// deserializes into [`LognormalFragility`] (then `probability`, `band`).
 pub fn fragility_json(analysis: &StudyAnalysis) -> serde_json::Result<String> {
     let blocks: BTreeMap<&str, Option<&LognormalFragility>> = analysis
         .blocks

@@ -474,8 +474,9 @@ pub fn read_single_channel_record(path: &Path) -> Result<Record, RecordError> {
                 path,
                 None,
                 format!(
-                    "holds {} channels ({}); a record file must hold exactly one \
-                     (read it with rockwatch_core::record::mseed::read_mseed and pick channels)",
+                    "holds {} channels ({}); this command takes one channel per file: \
+                     `rockwatch monitor --mseed FILE` reads a station's three channels, or \
+                     write each channel to its own file (ObsPy: `st.select(channel=...)`)",
                     many.len(),
                     ids.join(", ")
                 ),
@@ -487,8 +488,10 @@ pub fn read_single_channel_record(path: &Path) -> Result<Record, RecordError> {
             path,
             None,
             format!(
-                "channel {} holds integer counts, not m/s²: convert it with a gain \
-                 ((m/s²)/count) via rockwatch_core::record::mseed::read_mseed and Channel::to_record",
+                "channel {} holds integer counts, not m/s², and this command has no gain \
+                 for it: convert the file to m/s² (counts × gain in (m/s²)/count), or run \
+                 `rockwatch monitor --mseed FILE --config CONFIG` with the station's \
+                 `gain_mps2_per_count`",
                 channel.id()
             ),
         ));
