@@ -400,3 +400,50 @@ fn operator_reset_of_a_fallen_block_is_journaled_and_a_new_episode_can_overturn_
 fn operator_reset_of_a_fallen_block_is_journaled_and_a_new_episode_can_overturn_it_sharded() {
     operator_reset_stands_the_block_again(2);
 }
+
+/// Issue 11, finding 6 (live): a packet stamped more than `engine.plausibility.max_ahead_s`
+/// ahead of its arrival is rejected and counted before the engine, so it cannot move its
+/// station's time grid; packets stamped now (or in the past) are processed.
+#[test]
+fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
+        ..NodeOptions::default()
+    };
+    assert!(options.reject_future);
+    let mut node = NodeRuntime::start(&options).unwrap();
+    let now_ns = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as i64;
+    let mut packets = rinaldi_packets();
+    packets.truncate(3);
+    // 10 samples of 100 ms each: the packet's data end 0.1 s after its start.
+    let stamp = |p: &mut rockwatch_core::engine::AccelPacket, start: i64| p.start_time_ns = start;
+    stamp(&mut packets[0], now_ns - 1_000_000_000); // ended 0.9 s ago: fine
+    stamp(&mut packets[1], now_ns + 4_000_000_000); // ends 4.1 s ahead: within 5 s
+    stamp(&mut packets[2], now_ns + 300_000_000_000_000_000); // 9.5 years ahead
+    let mut publish = |_: Publication| {};
+    for p in packets {
+        node.submit(p, &mut publish).unwrap();
+    }
+    let stopped = node.stop(&mut publish).unwrap();
+    assert_eq!(stopped.stats.future_packets, 1);
+    assert_eq!(stopped.stats.packets, 2);
+    let totals = stopped.input_totals();
+    assert_eq!((totals.future_packets, totals.packets), (1, 2));
+
+    // Offline runs (monitor) have no arrival clock: nothing is rejected for its stamp.
+    let offline = NodeOptions {
+        reject_future: false,
+        ..options
+    };
+    let mut node = NodeRuntime::start(&offline).unwrap();
+    let mut p = rinaldi_packets().remove(0);
+    p.start_time_ns = now_ns + 300_000_000_000_000_000;
+    node.submit(p, &mut publish).unwrap();
+    assert_eq!(node.stats().future_packets, 0);
+}

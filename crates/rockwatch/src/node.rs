@@ -43,6 +43,9 @@ pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
 /// any publisher — the worst moment for a crash.
 pub const FAULT_ABORT_AFTER_JOURNAL_ENV: &str = "ROCKWATCH_FAULT_ABORT_AFTER_JOURNAL";
 
+/// Most engine shards (worker threads) a runtime starts.
+pub const MAX_SHARDS: usize = 256;
+
 /// What an operator reset of a block ([`NodeRuntime::operator_reset`]) did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ResetOutcome {
@@ -94,6 +97,11 @@ pub struct NodeOptions {
     pub shards: usize,
     /// How the engine's notices are reported (default: rate-limited, as the live node).
     pub notices: NoticeLog,
+    /// Live input (default true): a packet whose last sample is stamped more than
+    /// `engine.plausibility.max_ahead_s` ahead of the node's UTC clock at its arrival is
+    /// rejected and counted ([`NodeStats::future_packets`]). Off for offline runs (monitor),
+    /// whose data times are not related to the wall clock.
+    pub reject_future: bool,
 }
 
 /// How the runtime reports the engine's notices (a station's data irregularities) on stderr.
@@ -116,6 +124,7 @@ impl Default for NodeOptions {
             state_dir: None,
             shards: 1,
             notices: NoticeLog::default(),
+            reject_future: true,
         }
     }
 }
@@ -165,6 +174,9 @@ pub struct NodeStats {
     pub states: u64,
     pub intensities: u64,
     pub notices: u64,
+    /// Packets rejected for a time stamp too far ahead of their arrival
+    /// ([`NodeOptions::reject_future`]); not handed to the engine.
+    pub future_packets: u64,
 }
 
 /// What the engine made of its input, summed over every shard (the node's closing summary).
@@ -183,6 +195,14 @@ pub struct InputTotals {
     pub duplicate_packets: u64,
     /// Packets that arrived after later data had been processed.
     pub late_packets: u64,
+    /// Packets rejected because a sample is beyond the physical bound
+    /// (`engine.plausibility.max_abs_accel_g`); counted in `rejected_packets` too.
+    pub implausible_packets: u64,
+    /// Packets stamped too far ahead of their arrival, rejected by the runtime before the
+    /// engine ([`NodeStats::future_packets`]; not counted in `packets`).
+    pub future_packets: u64,
+    /// Forward jumps of a station's time grid undone by the packets that followed them.
+    pub grid_rewinds: u64,
 }
 
 impl InputTotals {
@@ -193,6 +213,8 @@ impl InputTotals {
         self.unknown_station_packets += c.unknown_station_packets;
         for (_, station, stream) in engine.station_counters() {
             self.rejected_packets += station.rejected_packets;
+            self.implausible_packets += station.implausible_packets;
+            self.grid_rewinds += stream.grid_rewinds;
             self.duplicate_packets += stream.duplicate_packets;
             self.late_packets += stream.late_packets;
         }
@@ -399,6 +421,10 @@ pub struct NodeRuntime {
     emit: Emitter,
     pbr_ids: Vec<String>,
     last_flush: Instant,
+    /// UTC (ns since the Unix epoch) at `emit.epoch`: arrival stamps in UTC.
+    epoch_utc_ns: i64,
+    /// [`NodeOptions::reject_future`]: the tolerance (ns), when on.
+    max_ahead_ns: Option<i64>,
 }
 
 impl NodeRuntime {
@@ -426,6 +452,12 @@ impl NodeRuntime {
             None => (None, Vec::new()),
         };
         let overturned = fallen_blocks(&records);
+        if options.shards > MAX_SHARDS {
+            anyhow::bail!(
+                "--shards must be 0 (one per core) to {MAX_SHARDS}, got {}",
+                options.shards
+            );
+        }
         let shards = if options.shards == 0 {
             std::thread::available_parallelism().map_or(1, usize::from)
         } else {
@@ -463,6 +495,12 @@ impl NodeRuntime {
             },
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
             last_flush: Instant::now(),
+            epoch_utc_ns: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)),
+            max_ahead_ns: options
+                .reject_future
+                .then_some((config.engine.plausibility.max_ahead_s * 1e9) as i64),
         })
     }
 
@@ -522,6 +560,9 @@ impl NodeRuntime {
         arrival: i64,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
+        if self.stamped_ahead(&packet, arrival) {
+            return Ok(());
+        }
         self.emit.stats.packets += 1;
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
@@ -537,6 +578,40 @@ impl NodeRuntime {
             }
             None => Ok(()),
         }
+    }
+
+    /// Whether `packet`, arrived at `arrival` ([`NodeRuntime::now_ns`]), ends more than the
+    /// tolerance ahead of the UTC clock then ([`NodeOptions::reject_future`]); such a packet
+    /// is counted and logged (rate-limited), never handed to the engine, so it cannot move
+    /// its station's time grid.
+    fn stamped_ahead(&mut self, packet: &AccelPacket, arrival: i64) -> bool {
+        let Some(max_ahead_ns) = self.max_ahead_ns else {
+            return false;
+        };
+        let rate = packet.sample_rate_hz;
+        let span_ns = if rate.is_finite() && rate > 0.0 {
+            packet.len() as f64 * 1e9 / rate
+        } else {
+            0.0 // an invalid rate is the engine's to reject and report
+        };
+        let end_ns = packet.start_time_ns as f64 + span_ns;
+        let ahead_s = (end_ns - (self.epoch_utc_ns + arrival) as f64) * 1e-9;
+        if ahead_s * 1e9 <= max_ahead_ns as f64 {
+            return false;
+        }
+        self.emit.stats.future_packets += 1;
+        self.emit.log.log(
+            &packet.station,
+            "future",
+            &format!(
+                "packet {} rejected: its data end {ahead_s:.3} s ahead of the node's clock \
+                 (engine.plausibility.max_ahead_s = {} s; {} such packets in all)",
+                packet.sequence,
+                max_ahead_ns as f64 * 1e-9,
+                self.emit.stats.future_packets
+            ),
+        );
+        true
     }
 
     /// Applies a settings change, effective for the next packet.
@@ -736,7 +811,10 @@ impl Stopped {
     /// What the engines made of their input, summed over the shards.
     #[must_use]
     pub fn input_totals(&self) -> InputTotals {
-        let mut totals = InputTotals::default();
+        let mut totals = InputTotals {
+            future_packets: self.stats.future_packets,
+            ..InputTotals::default()
+        };
         for e in &self.engines {
             totals.add(e);
         }

@@ -148,6 +148,9 @@ fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
 
     let station = StationId::parse(STATION)?;
     let traces = bundled_traces()?;
+    traces
+        .check_packets(100, args.tail)
+        .map_err(anyhow::Error::msg)?;
     Ok(DemoPlan {
         scratch,
         options,
