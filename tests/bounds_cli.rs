@@ -1,6 +1,7 @@
-//! Bounded work on bad input (issue 11, finding 7), end to end through the binary: every
-//! command given input that would make it run forever, allocate gigabytes or panic refuses
-//! it with one line `rockwatch: error: …` and exit 1, quickly.
+//! Refusals, end to end through the binary (issue 11): bounded work on bad input (finding 7)
+//! — every command given input that would make it run forever, allocate gigabytes or panic
+//! refuses it with one line `rockwatch: error: …` and exit 1, quickly — and one node per
+//! state directory (finding 4).
 //!
 //! Each command runs under a deadline ([`DEADLINE`]): a regression that hangs or allocates
 //! its way through fails the test instead of hanging CI.
@@ -33,6 +34,8 @@ struct Run {
 /// instead of swapping the machine.
 fn rockwatch(args: &[&str]) -> Run {
     let mut child = Command::new("sh")
+        // No DDS traffic beyond this host should a refusal regress into starting the node.
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         .arg("-c")
         .arg("ulimit -v 2000000; exec \"$0\" \"$@\"")
         .arg(env!("CARGO_BIN_EXE_rockwatch"))
@@ -300,4 +303,25 @@ fn a_catalogue_is_refused_as_the_iceoryx2_configuration() {
         "0",
     ]);
     refused(&run, "not an iceoryx2 configuration: top-level key");
+}
+
+/// Finding 4: two nodes on one state directory both ran, every alert journaled and published
+/// twice. The state directory's lock (held here by the test, as a running node holds it)
+/// makes `node` and `monitor` refuse it, before any transport is opened.
+#[test]
+fn a_second_process_on_a_state_directory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("state");
+    std::fs::create_dir_all(&state).unwrap();
+    let lock = std::fs::File::create(state.join(rockwatch::journal::LOCK_FILE)).unwrap();
+    lock.try_lock().unwrap();
+    let state_arg = state.to_str().unwrap();
+    let run = rockwatch(&["node", "--catalogue", CATALOGUE, "--state-dir", state_arg]);
+    refused(&run, "in use by another rockwatch process");
+    let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
+    refused(&run, "one node per state directory");
+    // Released (as when the first node ends, however it ends): the directory is usable.
+    drop(lock);
+    let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
 }

@@ -6,6 +6,11 @@
 //! Format: one record per line, `CRC32(json) as 8 hex digits`, a space, the record as JSON.
 //! A torn last line (a crash mid-write) is discarded and truncated away on open; a corrupt line
 //! elsewhere is skipped and reported.
+//!
+//! One process per state directory: [`Journal::open`] takes an exclusive OS lock (`flock`) on
+//! [`LOCK_FILE`] and holds it as long as the journal is open (the process's lifetime for the
+//! node); a second opener is refused ([`JournalError::Locked`]). The lock is released by the
+//! kernel when the process ends, however it ends (a `kill -9` leaves no stale lock).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
@@ -16,6 +21,9 @@ use rockwatch_core::engine::JournalRecord;
 /// File name of the journal inside the state directory.
 pub const JOURNAL_FILE: &str = "journal.log";
 
+/// File name of the lock inside the state directory (empty; only its `flock` matters).
+pub const LOCK_FILE: &str = "lock";
+
 /// A problem with the state directory.
 #[derive(Debug, thiserror::Error)]
 pub enum JournalError {
@@ -25,6 +33,11 @@ pub enum JournalError {
         #[source]
         source: std::io::Error,
     },
+    #[error(
+        "{dir}: the state directory is in use by another rockwatch process (it holds \
+         {LOCK_FILE}): one node per state directory"
+    )]
+    Locked { dir: PathBuf },
     #[error("{path}: cannot encode a record: {message}")]
     Encode { path: PathBuf, message: String },
 }
@@ -44,6 +57,8 @@ pub struct LoadReport {
 pub struct Journal {
     path: PathBuf,
     file: File,
+    /// Holds the state directory's exclusive lock while open.
+    _lock: File,
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> JournalError + '_ {
@@ -105,11 +120,30 @@ pub fn read_journal(dir: &Path) -> Result<(Vec<JournalRecord>, LoadReport), Jour
     Ok((records, report))
 }
 
+/// Takes the exclusive lock of the state directory `dir`, without waiting.
+fn lock_state_dir(dir: &Path) -> Result<File, JournalError> {
+    let path = dir.join(LOCK_FILE);
+    let file = OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(io(&path))?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(JournalError::Locked {
+            dir: dir.to_path_buf(),
+        }),
+        Err(std::fs::TryLockError::Error(e)) => Err(io(&path)(e)),
+    }
+}
+
 impl Journal {
     /// Opens (creating) the journal in `dir`, returning its valid records. A torn last line is
     /// truncated away so that appends start on a clean line.
     pub fn open(dir: &Path) -> Result<(Journal, Vec<JournalRecord>, LoadReport), JournalError> {
         std::fs::create_dir_all(dir).map_err(io(dir))?;
+        let lock = lock_state_dir(dir)?;
         let (records, report) = read_journal(dir)?;
         let path = dir.join(JOURNAL_FILE);
         let mut file = OpenOptions::new()
@@ -124,7 +158,15 @@ impl Journal {
             file.set_len(keep as u64).map_err(io(&path))?;
             file.seek(SeekFrom::End(0)).map_err(io(&path))?;
         }
-        Ok((Journal { path, file }, records, report))
+        Ok((
+            Journal {
+                path,
+                file,
+                _lock: lock,
+            },
+            records,
+            report,
+        ))
     }
 
     /// Appends `record` and flushes it to stable storage before returning.
@@ -146,6 +188,17 @@ mod tests {
 
     fn reset(id: &str) -> JournalRecord {
         JournalRecord::Reset { pbr_id: id.into() }
+    }
+
+    #[test]
+    fn a_second_opener_of_the_state_directory_is_refused_until_the_first_closes() {
+        let dir = tempfile::tempdir().unwrap();
+        let (first, _, _) = Journal::open(dir.path()).unwrap();
+        let err = Journal::open(dir.path()).unwrap_err();
+        assert!(matches!(err, JournalError::Locked { .. }), "{err}");
+        assert!(err.to_string().contains("one node per state directory"));
+        drop(first);
+        Journal::open(dir.path()).unwrap();
     }
 
     #[test]
