@@ -447,3 +447,124 @@ fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
     node.submit(p, &mut publish).unwrap();
     assert_eq!(node.stats().future_packets, 0);
 }
+
+/// Set in the full-disk test re-executed in its own mount namespace.
+const IN_MOUNT_NS: &str = "ROCKWATCH_TEST_IN_MOUNT_NS";
+
+/// Issue 11, finding 5: the node exited 1 at the first alert it could not journal. On a real
+/// full file system (a 64 KiB tmpfs, mounted in a private mount namespace: needs root, as in
+/// CI), the runtime now publishes every alert flagged `journal_pending`, counts the failures,
+/// and journals everything, in order and without a torn line, once space returns.
+#[test]
+fn a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns() {
+    if std::env::var_os(IN_MOUNT_NS).is_none() {
+        let exe = std::env::current_exe().unwrap();
+        let out = std::process::Command::new("timeout")
+            .args([
+                "-k",
+                "5",
+                "120",
+                "unshare",
+                "-m",
+                "--propagation",
+                "private",
+            ])
+            .arg(exe)
+            .args([
+                "--exact",
+                "a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns",
+                "--nocapture",
+                "--test-threads=1",
+            ])
+            .env(IN_MOUNT_NS, "1")
+            .output()
+            .expect("runs timeout and unshare (coreutils, util-linux)");
+        assert!(
+            out.status.success() && String::from_utf8_lossy(&out.stdout).contains("1 passed"),
+            "{}\n{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mounted = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(dir.path())
+        .status()
+        .unwrap();
+    assert!(mounted.success(), "mount tmpfs (root needed)");
+    let state = dir.path().join("state");
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
+        state_dir: Some(state.clone()),
+        reject_future: false,
+        ..NodeOptions::default()
+    };
+    let mut node = NodeRuntime::start(&options).unwrap();
+    // Fill the file system: every page taken, the journal (empty) cannot grow.
+    let filler = dir.path().join("filler");
+    {
+        use std::io::Write;
+        let mut f = std::fs::File::create(&filler).unwrap();
+        while f.write_all(&[0u8; 4096]).is_ok() {}
+        while f.write_all(&[0u8; 1]).is_ok() {}
+    }
+    let mut alerts = Vec::new();
+    let mut publish = |p: Publication| {
+        if let Publication::Alert {
+            alert,
+            journal_pending,
+            ..
+        } = p
+        {
+            alerts.push((alert.key(), journal_pending));
+        }
+    };
+    for packet in rinaldi_packets() {
+        node.submit(packet, &mut publish).unwrap();
+    }
+    let stats = node.stats();
+    let mut keys: Vec<_> = alerts.iter().map(|(k, _)| k.clone()).collect();
+    keys.sort();
+    assert_eq!(keys, reference_alert_keys(), "every alert published");
+    assert!(alerts.iter().all(|(_, pending)| *pending), "{alerts:?}");
+    assert_eq!(stats.journal_pending_alerts as usize, alerts.len());
+    assert!(stats.journal_failures >= alerts.len() as u64);
+    assert!(stats.journal_backlog >= alerts.len() as u64);
+    assert_eq!(read_journal(&state).unwrap().0.len(), 0);
+    // Still full: a retry fails and keeps everything.
+    node.retry_journal();
+    assert_eq!(node.stats().journal_backlog, stats.journal_backlog);
+    // Space returns.
+    std::fs::remove_file(&filler).unwrap();
+    node.retry_journal();
+    assert_eq!(node.stats().journal_backlog, 0);
+    let stopped = node.stop(&mut |_| {}).unwrap();
+    assert_eq!(stopped.stats.journal_backlog, 0);
+    let (records, report) = read_journal(&state).unwrap();
+    assert!(
+        report.corrupt_lines.is_empty() && !report.truncated_tail,
+        "{report:?}"
+    );
+    let mut journaled: Vec<_> = records
+        .iter()
+        .filter_map(|r| match r {
+            rockwatch_core::engine::JournalRecord::Alert(a) => Some(a.key()),
+            _ => None,
+        })
+        .collect();
+    // In the order they were raised (published).
+    assert_eq!(
+        journaled,
+        alerts.iter().map(|(k, _)| k.clone()).collect::<Vec<_>>()
+    );
+    journaled.sort();
+    assert_eq!(journaled, reference_alert_keys());
+    let _ = std::process::Command::new("umount")
+        .arg(dir.path())
+        .status();
+}

@@ -11,6 +11,12 @@
 //! Ordering guarantee: an alert is appended to the journal and synced before it is handed to
 //! any publisher, so a published alert is never lost; on restart the journal is restored
 //! into the engine, so an alert is never published twice.
+//!
+//! A failing state directory (a full disk) degrades, never stops, the node: an alert that
+//! cannot be journaled is published at once flagged `journal_pending`, waits in a bounded
+//! backlog ([`crate::journal::JournalWriter`]) and is journaled when the directory recovers
+//! (retried every [`HELD_PACKET_TIMEOUT`] and before every later record); the fault is
+//! logged, counted ([`NodeStats`]) and in the node's closing summary.
 
 mod serve;
 
@@ -26,7 +32,7 @@ pub use serve::{serve, Probe, Reactor, ServeReport};
 
 use crate::ports::{Control, ControlSender, Publication, Publisher, Wake};
 
-use crate::journal::Journal;
+use crate::journal::{Appended, Journal, JournalWriter};
 use crate::log_text::{printable, MESSAGE_CHARS, PBR_ID_CHARS, STATION_CHARS};
 use crate::node_config::NodeConfig;
 use rockwatch_core::catalogue::Catalogue;
@@ -174,6 +180,14 @@ pub struct NodeStats {
     pub states: u64,
     pub intensities: u64,
     pub notices: u64,
+    /// Failed writes to the state directory (each retry counts).
+    pub journal_failures: u64,
+    /// Alerts published before they could be journaled (flagged `journal_pending`).
+    pub journal_pending_alerts: u64,
+    /// Records (alerts, episode ends) waiting for the state directory now.
+    pub journal_backlog: u64,
+    /// Records lost because the backlog was full ([`crate::journal::MAX_BACKLOG`]).
+    pub journal_dropped: u64,
     /// Packets rejected for a time stamp too far ahead of their arrival
     /// ([`NodeOptions::reject_future`]); not handed to the engine.
     pub future_packets: u64,
@@ -269,7 +283,7 @@ impl RateLimitedLog {
 /// stats and the logs. The one path from the engine to the outside, the node's and
 /// `rockwatch monitor`'s: journal (and sync), then publish.
 struct Emitter {
-    journal: Option<Journal>,
+    journal: Option<JournalWriter>,
     epoch: Instant,
     log: RateLimitedLog,
     notice_log: NoticeLog,
@@ -288,6 +302,53 @@ struct Emitter {
 impl Emitter {
     fn now_ns(&self) -> i64 {
         self.epoch.elapsed().as_nanos() as i64
+    }
+
+    /// Journals `record` (after any backlog); false if it waits in the backlog or was lost.
+    /// The first failure of a run of failures, and each recovery, is logged.
+    fn journal(&mut self, record: JournalRecord) -> bool {
+        let Some(writer) = &mut self.journal else {
+            return true;
+        };
+        let was_failing = writer.backlog() > 0;
+        let appended = writer.append(record);
+        self.journal_changed(was_failing, 0);
+        appended == Appended::Written
+    }
+
+    /// Writes the backlog of a failing state directory, if any.
+    fn retry_journal(&mut self) {
+        if let Some(writer) = self.journal.as_mut().filter(|w| w.backlog() > 0) {
+            let written = writer.retry();
+            self.journal_changed(true, written);
+        }
+    }
+
+    /// Updates the journal's counters and logs a change of health: failing (one line every
+    /// 10 s while it lasts, with the count) or recovered.
+    fn journal_changed(&mut self, was_failing: bool, written: usize) {
+        let Some(writer) = &self.journal else {
+            return;
+        };
+        let backlog = writer.backlog();
+        self.stats.journal_failures = writer.failures;
+        self.stats.journal_backlog = backlog as u64;
+        self.stats.journal_dropped = writer.dropped;
+        if let Some(error) = writer.last_error.clone() {
+            let message = format!(
+                "{error}: the node goes on; alerts are published flagged journal_pending and \
+                 {backlog} records wait in memory ({} lost) to be journaled when it recovers \
+                 ({} failed writes)",
+                writer.dropped, writer.failures
+            );
+            self.log.log("state directory", "journal_failing", &message);
+        } else if was_failing && backlog == 0 {
+            eprintln!(
+                "rockwatch: state directory recovered: {written} waiting records journaled \
+                 ({} failed writes)",
+                writer.failures
+            );
+        }
     }
 
     /// Reports one of the engine's notices as [`NoticeLog`] says.
@@ -317,14 +378,13 @@ impl Emitter {
     /// each alert is journaled (and synced), then published at once, in engine order; episode
     /// ends are journaled; notices logged; states and intensities are published by
     /// [`EmitSink::finish`], after the batch (they are not journaled, and an alert must not
-    /// wait for them). After a journal failure nothing more is published and `finish` returns
-    /// the error.
+    /// wait for them). An alert the state directory cannot take is published all the same,
+    /// flagged `journal_pending` ([`Emitter::journal`]).
     fn sink<'a, P: FnMut(Publication)>(&'a mut self, publish: &'a mut P) -> EmitSink<'a, P> {
         self.deferred.clear();
         EmitSink {
             emit: self,
             publish,
-            error: None,
         }
     }
 }
@@ -333,21 +393,12 @@ impl Emitter {
 struct EmitSink<'a, P: FnMut(Publication)> {
     emit: &'a mut Emitter,
     publish: &'a mut P,
-    error: Option<anyhow::Error>,
 }
 
 impl<P: FnMut(Publication)> EmitSink<'_, P> {
-    /// Publishes the batch's states and intensities; returns the journal's error, if any.
+    /// Publishes the batch's states and intensities.
     fn finish(self) -> anyhow::Result<()> {
-        let EmitSink {
-            emit,
-            publish,
-            error,
-        } = self;
-        if let Some(e) = error {
-            emit.deferred.clear();
-            return Err(e);
-        }
+        let EmitSink { emit, publish } = self;
         for output in emit.deferred.drain(..) {
             match output {
                 Output::State(s) => {
@@ -372,9 +423,6 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 self.emit.overturned.insert(a.pbr_id.clone());
             }
         }
-        if self.error.is_some() {
-            return; // the state directory failed: publish nothing more
-        }
         let record = match &output {
             Output::Alert(alert) => Some(JournalRecord::Alert(alert.clone())),
             Output::EpisodeEnd { pbr_id, episode } => Some(JournalRecord::EpisodeEnd {
@@ -383,20 +431,22 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             }),
             _ => None,
         };
-        if let (Some(record), Some(journal)) = (record, &mut self.emit.journal) {
-            if let Err(e) = journal.append(&record) {
-                self.error = Some(e.into());
-                return;
-            }
-        }
+        let journaled = record.is_none_or(|r| self.emit.journal(r));
         match output {
             Output::Alert(alert) => {
+                if !journaled {
+                    self.emit.stats.journal_pending_alerts += 1;
+                }
                 if self.emit.abort_after_alert == Some(self.emit.stats.alerts + 1) {
                     std::process::abort(); // fault injection: journaled, not published
                 }
                 self.emit.stats.alerts += 1;
                 let latency_ns = self.emit.now_ns() - alert.arrival_ns;
-                (self.publish)(Publication::Alert { alert, latency_ns });
+                (self.publish)(Publication::Alert {
+                    alert,
+                    latency_ns,
+                    journal_pending: !journaled,
+                });
             }
             Output::EpisodeEnd { .. } => {}
             Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
@@ -481,7 +531,7 @@ impl NodeRuntime {
         Ok(NodeRuntime {
             engine: Some(engine),
             emit: Emitter {
-                journal,
+                journal: journal.map(JournalWriter::new),
                 epoch: Instant::now(),
                 log: RateLimitedLog::new(),
                 notice_log: options.notices,
@@ -677,7 +727,7 @@ impl NodeRuntime {
     /// means the state directory failed and nothing was applied.
     pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
         if let Some(j) = &mut self.emit.journal {
-            j.append(&JournalRecord::Reset {
+            j.append_now(&JournalRecord::Reset {
                 pbr_id: pbr_id.to_string(),
             })?;
         }
@@ -692,6 +742,12 @@ impl NodeRuntime {
         Ok(())
     }
 
+    /// Writes the records waiting for a failing state directory now (also done every
+    /// [`HELD_PACKET_TIMEOUT`] by [`NodeRuntime::flush_if_due`] and before every new record).
+    pub fn retry_journal(&mut self) {
+        self.emit.retry_journal();
+    }
+
     /// Releases the packets held in the engine's reorder window if `HELD_PACKET_TIMEOUT` has
     /// passed since the last release. The engine's window counts packets (so replays are
     /// deterministic); live, a packet held for missing data must not wait forever if its
@@ -701,6 +757,7 @@ impl NodeRuntime {
             return Ok(());
         }
         self.last_flush = Instant::now();
+        self.emit.retry_journal();
         let now = self.now_ns();
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
@@ -782,6 +839,8 @@ impl NodeRuntime {
                 engines
             }
         };
+        // A last attempt for what waits; what still waits is in `stats.journal_backlog`.
+        self.emit.retry_journal();
         Ok(Stopped {
             engines,
             stats: self.emit.stats,

@@ -48,7 +48,10 @@ struct LatencyRecorder(Arc<Mutex<BTreeMap<(String, AlertLevel), i64>>>);
 
 impl Publisher for LatencyRecorder {
     fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
-        if let Publication::Alert { alert, latency_ns } = publication {
+        if let Publication::Alert {
+            alert, latency_ns, ..
+        } = publication
+        {
             self.0
                 .lock()
                 .map_err(|_| anyhow!("latency table poisoned"))?

@@ -249,7 +249,10 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
         .map_err(anyhow::Error::msg)?;
     let mut runtime = NodeRuntime::start_with_blocks(&options, blocks, Arc::new(|| {}))?;
     let mut report = |publication: Publication| {
-        if let Publication::Alert { alert, latency_ns } = publication {
+        if let Publication::Alert {
+            alert, latency_ns, ..
+        } = publication
+        {
             print_alert(format, &alert, traces.start_ns, latency_ns);
         }
     };
@@ -257,6 +260,14 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
         runtime.submit(packet, &mut report)?;
     }
     let stopped = runtime.stop(&mut report)?;
+    let unjournaled = stopped.stats.journal_backlog + stopped.stats.journal_dropped;
+    if unjournaled > 0 {
+        bail!(
+            "{unjournaled} records (alerts, episode ends) could not be journaled: the state \
+             directory failed ({} failed writes)",
+            stopped.stats.journal_failures
+        );
+    }
     let engine = stopped.engines.first().context("the engine did not run")?;
     Ok(MonitorOutcome {
         alerts: stopped.stats.alerts,

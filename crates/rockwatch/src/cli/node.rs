@@ -114,5 +114,21 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
             iox.dead_nodes_cleaned
         );
     }
+    let stats = report.stats;
+    if stats.journal_failures > 0 {
+        eprintln!(
+            "rockwatch: state directory: {} failed writes, {} alerts published before they could be journaled, {} records still not journaled, {} lost (backlog full)",
+            stats.journal_failures,
+            stats.journal_pending_alerts,
+            stats.journal_backlog,
+            stats.journal_dropped
+        );
+    }
+    if stats.journal_backlog + stats.journal_dropped > 0 {
+        anyhow::bail!(
+            "{} records (alerts, episode ends) could not be journaled: the state directory is still failing",
+            stats.journal_backlog + stats.journal_dropped
+        );
+    }
     Ok(())
 }
