@@ -242,6 +242,25 @@ fn monitor_fails_when_every_packet_was_rejected() {
     refused(&run, "nothing usable");
 }
 
+/// `replay` of Rinaldi228 over iceoryx2 with the node configuration `config`, not waiting.
+fn replay_args<'a>(config: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "replay",
+        "--record",
+        RINALDI,
+        "--station",
+        "CI.RRS.00",
+        "--transport",
+        "iceoryx2",
+        "--config",
+        config,
+        "--wait-s",
+        "0",
+    ];
+    args.extend(extra);
+    args
+}
+
 #[test]
 fn replay_refuses_zero_packets_and_negative_tails() {
     // Refused before any transport is opened: no node is needed.
@@ -249,22 +268,7 @@ fn replay_refuses_zero_packets_and_negative_tails() {
         ("--packet-ms", "0", "--packet-ms must be 1 to 60000"),
         ("--tail", "-1", "--tail must be 0"),
     ] {
-        let run = rockwatch(&[
-            "replay",
-            "--record",
-            RINALDI,
-            "--station",
-            "CI.RRS.00",
-            "--transport",
-            "iceoryx2",
-            "--config",
-            NODE_TOML,
-            flag,
-            value,
-            "--wait-s",
-            "0",
-        ]);
-        refused(&run, needle);
+        refused(&rockwatch(&replay_args(NODE_TOML, &[flag, value])), needle);
     }
 }
 
@@ -289,19 +293,7 @@ fn a_catalogue_is_refused_as_the_iceoryx2_configuration() {
         format!("catalogue = {CATALOGUE:?}\n[iceoryx2]\nconfig_file = {CATALOGUE:?}\n"),
     )
     .unwrap();
-    let run = rockwatch(&[
-        "replay",
-        "--record",
-        RINALDI,
-        "--station",
-        "CI.RRS.00",
-        "--transport",
-        "iceoryx2",
-        "--config",
-        config.to_str().unwrap(),
-        "--wait-s",
-        "0",
-    ]);
+    let run = rockwatch(&replay_args(config.to_str().unwrap(), &[]));
     refused(&run, "not an iceoryx2 configuration: top-level key");
 }
 
