@@ -48,7 +48,10 @@ struct Internal {
 }
 impl Publisher for Internal {
     fn publish(&mut self, p: &Publication) -> anyhow::Result<()> {
-        if let Publication::Alert { alert, latency_ns } = p {
+        if let Publication::Alert {
+            alert, latency_ns, ..
+        } = p
+        {
             self.internal_us.push(*latency_ns as f64 / 1e3);
             self.published.push((
                 alert.station.clone(),
@@ -142,6 +145,7 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
                         publisher.publish(&Publication::Alert {
                             alert,
                             latency_ns: 0,
+                            journal_pending: false,
                         })
                     })
                     .unwrap();

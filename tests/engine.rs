@@ -336,6 +336,7 @@ fn short_gap_is_bridged_and_matches_the_interpolated_record() {
         stream: StreamConfig {
             max_bridge_s: 0.5,
             reorder_window_packets: 2,
+            ..StreamConfig::default()
         },
         ..EngineConfig::default()
     };
@@ -840,4 +841,93 @@ fn a_fallen_block_does_not_hold_the_station_intensity_window_open() {
         })
         .unwrap();
     assert_eq!(last.pga_mps2, 0.0, "{last:?}");
+}
+
+/// Alert (pbr, level) pairs of `out`, in order.
+fn alert_levels(out: &[Output]) -> Vec<(String, AlertLevel)> {
+    out.iter()
+        .filter_map(|o| match o {
+            Output::Alert(a) => Some((a.pbr_id.clone(), a.level)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Issue 11, finding 6: one packet stamped 9.5 years ahead made every later packet of its
+/// station a "duplicate" until restart (the pillar never fell). Now the packets that follow
+/// rewind the grid: the blocks see the rest of the record and raise the same alerts as
+/// without the forged packet.
+#[test]
+fn one_packet_stamped_years_ahead_does_not_silence_a_station() {
+    let record = rinaldi_f32();
+    let zeros = vec![0.0; record.len()];
+    let pbrs = [spec("slender", "CI.RRS.00", 90.0, slender())];
+    let clean = packets(
+        "CI.RRS.00",
+        &record.horizontal_mps2,
+        &zeros,
+        record.dt_s,
+        100,
+    );
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    let expected = alert_levels(&run(&mut engine, clean.clone()));
+    assert!(expected.contains(&("slender".into(), AlertLevel::Overturned)));
+
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    let mut out = Vec::new();
+    for (i, p) in clean.into_iter().enumerate() {
+        if i == 3 {
+            // Before the strong shaking; quiet values, stamped 9.5 years ahead.
+            let mut forged = p.clone();
+            forged.start_time_ns += 300_000_000_000_000_000;
+            forged.sequence = 1_000_000;
+            forged.east.iter_mut().for_each(|v| *v = 0.0);
+            engine.process(forged, 0, &mut out);
+            engine.flush(0, &mut out); // the live node's held-packet timeout
+        }
+        engine.process(p, 0, &mut out);
+    }
+    engine.flush(0, &mut out);
+    assert_eq!(alert_levels(&out), expected);
+    let (_, own, stream) = engine.station_counters().next().unwrap();
+    assert_eq!(stream.grid_rewinds, 1);
+    assert_eq!(stream.duplicate_packets, 0);
+    // Every real sample and the forged packet's were integrated.
+    assert_eq!(own.samples as usize, record.len() + 100);
+}
+
+/// Finding 6: accelerations beyond the physical bound (default 20 g, after the station's
+/// gain) reject the packet, counted; the station goes on with the next packet.
+#[test]
+fn accelerations_beyond_the_physical_bound_are_rejected_and_counted() {
+    let g = rockwatch_core::STANDARD_GRAVITY_MPS2;
+    let pbrs = [spec("slender", "CI.RRS.00", 90.0, slender())];
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    let mut east = vec![0.0; 300];
+    east[50] = 19.9 * g; // within the bound: used
+    east[150] = -20.1 * g; // beyond: its packet (100..200) is rejected
+    let out = run(
+        &mut engine,
+        packets("CI.RRS.00", &east, &[0.0; 300], 0.01, 100),
+    );
+    let (_, own, _) = engine.station_counters().next().unwrap();
+    assert_eq!((own.implausible_packets, own.rejected_packets), (1, 1));
+    assert_eq!(own.samples, 200);
+    assert!(out
+        .iter()
+        .any(|o| matches!(o, Output::Notice(n) if n.kind == "implausible")));
+    // With a gain, the bound applies to m/s²: 2e7 counts × 1e-5 = 200 m/s² > 20 g.
+    let station = rockwatch_core::engine::StationConfig {
+        gain_mps2_per_count: Some(1e-5),
+        ..rockwatch_core::engine::StationConfig::default_for(StationId::parse("CI.RRS.00").unwrap())
+    };
+    let mut engine = Engine::new(EngineConfig::default(), vec![station], &pbrs).unwrap();
+    let mut counts = vec![0.0; 100];
+    counts[10] = 2e7;
+    run(
+        &mut engine,
+        packets("CI.RRS.00", &counts, &[0.0; 100], 0.01, 100),
+    );
+    let (_, own, _) = engine.station_counters().next().unwrap();
+    assert_eq!(own.implausible_packets, 1);
 }

@@ -400,3 +400,171 @@ fn operator_reset_of_a_fallen_block_is_journaled_and_a_new_episode_can_overturn_
 fn operator_reset_of_a_fallen_block_is_journaled_and_a_new_episode_can_overturn_it_sharded() {
     operator_reset_stands_the_block_again(2);
 }
+
+/// Issue 11, finding 6 (live): a packet stamped more than `engine.plausibility.max_ahead_s`
+/// ahead of its arrival is rejected and counted before the engine, so it cannot move its
+/// station's time grid; packets stamped now (or in the past) are processed.
+#[test]
+fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
+        ..NodeOptions::default()
+    };
+    assert!(options.reject_future);
+    let mut node = NodeRuntime::start(&options).unwrap();
+    let now_ns = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as i64;
+    let mut packets = rinaldi_packets();
+    packets.truncate(3);
+    // 10 samples of 100 ms each: the packet's data end 0.1 s after its start.
+    let stamp = |p: &mut rockwatch_core::engine::AccelPacket, start: i64| p.start_time_ns = start;
+    stamp(&mut packets[0], now_ns - 1_000_000_000); // ended 0.9 s ago: fine
+    stamp(&mut packets[1], now_ns + 4_000_000_000); // ends 4.1 s ahead: within 5 s
+    stamp(&mut packets[2], now_ns + 300_000_000_000_000_000); // 9.5 years ahead
+    let mut publish = |_: Publication| {};
+    for p in packets {
+        node.submit(p, &mut publish).unwrap();
+    }
+    let stopped = node.stop(&mut publish).unwrap();
+    assert_eq!(stopped.stats.future_packets, 1);
+    assert_eq!(stopped.stats.packets, 2);
+    let totals = stopped.input_totals();
+    assert_eq!((totals.future_packets, totals.packets), (1, 2));
+
+    // Offline runs (monitor) have no arrival clock: nothing is rejected for its stamp.
+    let offline = NodeOptions {
+        reject_future: false,
+        ..options
+    };
+    let mut node = NodeRuntime::start(&offline).unwrap();
+    let mut p = rinaldi_packets().remove(0);
+    p.start_time_ns = now_ns + 300_000_000_000_000_000;
+    node.submit(p, &mut publish).unwrap();
+    assert_eq!(node.stats().future_packets, 0);
+}
+
+/// Set in the full-disk test re-executed in its own mount namespace.
+const IN_MOUNT_NS: &str = "ROCKWATCH_TEST_IN_MOUNT_NS";
+
+/// Issue 11, finding 5: the node exited 1 at the first alert it could not journal. On a real
+/// full file system (a 64 KiB tmpfs, mounted in a private mount namespace: needs root, as in
+/// CI), the runtime now publishes every alert flagged `journal_pending`, counts the failures,
+/// and journals everything, in order and without a torn line, once space returns.
+#[test]
+fn a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns() {
+    if std::env::var_os(IN_MOUNT_NS).is_none() {
+        let exe = std::env::current_exe().unwrap();
+        let out = std::process::Command::new("timeout")
+            .args([
+                "-k",
+                "5",
+                "120",
+                "unshare",
+                "-m",
+                "--propagation",
+                "private",
+            ])
+            .arg(exe)
+            .args([
+                "--exact",
+                "a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns",
+                "--nocapture",
+                "--test-threads=1",
+            ])
+            .env(IN_MOUNT_NS, "1")
+            .output()
+            .expect("runs timeout and unshare (coreutils, util-linux)");
+        assert!(
+            out.status.success() && String::from_utf8_lossy(&out.stdout).contains("1 passed"),
+            "{}\n{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mounted = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(dir.path())
+        .status()
+        .unwrap();
+    assert!(mounted.success(), "mount tmpfs (root needed)");
+    let state = dir.path().join("state");
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
+        state_dir: Some(state.clone()),
+        reject_future: false,
+        ..NodeOptions::default()
+    };
+    let mut node = NodeRuntime::start(&options).unwrap();
+    // Fill the file system: every page taken, the journal (empty) cannot grow.
+    let filler = dir.path().join("filler");
+    {
+        use std::io::Write;
+        let mut f = std::fs::File::create(&filler).unwrap();
+        while f.write_all(&[0u8; 4096]).is_ok() {}
+        while f.write_all(&[0u8; 1]).is_ok() {}
+    }
+    let mut alerts = Vec::new();
+    let mut publish = |p: Publication| {
+        if let Publication::Alert {
+            alert,
+            journal_pending,
+            ..
+        } = p
+        {
+            alerts.push((alert.key(), journal_pending));
+        }
+    };
+    for packet in rinaldi_packets() {
+        node.submit(packet, &mut publish).unwrap();
+    }
+    let stats = node.stats();
+    let mut keys: Vec<_> = alerts.iter().map(|(k, _)| k.clone()).collect();
+    keys.sort();
+    assert_eq!(keys, reference_alert_keys(), "every alert published");
+    assert!(alerts.iter().all(|(_, pending)| *pending), "{alerts:?}");
+    assert_eq!(stats.journal_pending_alerts as usize, alerts.len());
+    assert!(stats.journal_failures >= alerts.len() as u64);
+    assert!(stats.journal_backlog >= alerts.len() as u64);
+    assert_eq!(read_journal(&state).unwrap().0.len(), 0);
+    // Still full: a retry fails and keeps everything.
+    node.retry_journal();
+    assert_eq!(node.stats().journal_backlog, stats.journal_backlog);
+    // Space returns.
+    std::fs::remove_file(&filler).unwrap();
+    node.retry_journal();
+    assert_eq!(node.stats().journal_backlog, 0);
+    let stopped = node.stop(&mut |_| {}).unwrap();
+    assert_eq!(stopped.stats.journal_backlog, 0);
+    let (records, report) = read_journal(&state).unwrap();
+    assert!(
+        report.corrupt_lines.is_empty() && !report.truncated_tail,
+        "{report:?}"
+    );
+    let mut journaled: Vec<_> = records
+        .iter()
+        .filter_map(|r| match r {
+            rockwatch_core::engine::JournalRecord::Alert(a) => Some(a.key()),
+            _ => None,
+        })
+        .collect();
+    // In the order they were raised (published).
+    assert_eq!(
+        journaled,
+        alerts.iter().map(|(k, _)| k.clone()).collect::<Vec<_>>()
+    );
+    journaled.sort();
+    assert_eq!(journaled, reference_alert_keys());
+    let _ = std::process::Command::new("umount")
+        .arg(dir.path())
+        .status();
+}

@@ -90,6 +90,11 @@ pub struct Simulation {
     pub events: Vec<BlockEvent>,
 }
 
+/// Most integration intervals a simulation runs (record plus `t_extra_s`): 2·10⁷, about
+/// 55 h at 100 Hz, a few minutes of CPU. Bounds the work whatever the record's sampling
+/// interval and `t_extra_s`.
+pub const MAX_SIMULATION_STEPS: usize = 20_000_000;
+
 /// Why a simulation failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimulateError {
@@ -97,6 +102,11 @@ pub enum SimulateError {
     TooShort,
     #[error("t_extra must be a finite number of seconds ≥ 0, got {0}")]
     BadExtra(f64),
+    #[error(
+        "{steps} integration steps (record plus t_extra at dt = {dt_s} s) exceed the limit of \
+         {MAX_SIMULATION_STEPS}: shorten t_extra or resample the record"
+    )]
+    TooManySteps { steps: f64, dt_s: f64 },
     #[error("at t = {t_s} s: {reason}")]
     Advance { t_s: f64, reason: AdvanceError },
 }
@@ -114,6 +124,11 @@ pub fn simulate(
         return Err(SimulateError::BadExtra(options.t_extra_s));
     }
     let dt = record.dt_s;
+    // In f64: a tiny dt or a huge t_extra must not wrap or saturate before the check.
+    let steps = record.len() as f64 + (options.t_extra_s / dt).ceil();
+    if !(dt > 0.0 && steps <= MAX_SIMULATION_STEPS as f64) {
+        return Err(SimulateError::TooManySteps { steps, dt_s: dt });
+    }
     let n_extra = (options.t_extra_s / dt).ceil() as usize;
     let ground_at = |i: usize| -> GroundAccel {
         if i < record.len() {

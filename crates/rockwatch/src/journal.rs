@@ -6,6 +6,11 @@
 //! Format: one record per line, `CRC32(json) as 8 hex digits`, a space, the record as JSON.
 //! A torn last line (a crash mid-write) is discarded and truncated away on open; a corrupt line
 //! elsewhere is skipped and reported.
+//!
+//! One process per state directory: [`Journal::open`] takes an exclusive OS lock (`flock`) on
+//! [`LOCK_FILE`] and holds it as long as the journal is open (the process's lifetime for the
+//! node); a second opener is refused ([`JournalError::Locked`]). The lock is released by the
+//! kernel when the process ends, however it ends (a `kill -9` leaves no stale lock).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
@@ -16,6 +21,9 @@ use rockwatch_core::engine::JournalRecord;
 /// File name of the journal inside the state directory.
 pub const JOURNAL_FILE: &str = "journal.log";
 
+/// File name of the lock inside the state directory (empty; only its `flock` matters).
+pub const LOCK_FILE: &str = "lock";
+
 /// A problem with the state directory.
 #[derive(Debug, thiserror::Error)]
 pub enum JournalError {
@@ -25,6 +33,13 @@ pub enum JournalError {
         #[source]
         source: std::io::Error,
     },
+    #[error(
+        "{dir}: the state directory is in use by another rockwatch process (it holds \
+         {LOCK_FILE}): one node per state directory"
+    )]
+    Locked { dir: PathBuf },
+    #[error("{path}: {waiting} records wait for the state directory (it is failing, e.g. full)")]
+    Backlog { path: PathBuf, waiting: usize },
     #[error("{path}: cannot encode a record: {message}")]
     Encode { path: PathBuf, message: String },
 }
@@ -44,6 +59,10 @@ pub struct LoadReport {
 pub struct Journal {
     path: PathBuf,
     file: File,
+    /// Length of the file's complete lines: a failed append is truncated back to it.
+    len: u64,
+    /// Holds the state directory's exclusive lock while open.
+    _lock: File,
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> JournalError + '_ {
@@ -105,11 +124,30 @@ pub fn read_journal(dir: &Path) -> Result<(Vec<JournalRecord>, LoadReport), Jour
     Ok((records, report))
 }
 
+/// Takes the exclusive lock of the state directory `dir`, without waiting.
+fn lock_state_dir(dir: &Path) -> Result<File, JournalError> {
+    let path = dir.join(LOCK_FILE);
+    let file = OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(io(&path))?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(JournalError::Locked {
+            dir: dir.to_path_buf(),
+        }),
+        Err(std::fs::TryLockError::Error(e)) => Err(io(&path)(e)),
+    }
+}
+
 impl Journal {
     /// Opens (creating) the journal in `dir`, returning its valid records. A torn last line is
     /// truncated away so that appends start on a clean line.
     pub fn open(dir: &Path) -> Result<(Journal, Vec<JournalRecord>, LoadReport), JournalError> {
         std::fs::create_dir_all(dir).map_err(io(dir))?;
+        let lock = lock_state_dir(dir)?;
         let (records, report) = read_journal(dir)?;
         let path = dir.join(JOURNAL_FILE);
         let mut file = OpenOptions::new()
@@ -124,19 +162,144 @@ impl Journal {
             file.set_len(keep as u64).map_err(io(&path))?;
             file.seek(SeekFrom::End(0)).map_err(io(&path))?;
         }
-        Ok((Journal { path, file }, records, report))
+        let len = file.metadata().map_err(io(&path))?.len();
+        Ok((
+            Journal {
+                path,
+                file,
+                len,
+                _lock: lock,
+            },
+            records,
+            report,
+        ))
     }
 
-    /// Appends `record` and flushes it to stable storage before returning.
+    /// Appends `record` and flushes it to stable storage before returning. On failure (a
+    /// full disk: `ENOSPC` on the write or on the sync) the file is truncated back to its
+    /// last complete line, so a later append starts on a clean line and nothing half-written
+    /// stays behind.
     pub fn append(&mut self, record: &JournalRecord) -> Result<(), JournalError> {
         let line = encode(record).map_err(|message| JournalError::Encode {
             path: self.path.clone(),
             message,
         })?;
-        self.file
+        let written = self
+            .file
             .write_all(line.as_bytes())
-            .map_err(io(&self.path))?;
-        self.file.sync_data().map_err(io(&self.path))
+            .and_then(|()| self.file.sync_data());
+        if let Err(e) = written {
+            // Truncation frees blocks: it works on a full file system. If it fails too,
+            // the torn line is discarded on the next open (see the module doc).
+            let _ = self.file.set_len(self.len);
+            return Err(io(&self.path)(e));
+        }
+        self.len += line.len() as u64;
+        Ok(())
+    }
+}
+
+/// Most records waiting for a failing state directory ([`JournalWriter`]); beyond, new
+/// records are dropped and counted. Alerts are rare (three per block and episode): 100 000
+/// is days of a station network in continuous alarm, ≈ 30 MB.
+pub const MAX_BACKLOG: usize = 100_000;
+
+/// A [`Journal`] that survives a failing state directory (a full disk): a record that
+/// cannot be written waits, in order, in a bounded backlog and is written when the
+/// directory recovers ([`JournalWriter::retry`], and before every later record).
+#[derive(Debug)]
+pub struct JournalWriter {
+    journal: Journal,
+    backlog: std::collections::VecDeque<JournalRecord>,
+    /// Failed write attempts since start.
+    pub failures: u64,
+    /// Records dropped because the backlog was full ([`MAX_BACKLOG`]).
+    pub dropped: u64,
+    /// The last failure, while the backlog is not empty.
+    pub last_error: Option<String>,
+}
+
+/// What a [`JournalWriter`] did with a record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Appended {
+    /// On stable storage, after every record before it.
+    Written,
+    /// Waiting in the backlog (the state directory is failing).
+    Pending,
+    /// Lost: the backlog was full.
+    Dropped,
+}
+
+impl JournalWriter {
+    #[must_use]
+    pub fn new(journal: Journal) -> JournalWriter {
+        JournalWriter {
+            journal,
+            backlog: std::collections::VecDeque::new(),
+            failures: 0,
+            dropped: 0,
+            last_error: None,
+        }
+    }
+
+    /// Records waiting for the state directory.
+    #[must_use]
+    pub fn backlog(&self) -> usize {
+        self.backlog.len()
+    }
+
+    /// Writes `record` after the backlog, or queues it if the state directory fails.
+    pub fn append(&mut self, record: JournalRecord) -> Appended {
+        if self.backlog.len() >= MAX_BACKLOG {
+            self.dropped += 1;
+            return Appended::Dropped;
+        }
+        self.backlog.push_back(record);
+        self.drain();
+        if self.backlog.is_empty() {
+            Appended::Written
+        } else {
+            Appended::Pending
+        }
+    }
+
+    /// Writes `record` now, only if nothing waits and the write succeeds (an operator reset:
+    /// applied only once journaled); nothing is queued on failure.
+    pub fn append_now(&mut self, record: &JournalRecord) -> Result<(), JournalError> {
+        self.retry();
+        if !self.backlog.is_empty() {
+            return Err(JournalError::Backlog {
+                path: self.journal.path.clone(),
+                waiting: self.backlog.len(),
+            });
+        }
+        self.journal.append(record).inspect_err(|e| {
+            self.failures += 1;
+            self.last_error = Some(e.to_string());
+        })
+    }
+
+    /// Tries to write the backlog; returns how many records were written.
+    pub fn retry(&mut self) -> usize {
+        let before = self.backlog.len();
+        self.drain();
+        before - self.backlog.len()
+    }
+
+    fn drain(&mut self) {
+        while let Some(record) = self.backlog.front() {
+            match self.journal.append(record) {
+                Ok(()) => {
+                    self.backlog.pop_front();
+                }
+                Err(e) => {
+                    self.failures += 1;
+                    self.last_error = Some(e.to_string());
+                    return;
+                }
+            }
+        }
+        self.last_error = None;
     }
 }
 
@@ -146,6 +309,17 @@ mod tests {
 
     fn reset(id: &str) -> JournalRecord {
         JournalRecord::Reset { pbr_id: id.into() }
+    }
+
+    #[test]
+    fn a_second_opener_of_the_state_directory_is_refused_until_the_first_closes() {
+        let dir = tempfile::tempdir().unwrap();
+        let (first, _, _) = Journal::open(dir.path()).unwrap();
+        let err = Journal::open(dir.path()).unwrap_err();
+        assert!(matches!(err, JournalError::Locked { .. }), "{err}");
+        assert!(err.to_string().contains("one node per state directory"));
+        drop(first);
+        Journal::open(dir.path()).unwrap();
     }
 
     #[test]

@@ -11,6 +11,12 @@
 //! Ordering guarantee: an alert is appended to the journal and synced before it is handed to
 //! any publisher, so a published alert is never lost; on restart the journal is restored
 //! into the engine, so an alert is never published twice.
+//!
+//! A failing state directory (a full disk) degrades, never stops, the node: an alert that
+//! cannot be journaled is published at once flagged `journal_pending`, waits in a bounded
+//! backlog ([`crate::journal::JournalWriter`]) and is journaled when the directory recovers
+//! (retried every [`HELD_PACKET_TIMEOUT`] and before every later record); the fault is
+//! logged, counted ([`NodeStats`]) and in the node's closing summary.
 
 mod serve;
 
@@ -26,7 +32,7 @@ pub use serve::{serve, Probe, Reactor, ServeReport};
 
 use crate::ports::{Control, ControlSender, Publication, Publisher, Wake};
 
-use crate::journal::Journal;
+use crate::journal::{Appended, Journal, JournalWriter};
 use crate::log_text::{printable, MESSAGE_CHARS, PBR_ID_CHARS, STATION_CHARS};
 use crate::node_config::NodeConfig;
 use rockwatch_core::catalogue::Catalogue;
@@ -42,6 +48,9 @@ pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
 /// aborts right after the N-th alert has been journaled (and synced), before it is handed to
 /// any publisher — the worst moment for a crash.
 pub const FAULT_ABORT_AFTER_JOURNAL_ENV: &str = "ROCKWATCH_FAULT_ABORT_AFTER_JOURNAL";
+
+/// Most engine shards (worker threads) a runtime starts.
+pub const MAX_SHARDS: usize = 256;
 
 /// What an operator reset of a block ([`NodeRuntime::operator_reset`]) did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,6 +103,11 @@ pub struct NodeOptions {
     pub shards: usize,
     /// How the engine's notices are reported (default: rate-limited, as the live node).
     pub notices: NoticeLog,
+    /// Live input (default true): a packet whose last sample is stamped more than
+    /// `engine.plausibility.max_ahead_s` ahead of the node's UTC clock at its arrival is
+    /// rejected and counted ([`NodeStats::future_packets`]). Off for offline runs (monitor),
+    /// whose data times are not related to the wall clock.
+    pub reject_future: bool,
 }
 
 /// How the runtime reports the engine's notices (a station's data irregularities) on stderr.
@@ -116,6 +130,7 @@ impl Default for NodeOptions {
             state_dir: None,
             shards: 1,
             notices: NoticeLog::default(),
+            reject_future: true,
         }
     }
 }
@@ -165,6 +180,17 @@ pub struct NodeStats {
     pub states: u64,
     pub intensities: u64,
     pub notices: u64,
+    /// Failed writes to the state directory (each retry counts).
+    pub journal_failures: u64,
+    /// Alerts published before they could be journaled (flagged `journal_pending`).
+    pub journal_pending_alerts: u64,
+    /// Records (alerts, episode ends) waiting for the state directory now.
+    pub journal_backlog: u64,
+    /// Records lost because the backlog was full ([`crate::journal::MAX_BACKLOG`]).
+    pub journal_dropped: u64,
+    /// Packets rejected for a time stamp too far ahead of their arrival
+    /// ([`NodeOptions::reject_future`]); not handed to the engine.
+    pub future_packets: u64,
 }
 
 /// What the engine made of its input, summed over every shard (the node's closing summary).
@@ -183,6 +209,14 @@ pub struct InputTotals {
     pub duplicate_packets: u64,
     /// Packets that arrived after later data had been processed.
     pub late_packets: u64,
+    /// Packets rejected because a sample is beyond the physical bound
+    /// (`engine.plausibility.max_abs_accel_g`); counted in `rejected_packets` too.
+    pub implausible_packets: u64,
+    /// Packets stamped too far ahead of their arrival, rejected by the runtime before the
+    /// engine ([`NodeStats::future_packets`]; not counted in `packets`).
+    pub future_packets: u64,
+    /// Forward jumps of a station's time grid undone by the packets that followed them.
+    pub grid_rewinds: u64,
 }
 
 impl InputTotals {
@@ -193,6 +227,8 @@ impl InputTotals {
         self.unknown_station_packets += c.unknown_station_packets;
         for (_, station, stream) in engine.station_counters() {
             self.rejected_packets += station.rejected_packets;
+            self.implausible_packets += station.implausible_packets;
+            self.grid_rewinds += stream.grid_rewinds;
             self.duplicate_packets += stream.duplicate_packets;
             self.late_packets += stream.late_packets;
         }
@@ -247,7 +283,7 @@ impl RateLimitedLog {
 /// stats and the logs. The one path from the engine to the outside, the node's and
 /// `rockwatch monitor`'s: journal (and sync), then publish.
 struct Emitter {
-    journal: Option<Journal>,
+    journal: Option<JournalWriter>,
     epoch: Instant,
     log: RateLimitedLog,
     notice_log: NoticeLog,
@@ -266,6 +302,53 @@ struct Emitter {
 impl Emitter {
     fn now_ns(&self) -> i64 {
         self.epoch.elapsed().as_nanos() as i64
+    }
+
+    /// Journals `record` (after any backlog); false if it waits in the backlog or was lost.
+    /// The first failure of a run of failures, and each recovery, is logged.
+    fn journal(&mut self, record: JournalRecord) -> bool {
+        let Some(writer) = &mut self.journal else {
+            return true;
+        };
+        let was_failing = writer.backlog() > 0;
+        let appended = writer.append(record);
+        self.journal_changed(was_failing, 0);
+        appended == Appended::Written
+    }
+
+    /// Writes the backlog of a failing state directory, if any.
+    fn retry_journal(&mut self) {
+        if let Some(writer) = self.journal.as_mut().filter(|w| w.backlog() > 0) {
+            let written = writer.retry();
+            self.journal_changed(true, written);
+        }
+    }
+
+    /// Updates the journal's counters and logs a change of health: failing (one line every
+    /// 10 s while it lasts, with the count) or recovered.
+    fn journal_changed(&mut self, was_failing: bool, written: usize) {
+        let Some(writer) = &self.journal else {
+            return;
+        };
+        let backlog = writer.backlog();
+        self.stats.journal_failures = writer.failures;
+        self.stats.journal_backlog = backlog as u64;
+        self.stats.journal_dropped = writer.dropped;
+        if let Some(error) = writer.last_error.clone() {
+            let message = format!(
+                "{error}: the node goes on; alerts are published flagged journal_pending and \
+                 {backlog} records wait in memory ({} lost) to be journaled when it recovers \
+                 ({} failed writes)",
+                writer.dropped, writer.failures
+            );
+            self.log.log("state directory", "journal_failing", &message);
+        } else if was_failing && backlog == 0 {
+            eprintln!(
+                "rockwatch: state directory recovered: {written} waiting records journaled \
+                 ({} failed writes)",
+                writer.failures
+            );
+        }
     }
 
     /// Reports one of the engine's notices as [`NoticeLog`] says.
@@ -295,14 +378,13 @@ impl Emitter {
     /// each alert is journaled (and synced), then published at once, in engine order; episode
     /// ends are journaled; notices logged; states and intensities are published by
     /// [`EmitSink::finish`], after the batch (they are not journaled, and an alert must not
-    /// wait for them). After a journal failure nothing more is published and `finish` returns
-    /// the error.
+    /// wait for them). An alert the state directory cannot take is published all the same,
+    /// flagged `journal_pending` ([`Emitter::journal`]).
     fn sink<'a, P: FnMut(Publication)>(&'a mut self, publish: &'a mut P) -> EmitSink<'a, P> {
         self.deferred.clear();
         EmitSink {
             emit: self,
             publish,
-            error: None,
         }
     }
 }
@@ -311,21 +393,12 @@ impl Emitter {
 struct EmitSink<'a, P: FnMut(Publication)> {
     emit: &'a mut Emitter,
     publish: &'a mut P,
-    error: Option<anyhow::Error>,
 }
 
 impl<P: FnMut(Publication)> EmitSink<'_, P> {
-    /// Publishes the batch's states and intensities; returns the journal's error, if any.
+    /// Publishes the batch's states and intensities.
     fn finish(self) -> anyhow::Result<()> {
-        let EmitSink {
-            emit,
-            publish,
-            error,
-        } = self;
-        if let Some(e) = error {
-            emit.deferred.clear();
-            return Err(e);
-        }
+        let EmitSink { emit, publish } = self;
         for output in emit.deferred.drain(..) {
             match output {
                 Output::State(s) => {
@@ -350,9 +423,6 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 self.emit.overturned.insert(a.pbr_id.clone());
             }
         }
-        if self.error.is_some() {
-            return; // the state directory failed: publish nothing more
-        }
         let record = match &output {
             Output::Alert(alert) => Some(JournalRecord::Alert(alert.clone())),
             Output::EpisodeEnd { pbr_id, episode } => Some(JournalRecord::EpisodeEnd {
@@ -361,20 +431,22 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             }),
             _ => None,
         };
-        if let (Some(record), Some(journal)) = (record, &mut self.emit.journal) {
-            if let Err(e) = journal.append(&record) {
-                self.error = Some(e.into());
-                return;
-            }
-        }
+        let journaled = record.is_none_or(|r| self.emit.journal(r));
         match output {
             Output::Alert(alert) => {
+                if !journaled {
+                    self.emit.stats.journal_pending_alerts += 1;
+                }
                 if self.emit.abort_after_alert == Some(self.emit.stats.alerts + 1) {
                     std::process::abort(); // fault injection: journaled, not published
                 }
                 self.emit.stats.alerts += 1;
                 let latency_ns = self.emit.now_ns() - alert.arrival_ns;
-                (self.publish)(Publication::Alert { alert, latency_ns });
+                (self.publish)(Publication::Alert {
+                    alert,
+                    latency_ns,
+                    journal_pending: !journaled,
+                });
             }
             Output::EpisodeEnd { .. } => {}
             Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
@@ -399,6 +471,10 @@ pub struct NodeRuntime {
     emit: Emitter,
     pbr_ids: Vec<String>,
     last_flush: Instant,
+    /// UTC (ns since the Unix epoch) at `emit.epoch`: arrival stamps in UTC.
+    epoch_utc_ns: i64,
+    /// [`NodeOptions::reject_future`]: the tolerance (ns), when on.
+    max_ahead_ns: Option<i64>,
 }
 
 impl NodeRuntime {
@@ -426,6 +502,12 @@ impl NodeRuntime {
             None => (None, Vec::new()),
         };
         let overturned = fallen_blocks(&records);
+        if options.shards > MAX_SHARDS {
+            anyhow::bail!(
+                "--shards must be 0 (one per core) to {MAX_SHARDS}, got {}",
+                options.shards
+            );
+        }
         let shards = if options.shards == 0 {
             std::thread::available_parallelism().map_or(1, usize::from)
         } else {
@@ -449,7 +531,7 @@ impl NodeRuntime {
         Ok(NodeRuntime {
             engine: Some(engine),
             emit: Emitter {
-                journal,
+                journal: journal.map(JournalWriter::new),
                 epoch: Instant::now(),
                 log: RateLimitedLog::new(),
                 notice_log: options.notices,
@@ -463,6 +545,12 @@ impl NodeRuntime {
             },
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
             last_flush: Instant::now(),
+            epoch_utc_ns: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)),
+            max_ahead_ns: options
+                .reject_future
+                .then_some((config.engine.plausibility.max_ahead_s * 1e9) as i64),
         })
     }
 
@@ -522,6 +610,9 @@ impl NodeRuntime {
         arrival: i64,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
+        if self.stamped_ahead(&packet, arrival) {
+            return Ok(());
+        }
         self.emit.stats.packets += 1;
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
@@ -537,6 +628,40 @@ impl NodeRuntime {
             }
             None => Ok(()),
         }
+    }
+
+    /// Whether `packet`, arrived at `arrival` ([`NodeRuntime::now_ns`]), ends more than the
+    /// tolerance ahead of the UTC clock then ([`NodeOptions::reject_future`]); such a packet
+    /// is counted and logged (rate-limited), never handed to the engine, so it cannot move
+    /// its station's time grid.
+    fn stamped_ahead(&mut self, packet: &AccelPacket, arrival: i64) -> bool {
+        let Some(max_ahead_ns) = self.max_ahead_ns else {
+            return false;
+        };
+        let rate = packet.sample_rate_hz;
+        let span_ns = if rate.is_finite() && rate > 0.0 {
+            packet.len() as f64 * 1e9 / rate
+        } else {
+            0.0 // an invalid rate is the engine's to reject and report
+        };
+        let end_ns = packet.start_time_ns as f64 + span_ns;
+        let ahead_s = (end_ns - (self.epoch_utc_ns + arrival) as f64) * 1e-9;
+        if ahead_s * 1e9 <= max_ahead_ns as f64 {
+            return false;
+        }
+        self.emit.stats.future_packets += 1;
+        self.emit.log.log(
+            &packet.station,
+            "future",
+            &format!(
+                "packet {} rejected: its data end {ahead_s:.3} s ahead of the node's clock \
+                 (engine.plausibility.max_ahead_s = {} s; {} such packets in all)",
+                packet.sequence,
+                max_ahead_ns as f64 * 1e-9,
+                self.emit.stats.future_packets
+            ),
+        );
+        true
     }
 
     /// Applies a settings change, effective for the next packet.
@@ -602,7 +727,7 @@ impl NodeRuntime {
     /// means the state directory failed and nothing was applied.
     pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
         if let Some(j) = &mut self.emit.journal {
-            j.append(&JournalRecord::Reset {
+            j.append_now(&JournalRecord::Reset {
                 pbr_id: pbr_id.to_string(),
             })?;
         }
@@ -617,6 +742,12 @@ impl NodeRuntime {
         Ok(())
     }
 
+    /// Writes the records waiting for a failing state directory now (also done every
+    /// [`HELD_PACKET_TIMEOUT`] by [`NodeRuntime::flush_if_due`] and before every new record).
+    pub fn retry_journal(&mut self) {
+        self.emit.retry_journal();
+    }
+
     /// Releases the packets held in the engine's reorder window if `HELD_PACKET_TIMEOUT` has
     /// passed since the last release. The engine's window counts packets (so replays are
     /// deterministic); live, a packet held for missing data must not wait forever if its
@@ -626,6 +757,7 @@ impl NodeRuntime {
             return Ok(());
         }
         self.last_flush = Instant::now();
+        self.emit.retry_journal();
         let now = self.now_ns();
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
@@ -707,6 +839,8 @@ impl NodeRuntime {
                 engines
             }
         };
+        // A last attempt for what waits; what still waits is in `stats.journal_backlog`.
+        self.emit.retry_journal();
         Ok(Stopped {
             engines,
             stats: self.emit.stats,
@@ -736,7 +870,10 @@ impl Stopped {
     /// What the engines made of their input, summed over the shards.
     #[must_use]
     pub fn input_totals(&self) -> InputTotals {
-        let mut totals = InputTotals::default();
+        let mut totals = InputTotals {
+            future_packets: self.stats.future_packets,
+            ..InputTotals::default()
+        };
         for e in &self.engines {
             totals.add(e);
         }

@@ -9,14 +9,24 @@ use std::sync::mpsc;
 
 use rockwatch_core::engine::{AccelPacket, Alert, AlertConfig, PbrState, StationIntensity};
 
+/// Appended to the `message` of a ROS 2 `PbrAlert` published with `journal_pending` (the
+/// message type has no flag field; changing it would break interoperability).
+pub const JOURNAL_PENDING_NOTE: &str = " [journal pending: the node's state directory is failing]";
+
 /// What a transport publishes.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Publication {
-    /// An alert, already journaled; `latency_ns` = wall time now − arrival of the packet that
-    /// triggered it.
+    /// An alert, already journaled unless `journal_pending`; `latency_ns` = wall time now −
+    /// arrival of the packet that triggered it.
     Alert {
         alert: Alert,
         latency_ns: i64,
+        /// The state directory is failing (e.g. the disk is full): the alert is published
+        /// before it could be journaled; it waits in memory and is journaled when the
+        /// directory recovers (a crash before then loses it from the journal). On the wire:
+        /// iceoryx2 `flags` bit [`crate::iox::ALERT_FLAG_JOURNAL_PENDING`], ROS 2 `message`
+        /// suffix [`JOURNAL_PENDING_NOTE`].
+        journal_pending: bool,
     },
     State(PbrState),
     Intensity(StationIntensity),

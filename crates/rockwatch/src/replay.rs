@@ -6,12 +6,25 @@ use std::path::Path;
 
 use crate::ports::PacketSink;
 use rockwatch_core::azimuth::Azimuth;
+use rockwatch_core::engine::packet::MAX_SAMPLES_PER_PACKET;
 use rockwatch_core::engine::{AccelPacket, StationId};
 use rockwatch_core::record::mseed::{align_channels, read_mseed, Channel, GapFill};
-use rockwatch_core::record::{Record, RecordError};
+use rockwatch_core::record::{Record, RecordError, MAX_RECORD_SAMPLES};
 
 /// Longest quiet tail a replay or monitor run appends (s): one day.
 pub const MAX_TAIL_S: f64 = 86_400.0;
+
+/// Checks the flags of a cut into packets on their own (before any record is read): packets
+/// of 1 ms to 60 s, a tail of 0 to [`MAX_TAIL_S`]. See [`Traces::check_packets`].
+pub fn check_packet_flags(packet_ms: u32, tail_s: f64) -> Result<(), String> {
+    if !(1..=60_000).contains(&packet_ms) {
+        return Err(format!("--packet-ms must be 1 to 60000, got {packet_ms}"));
+    }
+    if !(tail_s.is_finite() && (0.0..=MAX_TAIL_S).contains(&tail_s)) {
+        return Err(format!("--tail must be 0 to {MAX_TAIL_S} s, got {tail_s}"));
+    }
+    Ok(())
+}
 
 /// Three aligned components (m/s², or counts for integer MiniSEED) with their timing.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,6 +110,32 @@ impl Traces {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.east.is_empty()
+    }
+
+    /// Checks that cutting the traces into packets of `packet_ms`, followed by `tail_s`
+    /// seconds of zeros, is bounded work: 1 ms to 60 s packets of at most
+    /// [`MAX_SAMPLES_PER_PACKET`] samples, a tail of 0 to [`MAX_TAIL_S`], and at most
+    /// [`MAX_RECORD_SAMPLES`] samples in all (the packets are held in memory). The message
+    /// names the flag (`--packet-ms`, `--tail`).
+    pub fn check_packets(&self, packet_ms: u32, tail_s: f64) -> Result<(), String> {
+        check_packet_flags(packet_ms, tail_s)?;
+        let per_packet = (f64::from(packet_ms) * 1e-3 * self.rate_hz).round();
+        if per_packet > MAX_SAMPLES_PER_PACKET as f64 {
+            return Err(format!(
+                "--packet-ms {packet_ms} at {} Hz makes packets of {per_packet} samples, more than \
+                 the {MAX_SAMPLES_PER_PACKET} a packet may hold",
+                self.rate_hz
+            ));
+        }
+        let total = self.len() as f64 + (tail_s * self.rate_hz).round();
+        if total > MAX_RECORD_SAMPLES as f64 {
+            return Err(format!(
+                "the record plus --tail {tail_s} s is {total} samples at {} Hz, more than \
+                 {MAX_RECORD_SAMPLES}",
+                self.rate_hz
+            ));
+        }
+        Ok(())
     }
 
     /// Cuts the traces, followed by `tail_s` seconds of zeros (at most [`MAX_TAIL_S`]), into

@@ -153,12 +153,46 @@ impl Default for AlertConfig {
     }
 }
 
+/// Physical plausibility of the input: what no real station can send.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlausibilityConfig {
+    /// A packet with any sample beyond this |acceleration| (in g = 9.80665 m/s², after the
+    /// station's gain) is rejected and counted (`implausible_packets`). Default 20 g: the
+    /// largest range of strong-motion accelerometers in use (real ground motion stays below
+    /// about 4 g).
+    pub max_abs_accel_g: f64,
+    /// The live node rejects and counts (`future_packets`) a packet whose last sample is
+    /// stamped more than this (s) ahead of its arrival (UTC wall clock of the node). Offline
+    /// runs (monitor) have no arrival clock and do not apply it; the engine itself is
+    /// clock-free.
+    pub max_ahead_s: f64,
+}
+
+impl Default for PlausibilityConfig {
+    fn default() -> Self {
+        PlausibilityConfig {
+            max_abs_accel_g: 20.0,
+            max_ahead_s: 5.0,
+        }
+    }
+}
+
+impl PlausibilityConfig {
+    /// [`PlausibilityConfig::max_abs_accel_g`] in m/s².
+    #[must_use]
+    pub fn max_abs_accel_mps2(&self) -> f64 {
+        self.max_abs_accel_g * crate::STANDARD_GRAVITY_MPS2
+    }
+}
+
 /// Engine-wide options.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EngineConfig {
     pub stream: StreamConfig,
     pub alerts: AlertConfig,
+    pub plausibility: PlausibilityConfig,
     /// Each block's state is published on every mode change and at least this often (s of
     /// data time); station intensities at the same rate.
     pub state_interval_s: f64,
@@ -169,6 +203,7 @@ impl Default for EngineConfig {
         EngineConfig {
             stream: StreamConfig::default(),
             alerts: AlertConfig::default(),
+            plausibility: PlausibilityConfig::default(),
             state_interval_s: 1.0,
         }
     }
@@ -178,7 +213,8 @@ impl EngineConfig {
     /// Checks every threshold; the message names the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let a = &self.alerts;
-        let checks: [(&str, f64, bool); 7] = [
+        let p = &self.plausibility;
+        let checks: [(&str, f64, bool); 10] = [
             (
                 "engine.state_interval_s",
                 self.state_interval_s,
@@ -193,6 +229,21 @@ impl EngineConfig {
                 "engine.stream.reorder_window_packets",
                 self.stream.reorder_window_packets as f64,
                 self.stream.reorder_window_packets <= 1024,
+            ),
+            (
+                "engine.stream.resync_packets",
+                self.stream.resync_packets as f64,
+                (1..=64).contains(&self.stream.resync_packets),
+            ),
+            (
+                "engine.plausibility.max_abs_accel_g",
+                p.max_abs_accel_g,
+                p.max_abs_accel_g > 0.0 && p.max_abs_accel_g <= 1000.0,
+            ),
+            (
+                "engine.plausibility.max_ahead_s",
+                p.max_ahead_s,
+                (0.0..=86_400.0).contains(&p.max_ahead_s),
             ),
             (
                 "engine.alerts.imminent_theta_ratio",
@@ -221,6 +272,9 @@ impl EngineConfig {
                     "engine.state_interval_s" => "(0, 3600] s",
                     "engine.stream.max_bridge_s" => "[0, 60] s",
                     "engine.stream.reorder_window_packets" => "0 to 1024",
+                    "engine.stream.resync_packets" => "1 to 64",
+                    "engine.plausibility.max_abs_accel_g" => "(0, 1000] g",
+                    "engine.plausibility.max_ahead_s" => "[0, 86400] s",
                     "engine.alerts.imminent_probability" => "(0, 1]",
                     "engine.alerts.quiet_s" => "(0, 86400] s",
                     _ => "a finite positive number",

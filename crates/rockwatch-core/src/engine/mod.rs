@@ -31,7 +31,9 @@ pub mod stream;
 
 use std::collections::{BTreeMap, HashSet};
 
-pub use config::{AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, StationConfig};
+pub use config::{
+    AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, StationConfig,
+};
 pub use output::{
     fallen_blocks, Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink,
     PbrState, StationIntensity,
@@ -167,6 +169,21 @@ impl Engine {
                 station: packet.station.clone(),
                 kind: "rejected",
                 message: format!("packet {} rejected: {error}", packet.sequence),
+            }));
+            return;
+        }
+        let max_abs_mps2 = self.config.plausibility.max_abs_accel_mps2();
+        if let Some((component, index, value)) = station.implausible(&packet, max_abs_mps2) {
+            station.counters.rejected_packets += 1;
+            station.counters.implausible_packets += 1;
+            station.counters.rejected_samples += packet.len() as u64;
+            out.push(Output::Notice(Notice {
+                station: packet.station.clone(),
+                kind: "implausible",
+                message: format!(
+                    "packet {} rejected: {component}[{index}] = {value:.6e} m/s² is beyond the physical bound of {} g (engine.plausibility.max_abs_accel_g)",
+                    packet.sequence, self.config.plausibility.max_abs_accel_g
+                ),
             }));
             return;
         }

@@ -22,8 +22,12 @@ pub const MAX_INTENSITY_WINDOW_S: f64 = 3600.0;
 pub struct StationCounters {
     pub packets: u64,
     pub samples: u64,
-    /// Packets rejected by validation (NaN/Inf, bad lengths, absurd rates, …).
+    /// Packets rejected by validation (NaN/Inf, bad lengths, absurd rates, …), including
+    /// `implausible_packets`.
     pub rejected_packets: u64,
+    /// Packets rejected because a sample, in m/s² after the station's gain, is beyond the
+    /// physical bound `engine.plausibility.max_abs_accel_g`.
+    pub implausible_packets: u64,
     pub rejected_samples: u64,
     /// Samples at or beyond 99.9 % of the sensor's full scale (used, but flagged).
     pub clipped_samples: u64,
@@ -440,7 +444,22 @@ impl StationRuntime {
         // The packet's own grid: held packets released by a rate change keep their rate.
         let dt_s = 1.0 / r.rate_hz;
         match r.gap {
-            Gap::Start | Gap::RateChange => {
+            Gap::Start | Gap::RateChange | Gap::Rewind => {
+                if r.gap == Gap::Rewind {
+                    notice(
+                        &self.name,
+                        "grid_rewound",
+                        "packets after a forward jump of the stream's time fell in the gap it left: the jump was an outlier, the grid is rewound to before it (blocks flagged data_gap, intensity window restarted)".into(),
+                        out,
+                    );
+                    // Data time goes back: the rates measured from the jumped data restart.
+                    self.quiet_since_ns = None;
+                    self.last_intensity_ns = None;
+                    for p in &mut self.pbrs {
+                        p.data_gap = true;
+                        p.last_state_ns = None;
+                    }
+                }
                 if r.gap == Gap::RateChange {
                     notice(
                         &self.name,
@@ -504,6 +523,26 @@ impl StationRuntime {
             }
         }
         self.counters.samples += (r.packet.len() - r.skip) as u64;
+    }
+
+    /// The first sample of `p` beyond `max_abs_mps2` once converted to m/s² (the station's
+    /// gain), as (component, index, value in m/s²).
+    pub(crate) fn implausible(
+        &self,
+        p: &super::packet::AccelPacket,
+        max_abs_mps2: f64,
+    ) -> Option<(&'static str, usize, f64)> {
+        let scale = self.config.gain_mps2_per_count.unwrap_or(1.0).abs();
+        // One comparison per sample, in packet units (no division in the loop).
+        let bound = max_abs_mps2 / scale;
+        [("east", &p.east), ("north", &p.north), ("up", &p.up)]
+            .into_iter()
+            .find_map(|(component, values)| {
+                values
+                    .iter()
+                    .position(|v| f64::from(v.abs()) > bound)
+                    .map(|i| (component, i, f64::from(values[i]) * scale))
+            })
     }
 
     /// Sample `i` of a packet in m/s², rotated to east/north; flags clipping.

@@ -6,6 +6,13 @@
 //! placed at the nearest grid index (timing off-grid by more than a quarter sample is counted
 //! as misaligned). Decisions depend only on the order of packets, never on wall time, so the
 //! same packets give the same output (the reorder window counts packets, not seconds).
+//!
+//! No single packet moves the grid irreversibly: after a forward jump too long to bridge
+//! (a station back from an outage, or one packet stamped far ahead), the grid before the
+//! jump is remembered. If the next packets continue the jumped stream, the jump is confirmed;
+//! if instead `resync_packets` packets in a row land in the gap the jump left (the outlier
+//! was the jumping packet), the grid is rewound to before the jump and those packets are
+//! released ([`Gap::Rewind`]); packets held beyond the jump are dropped.
 
 use super::packet::AccelPacket;
 
@@ -18,6 +25,9 @@ pub struct StreamConfig {
     pub max_bridge_s: f64,
     /// How many early packets may wait for missing data before the gap is accepted.
     pub reorder_window_packets: usize,
+    /// After a forward jump too long to bridge, this many packets in a row landing in the gap
+    /// the jump left (rather than continuing after it) rewind the grid to before the jump.
+    pub resync_packets: usize,
 }
 
 impl Default for StreamConfig {
@@ -25,6 +35,7 @@ impl Default for StreamConfig {
         StreamConfig {
             max_bridge_s: 0.5,
             reorder_window_packets: 4,
+            resync_packets: 3,
         }
     }
 }
@@ -42,6 +53,10 @@ pub enum Gap {
     RateChange,
     /// First packet of the stream.
     Start,
+    /// The grid was rewound to before a forward jump that the following packets did not
+    /// confirm (see the module doc): the data time goes back; the blocks' input is
+    /// discontinuous and the data between the jump and this packet is suspect.
+    Rewind,
 }
 
 /// A packet released for processing: its samples `skip..` are new, preceded by `gap`.
@@ -84,6 +99,36 @@ pub struct StreamCounters {
     pub rate_changes: u64,
     /// Packets whose start time was more than a quarter sample off the grid.
     pub misaligned_packets: u64,
+    /// Forward jumps undone: the grid was rewound to before them ([`Gap::Rewind`]).
+    pub grid_rewinds: u64,
+}
+
+/// The grid as it was before a forward jump not yet confirmed.
+#[derive(Debug, Clone, Copy)]
+struct Jump {
+    anchor_ns: i64,
+    rate_hz: f64,
+    /// Grid index of the next expected sample before the jump.
+    next_index: i64,
+    max_sequence: Option<u64>,
+    /// UTC time (ns) of the first sample after the jump.
+    to_ns: i64,
+}
+
+impl Jump {
+    /// UTC time (ns) of index `k` of the grid before the jump.
+    fn time_ns(&self, k: i64) -> i64 {
+        self.anchor_ns + (k as f64 * 1e9 / self.rate_hz).round() as i64
+    }
+
+    /// Whether `p` lies in the gap the jump left, on the grid before it.
+    fn in_gap(&self, p: &AccelPacket) -> bool {
+        let half_sample_ns = (0.5e9 / self.rate_hz) as i64;
+        let end_ns = p.start_time_ns + (p.len() as f64 * 1e9 / self.rate_hz).round() as i64;
+        (p.sample_rate_hz - self.rate_hz).abs() <= 1e-9 * self.rate_hz
+            && p.start_time_ns >= self.time_ns(self.next_index) - half_sample_ns
+            && end_ns <= self.to_ns + half_sample_ns
+    }
 }
 
 /// The sequencer of one station.
@@ -96,6 +141,12 @@ pub struct Sequencer {
     next_index: Option<i64>,
     max_sequence: Option<u64>,
     held: Vec<(i64, AccelPacket)>,
+    /// The grid before the last forward jump, until the jump is confirmed or undone.
+    jump: Option<Jump>,
+    /// Packets that landed in the gap of `jump` (at most `resync_packets`), by start time.
+    behind: Vec<AccelPacket>,
+    /// The next released packet follows a rewind.
+    rewound: bool,
     pub counters: StreamCounters,
 }
 
@@ -109,6 +160,9 @@ impl Sequencer {
             next_index: None,
             max_sequence: None,
             held: Vec::with_capacity(config.reorder_window_packets + 1),
+            jump: None,
+            behind: Vec::with_capacity(config.resync_packets),
+            rewound: false,
             counters: StreamCounters::default(),
         }
     }
@@ -142,6 +196,16 @@ impl Sequencer {
 
     /// Offers a validated packet; appends to `out` every packet now ready, in stream order.
     pub fn offer(&mut self, packet: AccelPacket, out: &mut Vec<Released>) {
+        if self.jump.as_ref().is_some_and(|j| j.in_gap(&packet)) {
+            let position = self
+                .behind
+                .partition_point(|p| p.start_time_ns <= packet.start_time_ns);
+            self.behind.insert(position, packet);
+            if self.behind.len() >= self.config.resync_packets.max(1) {
+                self.rewind(out);
+            }
+            return;
+        }
         // Sent before a packet we already have?
         let out_of_order = self.max_sequence.is_some_and(|max| packet.sequence < max);
         self.max_sequence = Some(
@@ -163,6 +227,16 @@ impl Sequencer {
             }
             self.flush(out);
             self.counters.rate_changes += 1;
+            // A change of rate far ahead of the stream is a jump like any other.
+            let ahead_s = (packet.start_time_ns - self.time_ns(next)) as f64 * 1e-9;
+            let jump = (ahead_s > self.config.max_bridge_s).then_some(Jump {
+                anchor_ns: self.anchor_ns,
+                rate_hz: self.rate_hz,
+                next_index: next,
+                max_sequence: self.max_sequence,
+                to_ns: packet.start_time_ns,
+            });
+            self.settle_jump(jump);
             self.start_grid(packet, Gap::RateChange, out);
             return;
         }
@@ -185,6 +259,44 @@ impl Sequencer {
             self.release(k, packet, out);
         }
         self.release_ready(out);
+    }
+
+    /// A new forward jump (`Some`) replaces the one remembered; a packet continuing the stream
+    /// (`None`) confirms it. Either way the packets that landed behind it are dropped.
+    fn settle_jump(&mut self, jump: Option<Jump>) {
+        for p in self.behind.drain(..) {
+            self.counters.duplicate_packets += 1;
+            self.counters.overlap_samples += p.len() as u64;
+        }
+        self.jump = jump;
+    }
+
+    /// Undoes the last forward jump: the grid before it comes back, the packets held beyond
+    /// it are dropped, and the packets that landed in its gap are released in time order.
+    fn rewind(&mut self, out: &mut Vec<Released>) {
+        let Some(jump) = self.jump.take() else {
+            return;
+        };
+        for (_, p) in self.held.drain(..) {
+            self.counters.duplicate_packets += 1;
+            self.counters.overlap_samples += p.len() as u64;
+        }
+        self.counters.grid_rewinds += 1;
+        self.anchor_ns = jump.anchor_ns;
+        self.rate_hz = jump.rate_hz;
+        self.next_index = Some(jump.next_index);
+        let behind = std::mem::take(&mut self.behind);
+        self.max_sequence = behind
+            .iter()
+            .map(|p| p.sequence)
+            .chain(jump.max_sequence)
+            .max();
+        self.rewound = true;
+        for p in behind {
+            let k = self.grid_index(p.start_time_ns);
+            self.release(k, p, out);
+        }
+        self.behind = Vec::with_capacity(self.config.resync_packets);
     }
 
     /// Releases every held packet (gaps accepted), e.g. when the stream has gone quiet.
@@ -228,7 +340,7 @@ impl Sequencer {
             self.counters.overlap_samples += n as u64;
             return;
         }
-        let (skip, gap) = if k < next {
+        let (skip, mut gap) = if k < next {
             self.counters.overlap_samples += (next - k) as u64;
             ((next - k) as usize, Gap::None)
         } else if k == next {
@@ -245,6 +357,20 @@ impl Sequencer {
                 (0, Gap::Break(missing))
             }
         };
+        if let Gap::Break(_) = gap {
+            self.settle_jump(Some(Jump {
+                anchor_ns: self.anchor_ns,
+                rate_hz: self.rate_hz,
+                next_index: next,
+                max_sequence: self.max_sequence,
+                to_ns: self.time_ns(k),
+            }));
+        } else if self.jump.is_some() {
+            self.settle_jump(None); // the stream continues after the jump: confirmed
+        }
+        if std::mem::take(&mut self.rewound) {
+            gap = Gap::Rewind;
+        }
         self.next_index = Some(k + n);
         let first_index = k + skip as i64;
         out.push(Released {
@@ -345,6 +471,7 @@ mod tests {
         let cfg = StreamConfig {
             reorder_window_packets: 1,
             max_bridge_s: 0.5,
+            ..StreamConfig::default()
         };
         let mut s = Sequencer::new(cfg);
         // Packet 1 (samples 10..20) is missing while 2 and 3 arrive: the window of one
@@ -376,6 +503,7 @@ mod tests {
         let mut s = Sequencer::new(StreamConfig {
             max_bridge_s: 0.5,
             reorder_window_packets: 0,
+            ..StreamConfig::default()
         });
         let got = offer_all(&mut s, vec![packet(0, 10, 0), packet(110, 10, 1)]);
         assert_eq!(got[1], (110, 10, Gap::Break(100)));
@@ -435,5 +563,71 @@ mod tests {
         let got = offer_all(&mut s, vec![packet(0, 10, 0), p]);
         assert_eq!(got[1], (10, 10, Gap::None));
         assert_eq!(s.counters.misaligned_packets, 1);
+    }
+
+    /// A packet 9.5 years ahead of the stream (offline, or within the live tolerance after a
+    /// clock fault) moves the grid once it is released; the three real packets that follow
+    /// land in the gap it left and rewind the grid: they are released, none lost, and the
+    /// stream goes on as before.
+    #[test]
+    fn one_packet_far_ahead_is_undone_by_the_packets_that_follow() {
+        let mut s = Sequencer::new(StreamConfig::default());
+        let mut forged = packet(40, 10, 99);
+        forged.start_time_ns += 300_000_000_000_000_000; // 9.5 years
+        let mut packets = vec![packet(0, 10, 0), packet(10, 10, 1), forged];
+        let mut out = Vec::new();
+        for p in packets.drain(..) {
+            s.offer(p, &mut out);
+        }
+        s.flush(&mut out); // the live node releases held packets after 1 s
+        assert!(matches!(out.last().unwrap().gap, Gap::Break(_)));
+        for k in [2, 3, 4, 5] {
+            s.offer(packet(10 * k, 10, k as u64), &mut out);
+        }
+        s.flush(&mut out);
+        let got: Vec<(i64, Gap)> = out[3..].iter().map(|r| (r.first_index, r.gap)).collect();
+        assert_eq!(
+            got,
+            vec![
+                (20, Gap::Rewind),
+                (30, Gap::None),
+                (40, Gap::None),
+                (50, Gap::None)
+            ]
+        );
+        assert_eq!(out[3].first_time_ns, 1_200_000_000);
+        assert_eq!(s.counters.grid_rewinds, 1);
+        assert_eq!(s.counters.duplicate_packets, 0);
+    }
+
+    /// A real outage: the stream continues after the jump, which is confirmed; a stale packet
+    /// from the outage arriving later is dropped, not a rewind.
+    #[test]
+    fn a_jump_the_stream_continues_is_kept() {
+        let mut s = Sequencer::new(StreamConfig {
+            reorder_window_packets: 0,
+            ..StreamConfig::default()
+        });
+        let got = offer_all(
+            &mut s,
+            vec![
+                packet(0, 10, 0),
+                packet(1000, 10, 1),
+                packet(1010, 10, 2),
+                packet(10, 10, 3),
+                packet(20, 10, 4),
+                packet(30, 10, 5),
+            ],
+        );
+        assert_eq!(
+            got,
+            vec![
+                (0, 10, Gap::Start),
+                (1000, 10, Gap::Break(990)),
+                (1010, 10, Gap::None)
+            ]
+        );
+        assert_eq!(s.counters.grid_rewinds, 0);
+        assert_eq!(s.counters.duplicate_packets, 3);
     }
 }

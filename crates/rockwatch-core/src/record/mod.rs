@@ -26,6 +26,21 @@ pub use csv::{read_csv, write_csv};
 /// Re-exported: AT2 values (in g) are converted to m/s² with this value.
 pub use crate::STANDARD_GRAVITY_MPS2;
 
+/// Sampling intervals a record may have (s): 0.1 ms to 1 s, the sample rates the engine
+/// accepts in a packet ([`crate::engine::packet::SAMPLE_RATE_RANGE_HZ`], 1 Hz to 10 kHz).
+/// Bounds the work of every tool: a record's sample count is bounded by the file's size, and
+/// its duration, padding and tails by this interval.
+pub const DT_RANGE_S: (f64, f64) = (1e-4, 1.0);
+
+/// Most samples a record may hold: about 28 h at 100 Hz, 80 MB per component.
+pub const MAX_RECORD_SAMPLES: usize = 10_000_000;
+
+/// Largest |ground acceleration| a record may carry (m/s²): 100 g, five times the largest
+/// accelerometer range in use for strong motion (±20 g) and 25 times the largest recorded
+/// ground acceleration (≈ 4 g). Values beyond are corrupt data or a unit mistake: the
+/// integrators would overflow and report nothing.
+pub const MAX_ABS_ACCEL_MPS2: f64 = 100.0 * STANDARD_GRAVITY_MPS2;
+
 /// A uniformly sampled ground-acceleration record (SI units).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Record {
@@ -66,12 +81,58 @@ impl Record {
         }
     }
 
+    /// Checks that the record is within the bounds every tool relies on: sampling interval in
+    /// [`DT_RANGE_S`], 1 to [`MAX_RECORD_SAMPLES`] samples, every value finite and within
+    /// ±[`MAX_ABS_ACCEL_MPS2`]. The message names the first problem (not the file).
+    pub fn check_bounds(&self) -> Result<(), String> {
+        let (lo, hi) = DT_RANGE_S;
+        if !(self.dt_s.is_finite() && (lo..=hi).contains(&self.dt_s)) {
+            return Err(format!(
+                "sampling interval {:?} s is outside [{lo}, {hi}] s (1 Hz to 10 kHz)",
+                self.dt_s
+            ));
+        }
+        if self.is_empty() || self.len() > MAX_RECORD_SAMPLES {
+            return Err(format!(
+                "{} samples: a record holds 1 to {MAX_RECORD_SAMPLES}",
+                self.len()
+            ));
+        }
+        let components = [
+            ("horizontal", Some(&self.horizontal_mps2)),
+            ("vertical", self.vertical_mps2.as_ref()),
+        ];
+        for (name, values) in components {
+            let Some(values) = values else { continue };
+            if let Some((i, a)) = values
+                .iter()
+                .enumerate()
+                .find(|(_, a)| !a.is_finite() || a.abs() > MAX_ABS_ACCEL_MPS2)
+            {
+                return Err(format!(
+                    "{name} sample {i} = {a:?} m/s² is beyond ±{MAX_ABS_ACCEL_MPS2} m/s² (100 g): \
+                     corrupt data or wrong units"
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Reads a horizontal record from `path`, choosing the format by extension
     /// (`.at2` → PEER NGA AT2, `.csv` → CSV, `.mseed`/`.ms`/`.miniseed` → MiniSEED;
     /// case-insensitive). A MiniSEED file must hold exactly one channel of floating-point
     /// samples in m/s² (see [`mseed::read_single_channel_record`]; counts need a gain
-    /// and go through [`mseed::read_mseed`]).
+    /// and go through [`mseed::read_mseed`]). The record must be within
+    /// [`Record::check_bounds`].
     pub fn read(path: &Path) -> Result<Record, RecordError> {
+        let record = Self::read_unchecked(path)?;
+        record
+            .check_bounds()
+            .map_err(|problem| RecordError::new(path, None, problem))?;
+        Ok(record)
+    }
+
+    fn read_unchecked(path: &Path) -> Result<Record, RecordError> {
         match extension_lowercase(path).as_deref() {
             Some("at2") => read_at2(path).map(|at2| at2.into_record(path)),
             Some("csv") => read_csv(path),

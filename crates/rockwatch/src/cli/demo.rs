@@ -49,7 +49,10 @@ struct LatencyRecorder(Arc<Mutex<BTreeMap<(String, AlertLevel), i64>>>);
 
 impl Publisher for LatencyRecorder {
     fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
-        if let Publication::Alert { alert, latency_ns } = publication {
+        if let Publication::Alert {
+            alert, latency_ns, ..
+        } = publication
+        {
             self.0
                 .lock()
                 .map_err(|_| anyhow!("latency table poisoned"))?
@@ -148,6 +151,9 @@ fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
 
     let station = StationId::parse(STATION)?;
     let traces = bundled_traces()?;
+    traces
+        .check_packets(100, args.tail)
+        .map_err(anyhow::Error::msg)?;
     Ok(DemoPlan {
         scratch,
         options,

@@ -138,8 +138,30 @@ fn alert_json(a: &Alert, t0_ns: i64, latency_ns: i64) -> serde_json::Value {
 pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
     let plan = parse(args)?;
     let format = plan.format;
+    let station = plan.station.clone();
     let outcome = execute(plan)?;
     print_summary(&outcome, format);
+    usable(&outcome, &station)
+}
+
+/// An error unless the engine integrated at least one sample of `station`: a run whose every
+/// packet was rejected (non-finite, beyond the physical bound, …) did not do its job.
+fn usable(outcome: &MonitorOutcome, station: &StationId) -> anyhow::Result<()> {
+    let Some((_, own, _)) = outcome
+        .stations
+        .iter()
+        .find(|(id, _, _)| id == station.as_str())
+    else {
+        bail!("station {station}: no data reached the engine");
+    };
+    if own.samples == 0 {
+        bail!(
+            "station {station}: nothing usable: {} of {} packets rejected as invalid (see the \
+             notices above), no sample integrated",
+            own.rejected_packets,
+            own.packets + own.rejected_packets
+        );
+    }
     Ok(())
 }
 
@@ -154,6 +176,7 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
         catalogue: args.catalogue,
         state_dir: args.state_dir,
         shards: 1,
+        reject_future: false,
         notices: NoticeLog::Counted {
             lines: match args.format {
                 MonitorFormat::Text => NOTICE_LINES,
@@ -168,12 +191,6 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
             "{}: no block is bound to station {station}",
             options.catalogue_path()?.display()
         );
-    }
-    if args.packet_ms == 0 {
-        bail!("--packet-ms must be at least 1");
-    }
-    if !(args.tail.is_finite() && (0.0..=rockwatch::replay::MAX_TAIL_S).contains(&args.tail)) {
-        bail!("--tail must be 0 to 86400 s, got {}", args.tail);
     }
     let input = match (args.record, args.mseed) {
         (Some(path), _) => MonitorInput::Record {
@@ -227,9 +244,15 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
         format,
     } = plan;
     let traces = read_traces(&input, &station)?;
+    traces
+        .check_packets(packet_ms, tail_s)
+        .map_err(anyhow::Error::msg)?;
     let mut runtime = NodeRuntime::start_with_blocks(&options, blocks, Arc::new(|| {}))?;
     let mut report = |publication: Publication| {
-        if let Publication::Alert { alert, latency_ns } = publication {
+        if let Publication::Alert {
+            alert, latency_ns, ..
+        } = publication
+        {
             print_alert(format, &alert, traces.start_ns, latency_ns);
         }
     };
@@ -237,6 +260,14 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
         runtime.submit(packet, &mut report)?;
     }
     let stopped = runtime.stop(&mut report)?;
+    let unjournaled = stopped.stats.journal_backlog + stopped.stats.journal_dropped;
+    if unjournaled > 0 {
+        bail!(
+            "{unjournaled} records (alerts, episode ends) could not be journaled: the state \
+             directory failed ({} failed writes)",
+            stopped.stats.journal_failures
+        );
+    }
     let engine = stopped.engines.first().context("the engine did not run")?;
     Ok(MonitorOutcome {
         alerts: stopped.stats.alerts,

@@ -36,7 +36,7 @@ pub struct NodeArgs {
     /// thread hand-off between a packet's arrival and its alert (lowest latency; one core
     /// keeps 1000 stations at 100 Hz in real time with a wide margin). N > 1 spreads stations
     /// over N worker threads for more throughput, adding two hand-offs (latency) per packet.
-    /// 0: one per core.
+    /// 0: one per core. At most 256.
     #[arg(long, default_value_t = 1, value_name = "N")]
     shards: usize,
 }
@@ -63,6 +63,7 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         state_dir: args.state_dir,
         shards: args.shards,
         notices: NoticeLog::RateLimited,
+        reject_future: true,
     };
     let stop = stop_on_signals()?;
     eprintln!(
@@ -92,13 +93,16 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     );
     let input = report.input;
     eprintln!(
-        "rockwatch: engine input: {} packets, {} rejected as invalid, {} with a malformed station id, {} from unknown stations, {} duplicate, {} late",
+        "rockwatch: engine input: {} packets, {} rejected as invalid ({} beyond the physical bound), {} stamped too far ahead (not processed), {} with a malformed station id, {} from unknown stations, {} duplicate, {} late, {} time-grid rewinds",
         input.packets,
         input.rejected_packets,
+        input.implausible_packets,
+        input.future_packets,
         input.malformed_station_packets,
         input.unknown_station_packets,
         input.duplicate_packets,
-        input.late_packets
+        input.late_packets,
+        input.grid_rewinds
     );
     if let Some(iox) = report.iox {
         eprintln!(
@@ -108,6 +112,22 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
             iox.rejected_count_mismatch + iox.rejected_station + iox.rejected_structure + iox.rejected_values,
             iox.sequence_gaps,
             iox.dead_nodes_cleaned
+        );
+    }
+    let stats = report.stats;
+    if stats.journal_failures > 0 {
+        eprintln!(
+            "rockwatch: state directory: {} failed writes, {} alerts published before they could be journaled, {} records still not journaled, {} lost (backlog full)",
+            stats.journal_failures,
+            stats.journal_pending_alerts,
+            stats.journal_backlog,
+            stats.journal_dropped
+        );
+    }
+    if stats.journal_backlog + stats.journal_dropped > 0 {
+        anyhow::bail!(
+            "{} records (alerts, episode ends) could not be journaled: the state directory is still failing",
+            stats.journal_backlog + stats.journal_dropped
         );
     }
     Ok(())

@@ -147,6 +147,9 @@ fn traces(args: &ReplayArgs, station: &StationId) -> anyhow::Result<Traces> {
 pub fn replay_through(args: &ReplayArgs, sink: &mut dyn PacketSink) -> anyhow::Result<()> {
     let station = StationId::parse(&args.station)?;
     let traces = traces(args, &station)?;
+    traces
+        .check_packets(args.packet_ms, args.tail)
+        .map_err(anyhow::Error::msg)?;
     let packets = traces.packets(&station, args.packet_ms, args.tail);
     if !(args.wait_s.is_finite() && args.wait_s >= 0.0) {
         bail!("--wait-s must be ≥ 0, got {}", args.wait_s);
@@ -183,6 +186,8 @@ pub fn replay_through(args: &ReplayArgs, sink: &mut dyn PacketSink) -> anyhow::R
 }
 
 pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
+    // Refused before any transport is opened.
+    rockwatch::replay::check_packet_flags(args.packet_ms, args.tail).map_err(anyhow::Error::msg)?;
     let config = match &args.config {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),

@@ -58,7 +58,8 @@ pub struct SimulateArgs {
     /// η = 1 − 1.5 sin²α.
     #[arg(long, value_name = "E")]
     restitution: Option<f64>,
-    /// Seconds of zero ground motion simulated after the record ends.
+    /// Seconds of zero ground motion simulated after the record ends (the record plus this
+    /// may take at most 2·10⁷ integration steps).
     #[arg(long = "t-extra", default_value_t = 10.0, value_name = "S")]
     t_extra: f64,
     /// Relative tolerance of the integrator (absolute tolerance is 1e-3 of it, in rad and m).
@@ -103,6 +104,9 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         record.attach_vertical(vertical)?;
     }
     record.scale(args.scale);
+    record.check_bounds().map_err(|e| {
+        anyhow::anyhow!("{} scaled by {:?}: {e}", args.record.display(), args.scale)
+    })?;
     let mut options = SimulationOptions {
         t_extra_s: args.t_extra,
         keep_trace: args.plot.is_some(),

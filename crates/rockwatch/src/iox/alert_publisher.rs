@@ -45,10 +45,18 @@ impl IoxAlertPublisher {
 
 impl Publisher for IoxAlertPublisher {
     fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
-        let Publication::Alert { alert, latency_ns } = publication else {
+        let Publication::Alert {
+            alert,
+            latency_ns,
+            journal_pending,
+        } = publication
+        else {
             return Ok(());
         };
-        let wire = PbrAlertIox::from_alert(alert, *latency_ns, self.sequence);
+        let mut wire = PbrAlertIox::from_alert(alert, *latency_ns, self.sequence);
+        if *journal_pending {
+            wire.flags |= super::ALERT_FLAG_JOURNAL_PENDING;
+        }
         self.sequence += 1;
         self.publisher
             .send_copy(wire)

@@ -55,11 +55,38 @@ impl IoxConfig {
     }
 }
 
+/// Top-level tables of an iceoryx2 configuration file (iceoryx2 0.10.0's `Config`).
+const ICEORYX2_TABLES: [&str; 2] = ["global", "defaults"];
+
+/// Refuses a file of another kind: iceoryx2 fills every missing key with its default, so a
+/// node or catalogue TOML would otherwise load as "iceoryx2's defaults" without a word. An
+/// iceoryx2 configuration has a `[global]` table and no top-level key but `global` and
+/// `defaults`.
+fn check_kind(content: &str) -> Result<(), String> {
+    let table: toml::Table = content
+        .parse()
+        .map_err(|e: toml::de::Error| format!("not a TOML file: {}", e.message()))?;
+    if let Some(key) = table
+        .keys()
+        .find(|k| !ICEORYX2_TABLES.contains(&k.as_str()))
+    {
+        return Err(format!(
+            "not an iceoryx2 configuration: top-level key `{key}` (an iceoryx2 configuration \
+             has only [global] and [defaults]; is this a node or catalogue file?)"
+        ));
+    }
+    if !table.contains_key("global") {
+        return Err("not an iceoryx2 configuration: no [global] table".into());
+    }
+    Ok(())
+}
+
 /// Reads an iceoryx2 configuration file; the error names the file.
 pub fn load_config_file(path: &Path) -> anyhow::Result<Config> {
     // Read it ourselves first for a clear error (iceoryx2 reports only an error code).
-    std::fs::read_to_string(path)
+    let content = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read the iceoryx2 configuration", path.display()))?;
+    check_kind(&content).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let text = path
         .to_str()
         .with_context(|| format!("{}: path is not UTF-8", path.display()))?;

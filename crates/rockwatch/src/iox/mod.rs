@@ -41,5 +41,6 @@ pub use replay_sink::IoxPacketSink;
 pub use stats::{IoxInputStats, IoxStatsHandle};
 pub use types::{
     packet_from_wire, AccelHeader, AccelSample, PbrAlertIox, WireError, ACCEL_FLAG_HAS_UP,
-    ACCEL_HEADER_TYPE_NAME, ACCEL_SAMPLE_TYPE_NAME, PBR_ALERT_TYPE_NAME,
+    ACCEL_HEADER_TYPE_NAME, ACCEL_SAMPLE_TYPE_NAME, ALERT_FLAG_ID_TRUNCATED,
+    ALERT_FLAG_JOURNAL_PENDING, PBR_ALERT_TYPE_NAME,
 };

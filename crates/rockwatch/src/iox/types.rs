@@ -65,6 +65,10 @@ pub struct AccelSample {
 /// [`PbrAlertIox::flags`] bit: the block id was longer than [`PBR_ID_BYTES`] and is truncated.
 pub const ALERT_FLAG_ID_TRUNCATED: u32 = 1;
 
+/// [`PbrAlertIox::flags`] bit: the node's state directory is failing (e.g. a full disk): the
+/// alert is published before it could be journaled (it will be when the directory recovers).
+pub const ALERT_FLAG_JOURNAL_PENDING: u32 = 2;
+
 /// One alert on `pbr/alerts` (160 bytes, alignment 8). Levels and modes are numbered as in
 /// `msg/PbrAlert.msg` ([`crate::wire_codes`]).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
@@ -90,7 +94,7 @@ pub struct PbrAlertIox {
     pub pgv_mps: f64,
     /// Episode of the block (1 for the first).
     pub episode: u32,
-    /// Bits: [`ALERT_FLAG_ID_TRUNCATED`].
+    /// Bits: [`ALERT_FLAG_ID_TRUNCATED`], [`ALERT_FLAG_JOURNAL_PENDING`].
     pub flags: u32,
     /// MOTION_ONSET = 1, OVERTURN_IMMINENT = 2, OVERTURNED = 3.
     pub level: u8,

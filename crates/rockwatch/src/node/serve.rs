@@ -76,6 +76,8 @@ pub struct ServeReport {
     pub input: InputTotals,
     /// iceoryx2 intake, when that transport ran.
     pub iox: Option<IoxInputStats>,
+    /// What the runtime did, the state directory's health included.
+    pub stats: super::NodeStats,
 }
 
 /// A thread-safe view of a running node's intake counters (tests, benchmarks).
@@ -321,6 +323,7 @@ impl Reactor {
             ros2_packets: ros2.counters.packets.load(Ordering::Relaxed),
             ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
             iox: iox_stats,
+            stats: stopped.stats,
         })
     }
 }

@@ -30,9 +30,19 @@ impl Ros2Publisher {
 impl Publisher for Ros2Publisher {
     fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
         let result = match publication {
-            Publication::Alert { alert, .. } => self
+            Publication::Alert {
+                alert,
+                journal_pending,
+                ..
+            } => self
                 .alerts
-                .publish(msg::PbrAlert::from(alert))
+                .publish({
+                    let mut m = msg::PbrAlert::from(alert);
+                    if *journal_pending {
+                        m.message.push_str(crate::ports::JOURNAL_PENDING_NOTE);
+                    }
+                    m
+                })
                 .map_err(|e| format!("{ALERTS_TOPIC}: {e:?}")),
             Publication::State(s) => self
                 .states
