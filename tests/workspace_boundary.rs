@@ -131,6 +131,56 @@ fn the_core_depends_on_no_transport_runtime_or_terminal_crate() {
     }
 }
 
+#[test]
+fn every_test_bench_and_example_file_is_declared_by_a_crate() {
+    // Targets are declared explicitly (autotests = false): a file nobody declares would never
+    // build or run, silently.
+    let meta = metadata();
+    let members: BTreeSet<&str> = meta["workspace_members"]
+        .as_array()
+        .expect("workspace_members")
+        .iter()
+        .filter_map(|id| id.as_str())
+        .collect();
+    let declared: BTreeSet<PathBuf> = meta["packages"]
+        .as_array()
+        .expect("packages")
+        .iter()
+        .filter(|p| p["id"].as_str().is_some_and(|id| members.contains(id)))
+        .flat_map(|p| p["targets"].as_array().expect("targets").iter())
+        .map(|t| {
+            Path::new(t["src_path"].as_str().expect("src_path"))
+                .canonicalize()
+                .expect("target source exists")
+        })
+        .collect();
+    let root = repo_root();
+    let mut files = Vec::new();
+    for dir in ["tests", "benches"] {
+        for entry in std::fs::read_dir(root.join(dir)).expect("directory") {
+            let path = entry.expect("entry").path();
+            if path.extension().is_some_and(|e| e == "rs") {
+                files.push(path);
+            }
+        }
+    }
+    for entry in std::fs::read_dir(root.join("examples")).expect("examples/") {
+        let dir = entry.expect("entry").path();
+        if dir.is_dir() {
+            files.push(dir.join("main.rs"));
+        }
+    }
+    assert!(files.len() > 30, "{files:?}");
+    let missing: Vec<&PathBuf> = files
+        .iter()
+        .filter(|f| !declared.contains(&f.canonicalize().expect("file exists")))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "not declared by any Cargo.toml: {missing:?}"
+    );
+}
+
 // ------------------------------------------------------------------ module graph
 
 /// Module path of a source file relative to its crate's `src/` (`a/b.rs` and `a/b/mod.rs` →
