@@ -11,6 +11,7 @@ pub mod journal;
 pub mod log_text;
 pub mod node;
 pub mod node_config;
+pub mod notify;
 pub mod plot;
 pub mod ports;
 pub mod replay;

@@ -143,6 +143,9 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
+    if !config.notify.is_empty() {
+        eprintln!("rockwatch: note: [[notify]] receivers are used by `rockwatch node` only");
+    }
     let options = NodeOptions {
         config,
         catalogue: args.catalogue,
