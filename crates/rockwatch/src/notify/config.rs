@@ -133,10 +133,7 @@ impl NotifyConfig {
         self.levels
             .as_ref()
             .is_none_or(|l| l.contains(&alert.level))
-            && self
-                .pbrs
-                .as_ref()
-                .is_none_or(|p| p.iter().any(|id| *id == alert.pbr_id))
+            && self.pbrs.as_ref().is_none_or(|p| p.contains(&alert.pbr_id))
     }
 
     /// The receiver for people: `webhook URL` or `exec PROGRAM` (printable, bounded).
