@@ -4,11 +4,10 @@
 
 mod ros2_util;
 
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use rockwatch::iox::{IoxAlertSubscriber, IoxConfig};
-use ros2_util::{repo, rockwatch};
+use ros2_util::{replay_rinaldi_iox, repo, spawn_node_in_netns, stop_node};
 
 #[test]
 fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
@@ -29,18 +28,7 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
         ),
     )
     .unwrap();
-    let mut node = Command::new("unshare")
-        .args([
-            "-n",
-            "sh",
-            "-c",
-            "ip link set lo up && exec \"$0\" node --config \"$1\"",
-        ])
-        .arg(rockwatch())
-        .arg(&config)
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut node = spawn_node_in_netns(&config);
 
     // Subscribe to the node's alerts (retry until the node has created the service).
     let sub_config = IoxConfig {
@@ -60,35 +48,7 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
             }
         }
     };
-    let replay = Command::new(rockwatch())
-        .args(["replay", "--config"])
-        .arg(&config)
-        .args([
-            "--record",
-            concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../tests/data/records/Rinaldi228.AT2"
-            ),
-            "--vertical",
-            concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../tests/data/records/RinaldiUP.AT2"
-            ),
-        ])
-        .args([
-            "--azimuth",
-            "228",
-            "--station",
-            "CI.RRS.00",
-            "--transport",
-            "iceoryx2",
-            "--speed",
-            "20",
-            "--tail",
-            "5",
-        ])
-        .output()
-        .unwrap();
+    let replay = replay_rinaldi_iox(&config);
     let mut received = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(15);
     while Instant::now() < deadline
@@ -101,17 +61,7 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
             .unwrap();
     }
     // SIGTERM: the node stops cleanly.
-    let _ = Command::new("kill")
-        .args(["-TERM", &node.id().to_string()])
-        .status();
-    let status = node.wait().unwrap();
-    let mut stderr = String::new();
-    use std::io::Read;
-    node.stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut stderr)
-        .unwrap();
+    let (status, stderr) = stop_node(node);
     assert!(
         replay.status.success(),
         "replay: {}",

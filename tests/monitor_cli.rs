@@ -130,7 +130,7 @@ fn state_dir_keeps_history_and_a_second_run_adds_no_duplicates() {
     assert!(history.status.success());
     let records: Vec<serde_json::Value> = serde_json::from_slice(&history.stdout).unwrap();
     assert_eq!(
-        records.iter().filter(|r| r.get("Alert").is_some()).count(),
+        records.iter().filter(|r| r["type"] == "alert").count(),
         first_alerts.len()
     );
 }
@@ -161,7 +161,7 @@ fn crash_between_journal_and_report_loses_and_duplicates_nothing() {
         let records: Vec<serde_json::Value> = serde_json::from_slice(&history.stdout).unwrap();
         let mut journaled: Vec<String> = records
             .iter()
-            .filter_map(|r| r.get("Alert"))
+            .filter(|r| r["type"] == "alert")
             .map(|a| format!("{} {} {}", a["pbr_id"], a["episode"], a["level"]))
             .collect();
         journaled.sort();
@@ -199,6 +199,86 @@ fn reset_lets_a_fallen_block_fall_again_in_a_new_episode() {
     assert_eq!(pillar.last(), Some(&(2, "overturned".to_string())));
     let unknown = rockwatch(&["reset", "--state-dir", d, "--pbr", "no-such-rock"], &[]);
     assert!(!unknown.status.success());
+}
+
+/// `monitor --format jsonl`, `alerts --format json` and `alerts` (text) speak one schema:
+/// the same alert objects (monitor adds only `t_s` and `latency_us`), the other records tagged
+/// by `type`, and the data time as ISO 8601 UTC.
+#[test]
+fn alerts_and_monitor_share_one_alert_schema_with_iso_times() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let monitored = lines(&monitor_rinaldi(Some(dir.path()), &[]));
+    let mut printed: Vec<serde_json::Value> = monitored
+        .into_iter()
+        .filter(|v| v["type"] == "alert")
+        .collect();
+    assert!(!printed.is_empty());
+    for v in &mut printed {
+        let o = v.as_object_mut().unwrap();
+        assert!(o.remove("t_s").is_some() && o.remove("latency_us").is_some());
+    }
+    assert!(rockwatch(
+        &["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"],
+        &[]
+    )
+    .status
+    .success());
+    let json = rockwatch(&["alerts", "--state-dir", d, "--format", "json"], &[]);
+    assert!(json.status.success());
+    let records: Vec<serde_json::Value> = serde_json::from_slice(&json.stdout).unwrap();
+    let journaled: Vec<_> = records
+        .iter()
+        .filter(|r| r["type"] == "alert")
+        .cloned()
+        .collect();
+    assert_eq!(journaled, printed);
+    for a in &journaled {
+        let keys: Vec<&str> = a.as_object().unwrap().keys().map(String::as_str).collect();
+        for key in [
+            "type",
+            "pbr_id",
+            "level",
+            "episode",
+            "data_time",
+            "data_time_ns",
+            "station",
+            "mode",
+            "theta_over_alpha",
+            "slide_m",
+            "overturn_probability",
+            "pga_mps2",
+            "pgv_mps",
+        ] {
+            assert!(keys.contains(&key), "{key} missing in {a}");
+        }
+        // ISO 8601 UTC with ns: YYYY-MM-DDTHH:MM:SS.fffffffffZ.
+        let t = a["data_time"].as_str().unwrap();
+        assert!(
+            t.len() == 30 && &t[10..11] == "T" && t.ends_with('Z'),
+            "{t}"
+        );
+    }
+    assert_eq!(
+        records.last().unwrap(),
+        &serde_json::json!({"type": "reset", "pbr_id": "rrs-slender-pillar"})
+    );
+    assert!(records
+        .iter()
+        .all(|r| ["alert", "episode_end", "reset"].contains(&r["type"].as_str().unwrap())));
+    // Text: the same ISO times, no raw nanoseconds.
+    let text = rockwatch(&["alerts", "--state-dir", d], &[]);
+    assert!(text.status.success());
+    let text = String::from_utf8(text.stdout).unwrap();
+    assert!(
+        text.lines().next().unwrap().contains("data time (UTC)"),
+        "{text}"
+    );
+    for a in &journaled {
+        assert!(text.contains(a["data_time"].as_str().unwrap()), "{text}");
+        let ns = a["data_time_ns"].to_string();
+        assert!(ns.len() < 10 || !text.contains(&ns), "{text}");
+    }
 }
 
 #[test]

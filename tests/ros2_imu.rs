@@ -169,7 +169,8 @@ fn journal_alerts(state_dir: &Path) -> Vec<serde_json::Value> {
     let records: Vec<serde_json::Value> = serde_json::from_str(&stdout).unwrap();
     records
         .iter()
-        .filter_map(|r| r.get("Alert").cloned())
+        .filter(|r| r["type"] == "alert")
+        .cloned()
         .collect()
 }
 

@@ -13,8 +13,9 @@
 mod ros2_util;
 use ros2_util::*;
 
+use rockwatch::alert_json::{AlertJson, RecordJson};
 use rockwatch::ros2::msg::{self as wire, level_code, mode_code};
-use rockwatch_core::engine::{Alert, AlertLevel, JournalRecord};
+use rockwatch_core::engine::AlertLevel;
 
 const STATION: &str = "CI.RRS.00";
 const SLENDER: &str = "slender-pillar";
@@ -206,11 +207,11 @@ fn rclpy_peer_with_the_generated_types_gets_overturned_for_the_slender_block_onl
         .lines()
         .find_map(|l| l.strip_prefix("JOURNAL "))
         .unwrap_or_else(|| panic!("no journal\n{all}"));
-    let journaled: Vec<Alert> = serde_json::from_str::<Vec<JournalRecord>>(journal)
+    let journaled: Vec<AlertJson> = serde_json::from_str::<Vec<RecordJson>>(journal)
         .unwrap()
         .into_iter()
         .filter_map(|r| match r {
-            JournalRecord::Alert(a) => Some(a),
+            RecordJson::Alert(a) => Some(a),
             _ => None,
         })
         .collect();

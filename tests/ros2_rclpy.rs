@@ -148,8 +148,7 @@ fn rclpy_peer_sees_rockwatch_and_a_threshold_set_through_parameter_services_take
     let levels = |id: &str| -> Vec<String> {
         records
             .iter()
-            .filter_map(|r| r.get("Alert"))
-            .filter(|a| a["pbr_id"] == id)
+            .filter(|r| r["type"] == "alert" && r["pbr_id"] == id)
             .map(|a| a["level"].as_str().unwrap().to_string())
             .collect()
     };

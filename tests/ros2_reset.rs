@@ -16,6 +16,7 @@ use ros2_util::*;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use rockwatch::alert_json::RecordJson;
 use rockwatch::journal::Journal;
 use rockwatch::ports::PacketSink;
 use rockwatch::replay::{replay, Restamp, Speed};
@@ -46,7 +47,7 @@ fn write_config(dir: &Path) -> std::path::PathBuf {
 }
 
 /// Every journal record (`rockwatch alerts --format json`).
-fn journal(state: &Path) -> Vec<JournalRecord> {
+fn journal(state: &Path) -> Vec<RecordJson> {
     let out = std::process::Command::new(rockwatch())
         .args(["alerts", "--format", "json", "--state-dir"])
         .arg(state)
@@ -58,15 +59,15 @@ fn journal(state: &Path) -> Vec<JournalRecord> {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
-fn has_alert(records: &[JournalRecord], pbr: &str, episode: u32, level: AlertLevel) -> bool {
+fn has_alert(records: &[RecordJson], pbr: &str, episode: u32, level: AlertLevel) -> bool {
     records.iter().any(|r| {
-        matches!(r, JournalRecord::Alert(a) if a.pbr_id == pbr && a.episode == episode && a.level == level)
+        matches!(r, RecordJson::Alert(a) if a.pbr_id == pbr && a.episode == episode && a.level == level)
     })
 }
 
-fn has_episode_end(records: &[JournalRecord], pbr: &str, episode: u32) -> bool {
+fn has_episode_end(records: &[RecordJson], pbr: &str, episode: u32) -> bool {
     records.iter().any(|r| {
-        matches!(r, JournalRecord::EpisodeEnd { pbr_id, episode: e } if pbr_id == pbr && *e == episode)
+        matches!(r, RecordJson::EpisodeEnd { pbr_id, episode: e } if pbr_id == pbr && *e == episode)
     })
 }
 
@@ -75,7 +76,7 @@ fn wait_journal(
     state: &Path,
     node: &NodeProcess,
     what: &str,
-    done: impl Fn(&[JournalRecord]) -> bool,
+    done: impl Fn(&[RecordJson]) -> bool,
 ) {
     let deadline = Instant::now() + Duration::from_secs(40);
     loop {
@@ -137,10 +138,10 @@ fn reset_cli(pbr: &str) -> (bool, String, String) {
     (out.status.success(), stdout, stderr)
 }
 
-fn resets(records: &[JournalRecord], pbr: &str) -> usize {
+fn resets(records: &[RecordJson], pbr: &str) -> usize {
     records
         .iter()
-        .filter(|r| matches!(r, JournalRecord::Reset { pbr_id } if pbr_id == pbr))
+        .filter(|r| matches!(r, RecordJson::Reset { pbr_id } if pbr_id == pbr))
         .count()
 }
 
@@ -172,7 +173,7 @@ fn reset_through_the_node_s_service_lets_a_fallen_block_overturn_again_in_a_new_
     assert!(
         !records
             .iter()
-            .any(|r| matches!(r, JournalRecord::Alert(a) if a.pbr_id == SLENDER && a.episode != 1)),
+            .any(|r| matches!(r, RecordJson::Alert(a) if a.pbr_id == SLENDER && a.episode != 1)),
         "a fallen block raised alerts without a reset: {records:?}"
     );
 
@@ -240,10 +241,10 @@ fn reset_through_the_node_s_service_lets_a_fallen_block_overturn_again_in_a_new_
     let story: Vec<String> = records
         .iter()
         .filter_map(|r| match r {
-            JournalRecord::Alert(a) if a.pbr_id == SLENDER && a.level == AlertLevel::Overturned => {
+            RecordJson::Alert(a) if a.pbr_id == SLENDER && a.level == AlertLevel::Overturned => {
                 Some(format!("overturned {}", a.episode))
             }
-            JournalRecord::Reset { pbr_id } if pbr_id == SLENDER => Some("reset".into()),
+            RecordJson::Reset { pbr_id } if pbr_id == SLENDER => Some("reset".into()),
             _ => None,
         })
         .collect();
@@ -356,7 +357,7 @@ fn rclpy_client_with_the_generated_service_type_resets_a_fallen_block() {
     let records = journal(&state);
     assert_eq!(resets(&records, SLENDER), 1, "{records:?}");
     assert!(
-        matches!(records.last(), Some(JournalRecord::Reset { pbr_id }) if pbr_id == SLENDER),
+        matches!(records.last(), Some(RecordJson::Reset { pbr_id }) if pbr_id == SLENDER),
         "{records:?}"
     );
 }

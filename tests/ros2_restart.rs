@@ -94,7 +94,7 @@ fn alert_history(state: &Path) -> Vec<(String, u64, String)> {
     let records: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     records
         .iter()
-        .filter_map(|r| r.get("Alert"))
+        .filter(|r| r["type"] == "alert")
         .map(|a| {
             (
                 a["pbr_id"].as_str().unwrap().to_string(),

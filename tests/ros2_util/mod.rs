@@ -270,3 +270,62 @@ pub fn source_pbr_msgs(prefix: &std::path::Path) -> String {
         p = prefix.display()
     )
 }
+
+/// `rockwatch node --config CONFIG` in its own network namespace (loopback up: its ROS 2 side
+/// opens DDS; iceoryx2 uses shared memory, which the namespace does not separate), stderr
+/// piped.
+pub fn spawn_node_in_netns(config: &std::path::Path) -> std::process::Child {
+    Command::new("unshare")
+        .args([
+            "-n",
+            "sh",
+            "-c",
+            "ip link set lo up && exec \"$0\" node --config \"$1\"",
+        ])
+        .arg(rockwatch())
+        .arg(config)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// `rockwatch replay --transport iceoryx2` of the bundled Rinaldi record (228° + vertical) as
+/// station CI.RRS.00, at 20× with 5 s of quiet after it, to the node of `config`.
+pub fn replay_rinaldi_iox(config: &std::path::Path) -> Output {
+    let data = repo().join("tests/data/records");
+    Command::new(rockwatch())
+        .args(["replay", "--config"])
+        .arg(config)
+        .arg("--record")
+        .arg(data.join("Rinaldi228.AT2"))
+        .arg("--vertical")
+        .arg(data.join("RinaldiUP.AT2"))
+        .args([
+            "--azimuth",
+            "228",
+            "--station",
+            "CI.RRS.00",
+            "--transport",
+            "iceoryx2",
+            "--speed",
+            "20",
+            "--tail",
+            "5",
+        ])
+        .output()
+        .unwrap()
+}
+
+/// SIGTERM to a node of [`spawn_node_in_netns`]; its exit status and stderr.
+pub fn stop_node(mut node: std::process::Child) -> (std::process::ExitStatus, String) {
+    use std::io::Read;
+    let _ = Command::new("kill")
+        .args(["-TERM", &node.id().to_string()])
+        .status();
+    let status = node.wait().unwrap();
+    let mut stderr = String::new();
+    if let Some(mut pipe) = node.stderr.take() {
+        pipe.read_to_string(&mut stderr).unwrap();
+    }
+    (status, stderr)
+}

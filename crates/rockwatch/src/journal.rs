@@ -72,12 +72,16 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> JournalError + '_ {
     }
 }
 
-fn encode(record: &JournalRecord) -> Result<String, String> {
+/// One checksummed line: `CRC32(json) as 8 hex digits`, a space, `record` as JSON, `\n`
+/// (also the format of the notify spools, `crate::notify`).
+pub(crate) fn encode<T: serde::Serialize>(record: &T) -> Result<String, String> {
     let json = serde_json::to_string(record).map_err(|e| e.to_string())?;
     Ok(format!("{:08x} {json}\n", crc32fast::hash(json.as_bytes())))
 }
 
-fn decode(line: &str) -> Option<JournalRecord> {
+/// The record of one line written by [`encode`] (without its `\n`); None if the checksum or
+/// the JSON is wrong.
+pub(crate) fn decode<T: serde::de::DeserializeOwned>(line: &str) -> Option<T> {
     let (crc, json) = line.split_once(' ')?;
     let crc = u32::from_str_radix(crc, 16).ok()?;
     (crc == crc32fast::hash(json.as_bytes()))

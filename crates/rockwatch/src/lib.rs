@@ -5,11 +5,13 @@
 //! `rockwatch_core`; this crate translates the outside world into calls on it.
 //! See ARCHITECTURE.md for the map of crates and modules.
 
+pub mod alert_json;
 pub mod iox;
 pub mod journal;
 pub mod log_text;
 pub mod node;
 pub mod node_config;
+pub mod notify;
 pub mod plot;
 pub mod ports;
 pub mod replay;

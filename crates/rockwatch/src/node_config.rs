@@ -55,6 +55,9 @@ pub struct NodeConfig {
     /// The iceoryx2 transport (`[iceoryx2]`).
     #[serde(default)]
     pub iceoryx2: crate::iox::IoxConfig,
+    /// Alert receivers (`[[notify]]`, see `crate::notify`), used by `rockwatch node`.
+    #[serde(default)]
+    pub notify: Vec<crate::notify::NotifyConfig>,
 }
 
 /// Why a configuration file could not be loaded: `path: problem`.
@@ -78,6 +81,9 @@ pub enum NodeConfigProblem {
     /// A value is invalid (engine or station settings).
     #[error("{0}")]
     Invalid(#[from] rockwatch_core::engine::ConfigError),
+    /// A `[[notify]]` entry is invalid: its number (1-based) and why.
+    #[error("[[notify]] #{0}: {1}")]
+    Notify(usize, String),
 }
 
 impl NodeConfig {
@@ -100,6 +106,10 @@ impl NodeConfig {
         config.iceoryx2.config_file = config.iceoryx2.config_file.map(|f| base.join(f));
         for s in &config.stations {
             s.validate().map_err(|e| error(e.into()))?;
+        }
+        for (i, n) in config.notify.iter().enumerate() {
+            n.validate()
+                .map_err(|e| error(NodeConfigProblem::Notify(i + 1, e)))?;
         }
         Ok(config)
     }
@@ -167,6 +177,9 @@ mod tests {
         ));
         assert_eq!(config.ros2.imu.len(), 1);
         assert_eq!(config.iceoryx2.alert_history, 128);
+        assert_eq!(config.notify.len(), 2);
+        assert_eq!(config.notify[0].kind, crate::notify::NotifyKind::Webhook);
+        assert_eq!(config.notify[1].command[0], "/usr/local/bin/page-on-call");
     }
 
     #[test]
@@ -182,6 +195,7 @@ mod tests {
             "[ros2]",
             "[[ros2.imu]]\ntopic = \"/t\"\nstation = \"XX.IMU.00\"\nsample_rate_hz = 100.0",
             "[iceoryx2]",
+            "[[notify]]\nkind = \"exec\"\ncommand = [\"true\"]",
         ];
         for section in sections {
             let probe = format!("{section}\nno_such_key = 0\n");
@@ -244,6 +258,14 @@ mod tests {
         let e = load("[engine]\nstate_intervl_s = 2.0\n").unwrap_err();
         assert!(
             e.contains("node.toml") && e.contains("state_intervl_s"),
+            "{e}"
+        );
+        let e = load(
+            "[[notify]]\nkind = \"exec\"\ncommand = [\"x\"]\n[[notify]]\nkind = \"webhook\"\n",
+        )
+        .unwrap_err();
+        assert!(
+            e.contains("node.toml") && e.contains("[[notify]] #2") && e.contains("url"),
             "{e}"
         );
         let e = load("[[station]]\nid = \"CI.R-S.00\"\n").unwrap_err();

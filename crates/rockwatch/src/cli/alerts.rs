@@ -6,11 +6,13 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{bail, Context as _};
+use rockwatch::alert_json::RecordJson;
 use rockwatch::journal::{read_journal, Journal};
 use rockwatch::log_text::printable;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ros2::{network_plan_from_env, Ros2ResetClient, RESET_SERVICE};
 use rockwatch_core::engine::JournalRecord;
+use rockwatch_core::record::mseed::format_time_ns;
 
 use super::OutputFormat;
 
@@ -20,7 +22,10 @@ pub struct AlertsArgs {
     /// State directory written by `rockwatch monitor` or the node.
     #[arg(long = "state-dir", value_name = "DIR")]
     state_dir: PathBuf,
-    /// Output format: a table, or one JSON array of records.
+    /// Output format: a table (data time in ISO 8601 UTC), or one JSON array of records in the
+    /// shared schema: `{"type": "alert", "pbr_id", "level", "episode", "data_time", …}`,
+    /// `{"type": "episode_end", "pbr_id", "episode"}`, `{"type": "reset", "pbr_id"}` (see
+    /// README, "Alert JSON").
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     format: OutputFormat,
 }
@@ -81,29 +86,32 @@ pub fn run_alerts(args: AlertsArgs) -> anyhow::Result<()> {
         );
     }
     match args.format {
-        OutputFormat::Json => outln!("{}", serde_json::to_string_pretty(&records)?),
+        OutputFormat::Json => {
+            let records: Vec<RecordJson> = records.iter().map(RecordJson::from).collect();
+            outln!("{}", serde_json::to_string_pretty(&records)?);
+        }
         OutputFormat::Text => {
             outln!(
-                "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8} {:>9}",
+                "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8}  {:<30}",
                 "pbr",
                 "station",
                 "episode",
                 "level",
                 "mode",
                 "θ/α",
-                "data time (ns)"
+                "data time (UTC)"
             );
             for r in &records {
                 match r {
                     JournalRecord::Alert(a) => outln!(
-                        "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8.3} {:>9}",
+                        "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8.3}  {:<30}",
                         a.pbr_id,
                         a.station,
                         a.episode,
                         a.level.as_str(),
                         a.mode.as_str(),
                         a.theta_over_alpha,
-                        a.data_time_ns
+                        format_time_ns(a.data_time_ns)
                     ),
                     JournalRecord::EpisodeEnd { pbr_id, episode } => {
                         outln!("{pbr_id:<24} {:<12} {episode:>7} episode ended", "")

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{bail, Context as _};
+use rockwatch::alert_json::alert_value;
 use rockwatch::log_text::{printable, STATION_CHARS};
 use rockwatch::node::{NodeOptions, NodeRuntime, NoticeLog};
 use rockwatch::node_config::NodeConfig;
@@ -16,7 +17,6 @@ use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{
     Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StreamCounters,
 };
-use rockwatch_core::record::mseed::format_time_ns;
 use rockwatch_core::record::Record;
 
 /// Run the monitoring engine over a record: "which of my rocks should have toppled?".
@@ -115,24 +115,18 @@ struct MonitorOutcome {
     notice_counts: BTreeMap<(String, &'static str), u64>,
 }
 
-fn alert_json(a: &Alert, t0_ns: i64, latency_ns: i64) -> serde_json::Value {
-    serde_json::json!({
-        "type": "alert",
-        "pbr_id": a.pbr_id,
-        "station": a.station,
-        "level": a.level.as_str(),
-        "episode": a.episode,
-        "mode": a.mode.as_str(),
-        "theta_over_alpha": a.theta_over_alpha,
-        "slide_m": a.slide_m,
-        "overturn_probability": a.overturn_probability,
-        "pga_mps2": a.pga_mps2,
-        "pgv_mps": a.pgv_mps,
-        "data_time": format_time_ns(a.data_time_ns),
-        "data_time_ns": a.data_time_ns,
-        "t_s": (a.data_time_ns - t0_ns) as f64 * 1e-9,
-        "latency_us": latency_ns as f64 * 1e-3,
-    })
+/// An alert line of `--format jsonl`: the shared alert schema (`rockwatch::alert_json`) plus
+/// `t_s` (s since the record's start `t0_ns`) and `latency_us` (arrival → publication).
+fn alert_line(a: &Alert, t0_ns: i64, latency_ns: i64) -> serde_json::Value {
+    let mut v = alert_value(a);
+    if let Some(o) = v.as_object_mut() {
+        o.insert(
+            "t_s".into(),
+            ((a.data_time_ns - t0_ns) as f64 * 1e-9).into(),
+        );
+        o.insert("latency_us".into(), (latency_ns as f64 * 1e-3).into());
+    }
+    v
 }
 
 pub fn run(args: MonitorArgs) -> anyhow::Result<()> {
@@ -171,6 +165,9 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
+    if !config.notify.is_empty() {
+        eprintln!("rockwatch: note: [[notify]] receivers are used by `rockwatch node` only");
+    }
     let options = NodeOptions {
         config,
         catalogue: args.catalogue,
@@ -288,7 +285,7 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
 /// One alert, as it is raised; `t0_ns`: start of the record.
 fn print_alert(format: MonitorFormat, a: &Alert, t0_ns: i64, latency_ns: i64) {
     match format {
-        MonitorFormat::Jsonl => outln!("{}", alert_json(a, t0_ns, latency_ns)),
+        MonitorFormat::Jsonl => outln!("{}", alert_line(a, t0_ns, latency_ns)),
         MonitorFormat::Text => outln!(
             "t = {:>8.3} s  {:<18} {:<28} mode {:<10} θ/α {:>7.3}  slide {:>8.4} m  P(overturn) {:.2}  PGA {:.2} m/s²  PGV {:.3} m/s  latency {:.0} µs",
             (a.data_time_ns - t0_ns) as f64 * 1e-9,

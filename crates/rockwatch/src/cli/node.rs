@@ -7,8 +7,10 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use anyhow::Context;
+use rockwatch::journal::read_journal;
 use rockwatch::node::{serve, NodeOptions, NoticeLog};
 use rockwatch::node_config::NodeConfig;
+use rockwatch::notify::{Notifier, STOP_GRACE};
 use rockwatch::ros2::network_plan_from_env;
 
 /// Run the live node: subscribes `/pbr/accel` (and configured Imu topics) over ROS 2, runs
@@ -18,8 +20,10 @@ use rockwatch::ros2::network_plan_from_env;
 /// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` keeps it on loopback. Alert thresholds
 /// (`alerts.*`) and `state_interval_s` are ROS 2 parameters, settable at run time. The
 /// service `/pbr/reset` (`pbr_msgs/srv/ResetPbr`) resets a fallen block (`rockwatch reset
-/// --node`). SIGINT or SIGTERM: stop intake, publish what remains, flush the state directory,
-/// exit 0.
+/// --node`). Alerts also go to the configuration's `[[notify]]` receivers (a command, or a
+/// webhook), at least once, kept in the state directory until acknowledged. SIGINT or
+/// SIGTERM: stop intake, publish what remains, flush the state directory, give the
+/// receivers up to 5 s to deliver what is queued, exit 0.
 #[derive(Debug, clap::Args)]
 pub struct NodeArgs {
     /// Node configuration (TOML, e.g. config/node.toml): catalogue, stations, thresholds,
@@ -82,7 +86,22 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
             None => "all interfaces".into(),
         }
     );
-    let report = serve(&options, &plan, &stop, &mut [])?;
+    let state_dir = options
+        .state_dir
+        .clone()
+        .or(options.config.state_dir.clone());
+    let journal = match &state_dir {
+        Some(dir) => read_journal(dir)?.0,
+        None => Vec::new(),
+    };
+    let mut notifier = Notifier::start(&options.config.notify, state_dir.as_deref(), &journal)?;
+    let report = serve(&options, &plan, &stop, &mut [&mut notifier])?;
+    for r in notifier.shutdown(STOP_GRACE) {
+        eprintln!(
+            "rockwatch: notify {}: {} delivered, {} failed attempts, {} queue overflows, {} spool errors, {} undelivered (kept for the next start)",
+            r.name, r.delivered, r.failed_attempts, r.overflows, r.spool_errors, r.pending
+        );
+    }
     let fallen = report.summaries.iter().filter(|s| s.overturned).count();
     eprintln!(
         "rockwatch: stopped: {} packets received over ROS 2 ({} undecodable), {} blocks, {} overturned",

@@ -1,0 +1,180 @@
+//! The one JSON schema of alerts (and of the other journal records) for the outside world:
+//! `rockwatch monitor --format jsonl`, `rockwatch alerts --format json` and the payload of the
+//! `[[notify]]` receivers (`crate::notify`) all write [`RecordJson`].
+//!
+//! An alert is one flat object, tagged `"type": "alert"`:
+//!
+//! ```json
+//! {"type": "alert", "pbr_id": "rrs-slender-pillar", "level": "overturned", "episode": 1,
+//!  "data_time": "1994-01-17T12:31:05.120000000Z", "data_time_ns": 758809865120000000,
+//!  "station": "CI.RRS.00", "mode": "overturned", "theta_over_alpha": 7.958,
+//!  "slide_m": 0.0, "overturn_probability": 1.0, "pga_mps2": 8.1, "pgv_mps": 1.6}
+//! ```
+//!
+//! - `level`: `motion_onset` | `overturn_imminent` | `overturned` (increasing severity).
+//! - (`pbr_id`, `episode`, `level`) identifies an alert: the engine raises each at most once,
+//!   so a receiver de-duplicates on it (delivery to receivers is at least once).
+//! - `data_time`: ISO 8601 / RFC 3339 UTC time of the triggering sample, nanoseconds;
+//!   `data_time_ns`: the same as ns since 1970-01-01T00:00:00Z.
+//! - `mode`: `rest` | `slide` | `rock` | `slide-rock` | `overturned` | `flight`.
+//! - `theta_over_alpha`: signed θ/α (θ > 0 clockwise about the +x pivot; |θ/α| = 1 is the
+//!   static overturning angle); `slide_m`: slip of the contact point (m);
+//!   `overturn_probability`: ensemble probability (0–1); `pga_mps2`, `pgv_mps`: the station's
+//!   running peaks, larger horizontal component (m/s², m/s). A non-finite value is `null`.
+//!
+//! The other records of a state directory's journal: `{"type": "episode_end", "pbr_id",
+//! "episode"}` (the block is back at rest on a quiet station) and `{"type": "reset",
+//! "pbr_id"}` (an operator reset a fallen block). Readers must ignore keys they do not know:
+//! `monitor` adds `t_s` and `latency_us` to its alert lines, and keys may be added later.
+
+use rockwatch_core::dynamics::Mode;
+use rockwatch_core::engine::{Alert, AlertLevel, JournalRecord};
+use rockwatch_core::record::mseed::format_time_ns;
+
+/// An alert in the shared schema (see the module documentation).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AlertJson {
+    pub pbr_id: String,
+    pub level: AlertLevel,
+    /// Episode of the block (1 for the first).
+    pub episode: u32,
+    /// ISO 8601 UTC time of the triggering sample (ns resolution, `Z`).
+    pub data_time: String,
+    /// The same time as ns since the Unix epoch.
+    pub data_time_ns: i64,
+    /// SEED `NET.STA.LOC` of the station the block follows.
+    pub station: String,
+    pub mode: Mode,
+    /// θ/α, signed (dimensionless).
+    pub theta_over_alpha: f64,
+    /// Slip of the contact point (m).
+    pub slide_m: f64,
+    /// Ensemble overturn probability (0–1).
+    pub overturn_probability: f64,
+    /// Station's running PGA, larger horizontal component (m/s²).
+    pub pga_mps2: f64,
+    /// Station's running PGV, larger horizontal component (m/s).
+    pub pgv_mps: f64,
+}
+
+impl AlertJson {
+    /// The identity under which receivers de-duplicate: (block, episode, level).
+    #[must_use]
+    pub fn key(&self) -> (String, u32, AlertLevel) {
+        (self.pbr_id.clone(), self.episode, self.level)
+    }
+}
+
+impl From<&Alert> for AlertJson {
+    fn from(a: &Alert) -> AlertJson {
+        AlertJson {
+            pbr_id: a.pbr_id.clone(),
+            level: a.level,
+            episode: a.episode,
+            data_time: format_time_ns(a.data_time_ns),
+            data_time_ns: a.data_time_ns,
+            station: a.station.clone(),
+            mode: a.mode,
+            theta_over_alpha: a.theta_over_alpha,
+            slide_m: a.slide_m,
+            overturn_probability: a.overturn_probability,
+            pga_mps2: a.pga_mps2,
+            pgv_mps: a.pgv_mps,
+        }
+    }
+}
+
+/// A journal record in the shared schema, tagged by `type`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum RecordJson {
+    Alert(AlertJson),
+    /// A block's episode ended.
+    EpisodeEnd {
+        pbr_id: String,
+        episode: u32,
+    },
+    /// An operator reset a fallen block.
+    Reset {
+        pbr_id: String,
+    },
+}
+
+impl From<&JournalRecord> for RecordJson {
+    fn from(r: &JournalRecord) -> RecordJson {
+        match r {
+            JournalRecord::Alert(a) => RecordJson::Alert(a.into()),
+            JournalRecord::EpisodeEnd { pbr_id, episode } => RecordJson::EpisodeEnd {
+                pbr_id: pbr_id.clone(),
+                episode: *episode,
+            },
+            JournalRecord::Reset { pbr_id } => RecordJson::Reset {
+                pbr_id: pbr_id.clone(),
+            },
+        }
+    }
+}
+
+/// An alert as one JSON object (`{"type": "alert", …}`).
+#[must_use]
+pub fn alert_value(a: &Alert) -> serde_json::Value {
+    // Serializing plain fields (strings, numbers, unit enums) cannot fail.
+    serde_json::to_value(RecordJson::Alert(a.into())).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn alert() -> Alert {
+        Alert {
+            pbr_id: "rrs-slender-pillar".into(),
+            station: "CI.RRS.00".into(),
+            level: AlertLevel::OverturnImminent,
+            episode: 2,
+            mode: Mode::SlideRock,
+            theta_over_alpha: -0.85,
+            slide_m: 0.01,
+            overturn_probability: 0.25,
+            pga_mps2: 8.0,
+            pgv_mps: 1.5,
+            // 1994-01-17T12:30:55.5Z (Northridge origin time, rounded): 8782 days × 86400 s
+            // + 45055 s = 758 809 855 s since the epoch.
+            data_time_ns: 758_809_855_500_000_000,
+            arrival_ns: 42,
+        }
+    }
+
+    #[test]
+    fn an_alert_is_one_flat_object_tagged_alert_with_an_iso_utc_time() {
+        let v = alert_value(&alert());
+        let expected = serde_json::json!({
+            "type": "alert", "pbr_id": "rrs-slender-pillar", "level": "overturn_imminent",
+            "episode": 2, "data_time": "1994-01-17T12:30:55.500000000Z",
+            "data_time_ns": 758_809_855_500_000_000_i64, "station": "CI.RRS.00",
+            "mode": "slide-rock", "theta_over_alpha": -0.85, "slide_m": 0.01,
+            "overturn_probability": 0.25, "pga_mps2": 8.0, "pgv_mps": 1.5,
+        });
+        assert_eq!(v, expected);
+        // It reads back.
+        let back: RecordJson = serde_json::from_value(v).unwrap();
+        assert_eq!(back, RecordJson::Alert((&alert()).into()));
+    }
+
+    #[test]
+    fn the_other_journal_records_are_tagged_by_type() {
+        let end = RecordJson::from(&JournalRecord::EpisodeEnd {
+            pbr_id: "a".into(),
+            episode: 3,
+        });
+        assert_eq!(
+            serde_json::to_value(&end).unwrap(),
+            serde_json::json!({"type": "episode_end", "pbr_id": "a", "episode": 3})
+        );
+        let reset = RecordJson::from(&JournalRecord::Reset { pbr_id: "b".into() });
+        assert_eq!(
+            serde_json::to_value(&reset).unwrap(),
+            serde_json::json!({"type": "reset", "pbr_id": "b"})
+        );
+    }
+}
