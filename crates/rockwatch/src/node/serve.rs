@@ -39,6 +39,14 @@ use rockwatch_core::engine::{AccelPacket, PbrSummary};
 /// dead-node check are looked at least this often.
 pub const TICK: Duration = Duration::from_millis(50);
 
+/// How often the event loop checks that the ROS 2 participant's RustDDS threads still run
+/// (see [`Ros2Node::ended_thread`]; two reads of /proc per check).
+pub const LIVENESS_CHECK: Duration = Duration::from_millis(500);
+
+/// How long the node keeps trying to rebuild a dead ROS 2 participant (one attempt per
+/// [`LIVENESS_CHECK`]) before it gives up and exits with an error.
+pub const REBUILD_GIVE_UP: Duration = Duration::from_secs(30);
+
 /// Most packets processed per turn of the event loop (round robin over the sources).
 pub const DRAIN_BOUND: usize = 256;
 
@@ -76,6 +84,8 @@ pub struct ServeReport {
     pub input: InputTotals,
     /// iceoryx2 intake, when that transport ran.
     pub iox: Option<IoxInputStats>,
+    /// Times the ROS 2 participant was found dead and rebuilt.
+    pub ros2_rebuilds: u64,
 }
 
 /// A thread-safe view of a running node's intake counters (tests, benchmarks).
@@ -208,20 +218,20 @@ impl Reactor {
             _waker,
             controls,
             mut ros2,
-            mut ros2_publisher,
+            ros2_publisher,
             iox,
         } = self;
         let (mut iox_input, mut iox_publisher) = match iox {
             Some((input, publisher)) => (Some(input), Some(publisher)),
             None => (None, None),
         };
-        let mut later: Vec<&mut dyn Publisher> = Vec::with_capacity(1 + extra.len());
-        later.push(&mut ros2_publisher);
+        let mut later: Vec<&mut dyn Publisher> = Vec::with_capacity(extra.len());
         for p in extra.iter_mut() {
             later.push(&mut **p);
         }
         let mut out = Outlet {
             now: iox_publisher.as_mut().map(|p| p as &mut dyn Publisher),
+            ros2: ros2_publisher,
             later,
             queue: Vec::new(),
             errors: 0,
@@ -233,6 +243,7 @@ impl Reactor {
         let mut events = Events::with_capacity(64);
         // Requests of /pbr/reset may be waiting (edge-triggered, like the inputs).
         let mut resets_due = true;
+        let mut watchdog = Watchdog::new();
         while !stop.load(Ordering::Relaxed) {
             let pending = resets_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
             let timeout = if pending {
@@ -285,26 +296,35 @@ impl Reactor {
             if let Some(input) = &mut iox_input {
                 input.maintain();
             }
+            if watchdog.due() {
+                if let Some(thread) = ros2.ended_thread() {
+                    // Take what the dead participant's readers still hold, then replace it.
+                    drain_inputs(
+                        &mut inboxes,
+                        &mut iox_input,
+                        &mut ros2,
+                        &mut runtime,
+                        &mut out,
+                        &controls,
+                    )?;
+                    if watchdog.rebuild(&thread, &mut ros2, &mut out, poll.registry())? {
+                        inboxes.iter_mut().for_each(|i| i.due = true);
+                        resets_due = true;
+                    }
+                }
+            }
         }
 
         // Stop: take what the inputs still hold (bounded) and process every packet taken,
         // then shut the engine down.
-        inboxes.iter_mut().for_each(|i| i.due = true);
-        loop {
-            turn(
-                &mut inboxes,
-                &mut iox_input,
-                &mut ros2,
-                &mut runtime,
-                &mut out,
-                &controls,
-            )?;
-            if inboxes.iter().all(|i| i.queue.is_empty()) {
-                break;
-            }
-            // Process what was taken; take nothing new.
-            inboxes.iter_mut().for_each(|i| i.due = false);
-        }
+        drain_inputs(
+            &mut inboxes,
+            &mut iox_input,
+            &mut ros2,
+            &mut runtime,
+            &mut out,
+            &controls,
+        )?;
         // Requests waiting at the stop are answered (a bounded number; the responses go out
         // now, held ones too).
         ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
@@ -321,7 +341,103 @@ impl Reactor {
             ros2_packets: ros2.counters.packets.load(Ordering::Relaxed),
             ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
             iox: iox_stats,
+            ros2_rebuilds: watchdog.rebuilds,
         })
+    }
+}
+
+/// Takes what every input holds (up to its inbox's bound) and processes every packet taken.
+fn drain_inputs(
+    inboxes: &mut [Inbox],
+    iox_input: &mut Option<IoxInput>,
+    ros2: &mut Ros2Node,
+    runtime: &mut NodeRuntime,
+    out: &mut Outlet<'_>,
+    controls: &Receiver<Control>,
+) -> anyhow::Result<()> {
+    inboxes.iter_mut().for_each(|i| i.due = true);
+    loop {
+        turn(inboxes, iox_input, ros2, runtime, out, controls)?;
+        if inboxes.iter().all(|i| i.queue.is_empty()) {
+            return Ok(());
+        }
+        // Process what was taken; take nothing new.
+        inboxes.iter_mut().for_each(|i| i.due = false);
+    }
+}
+
+/// Watches the ROS 2 participant and rebuilds it when its RustDDS threads have ended.
+struct Watchdog {
+    last_check: Instant,
+    /// Since when the participant is dead and could not be rebuilt.
+    down_since: Option<Instant>,
+    rebuilds: u64,
+}
+
+impl Watchdog {
+    fn new() -> Watchdog {
+        Watchdog {
+            last_check: Instant::now(),
+            down_since: None,
+            rebuilds: 0,
+        }
+    }
+
+    /// Whether [`LIVENESS_CHECK`] has passed since the last check (then a check is due now).
+    fn due(&mut self) -> bool {
+        if self.last_check.elapsed() < LIVENESS_CHECK {
+            return false;
+        }
+        self.last_check = Instant::now();
+        true
+    }
+
+    /// The participant's `thread` has ended: says so, and replaces the participant (its
+    /// subscriptions registered again with `registry`, its publishers in `out`). Returns
+    /// whether it was rebuilt; an error once it could not be for [`REBUILD_GIVE_UP`].
+    fn rebuild(
+        &mut self,
+        thread: &str,
+        ros2: &mut Ros2Node,
+        out: &mut Outlet<'_>,
+        registry: &mio::Registry,
+    ) -> anyhow::Result<bool> {
+        let since = *self.down_since.get_or_insert_with(Instant::now);
+        eprintln!(
+            "rockwatch: error: ROS 2 transport dead: the DDS participant's thread {thread} has ended \
+             (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT or a debugger \
+             attach); rebuilding the participant ({} rebuilds so far)",
+            self.rebuilds
+        );
+        let rebuilt = ros2.rebuild().and_then(|publisher| {
+            out.ros2 = publisher;
+            ros2.register(registry, ROS2_FIRST)
+                .context("cannot register the ROS 2 subscriptions with the event loop")?;
+            ros2.register_reset(registry, RESET)
+                .context("cannot register the ROS 2 reset service with the event loop")
+        });
+        match rebuilt {
+            Ok(()) => {
+                self.rebuilds += 1;
+                self.down_since = None;
+                eprintln!(
+                    "rockwatch: ROS 2 participant rebuilt after {:.1} s ({} rebuilds in all); the engine's state is kept",
+                    since.elapsed().as_secs_f64(),
+                    self.rebuilds
+                );
+                Ok(true)
+            }
+            Err(e) if since.elapsed() < REBUILD_GIVE_UP => {
+                eprintln!(
+                    "rockwatch: error: cannot rebuild the ROS 2 participant ({e:#}): trying again"
+                );
+                Ok(false)
+            }
+            Err(e) => Err(e.context(format!(
+                "the ROS 2 transport is dead and could not be rebuilt for {} s",
+                REBUILD_GIVE_UP.as_secs()
+            ))),
+        }
     }
 }
 
@@ -455,6 +571,9 @@ fn apply_controls(controls: &Receiver<Control>, runtime: &mut NodeRuntime) {
 /// node goes on.
 struct Outlet<'a> {
     now: Option<&'a mut dyn Publisher>,
+    /// The ROS 2 publishers (replaced when the participant is rebuilt), handed the turn's
+    /// publications at its end as `later`.
+    ros2: Ros2Publisher,
     later: Vec<&'a mut dyn Publisher>,
     /// Publications for `later` (reused: no allocation per turn).
     queue: Vec<Publication>,
@@ -477,14 +596,15 @@ impl Outlet<'_> {
                 Self::failed(&mut self.errors, &mut self.log, &e);
             }
         }
-        if !self.later.is_empty() {
-            self.queue.push(publication);
-        }
+        self.queue.push(publication);
     }
 
     /// Hands the queued publications to the other publishers.
     fn flush(&mut self) {
         for publication in self.queue.drain(..) {
+            if let Err(e) = self.ros2.publish(&publication) {
+                Self::failed(&mut self.errors, &mut self.log, &e);
+            }
             for publisher in &mut self.later {
                 if let Err(e) = publisher.publish(&publication) {
                     Self::failed(&mut self.errors, &mut self.log, &e);

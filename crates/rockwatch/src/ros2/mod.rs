@@ -13,6 +13,7 @@
 //! - `network.rs`: the DDS domain and interfaces ([`NetworkPlan`]);
 //! - `qos.rs`: the QoS profiles;
 //! - `session.rs`: a participant with one ROS 2 node ([`Ros2Session`]);
+//! - `liveness.rs`: whether a participant's RustDDS threads still run ([`DdsThreads`]);
 //! - `node.rs`: the node's ROS 2 side ([`Ros2Node`]), made of `parameters.rs`, `input.rs` (with
 //!   `imu.rs`), `publish.rs` and `reset.rs`;
 //! - clients: `replay_sink.rs`, `reset_client.rs`, `alert_listener.rs`.
@@ -21,6 +22,7 @@ mod alert_listener;
 mod config;
 mod imu;
 mod input;
+mod liveness;
 pub mod msg;
 mod names;
 mod network;
@@ -37,6 +39,7 @@ pub use alert_listener::Ros2AlertListener;
 pub use config::{DiscoveryRange, ImuInput, InputQos, Ros2Config};
 pub use imu::{imu_packet, ImuMsg};
 pub use input::IntakeCounters;
+pub use liveness::DdsThreads;
 pub use names::{
     ACCEL_TOPIC, ALERTS_TOPIC, IMS_TOPIC, NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING,
     STATE_TOPIC,

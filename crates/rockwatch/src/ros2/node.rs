@@ -26,10 +26,20 @@ use rockwatch_core::engine::{AccelPacket, EngineConfig};
 /// ([`Ros2Node::drain`]) and serves the service ([`Ros2Node::serve_resets`]).
 pub struct Ros2Node {
     session: Ros2Session,
+    /// What [`Ros2Node::rebuild`] starts again from.
+    started: Started,
     inputs: Inputs,
     pub counters: Arc<IntakeCounters>,
     log: IntakeLog,
     reset: ResetServer,
+}
+
+/// The arguments of [`Ros2Node::start`], kept for [`Ros2Node::rebuild`].
+struct Started {
+    config: Ros2Config,
+    plan: NetworkPlan,
+    engine: EngineConfig,
+    controls: ControlSender,
 }
 
 impl Ros2Node {
@@ -43,15 +53,38 @@ impl Ros2Node {
         engine: &EngineConfig,
         controls: ControlSender,
     ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
-        let options = with_parameters(NodeOptions::new().enable_rosout(true), engine, controls);
+        let started = Started {
+            config: config.clone(),
+            plan: plan.clone(),
+            engine: *engine,
+            controls,
+        };
+        Self::open(started, Arc::new(IntakeCounters::default()))
+    }
+
+    fn open(
+        started: Started,
+        counters: Arc<IntakeCounters>,
+    ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
+        let Started {
+            config,
+            plan,
+            engine,
+            controls,
+        } = &started;
+        let options = with_parameters(
+            NodeOptions::new().enable_rosout(true),
+            engine,
+            controls.clone(),
+        );
         let mut session = Ros2Session::open(plan, &config.namespace, NODE_NAME, options)?;
         let publisher = Ros2Publisher::open(&mut session)?;
         let inputs = Inputs::subscribe(&mut session, config)?;
         let reset = ResetServer::open(&mut session, &config.namespace)?;
-        let counters = Arc::new(IntakeCounters::default());
         Ok((
             Ros2Node {
                 session,
+                started,
                 inputs,
                 log: IntakeLog::new(Arc::clone(&counters)),
                 counters,
@@ -59,6 +92,32 @@ impl Ros2Node {
             },
             publisher,
         ))
+    }
+
+    /// The first RustDDS thread of the node's participant that has ended, if any: the
+    /// participant is then dead for good (see [`Ros2Session::ended_thread`]).
+    #[must_use]
+    pub fn ended_thread(&self) -> Option<String> {
+        self.session.ended_thread()
+    }
+
+    /// Replaces the participant and everything on it (subscriptions, publishers, reset
+    /// service, parameters) by new ones, as [`Ros2Node::start`] made them: call it once
+    /// [`Ros2Node::ended_thread`] reports a dead participant, after taking what the old
+    /// subscriptions still hold. The intake counters carry on; reset responses not yet sent
+    /// are lost (the client times out and may ask again); parameters start again from the
+    /// configuration's values. Register the new inputs and service with the event loop again.
+    /// On error `self` is left as it was.
+    pub fn rebuild(&mut self) -> anyhow::Result<Ros2Publisher> {
+        let started = Started {
+            config: self.started.config.clone(),
+            plan: self.started.plan.clone(),
+            engine: self.started.engine,
+            controls: self.started.controls.clone(),
+        };
+        let (node, publisher) = Self::open(started, Arc::clone(&self.counters))?;
+        *self = node; // the old participant goes (its threads have ended: nothing to join)
+        Ok(publisher)
     }
 
     /// Registers the `/pbr/reset` server with `registry` as `token`, readable (edge-triggered:
