@@ -76,10 +76,11 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     let report = serve(&options, &plan, &stop, &mut [])?;
     let fallen = report.summaries.iter().filter(|s| s.overturned).count();
     eprintln!(
-        "rockwatch: stopped: {} packets received over ROS 2 ({} undecodable, {} participant rebuilds), {} blocks, {} overturned",
+        "rockwatch: stopped: {} packets received over ROS 2 ({} undecodable, {} participant rebuilds, {} redelivered and skipped), {} blocks, {} overturned",
         report.ros2_packets,
         report.ros2_decode_errors,
         report.ros2_rebuilds,
+        report.ros2_redelivered,
         report.summaries.len(),
         fallen
     );

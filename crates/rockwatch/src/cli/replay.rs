@@ -191,6 +191,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
         Transport::Ros2 => {
             let plan = network_plan_from_env(&config.ros2).map_err(anyhow::Error::msg)?;
             let mut sink = Ros2PacketSink::open(&plan, &config.ros2.namespace)?;
+            if args.wait_s.is_finite() && args.wait_s >= 0.0 {
+                sink.set_wait(Duration::from_secs_f64(args.wait_s));
+            }
             replay_through(&args, &mut sink)
         }
         Transport::Iceoryx2 => {

@@ -52,7 +52,7 @@ pub const DRAIN_BOUND: usize = 256;
 
 /// Longest a turn of the event loop processes packets (plus one packet's time) before it
 /// polls again and takes what arrived meanwhile, so the transports hold little unread data
-/// (RustDDS discards the unread samples of a writer that has left; see `REPLAY_LINGER`).
+/// (RustDDS discards the unread samples of a writer that has left).
 pub const TURN_BUDGET: Duration = Duration::from_micros(200);
 
 /// Most packets taken from one source and waiting to be processed; beyond, the rest stays in
@@ -86,6 +86,8 @@ pub struct ServeReport {
     pub iox: Option<IoxInputStats>,
     /// Times the ROS 2 participant was found dead and rebuilt.
     pub ros2_rebuilds: u64,
+    /// `/pbr/accel` messages delivered again after a rebuild and skipped.
+    pub ros2_redelivered: u64,
 }
 
 /// A thread-safe view of a running node's intake counters (tests, benchmarks).
@@ -293,6 +295,7 @@ impl Reactor {
             )?;
             runtime.flush_if_due(&mut |p| out.publish(p))?;
             out.flush();
+            ros2.publish_intake_reports(false);
             if let Some(input) = &mut iox_input {
                 input.maintain();
             }
@@ -329,6 +332,7 @@ impl Reactor {
         // now, held ones too).
         ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
         ros2.flush_replies();
+        ros2.publish_intake_reports(true);
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
         let stopped = runtime.stop(&mut |p| out.publish(p))?;
         out.flush();
@@ -342,6 +346,7 @@ impl Reactor {
             ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
             iox: iox_stats,
             ros2_rebuilds: watchdog.rebuilds,
+            ros2_redelivered: ros2.counters.redelivered.load(Ordering::Relaxed),
         })
     }
 }

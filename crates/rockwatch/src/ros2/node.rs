@@ -10,10 +10,11 @@ use ros2_client::NodeOptions;
 use super::config::Ros2Config;
 use super::input::{Inputs, IntakeCounters, IntakeLog};
 use super::msg;
-use super::names::NODE_NAME;
+use super::names::{INTAKE_TOPIC, NODE_NAME};
 use super::network::NetworkPlan;
 use super::parameters::with_parameters;
 use super::publish::Ros2Publisher;
+use super::qos::intake_qos;
 use super::reset::ResetServer;
 use super::session::Ros2Session;
 use crate::ports::ControlSender;
@@ -25,13 +26,18 @@ use rockwatch_core::engine::{AccelPacket, EngineConfig};
 /// ([`Ros2Node::register_reset`]), drains the subscriptions that are ready
 /// ([`Ros2Node::drain`]) and serves the service ([`Ros2Node::serve_resets`]).
 pub struct Ros2Node {
-    session: Ros2Session,
     /// What [`Ros2Node::rebuild`] starts again from.
     started: Started,
     inputs: Inputs,
     pub counters: Arc<IntakeCounters>,
     log: IntakeLog,
     reset: ResetServer,
+    /// `/pbr/intake`: what the node took of each writer of `/pbr/accel`.
+    intake: ros2_client::Publisher<msg::IntakeReport>,
+    /// Reports that could not be published.
+    intake_errors: u64,
+    /// Last: the endpoints above are dropped before their participant.
+    session: Ros2Session,
 }
 
 /// The arguments of [`Ros2Node::start`], kept for [`Ros2Node::rebuild`].
@@ -81,6 +87,7 @@ impl Ros2Node {
         let publisher = Ros2Publisher::open(&mut session)?;
         let inputs = Inputs::subscribe(&mut session, config)?;
         let reset = ResetServer::open(&mut session, &config.namespace)?;
+        let intake = session.publisher(INTAKE_TOPIC, "IntakeReport", intake_qos())?;
         Ok((
             Ros2Node {
                 session,
@@ -89,6 +96,8 @@ impl Ros2Node {
                 log: IntakeLog::new(Arc::clone(&counters)),
                 counters,
                 reset,
+                intake,
+                intake_errors: 0,
             },
             publisher,
         ))
@@ -115,9 +124,31 @@ impl Ros2Node {
             engine: self.started.engine,
             controls: self.started.controls.clone(),
         };
-        let (node, publisher) = Self::open(started, Arc::clone(&self.counters))?;
+        let (mut node, publisher) = Self::open(started, Arc::clone(&self.counters))?;
+        node.log.writers = std::mem::take(&mut self.log.writers);
         *self = node; // the old participant goes (its threads have ended: nothing to join)
         Ok(publisher)
+    }
+
+    /// Publishes the `/pbr/intake` reports due (see [`WriterCounts::due`]; `force`: every
+    /// changed count now). Cheap when none is: call it after every turn of the event loop.
+    pub fn publish_intake_reports(&mut self, force: bool) {
+        let intake = &self.intake;
+        let mut failed = None;
+        self.log.writers.due(force, &mut |report| {
+            if let Err(e) = intake.publish(report) {
+                failed = Some(format!("{e:?}"));
+            }
+        });
+        if let Some(e) = failed {
+            self.intake_errors += 1;
+            if self.intake_errors.is_power_of_two() {
+                eprintln!(
+                    "rockwatch: ROS 2 {INTAKE_TOPIC}: cannot publish a report ({e}; {} in all)",
+                    self.intake_errors
+                );
+            }
+        }
     }
 
     /// Registers the `/pbr/reset` server with `registry` as `token`, readable (edge-triggered:
