@@ -144,13 +144,17 @@ impl WriterCounts {
     }
 }
 
-/// Sender side: what the node has taken of one writer, from the reports on `/pbr/intake`.
+/// Sender side: what the node has taken of one writer, from the reports on `/pbr/intake`
+/// (and of the sender's previous writer, whose participant died: [`IntakeWatch::switch`]).
 pub struct IntakeWatch {
     reports: Subscription<IntakeReport>,
     writer: [u8; 16],
     taken: u64,
     /// Reports about this writer received.
     pub heard: u64,
+    /// The previous writer, what the node took of it, and whether a report about it came on
+    /// the current subscription.
+    previous: Option<([u8; 16], u64, bool)>,
 }
 
 impl IntakeWatch {
@@ -160,6 +164,7 @@ impl IntakeWatch {
             writer: writer.to_bytes16(),
             taken: 0,
             heard: 0,
+            previous: None,
         }
     }
 
@@ -169,9 +174,33 @@ impl IntakeWatch {
             if report.writer_gid == self.writer {
                 self.heard += 1;
                 self.taken = self.taken.max(report.taken);
+            } else if let Some((gid, taken, heard)) = &mut self.previous {
+                if report.writer_gid == *gid {
+                    *taken = (*taken).max(report.taken);
+                    *heard = true;
+                }
             }
         }
         self.taken
+    }
+
+    /// Follows `writer` on `reports` from now on (a new participant's); the writer followed
+    /// so far becomes the previous one ([`IntakeWatch::previous`]).
+    pub fn switch(&mut self, reports: Subscription<IntakeReport>, writer: Gid) {
+        self.taken();
+        self.previous = Some((self.writer, self.taken, false));
+        self.reports = reports;
+        self.writer = writer.to_bytes16();
+        self.taken = 0;
+        self.heard = 0;
+    }
+
+    /// What the node has taken of the previous writer, and whether a report about it has come
+    /// on the current subscription (the node repeats every count of the last 10 s each
+    /// second, so one comes soon after a switch if the node is there).
+    pub fn previous(&mut self) -> Option<(u64, bool)> {
+        self.taken();
+        self.previous.map(|(_, taken, heard)| (taken, heard))
     }
 }
 

@@ -2,6 +2,7 @@
 //! `rockwatch_replay`, paced by what the node reports it has taken (`/pbr/intake`), so that
 //! a replay ends only once the node has processed every packet — or says how many it did not.
 
+use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail};
@@ -15,6 +16,7 @@ use super::network::NetworkPlan;
 use super::qos::{intake_qos, replay_qos, REPLAY_HISTORY};
 use super::session::Ros2Session;
 use crate::ports::PacketSink;
+use crate::stderr_log::MuteLibraries;
 use rockwatch_core::engine::AccelPacket;
 
 /// Most packets a replay has sent that the node has not yet reported taken. Below the node's
@@ -22,6 +24,13 @@ use rockwatch_core::engine::AccelPacket;
 /// never overwrite a sample it has acknowledged but not handed over; it also bounds what the
 /// replay's writer holds (its history keeps every unacknowledged sample).
 pub const CREDIT_WINDOW: u64 = REPLAY_HISTORY as u64 / 2;
+
+/// How often a replay checks that its DDS participant's threads still run.
+pub const REPLAY_LIVENESS_CHECK: Duration = Duration::from_millis(100);
+
+/// After rebuilding its participant, how long a replay waits for the node's report on its
+/// previous writer (the node repeats its counts every second).
+pub const PREVIOUS_REPORT_WAIT: Duration = Duration::from_secs(3);
 
 /// How long a replay waits for the node's reports to move before it gives up (default; see
 /// [`Ros2PacketSink::set_wait`]).
@@ -35,13 +44,30 @@ pub const DEFAULT_INTAKE_WAIT: Duration = Duration::from_secs(30);
 /// (`pbr_msgs/IntakeReport`); [`PacketSink::send`] waits while [`CREDIT_WINDOW`] packets are
 /// unreported (flow control end to end: nothing is overwritten in the node's reader, and the
 /// replay's memory stays bounded), and [`PacketSink::finish`] waits until the node has taken
-/// every packet sent, else fails naming how many it did not. The writer is not listed under
+/// every packet sent, else fails naming how many it did not.
+///
+/// A replay survives the death of its own DDS participant (RustDDS ends its threads on EINTR,
+/// e.g. after SIGSTOP/SIGCONT of the replay): it notices within [`REPLAY_LIVENESS_CHECK`],
+/// says so, builds a new participant and writer, learns from the node's report how many
+/// packets of the dead writer the node took, and sends the rest again (it keeps the last
+/// [`CREDIT_WINDOW`] packets for that). The writer is not listed under
 /// the node in the ROS 2 graph (`ros2 topic info` shows the publisher without its node name).
 pub struct Ros2PacketSink {
     writer: no_key::DataWriterCdr<msg::AccelPacket>,
     intake: IntakeWatch,
-    /// Packets written.
+    /// Distinct packets sent (each resent one counted once).
     sent: u64,
+    /// Packets of the writers before the current one that the node took: the current writer's
+    /// k-th message is packet `base + k - 1`.
+    base: u64,
+    /// The last packets sent (at most [`CREDIT_WINDOW`]), the last one being packet `sent - 1`.
+    recent: VecDeque<msg::AccelPacket>,
+    /// Where and as what the participant was built (for a rebuild).
+    plan: NetworkPlan,
+    namespace: String,
+    last_liveness: Instant,
+    /// Times the participant was found dead and rebuilt.
+    pub rebuilds: u64,
     /// How long to wait for the node's reports to move.
     wait: Duration,
     /// Readers matched now, from the writer's publication-matched status events.
@@ -54,6 +80,35 @@ pub struct Ros2PacketSink {
 
 impl Ros2PacketSink {
     pub fn open(plan: &NetworkPlan, namespace: &str) -> anyhow::Result<Ros2PacketSink> {
+        let (session, writer, reports) = Self::open_parts(plan, namespace)?;
+        let intake = IntakeWatch::new(reports, Gid::from(writer.guid()));
+        Ok(Ros2PacketSink {
+            _session: session,
+            writer,
+            intake,
+            sent: 0,
+            base: 0,
+            recent: VecDeque::with_capacity(CREDIT_WINDOW as usize),
+            plan: plan.clone(),
+            namespace: namespace.to_string(),
+            last_liveness: Instant::now(),
+            rebuilds: 0,
+            wait: DEFAULT_INTAKE_WAIT,
+            matched: 0,
+            lost_reader: false,
+        })
+    }
+
+    /// A participant with the replay's writer and its subscription to the node's reports.
+    #[allow(clippy::type_complexity)]
+    fn open_parts(
+        plan: &NetworkPlan,
+        namespace: &str,
+    ) -> anyhow::Result<(
+        Ros2Session,
+        no_key::DataWriterCdr<msg::AccelPacket>,
+        ros2_client::Subscription<msg::IntakeReport>,
+    )> {
         let mut session = Ros2Session::open_client(plan, namespace, "rockwatch_replay")?;
         let qos = replay_qos();
         let topic = session.topic(ACCEL_TOPIC, msg::PACKAGE, "AccelPacket", &qos)?;
@@ -66,16 +121,85 @@ impl Ros2PacketSink {
             .map_err(|e| anyhow!("ROS 2 publisher {ACCEL_TOPIC}: {e:?}"))?;
         let reports =
             session.subscription(INTAKE_TOPIC, msg::PACKAGE, "IntakeReport", intake_qos())?;
-        let intake = IntakeWatch::new(reports, Gid::from(writer.guid()));
-        Ok(Ros2PacketSink {
-            _session: session,
-            writer,
-            intake,
-            sent: 0,
-            wait: DEFAULT_INTAKE_WAIT,
-            matched: 0,
-            lost_reader: false,
-        })
+        Ok((session, writer, reports))
+    }
+
+    /// Packets the node has reported taken, over every writer of this replay.
+    fn confirmed(&mut self) -> u64 {
+        self.base + self.intake.taken()
+    }
+
+    /// Checks (at most every [`REPLAY_LIVENESS_CHECK`]) that the participant's threads run;
+    /// rebuilds it if not.
+    fn keep_alive(&mut self) -> anyhow::Result<()> {
+        if self.last_liveness.elapsed() < REPLAY_LIVENESS_CHECK {
+            return Ok(());
+        }
+        self.last_liveness = Instant::now();
+        match self._session.ended_thread() {
+            Some(thread) => self.rebuild(&thread),
+            None => Ok(()),
+        }
+    }
+
+    /// Replaces the dead participant: a new writer, the node's count of the dead writer's
+    /// packets, and the packets after those sent again.
+    fn rebuild(&mut self, thread: &str) -> anyhow::Result<()> {
+        eprintln!(
+            "rockwatch: error: ROS 2 transport dead: the replay's DDS participant thread {thread} \
+             has ended (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT); \
+             rebuilding it and sending again what the node has not taken"
+        );
+        let (session, writer, reports) = Self::open_parts(&self.plan, &self.namespace)?;
+        {
+            // The dead participant's teardown: RustDDS logs each endpoint it cannot remove.
+            let _quiet = MuteLibraries::new();
+            self.intake.switch(reports, Gid::from(writer.guid()));
+            // Endpoints before their participant (see the field order).
+            self.writer = writer;
+            self._session = session;
+        }
+        self.matched = 0;
+        self.lost_reader = false;
+        if !self.wait_for_subscriber(self.wait)? {
+            bail!(
+                "the replay's DDS participant was rebuilt, but no node subscribed again within {:.0} s",
+                self.wait.as_secs_f64()
+            );
+        }
+        let deadline = Instant::now() + PREVIOUS_REPORT_WAIT;
+        while !self.intake.previous().is_some_and(|(_, heard)| heard) && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let (taken, _) = self.intake.previous().unwrap_or((0, false));
+        self.base += taken;
+        let first_kept = self.sent - self.recent.len() as u64;
+        if self.base < first_kept {
+            bail!(
+                "the replay's DDS participant was rebuilt, but the node has taken only {} of {} packets and the replay kept only the last {}",
+                self.base,
+                self.sent,
+                self.recent.len()
+            );
+        }
+        self.base = self.base.min(self.sent);
+        let again: Vec<msg::AccelPacket> = self
+            .recent
+            .iter()
+            .skip((self.base - first_kept) as usize)
+            .cloned()
+            .collect();
+        for m in &again {
+            self.send_msg(m.clone())?;
+        }
+        self.rebuilds += 1;
+        eprintln!(
+            "rockwatch: replay participant rebuilt: the node had taken {} of {} packets; {} sent again",
+            self.base,
+            self.sent,
+            again.len()
+        );
+        Ok(())
     }
 
     /// How long [`PacketSink::send`] and [`PacketSink::finish`] wait for the node's reports
@@ -93,7 +217,7 @@ impl Ros2PacketSink {
 
     /// Packets sent so far, and of those the node has reported taken.
     pub fn progress(&mut self) -> (u64, u64) {
-        (self.sent, self.intake.taken())
+        (self.sent, self.confirmed())
     }
 
     /// Readers matched now (after taking the writer's pending status events).
@@ -109,20 +233,21 @@ impl Ros2PacketSink {
 
     /// Waits until at most `unreported` packets are not reported taken by the node; false if
     /// the reports stood still for the wait ([`Ros2PacketSink::set_wait`]).
-    fn wait_for_intake(&mut self, unreported: u64) -> bool {
-        let mut taken = self.intake.taken();
+    fn wait_for_intake(&mut self, unreported: u64) -> anyhow::Result<bool> {
+        let mut taken = self.confirmed();
         let mut last_move = Instant::now();
         while self.sent - taken.min(self.sent) > unreported {
             std::thread::sleep(Duration::from_micros(200));
-            let now = self.intake.taken();
+            self.keep_alive()?;
+            let now = self.confirmed();
             if now != taken {
                 taken = now;
                 last_move = Instant::now();
             } else if last_move.elapsed() >= self.wait {
-                return false;
+                return Ok(false);
             }
         }
-        true
+        Ok(true)
     }
 
     /// One line on why the node has not taken everything.
@@ -160,17 +285,23 @@ impl PacketSink for Ros2PacketSink {
     }
 
     fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()> {
-        if !self.wait_for_intake(CREDIT_WINDOW - 1) {
+        self.keep_alive()?;
+        if !self.wait_for_intake(CREDIT_WINDOW - 1)? {
             bail!("{}", self.shortfall());
         }
-        self.send_msg(msg::AccelPacket::from(packet))?;
+        let m = msg::AccelPacket::from(packet);
+        if self.recent.len() == CREDIT_WINDOW as usize {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(m.clone());
+        self.send_msg(m)?;
         self.sent += 1;
         Ok(())
     }
 
     fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         self.wait = timeout;
-        if !self.wait_for_intake(0) {
+        if !self.wait_for_intake(0)? {
             bail!("{}", self.shortfall());
         }
         Ok(true)
