@@ -129,14 +129,19 @@ impl Journal {
 
     /// Appends `record` and flushes it to stable storage before returning.
     pub fn append(&mut self, record: &JournalRecord) -> Result<(), JournalError> {
+        self.append_unsynced(record)?;
+        self.file.sync_data().map_err(io(&self.path))
+    }
+
+    /// Appends `record` without waiting for stable storage (the next synced append, or the
+    /// system, flushes it): for records whose loss in a crash is harmless
+    /// ([`JournalRecord::Published`]: the alert is published again).
+    pub fn append_unsynced(&mut self, record: &JournalRecord) -> Result<(), JournalError> {
         let line = encode(record).map_err(|message| JournalError::Encode {
             path: self.path.clone(),
             message,
         })?;
-        self.file
-            .write_all(line.as_bytes())
-            .map_err(io(&self.path))?;
-        self.file.sync_data().map_err(io(&self.path))
+        self.file.write_all(line.as_bytes()).map_err(io(&self.path))
     }
 }
 

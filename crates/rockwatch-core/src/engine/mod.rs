@@ -33,8 +33,8 @@ use std::collections::{BTreeMap, HashSet};
 
 pub use config::{AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, StationConfig};
 pub use output::{
-    fallen_blocks, Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink,
-    PbrState, StationIntensity,
+    fallen_blocks, journaled_alerts, Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output,
+    OutputSink, PbrState, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use sharded::{EngineHandle, ShardedEngine};

@@ -32,8 +32,8 @@ use super::{
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::ros2::msg::ResetPbrResponse;
-use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher};
-use rockwatch_core::engine::{AccelPacket, PbrSummary};
+use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher, ALERTS_TOPIC};
+use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
 /// dead-node check are looked at least this often.
@@ -236,9 +236,12 @@ impl Reactor {
             ros2: ros2_publisher,
             later,
             queue: Vec::new(),
+            published: Vec::new(),
             errors: 0,
             log: RateLimitedLog::new(),
         };
+
+        republish_journaled(&mut runtime, &mut out);
 
         // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
         let mut inboxes: Vec<Inbox> = (0..1 + ros2.inputs()).map(|_| Inbox::new()).collect();
@@ -294,7 +297,7 @@ impl Reactor {
                 &controls,
             )?;
             runtime.flush_if_due(&mut |p| out.publish(p))?;
-            out.flush();
+            out.settle(&mut runtime);
             ros2.publish_intake_reports(false);
             if let Some(input) = &mut iox_input {
                 input.maintain();
@@ -348,6 +351,36 @@ impl Reactor {
             ros2_rebuilds: watchdog.rebuilds,
             ros2_redelivered: ros2.counters.redelivered.load(Ordering::Relaxed),
         })
+    }
+}
+
+/// At start: publishes the journal's last alerts again on ROS 2, in order, rebuilding the
+/// transient-local history of `/pbr/alerts` that a late subscriber gets; an alert never
+/// published before (journaled, then a crash) goes to every publisher, and is marked
+/// published. Subscribers de-duplicate by (pbr_id, level, header.stamp) — see
+/// docs/reliability.md.
+fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
+    let journaled = runtime.take_journaled_alerts();
+    let (all, mut unpublished) = (journaled.len(), 0);
+    for (alert, published) in journaled {
+        let publication = Publication::Alert {
+            alert,
+            latency_ns: 0,
+        };
+        if published {
+            if let Err(e) = out.ros2.publish(&publication) {
+                Outlet::failed(&mut out.errors, &mut out.log, &e);
+            }
+        } else {
+            unpublished += 1;
+            out.publish(publication);
+            out.settle(runtime);
+        }
+    }
+    if all > 0 {
+        eprintln!(
+            "rockwatch: journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
+        );
     }
 }
 
@@ -504,7 +537,7 @@ fn turn(
         }
     }
     runtime.poll(&mut |p| out.publish(p))?;
-    out.flush();
+    out.settle(runtime);
     Ok(())
 }
 
@@ -582,6 +615,9 @@ struct Outlet<'a> {
     later: Vec<&'a mut dyn Publisher>,
     /// Publications for `later` (reused: no allocation per turn).
     queue: Vec<Publication>,
+    /// Alerts handed to the ROS 2 publisher, to be marked published in the journal
+    /// ([`Outlet::settle`]).
+    published: Vec<Alert>,
     errors: u64,
     log: RateLimitedLog,
 }
@@ -607,14 +643,25 @@ impl Outlet<'_> {
     /// Hands the queued publications to the other publishers.
     fn flush(&mut self) {
         for publication in self.queue.drain(..) {
-            if let Err(e) = self.ros2.publish(&publication) {
-                Self::failed(&mut self.errors, &mut self.log, &e);
+            match (self.ros2.publish(&publication), &publication) {
+                (Err(e), _) => Self::failed(&mut self.errors, &mut self.log, &e),
+                (Ok(()), Publication::Alert { alert, .. }) => self.published.push(alert.clone()),
+                (Ok(()), _) => {}
             }
             for publisher in &mut self.later {
                 if let Err(e) = publisher.publish(&publication) {
                     Self::failed(&mut self.errors, &mut self.log, &e);
                 }
             }
+        }
+    }
+
+    /// [`Outlet::flush`], then journals a `Published` marker for every alert handed to ROS 2
+    /// (an alert without one is published again at restart).
+    fn settle(&mut self, runtime: &mut NodeRuntime) {
+        self.flush();
+        for alert in self.published.drain(..) {
+            runtime.mark_published(&alert);
         }
     }
 
