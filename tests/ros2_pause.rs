@@ -12,30 +12,8 @@ use ros2_util::*;
 use std::collections::BTreeSet;
 use std::path::Path;
 
-/// (pbr, episode, level) of every alert journaled in `state`.
-fn alert_set(state: &Path) -> BTreeSet<(String, u64, String)> {
-    let out = std::process::Command::new(rockwatch())
-        .args(["alerts", "--format", "json", "--state-dir"])
-        .arg(state)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let records: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
-    records
-        .iter()
-        .filter_map(|r| r.get("Alert"))
-        .map(|a| {
-            (
-                a["pbr_id"].as_str().unwrap().to_string(),
-                a["episode"].as_u64().unwrap(),
-                a["level"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect()
+fn alert_history_set(state: &Path) -> BTreeSet<(String, u64, String)> {
+    alert_history(state).into_iter().collect()
 }
 
 /// Runs a node on `dir`/state and a replay of the Rinaldi record at `speed`; meanwhile
@@ -95,7 +73,7 @@ fn node_and_replay_paused_mid_stream_rebuild_their_participants_and_lose_nothing
         sent,
         "{err_a}"
     );
-    let expected = alert_set(&a.join("state"));
+    let expected = alert_history_set(&a.join("state"));
     assert!(
         expected.contains(&("rrs-slender-pillar".into(), 1, "overturned".into())),
         "{expected:?}"
@@ -137,5 +115,5 @@ fn node_and_replay_paused_mid_stream_rebuild_their_participants_and_lose_nothing
         sent,
         "packets lost or double counted after the pauses\n{err_b}"
     );
-    assert_eq!(alert_set(&b.join("state")), expected, "{err_b}");
+    assert_eq!(alert_history_set(&b.join("state")), expected, "{err_b}");
 }
