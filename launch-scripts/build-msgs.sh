@@ -137,9 +137,9 @@ check() {
   (
     source_install
     python3 - <<'EOF'
-from pbr_msgs.msg import AccelPacket, PbrAlert, PbrState, StationIntensity
+from pbr_msgs.msg import AccelPacket, IntakeReport, PbrAlert, PbrState, StationIntensity
 from pbr_msgs.srv import ResetPbr
-for cls in (AccelPacket, PbrAlert, PbrState, StationIntensity, ResetPbr.Request, ResetPbr.Response):
+for cls in (AccelPacket, IntakeReport, PbrAlert, PbrState, StationIntensity, ResetPbr.Request, ResetPbr.Response):
     cls.__class__.__import_type_support__()
     assert cls._TYPE_SUPPORT is not None, cls
 ResetPbr.__class__.__import_type_support__()

@@ -74,6 +74,12 @@ fn expected_format(ty: &str) -> Format {
     if let Some(inner) = ty.strip_suffix("[]") {
         return Format::Seq(Box::new(expected_format(inner)));
     }
+    if let Some((inner, size)) = ty.strip_suffix(']').and_then(|t| t.split_once('[')) {
+        return Format::TupleArray {
+            content: Box::new(expected_format(inner)),
+            size: size.parse().unwrap(),
+        };
+    }
     match ty {
         "bool" => Format::Bool,
         "uint8" => Format::U8,
@@ -95,6 +101,7 @@ fn registry() -> serde_reflection::Registry {
     tracer.trace_simple_type::<msg::StationIntensity>().unwrap();
     tracer.trace_simple_type::<msg::PbrState>().unwrap();
     tracer.trace_simple_type::<msg::PbrAlert>().unwrap();
+    tracer.trace_simple_type::<msg::IntakeReport>().unwrap();
     tracer.trace_simple_type::<msg::ResetPbrRequest>().unwrap();
     tracer.trace_simple_type::<msg::ResetPbrResponse>().unwrap();
     tracer.registry().unwrap()
@@ -138,7 +145,13 @@ fn reset_service_structs_have_the_fields_of_the_srv_file_in_order() {
 #[test]
 fn rust_structs_have_the_fields_of_the_msg_files_in_order() {
     let registry = registry();
-    for name in ["AccelPacket", "StationIntensity", "PbrState", "PbrAlert"] {
+    for name in [
+        "AccelPacket",
+        "StationIntensity",
+        "PbrState",
+        "PbrAlert",
+        "IntakeReport",
+    ] {
         assert_struct_matches(&registry, name, &parse_msg(name));
     }
     // std_msgs/Header and builtin_interfaces/Time as defined by ROS 2.

@@ -79,32 +79,6 @@ fn sink_for_node(node: &NodeProcess) -> Ros2PacketSink {
     sink
 }
 
-/// (pbr, episode, level) of every alert in the state directory, in journal order.
-fn alert_history(state: &Path) -> Vec<(String, u64, String)> {
-    let out = std::process::Command::new(rockwatch())
-        .args(["alerts", "--format", "json", "--state-dir"])
-        .arg(state)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let records: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
-    records
-        .iter()
-        .filter(|r| r["type"] == "alert")
-        .map(|a| {
-            (
-                a["pbr_id"].as_str().unwrap().to_string(),
-                a["episode"].as_u64().unwrap(),
-                a["level"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect()
-}
-
 #[test]
 fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run() {
     if !reexec_in_netns(

@@ -329,3 +329,30 @@ pub fn stop_node(mut node: std::process::Child) -> (std::process::ExitStatus, St
     }
     (status, stderr)
 }
+
+/// (pbr, episode, level) of every alert journaled in the state directory `state`, in journal
+/// order (`rockwatch alerts --format json`).
+pub fn alert_history(state: &std::path::Path) -> Vec<(String, u64, String)> {
+    let out = Command::new(rockwatch())
+        .args(["alerts", "--format", "json", "--state-dir"])
+        .arg(state)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let records: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    records
+        .iter()
+        .filter(|r| r["type"] == "alert")
+        .map(|a| {
+            (
+                a["pbr_id"].as_str().unwrap().to_string(),
+                a["episode"].as_u64().unwrap(),
+                a["level"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect()
+}

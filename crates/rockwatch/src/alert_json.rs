@@ -98,6 +98,13 @@ pub enum RecordJson {
     Reset {
         pbr_id: String,
     },
+    /// The alert (pbr_id, episode, level) was handed to the publishers (the node's marker for
+    /// at-least-once publication across crashes).
+    Published {
+        pbr_id: String,
+        episode: u32,
+        level: AlertLevel,
+    },
 }
 
 impl From<&JournalRecord> for RecordJson {
@@ -110,6 +117,15 @@ impl From<&JournalRecord> for RecordJson {
             },
             JournalRecord::Reset { pbr_id } => RecordJson::Reset {
                 pbr_id: pbr_id.clone(),
+            },
+            JournalRecord::Published {
+                pbr_id,
+                episode,
+                level,
+            } => RecordJson::Published {
+                pbr_id: pbr_id.clone(),
+                episode: *episode,
+                level: *level,
             },
         }
     }

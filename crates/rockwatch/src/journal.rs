@@ -184,14 +184,29 @@ impl Journal {
     /// last complete line, so a later append starts on a clean line and nothing half-written
     /// stays behind.
     pub fn append(&mut self, record: &JournalRecord) -> Result<(), JournalError> {
+        self.write(record, true)
+    }
+
+    /// Appends `record` without waiting for stable storage (the next synced append, or the
+    /// system, flushes it): for records whose loss in a crash is harmless
+    /// ([`JournalRecord::Published`]: the alert is published again). A failed write is
+    /// truncated as in [`Journal::append`].
+    pub fn append_unsynced(&mut self, record: &JournalRecord) -> Result<(), JournalError> {
+        self.write(record, false)
+    }
+
+    fn write(&mut self, record: &JournalRecord, sync: bool) -> Result<(), JournalError> {
         let line = encode(record).map_err(|message| JournalError::Encode {
             path: self.path.clone(),
             message,
         })?;
-        let written = self
-            .file
-            .write_all(line.as_bytes())
-            .and_then(|()| self.file.sync_data());
+        let written = self.file.write_all(line.as_bytes()).and_then(|()| {
+            if sync {
+                self.file.sync_data()
+            } else {
+                Ok(())
+            }
+        });
         if let Err(e) = written {
             // Truncation frees blocks: it works on a full file system. If it fails too,
             // the torn line is discarded on the next open (see the module doc).
@@ -281,6 +296,24 @@ impl JournalWriter {
             self.failures += 1;
             self.last_error = Some(e.to_string());
         })
+    }
+
+    /// Writes `record` unsynced ([`Journal::append_unsynced`]) if nothing waits in the
+    /// backlog; returns whether it was written. For records whose loss is harmless
+    /// ([`JournalRecord::Published`]): never queued, so a failing directory only means the
+    /// alert is published again at the next start.
+    pub fn append_unsynced(&mut self, record: &JournalRecord) -> bool {
+        if !self.backlog.is_empty() {
+            return false;
+        }
+        match self.journal.append_unsynced(record) {
+            Ok(()) => true,
+            Err(e) => {
+                self.failures += 1;
+                self.last_error = Some(e.to_string());
+                false
+            }
+        }
     }
 
     /// Tries to write the backlog; returns how many records were written.

@@ -16,5 +16,7 @@ pub mod plot;
 pub mod ports;
 pub mod replay;
 pub mod ros2;
+pub mod signals;
+pub mod stderr_log;
 pub mod study;
 pub mod wire_codes;

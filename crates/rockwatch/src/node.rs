@@ -9,8 +9,12 @@
 //!   input of every transport (ROS 2, iceoryx2), runs the engine and publishes.
 //!
 //! Ordering guarantee: an alert is appended to the journal and synced before it is handed to
-//! any publisher, so a published alert is never lost; on restart the journal is restored
-//! into the engine, so an alert is never published twice.
+//! any publisher, so a published alert is never lost; once handed to the publishers, a
+//! `Published` marker is journaled (unsynced). On restart the journal is restored into the
+//! engine, so the engine never raises an alert twice; the node publishes again the journaled
+//! alerts without a marker (to every publisher: at least once) and the last
+//! [`REPUBLISH_DEPTH`] alerts on ROS 2 (the transient-local history of `/pbr/alerts`), see
+//! docs/reliability.md.
 //!
 //! A failing state directory (a full disk) degrades, never stops, the node: an alert that
 //! cannot be journaled is published at once flagged `journal_pending`, waits in a bounded
@@ -37,9 +41,13 @@ use crate::log_text::{printable, MESSAGE_CHARS, PBR_ID_CHARS, STATION_CHARS};
 use crate::node_config::NodeConfig;
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
-    fallen_blocks, AccelPacket, AlertLevel, Engine, JournalRecord, Notice, Output, OutputSink,
-    PbrSpec, PbrSummary, ShardedEngine,
+    fallen_blocks, journaled_alerts, AccelPacket, Alert, AlertLevel, Engine, JournalRecord, Notice,
+    Output, OutputSink, PbrSpec, PbrSummary, ShardedEngine,
 };
+
+/// Journaled alerts a starting node publishes again on ROS 2 (the depth of the
+/// transient-local history of `/pbr/alerts`).
+pub const REPUBLISH_DEPTH: usize = crate::ros2::ALERTS_DEPTH;
 
 /// Longest time a live packet waits in the engine's reorder window for missing data.
 pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
@@ -475,6 +483,11 @@ pub struct NodeRuntime {
     epoch_utc_ns: i64,
     /// [`NodeOptions::reject_future`]: the tolerance (ns), when on.
     max_ahead_ns: Option<i64>,
+    /// The journal's last [`REPUBLISH_DEPTH`] alerts, each with whether it was published
+    /// (until taken by [`NodeRuntime::take_journaled_alerts`]).
+    journaled: Vec<(Alert, bool)>,
+    /// `Published` markers that could not be journaled.
+    marker_errors: u64,
 }
 
 impl NodeRuntime {
@@ -508,6 +521,7 @@ impl NodeRuntime {
                 options.shards
             );
         }
+        let journaled = journaled_alerts(&records, REPUBLISH_DEPTH);
         let shards = if options.shards == 0 {
             std::thread::available_parallelism().map_or(1, usize::from)
         } else {
@@ -551,7 +565,40 @@ impl NodeRuntime {
             max_ahead_ns: options
                 .reject_future
                 .then_some((config.engine.plausibility.max_ahead_s * 1e9) as i64),
+            journaled,
+            marker_errors: 0,
         })
+    }
+
+    /// The journal's last [`REPUBLISH_DEPTH`] alerts at start, in order, each with whether it
+    /// was published before (a `Published` marker); empty after the first call.
+    pub fn take_journaled_alerts(&mut self) -> Vec<(Alert, bool)> {
+        std::mem::take(&mut self.journaled)
+    }
+
+    /// Journals (unsynced) that `alert` has been handed to the publishers. A failure is
+    /// logged (rate-limited) and counted: the alert will be published again at restart.
+    pub fn mark_published(&mut self, alert: &Alert) {
+        let Some(journal) = &mut self.emit.journal else {
+            return;
+        };
+        let record = JournalRecord::Published {
+            pbr_id: alert.pbr_id.clone(),
+            episode: alert.episode,
+            level: alert.level,
+        };
+        if !journal.append_unsynced(&record) {
+            self.marker_errors += 1;
+            let reason = journal
+                .last_error
+                .clone()
+                .unwrap_or_else(|| "the state directory is failing".into());
+            let message = format!(
+                "cannot journal that an alert was published ({reason}; {} in all): it will be published again at restart",
+                self.marker_errors
+            );
+            self.emit.log.log(&alert.pbr_id, "journal_failed", &message);
+        }
     }
 
     /// Engine shards: 1 when the engine runs inline.

@@ -155,6 +155,43 @@ pub enum JournalRecord {
     EpisodeEnd { pbr_id: String, episode: u32 },
     /// An operator reset a (fallen) block: it stands again, its episode is closed.
     Reset { pbr_id: String },
+    /// The alert (`pbr_id`, `episode`, `level`) journaled earlier has been handed to the
+    /// publishers. Written after them and not synced: if a crash loses it, the alert is
+    /// published again at restart (at least once, never silently lost).
+    Published {
+        pbr_id: String,
+        episode: u32,
+        level: AlertLevel,
+    },
+}
+
+/// The last `depth` alerts of the journal `records`, in order, each with whether a
+/// [`JournalRecord::Published`] marker follows it: the history a restarted node publishes
+/// again, and the alerts of it never published.
+#[must_use]
+pub fn journaled_alerts(records: &[JournalRecord], depth: usize) -> Vec<(Alert, bool)> {
+    let published: HashSet<AlertKey> = records
+        .iter()
+        .filter_map(|r| match r {
+            JournalRecord::Published {
+                pbr_id,
+                episode,
+                level,
+            } => Some((pbr_id.clone(), *episode, *level)),
+            _ => None,
+        })
+        .collect();
+    let alerts: Vec<&Alert> = records
+        .iter()
+        .filter_map(|r| match r {
+            JournalRecord::Alert(a) => Some(a),
+            _ => None,
+        })
+        .collect();
+    alerts[alerts.len().saturating_sub(depth)..]
+        .iter()
+        .map(|a| ((*a).clone(), published.contains(&a.key())))
+        .collect()
 }
 
 /// Ids of the blocks that are fallen according to the journal `records` (read in order): an
@@ -236,5 +273,37 @@ mod tests {
             fallen_blocks(&[alert("a", AlertLevel::Overturned), reset("a")]),
             HashSet::new()
         );
+    }
+
+    #[test]
+    fn journaled_alerts_are_the_last_ones_with_their_published_markers() {
+        let published = |id: &str, level| JournalRecord::Published {
+            pbr_id: id.into(),
+            episode: 1,
+            level,
+        };
+        let records = [
+            alert("a", AlertLevel::MotionOnset),
+            published("a", AlertLevel::MotionOnset),
+            alert("b", AlertLevel::MotionOnset),
+            alert("a", AlertLevel::Overturned),
+            published("a", AlertLevel::Overturned),
+        ];
+        let got: Vec<(String, AlertLevel, bool)> = journaled_alerts(&records, 10)
+            .into_iter()
+            .map(|(a, p)| (a.pbr_id, a.level, p))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                ("a".into(), AlertLevel::MotionOnset, true),
+                ("b".into(), AlertLevel::MotionOnset, false),
+                ("a".into(), AlertLevel::Overturned, true),
+            ]
+        );
+        // Bounded to the last `depth` alerts.
+        let last = journaled_alerts(&records, 1);
+        assert_eq!(last.len(), 1);
+        assert_eq!(last[0].0.level, AlertLevel::Overturned);
     }
 }

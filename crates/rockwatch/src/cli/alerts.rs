@@ -119,6 +119,8 @@ pub fn run_alerts(args: AlertsArgs) -> anyhow::Result<()> {
                     JournalRecord::Reset { pbr_id } => {
                         outln!("{pbr_id:<24} {:<12} {:>7} reset by operator", "", "")
                     }
+                    // Bookkeeping of the node (see docs/reliability.md): in the JSON only.
+                    JournalRecord::Published { .. } => {}
                 }
             }
         }

@@ -127,6 +127,8 @@ pub fn run() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    // RustDDS and ros2-client log through the `log` facade: their errors reach stderr.
+    rockwatch::stderr_log::init();
     let result = match cli.command {
         Command::Alerts(args) => alerts::run_alerts(args),
         Command::Reset(args) => alerts::run_reset(args),

@@ -3,15 +3,13 @@
 //! SIGINT/SIGTERM and prints the closing summary.
 
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 
-use anyhow::Context;
 use rockwatch::journal::read_journal;
 use rockwatch::node::{serve, NodeOptions, NoticeLog};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::notify::{Notifier, STOP_GRACE};
 use rockwatch::ros2::network_plan_from_env;
+use rockwatch::signals::stop_on_signals;
 
 /// Run the live node: subscribes `/pbr/accel` (and configured Imu topics) over ROS 2, runs
 /// the monitoring engine, publishes `/pbr/ims`, `/pbr/state` and `/pbr/alerts`.
@@ -21,9 +19,12 @@ use rockwatch::ros2::network_plan_from_env;
 /// (`alerts.*`) and `state_interval_s` are ROS 2 parameters, settable at run time. The
 /// service `/pbr/reset` (`pbr_msgs/srv/ResetPbr`) resets a fallen block (`rockwatch reset
 /// --node`). Alerts also go to the configuration's `[[notify]]` receivers (a command, or a
-/// webhook), at least once, kept in the state directory until acknowledged. SIGINT or
-/// SIGTERM: stop intake, publish what remains, flush the state directory, give the
-/// receivers up to 5 s to deliver what is queued, exit 0.
+/// webhook), at least once, kept in the state directory until acknowledged. SIGINT, SIGTERM
+/// or SIGHUP (taken on one thread, never on DDS's): stop intake, publish what remains, flush
+/// the state directory, give the receivers up to 5 s to deliver what is queued, exit 0. A DDS
+/// participant found dead (its RustDDS threads ended, e.g. after SIGSTOP/SIGCONT) is reported
+/// and rebuilt, the engine's state kept; if it cannot be rebuilt within 30 s the node exits 1.
+/// ROCKWATCH_LOG sets the log level of the libraries (default: their errors).
 #[derive(Debug, clap::Args)]
 pub struct NodeArgs {
     /// Node configuration (TOML, e.g. config/node.toml): catalogue, stations, thresholds,
@@ -45,17 +46,9 @@ pub struct NodeArgs {
     shards: usize,
 }
 
-/// Sets the returned flag on SIGINT or SIGTERM.
-pub fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&stop))
-            .with_context(|| format!("cannot handle signal {signal}"))?;
-    }
-    Ok(stop)
-}
-
 pub fn run(args: NodeArgs) -> anyhow::Result<()> {
+    // First, before any thread starts: the stop signals go to one thread, never to DDS's.
+    let stop = stop_on_signals()?;
     let config = match &args.config {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
@@ -69,7 +62,6 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         notices: NoticeLog::RateLimited,
         reject_future: true,
     };
-    let stop = stop_on_signals()?;
     eprintln!(
         "rockwatch: node {}/{} on DDS domain {} ({})",
         options.config.ros2.namespace.trim_end_matches('/'),
@@ -104,9 +96,11 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     }
     let fallen = report.summaries.iter().filter(|s| s.overturned).count();
     eprintln!(
-        "rockwatch: stopped: {} packets received over ROS 2 ({} undecodable), {} blocks, {} overturned",
+        "rockwatch: stopped: {} packets received over ROS 2 ({} undecodable, {} participant rebuilds, {} redelivered and skipped), {} blocks, {} overturned",
         report.ros2_packets,
         report.ros2_decode_errors,
+        report.ros2_rebuilds,
+        report.ros2_redelivered,
         report.summaries.len(),
         fallen
     );

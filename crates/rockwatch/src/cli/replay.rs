@@ -94,9 +94,9 @@ pub struct ReplayArgs {
     /// section (config file, service names) to use.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
-    /// Seconds to wait for the node's subscription before the first packet, and for its
-    /// acknowledgement of every packet after the last (ROS 2 is reliable: a replay ends only
-    /// once the node has everything).
+    /// Seconds to wait for the node's subscription before the first packet, and (ROS 2) for
+    /// the node's /pbr/intake reports to move: a replay ends only once the node reports every
+    /// packet taken, else it exits 1 naming how many were not processed.
     #[arg(long = "wait-s", default_value_t = 30.0, value_name = "S")]
     wait_s: f64,
 }
@@ -196,6 +196,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
         Transport::Ros2 => {
             let plan = network_plan_from_env(&config.ros2)?;
             let mut sink = Ros2PacketSink::open(&plan, &config.ros2.namespace)?;
+            if args.wait_s.is_finite() && args.wait_s >= 0.0 {
+                sink.set_wait(Duration::from_secs_f64(args.wait_s));
+            }
             replay_through(&args, &mut sink)
         }
         Transport::Iceoryx2 => {

@@ -32,19 +32,27 @@ use super::{
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::ros2::msg::ResetPbrResponse;
-use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher};
-use rockwatch_core::engine::{AccelPacket, PbrSummary};
+use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher, ALERTS_TOPIC};
+use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
 /// dead-node check are looked at least this often.
 pub const TICK: Duration = Duration::from_millis(50);
+
+/// How often the event loop checks that the ROS 2 participant's RustDDS threads still run
+/// (see [`Ros2Node::ended_thread`]; two reads of /proc per check).
+pub const LIVENESS_CHECK: Duration = Duration::from_millis(500);
+
+/// How long the node keeps trying to rebuild a dead ROS 2 participant (one attempt per
+/// [`LIVENESS_CHECK`]) before it gives up and exits with an error.
+pub const REBUILD_GIVE_UP: Duration = Duration::from_secs(30);
 
 /// Most packets processed per turn of the event loop (round robin over the sources).
 pub const DRAIN_BOUND: usize = 256;
 
 /// Longest a turn of the event loop processes packets (plus one packet's time) before it
 /// polls again and takes what arrived meanwhile, so the transports hold little unread data
-/// (RustDDS discards the unread samples of a writer that has left; see `REPLAY_LINGER`).
+/// (RustDDS discards the unread samples of a writer that has left).
 pub const TURN_BUDGET: Duration = Duration::from_micros(200);
 
 /// Most packets taken from one source and waiting to be processed; beyond, the rest stays in
@@ -78,6 +86,10 @@ pub struct ServeReport {
     pub iox: Option<IoxInputStats>,
     /// What the runtime did, the state directory's health included.
     pub stats: super::NodeStats,
+    /// Times the ROS 2 participant was found dead and rebuilt.
+    pub ros2_rebuilds: u64,
+    /// `/pbr/accel` messages delivered again after a rebuild and skipped.
+    pub ros2_redelivered: u64,
 }
 
 /// A thread-safe view of a running node's intake counters (tests, benchmarks).
@@ -210,31 +222,35 @@ impl Reactor {
             _waker,
             controls,
             mut ros2,
-            mut ros2_publisher,
+            ros2_publisher,
             iox,
         } = self;
         let (mut iox_input, mut iox_publisher) = match iox {
             Some((input, publisher)) => (Some(input), Some(publisher)),
             None => (None, None),
         };
-        let mut later: Vec<&mut dyn Publisher> = Vec::with_capacity(1 + extra.len());
-        later.push(&mut ros2_publisher);
+        let mut later: Vec<&mut dyn Publisher> = Vec::with_capacity(extra.len());
         for p in extra.iter_mut() {
             later.push(&mut **p);
         }
         let mut out = Outlet {
             now: iox_publisher.as_mut().map(|p| p as &mut dyn Publisher),
+            ros2: ros2_publisher,
             later,
             queue: Vec::new(),
+            published: Vec::new(),
             errors: 0,
             log: RateLimitedLog::new(),
         };
+
+        republish_journaled(&mut runtime, &mut out);
 
         // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
         let mut inboxes: Vec<Inbox> = (0..1 + ros2.inputs()).map(|_| Inbox::new()).collect();
         let mut events = Events::with_capacity(64);
         // Requests of /pbr/reset may be waiting (edge-triggered, like the inputs).
         let mut resets_due = true;
+        let mut watchdog = Watchdog::new();
         while !stop.load(Ordering::Relaxed) {
             let pending = resets_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
             let timeout = if pending {
@@ -283,34 +299,45 @@ impl Reactor {
                 &controls,
             )?;
             runtime.flush_if_due(&mut |p| out.publish(p))?;
-            out.flush();
+            out.settle(&mut runtime);
+            ros2.publish_intake_reports(false);
             if let Some(input) = &mut iox_input {
                 input.maintain();
+            }
+            if watchdog.due() {
+                if let Some(thread) = ros2.ended_thread() {
+                    // Take what the dead participant's readers still hold, then replace it.
+                    drain_inputs(
+                        &mut inboxes,
+                        &mut iox_input,
+                        &mut ros2,
+                        &mut runtime,
+                        &mut out,
+                        &controls,
+                    )?;
+                    if watchdog.rebuild(&thread, &mut ros2, &mut out, poll.registry())? {
+                        inboxes.iter_mut().for_each(|i| i.due = true);
+                        resets_due = true;
+                    }
+                }
             }
         }
 
         // Stop: take what the inputs still hold (bounded) and process every packet taken,
         // then shut the engine down.
-        inboxes.iter_mut().for_each(|i| i.due = true);
-        loop {
-            turn(
-                &mut inboxes,
-                &mut iox_input,
-                &mut ros2,
-                &mut runtime,
-                &mut out,
-                &controls,
-            )?;
-            if inboxes.iter().all(|i| i.queue.is_empty()) {
-                break;
-            }
-            // Process what was taken; take nothing new.
-            inboxes.iter_mut().for_each(|i| i.due = false);
-        }
+        drain_inputs(
+            &mut inboxes,
+            &mut iox_input,
+            &mut ros2,
+            &mut runtime,
+            &mut out,
+            &controls,
+        )?;
         // Requests waiting at the stop are answered (a bounded number; the responses go out
         // now, held ones too).
         ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
         ros2.flush_replies();
+        ros2.publish_intake_reports(true);
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
         let stopped = runtime.stop(&mut |p| out.publish(p))?;
         out.flush();
@@ -324,7 +351,136 @@ impl Reactor {
             ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
             iox: iox_stats,
             stats: stopped.stats,
+            ros2_rebuilds: watchdog.rebuilds,
+            ros2_redelivered: ros2.counters.redelivered.load(Ordering::Relaxed),
         })
+    }
+}
+
+/// At start: publishes the journal's last alerts again on ROS 2, in order, rebuilding the
+/// transient-local history of `/pbr/alerts` that a late subscriber gets; an alert never
+/// published before (journaled, then a crash) goes to every publisher, and is marked
+/// published. Subscribers de-duplicate by (pbr_id, level, header.stamp) — see
+/// docs/reliability.md.
+fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
+    let journaled = runtime.take_journaled_alerts();
+    let (all, mut unpublished) = (journaled.len(), 0);
+    for (alert, published) in journaled {
+        // A journaled alert: not `journal_pending`.
+        let publication = Publication::Alert {
+            alert,
+            latency_ns: 0,
+            journal_pending: false,
+        };
+        if published {
+            if let Err(e) = out.ros2.publish(&publication) {
+                Outlet::failed(&mut out.errors, &mut out.log, &e);
+            }
+        } else {
+            unpublished += 1;
+            out.publish(publication);
+            out.settle(runtime);
+        }
+    }
+    if all > 0 {
+        eprintln!(
+            "rockwatch: journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
+        );
+    }
+}
+
+/// Takes what every input holds (up to its inbox's bound) and processes every packet taken.
+fn drain_inputs(
+    inboxes: &mut [Inbox],
+    iox_input: &mut Option<IoxInput>,
+    ros2: &mut Ros2Node,
+    runtime: &mut NodeRuntime,
+    out: &mut Outlet<'_>,
+    controls: &Receiver<Control>,
+) -> anyhow::Result<()> {
+    inboxes.iter_mut().for_each(|i| i.due = true);
+    loop {
+        turn(inboxes, iox_input, ros2, runtime, out, controls)?;
+        if inboxes.iter().all(|i| i.queue.is_empty()) {
+            return Ok(());
+        }
+        // Process what was taken; take nothing new.
+        inboxes.iter_mut().for_each(|i| i.due = false);
+    }
+}
+
+/// Watches the ROS 2 participant and rebuilds it when its RustDDS threads have ended.
+struct Watchdog {
+    last_check: Instant,
+    /// Since when the participant is dead and could not be rebuilt.
+    down_since: Option<Instant>,
+    rebuilds: u64,
+}
+
+impl Watchdog {
+    fn new() -> Watchdog {
+        Watchdog {
+            last_check: Instant::now(),
+            down_since: None,
+            rebuilds: 0,
+        }
+    }
+
+    /// Whether [`LIVENESS_CHECK`] has passed since the last check (then a check is due now).
+    fn due(&mut self) -> bool {
+        if self.last_check.elapsed() < LIVENESS_CHECK {
+            return false;
+        }
+        self.last_check = Instant::now();
+        true
+    }
+
+    /// The participant's `thread` has ended: says so, and replaces the participant (its
+    /// subscriptions registered again with `registry`, its publishers in `out`). Returns
+    /// whether it was rebuilt; an error once it could not be for [`REBUILD_GIVE_UP`].
+    fn rebuild(
+        &mut self,
+        thread: &str,
+        ros2: &mut Ros2Node,
+        out: &mut Outlet<'_>,
+        registry: &mio::Registry,
+    ) -> anyhow::Result<bool> {
+        let since = *self.down_since.get_or_insert_with(Instant::now);
+        eprintln!(
+            "rockwatch: error: ROS 2 transport dead: the DDS participant's thread {thread} has ended \
+             (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT or a debugger \
+             attach); rebuilding the participant ({} rebuilds so far)",
+            self.rebuilds
+        );
+        let rebuilt = ros2.rebuild().and_then(|publisher| {
+            out.ros2 = publisher;
+            ros2.register(registry, ROS2_FIRST)
+                .context("cannot register the ROS 2 subscriptions with the event loop")?;
+            ros2.register_reset(registry, RESET)
+                .context("cannot register the ROS 2 reset service with the event loop")
+        });
+        match rebuilt {
+            Ok(()) => {
+                self.rebuilds += 1;
+                self.down_since = None;
+                eprintln!(
+                    "rockwatch: ROS 2 participant rebuilt after {:.1} s ({} rebuilds in all); the engine's state is kept",
+                    since.elapsed().as_secs_f64(),
+                    self.rebuilds
+                );
+                Ok(true)
+            }
+            Err(e) if since.elapsed() < REBUILD_GIVE_UP => {
+                eprintln!(
+                    "rockwatch: error: cannot rebuild the ROS 2 participant ({e:#}): trying again"
+                );
+                Ok(false)
+            }
+            Err(e) => Err(e.context(format!(
+                "the ROS 2 transport is dead and could not be rebuilt for {} s",
+                REBUILD_GIVE_UP.as_secs()
+            ))),
+        }
     }
 }
 
@@ -386,7 +542,7 @@ fn turn(
         }
     }
     runtime.poll(&mut |p| out.publish(p))?;
-    out.flush();
+    out.settle(runtime);
     Ok(())
 }
 
@@ -458,9 +614,15 @@ fn apply_controls(controls: &Receiver<Control>, runtime: &mut NodeRuntime) {
 /// node goes on.
 struct Outlet<'a> {
     now: Option<&'a mut dyn Publisher>,
+    /// The ROS 2 publishers (replaced when the participant is rebuilt), handed the turn's
+    /// publications at its end as `later`.
+    ros2: Ros2Publisher,
     later: Vec<&'a mut dyn Publisher>,
     /// Publications for `later` (reused: no allocation per turn).
     queue: Vec<Publication>,
+    /// Alerts handed to the ROS 2 publisher, to be marked published in the journal
+    /// ([`Outlet::settle`]).
+    published: Vec<Alert>,
     errors: u64,
     log: RateLimitedLog,
 }
@@ -480,19 +642,31 @@ impl Outlet<'_> {
                 Self::failed(&mut self.errors, &mut self.log, &e);
             }
         }
-        if !self.later.is_empty() {
-            self.queue.push(publication);
-        }
+        self.queue.push(publication);
     }
 
     /// Hands the queued publications to the other publishers.
     fn flush(&mut self) {
         for publication in self.queue.drain(..) {
+            match (self.ros2.publish(&publication), &publication) {
+                (Err(e), _) => Self::failed(&mut self.errors, &mut self.log, &e),
+                (Ok(()), Publication::Alert { alert, .. }) => self.published.push(alert.clone()),
+                (Ok(()), _) => {}
+            }
             for publisher in &mut self.later {
                 if let Err(e) = publisher.publish(&publication) {
                     Self::failed(&mut self.errors, &mut self.log, &e);
                 }
             }
+        }
+    }
+
+    /// [`Outlet::flush`], then journals a `Published` marker for every alert handed to ROS 2
+    /// (an alert without one is published again at restart).
+    fn settle(&mut self, runtime: &mut NodeRuntime) {
+        self.flush();
+        for alert in self.published.drain(..) {
+            runtime.mark_published(&alert);
         }
     }
 

@@ -15,10 +15,11 @@ use super::session::Ros2Session;
 
 /// A subscriber of `/pbr/alerts` (transient local: receives the history too).
 pub struct Ros2AlertListener {
-    _session: Ros2Session,
     subscription: Subscription<msg::PbrAlert>,
     poll: Poll,
     events: Events,
+    /// Last: the endpoints above are dropped before their participant.
+    _session: Ros2Session,
 }
 
 impl Ros2AlertListener {

@@ -12,6 +12,7 @@ use ros2_client::Subscription;
 
 use super::config::{ImuInput, Ros2Config};
 use super::imu::{imu_packet, ImuMsg};
+use super::intake_report::WriterCounts;
 use super::msg;
 use super::names::ACCEL_TOPIC;
 use super::qos::input_qos;
@@ -25,11 +26,16 @@ pub struct IntakeCounters {
     pub packets: AtomicU64,
     /// Messages that could not be decoded (reported by DDS as read errors).
     pub decode_errors: AtomicU64,
+    /// Messages of `/pbr/accel` taken again (a writer's history handed to the reader of a
+    /// rebuilt participant), recognised by their DDS sequence numbers and skipped.
+    pub redelivered: AtomicU64,
 }
 
 /// Counts what the intake takes and logs undecodable messages (at most one line per 10 s).
 pub(super) struct IntakeLog {
     counters: Arc<IntakeCounters>,
+    /// Messages of `/pbr/accel` taken per writer (reported on `/pbr/intake`).
+    pub(super) writers: WriterCounts,
     last_error_report: Option<Instant>,
 }
 
@@ -37,6 +43,7 @@ impl IntakeLog {
     pub(super) fn new(counters: Arc<IntakeCounters>) -> IntakeLog {
         IntakeLog {
             counters,
+            writers: WriterCounts::default(),
             last_error_report: None,
         }
     }
@@ -119,7 +126,14 @@ impl Inputs {
         for _ in 0..max {
             if input == 0 {
                 match self.accel.take() {
-                    Ok(Some((m, _))) => {
+                    Ok(Some((m, info))) => {
+                        if !log
+                            .writers
+                            .taken(info.publisher_gid(), info.sequence_number())
+                        {
+                            log.counters.redelivered.fetch_add(1, Ordering::Relaxed);
+                            continue;
+                        }
                         log.packet();
                         submit(AccelPacket::from(&m))?;
                     }

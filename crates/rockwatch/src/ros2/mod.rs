@@ -13,6 +13,9 @@
 //! - `network.rs`: the DDS domain and interfaces ([`NetworkPlan`]);
 //! - `qos.rs`: the QoS profiles;
 //! - `session.rs`: a participant with one ROS 2 node ([`Ros2Session`]);
+//! - `intake_report.rs`: `/pbr/intake`, what the node took of each sender ([`WriterCounts`],
+//!   [`IntakeWatch`]);
+//! - `liveness.rs`: whether a participant's RustDDS threads still run ([`DdsThreads`]);
 //! - `node.rs`: the node's ROS 2 side ([`Ros2Node`]), made of `parameters.rs`, `input.rs` (with
 //!   `imu.rs`), `publish.rs` and `reset.rs`;
 //! - clients: `replay_sink.rs`, `reset_client.rs`, `alert_listener.rs`.
@@ -21,6 +24,8 @@ mod alert_listener;
 mod config;
 mod imu;
 mod input;
+mod intake_report;
+mod liveness;
 pub mod msg;
 mod names;
 mod network;
@@ -37,9 +42,11 @@ pub use alert_listener::Ros2AlertListener;
 pub use config::{DiscoveryRange, ImuInput, InputQos, Ros2Config};
 pub use imu::{imu_packet, ImuMsg};
 pub use input::IntakeCounters;
+pub use intake_report::{IntakeWatch, WriterCounts, MAX_WRITERS, REPORT_EVERY, REPORT_PERIOD};
+pub use liveness::DdsThreads;
 pub use names::{
-    ACCEL_TOPIC, ALERTS_TOPIC, IMS_TOPIC, NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING,
-    STATE_TOPIC,
+    ACCEL_TOPIC, ALERTS_TOPIC, IMS_TOPIC, INTAKE_TOPIC, NODE_NAME, RESET_SERVICE,
+    RESET_SERVICE_MAPPING, STATE_TOPIC,
 };
 pub use network::{network_plan, network_plan_from_env, NetworkPlan, NetworkPlanError};
 pub use node::Ros2Node;
@@ -48,8 +55,11 @@ pub use parameters::{
     PARAM_QUIET_THRESHOLD_MPS2, PARAM_STATE_INTERVAL_S,
 };
 pub use publish::Ros2Publisher;
-pub use qos::{alerts_qos, input_qos, output_qos, replay_qos, service_qos, ALERTS_DEPTH};
-pub use replay_sink::{Ros2PacketSink, REPLAY_LINGER};
+pub use qos::{
+    alerts_qos, input_qos, intake_qos, output_qos, replay_qos, service_qos, ALERTS_DEPTH,
+    REPLAY_HISTORY,
+};
+pub use replay_sink::{Ros2PacketSink, CREDIT_WINDOW, DEFAULT_INTAKE_WAIT};
 pub use reset::{RESET_MATCH_GRACE, RESET_REPLIES_HELD, RESET_REPLY_WAIT, RESET_REQUESTS_PER_TURN};
 pub use reset_client::Ros2ResetClient;
 pub use session::Ros2Session;

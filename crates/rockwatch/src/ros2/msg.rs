@@ -133,6 +133,17 @@ pub struct PbrAlert {
     pub message: String,
 }
 
+/// `pbr_msgs/IntakeReport`: what the node has taken from one writer of `/pbr/accel`
+/// (published on `/pbr/intake`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct IntakeReport {
+    /// The writer's DDS GUID (rmw gid): 12-byte GUID prefix, 4-byte entity id.
+    pub writer_gid: [u8; 16],
+    /// Messages taken from this writer since the node first heard from it (each handed to the
+    /// engine; undecodable ones not counted).
+    pub taken: u64,
+}
+
 /// `pbr_msgs/srv/ResetPbr` request (`msg/srv/ResetPbr.srv`): the operator reset of a block.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ResetPbrRequest {

@@ -10,10 +10,11 @@ use ros2_client::NodeOptions;
 use super::config::Ros2Config;
 use super::input::{Inputs, IntakeCounters, IntakeLog};
 use super::msg;
-use super::names::NODE_NAME;
+use super::names::{INTAKE_TOPIC, NODE_NAME};
 use super::network::NetworkPlan;
 use super::parameters::with_parameters;
 use super::publish::Ros2Publisher;
+use super::qos::intake_qos;
 use super::reset::ResetServer;
 use super::session::Ros2Session;
 use crate::ports::ControlSender;
@@ -25,11 +26,26 @@ use rockwatch_core::engine::{AccelPacket, EngineConfig};
 /// ([`Ros2Node::register_reset`]), drains the subscriptions that are ready
 /// ([`Ros2Node::drain`]) and serves the service ([`Ros2Node::serve_resets`]).
 pub struct Ros2Node {
-    session: Ros2Session,
+    /// What [`Ros2Node::rebuild`] starts again from.
+    started: Started,
     inputs: Inputs,
     pub counters: Arc<IntakeCounters>,
     log: IntakeLog,
     reset: ResetServer,
+    /// `/pbr/intake`: what the node took of each writer of `/pbr/accel`.
+    intake: ros2_client::Publisher<msg::IntakeReport>,
+    /// Reports that could not be published.
+    intake_errors: u64,
+    /// Last: the endpoints above are dropped before their participant.
+    session: Ros2Session,
+}
+
+/// The arguments of [`Ros2Node::start`], kept for [`Ros2Node::rebuild`].
+struct Started {
+    config: Ros2Config,
+    plan: NetworkPlan,
+    engine: EngineConfig,
+    controls: ControlSender,
 }
 
 impl Ros2Node {
@@ -43,22 +59,96 @@ impl Ros2Node {
         engine: &EngineConfig,
         controls: ControlSender,
     ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
-        let options = with_parameters(NodeOptions::new().enable_rosout(true), engine, controls);
+        let started = Started {
+            config: config.clone(),
+            plan: plan.clone(),
+            engine: *engine,
+            controls,
+        };
+        Self::open(started, Arc::new(IntakeCounters::default()))
+    }
+
+    fn open(
+        started: Started,
+        counters: Arc<IntakeCounters>,
+    ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
+        let Started {
+            config,
+            plan,
+            engine,
+            controls,
+        } = &started;
+        let options = with_parameters(
+            NodeOptions::new().enable_rosout(true),
+            engine,
+            controls.clone(),
+        );
         let mut session = Ros2Session::open(plan, &config.namespace, NODE_NAME, options)?;
         let publisher = Ros2Publisher::open(&mut session)?;
         let inputs = Inputs::subscribe(&mut session, config)?;
         let reset = ResetServer::open(&mut session, &config.namespace)?;
-        let counters = Arc::new(IntakeCounters::default());
+        let intake = session.publisher(INTAKE_TOPIC, "IntakeReport", intake_qos())?;
         Ok((
             Ros2Node {
                 session,
+                started,
                 inputs,
                 log: IntakeLog::new(Arc::clone(&counters)),
                 counters,
                 reset,
+                intake,
+                intake_errors: 0,
             },
             publisher,
         ))
+    }
+
+    /// The first RustDDS thread of the node's participant that has ended, if any: the
+    /// participant is then dead for good (see [`Ros2Session::ended_thread`]).
+    #[must_use]
+    pub fn ended_thread(&self) -> Option<String> {
+        self.session.ended_thread()
+    }
+
+    /// Replaces the participant and everything on it (subscriptions, publishers, reset
+    /// service, parameters) by new ones, as [`Ros2Node::start`] made them: call it once
+    /// [`Ros2Node::ended_thread`] reports a dead participant, after taking what the old
+    /// subscriptions still hold. The intake counters carry on; reset responses not yet sent
+    /// are lost (the client times out and may ask again); parameters start again from the
+    /// configuration's values. Register the new inputs and service with the event loop again.
+    /// On error `self` is left as it was.
+    pub fn rebuild(&mut self) -> anyhow::Result<Ros2Publisher> {
+        let started = Started {
+            config: self.started.config.clone(),
+            plan: self.started.plan.clone(),
+            engine: self.started.engine,
+            controls: self.started.controls.clone(),
+        };
+        let (mut node, publisher) = Self::open(started, Arc::clone(&self.counters))?;
+        node.log.writers = std::mem::take(&mut self.log.writers);
+        *self = node; // the old participant goes (its threads have ended: nothing to join)
+        Ok(publisher)
+    }
+
+    /// Publishes the `/pbr/intake` reports due (see [`WriterCounts::due`]; `force`: every
+    /// changed count now). Cheap when none is: call it after every turn of the event loop.
+    pub fn publish_intake_reports(&mut self, force: bool) {
+        let intake = &self.intake;
+        let mut failed = None;
+        self.log.writers.due(force, &mut |report| {
+            if let Err(e) = intake.publish(report) {
+                failed = Some(format!("{e:?}"));
+            }
+        });
+        if let Some(e) = failed {
+            self.intake_errors += 1;
+            if self.intake_errors.is_power_of_two() {
+                eprintln!(
+                    "rockwatch: ROS 2 {INTAKE_TOPIC}: cannot publish a report ({e}; {} in all)",
+                    self.intake_errors
+                );
+            }
+        }
     }
 
     /// Registers the `/pbr/reset` server with `registry` as `token`, readable (edge-triggered:

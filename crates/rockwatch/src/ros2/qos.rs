@@ -30,6 +30,12 @@ pub fn output_qos() -> QosProfile {
         .history(History::KeepLast { depth: 100 })
 }
 
+/// QoS of `/pbr/intake` (both ends): reliable, volatile, keep last 100.
+#[must_use]
+pub fn intake_qos() -> QosProfile {
+    output_qos()
+}
+
 /// QoS of an input subscription: `kind`, with `depth` for the reliable one.
 #[must_use]
 pub fn input_qos(kind: InputQos, depth: usize) -> QosProfile {
@@ -60,12 +66,22 @@ pub fn service_qos() -> QosProfile {
         .history(History::KeepLast { depth: 10 })
 }
 
-/// QoS of the replay publisher: reliable and keep-all, so `publish` waits for the
-/// subscriber instead of dropping packets.
+/// History depth of the replay writer: twice the replay's credit window
+/// (`CREDIT_WINDOW`), so it holds every packet the node may not have taken yet.
+pub const REPLAY_HISTORY: usize = 512;
+
+/// QoS of the replay publisher: reliable, transient local, keep last [`REPLAY_HISTORY`].
+/// The replay never has more than half of that unreported by the node (flow control on
+/// `/pbr/intake`), so nothing the node has not taken is dropped from the history; transient
+/// local makes the writer hand its history to a reader that matches late — the node's new
+/// reader after its participant was rebuilt, which gets the packets its dead reader lost (and
+/// skips those it had, by their DDS sequence numbers).
 #[must_use]
 pub fn replay_qos() -> QosProfile {
     QosProfile::publisher_default()
         .reliability_reliable(WhenFull::Wait(Duration::from_secs(5)))
-        .durability(Durability::Volatile)
-        .history(History::KeepAll)
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast {
+            depth: REPLAY_HISTORY,
+        })
 }

@@ -38,10 +38,11 @@ fn block_on_with_timeout(future: impl std::future::Future<Output = ()>, timeout:
 /// A client of a running node's `/pbr/reset` service (`pbr_msgs/srv/ResetPbr`), as node
 /// `rockwatch_reset` of its own DDS participant: `rockwatch reset --node`.
 pub struct Ros2ResetClient {
-    session: Ros2Session,
     client: Client<msg::ResetPbrRequest, msg::ResetPbrResponse>,
     poll: Poll,
     events: Events,
+    /// Last: the endpoints above are dropped before their participant.
+    session: Ros2Session,
 }
 
 impl Ros2ResetClient {

@@ -10,8 +10,10 @@ use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, QosProfile, Subscription,
 };
 
+use super::liveness::DdsThreads;
 use super::msg;
 use super::network::NetworkPlan;
+use crate::stderr_log::MuteLibraries;
 
 fn dds_err(what: &str) -> impl Fn(ros2_client::CreateError) -> anyhow::Error + '_ {
     move |e| anyhow!("ROS 2: {what}: {e:?}")
@@ -23,6 +25,11 @@ pub struct Ros2Session {
     pub(super) context: Context,
     plan: NetworkPlan,
     spinner: Option<JoinHandle<()>>,
+    /// The participant's RustDDS threads (see [`Ros2Session::ended_thread`]).
+    threads: DdsThreads,
+    /// Dropped last: ends the muting of the libraries' log lines that `drop` starts, so the
+    /// participant's teardown (every field above) is quiet.
+    _teardown: Option<MuteLibraries>,
 }
 
 impl Ros2Session {
@@ -37,8 +44,8 @@ impl Ros2Session {
         if let Some(networks) = &plan.only_networks {
             builder = builder.with_only_networks(networks.iter().copied());
         }
-        let participant = builder
-            .build()
+        let (participant, threads) = DdsThreads::spawned_by(|| builder.build());
+        let participant = participant
             .map_err(|e| anyhow!("DDS participant (domain {}): {e:?}", plan.domain_id))?;
         let context = Context::from_domain_participant(participant).map_err(dds_err("context"))?;
         let node_name = NodeName::new(namespace, name)
@@ -59,7 +66,17 @@ impl Ros2Session {
             context,
             plan: plan.clone(),
             spinner: Some(spinner),
+            threads,
+            _teardown: None,
         })
+    }
+
+    /// The first of the participant's RustDDS threads that has ended, if any (then the
+    /// participant is dead for good: it neither sends, receives nor discovers). See
+    /// [`DdsThreads`].
+    #[must_use]
+    pub fn ended_thread(&self) -> Option<String> {
+        self.threads.ended()
     }
 
     /// A session for the client node `name` of a tool (replay, listener, reset client):
@@ -132,6 +149,9 @@ impl Ros2Session {
 
 impl Drop for Ros2Session {
     fn drop(&mut self) {
+        // RustDDS logs an error per endpoint it cannot remove from an ended event loop, and
+        // per multicast group it leaves on an interface that is gone: nothing to act on.
+        self._teardown = Some(MuteLibraries::new());
         self.node.stop_spinner();
         if let Some(spinner) = self.spinner.take() {
             let _ = spinner.join();

@@ -1,0 +1,243 @@
+//! The intake report protocol of `/pbr/intake` (`pbr_msgs/IntakeReport`): the node tells each
+//! sender of `/pbr/accel` how many of its messages it has taken ([`WriterCounts`], node side),
+//! and a sender reads what the node took of its own writer ([`IntakeWatch`], sender side), so a
+//! replay knows that everything it sent was processed — or exactly how much was not — and
+//! paces itself so that the node's reader (keep last `input_depth`) never overwrites a sample
+//! it has acknowledged but not yet handed over.
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use ros2_client::{Gid, Subscription};
+
+use super::msg::IntakeReport;
+
+/// Most writers the node keeps counts for; beyond, the least recently heard is forgotten.
+pub const MAX_WRITERS: usize = 1024;
+
+/// A writer's count is published once it has grown by this many messages …
+pub const REPORT_EVERY: u64 = 128;
+
+/// … or this long after it last was, whichever comes first.
+pub const REPORT_PERIOD: Duration = Duration::from_millis(10);
+
+/// Every writer heard from within [`REPORT_RECENT`] is reported again this often (for a sender
+/// whose report subscription matched late, or was rebuilt).
+pub const REPORT_REFRESH: Duration = Duration::from_secs(1);
+
+/// See [`REPORT_REFRESH`].
+pub const REPORT_RECENT: Duration = Duration::from_secs(10);
+
+#[derive(Debug, Clone, Copy)]
+struct Count {
+    taken: u64,
+    /// Highest DDS sequence number taken.
+    last_sn: i64,
+    reported: u64,
+    last_report: Instant,
+    last_heard: Instant,
+}
+
+/// Node side: messages taken per writer of `/pbr/accel` (bounded by [`MAX_WRITERS`]) and which
+/// reports are due.
+#[derive(Debug)]
+pub struct WriterCounts {
+    counts: HashMap<[u8; 16], Count>,
+    /// Writers whose count changed since their last report.
+    dirty: Vec<[u8; 16]>,
+    last_refresh: Instant,
+    /// Writers forgotten to stay within [`MAX_WRITERS`].
+    pub forgotten: u64,
+}
+
+impl Default for WriterCounts {
+    fn default() -> Self {
+        WriterCounts {
+            counts: HashMap::new(),
+            dirty: Vec::new(),
+            last_refresh: Instant::now(),
+            forgotten: 0,
+        }
+    }
+}
+
+impl WriterCounts {
+    /// A message of DDS sequence number `sn` taken from `writer`: counted and true if it is
+    /// new, false if its sequence number is not above the writer's highest so far (a reliable
+    /// writer delivers in order: a redelivery to a rebuilt reader, to be skipped).
+    pub fn taken(&mut self, writer: Gid, sn: i64) -> bool {
+        let gid = writer.to_bytes16();
+        let now = Instant::now();
+        if !self.counts.contains_key(&gid) && self.counts.len() >= MAX_WRITERS {
+            if let Some(oldest) = self
+                .counts
+                .iter()
+                .min_by_key(|(_, c)| c.last_heard)
+                .map(|(g, _)| *g)
+            {
+                self.counts.remove(&oldest);
+                self.dirty.retain(|g| *g != oldest);
+                self.forgotten += 1;
+            }
+        }
+        let count = self.counts.entry(gid).or_insert(Count {
+            taken: 0,
+            last_sn: i64::MIN,
+            reported: 0,
+            last_report: now - REPORT_PERIOD,
+            last_heard: now,
+        });
+        count.last_heard = now;
+        if sn <= count.last_sn {
+            return false;
+        }
+        count.last_sn = sn;
+        if count.taken == count.reported {
+            self.dirty.push(gid);
+        }
+        count.taken += 1;
+        true
+    }
+
+    /// Messages taken from `writer` so far (0 if unknown or forgotten).
+    #[must_use]
+    pub fn of(&self, writer: Gid) -> u64 {
+        self.counts.get(&writer.to_bytes16()).map_or(0, |c| c.taken)
+    }
+
+    /// Hands `publish` the reports due now: each changed count [`REPORT_EVERY`] messages or
+    /// [`REPORT_PERIOD`] after its last report (`force`: every changed count now), and every
+    /// [`REPORT_REFRESH`] every count heard from within [`REPORT_RECENT`].
+    pub fn due(&mut self, force: bool, publish: &mut impl FnMut(IntakeReport)) {
+        let now = Instant::now();
+        let counts = &mut self.counts;
+        self.dirty.retain(|gid| {
+            let Some(c) = counts.get_mut(gid) else {
+                return false;
+            };
+            let due = force
+                || c.taken - c.reported >= REPORT_EVERY
+                || now.duration_since(c.last_report) >= REPORT_PERIOD;
+            if due {
+                publish(IntakeReport {
+                    writer_gid: *gid,
+                    taken: c.taken,
+                });
+                c.reported = c.taken;
+                c.last_report = now;
+            }
+            !due
+        });
+        if now.duration_since(self.last_refresh) >= REPORT_REFRESH {
+            self.last_refresh = now;
+            for (gid, c) in counts.iter_mut() {
+                if now.duration_since(c.last_heard) < REPORT_RECENT {
+                    publish(IntakeReport {
+                        writer_gid: *gid,
+                        taken: c.taken,
+                    });
+                    c.reported = c.taken;
+                    c.last_report = now;
+                }
+            }
+        }
+    }
+}
+
+/// Sender side: what the node has taken of one writer, from the reports on `/pbr/intake`
+/// (and of the sender's previous writer, whose participant died: [`IntakeWatch::switch`]).
+pub struct IntakeWatch {
+    reports: Subscription<IntakeReport>,
+    writer: [u8; 16],
+    taken: u64,
+    /// Reports about this writer received.
+    pub heard: u64,
+    /// The previous writer, what the node took of it, and whether a report about it came on
+    /// the current subscription.
+    previous: Option<([u8; 16], u64, bool)>,
+}
+
+impl IntakeWatch {
+    pub fn new(reports: Subscription<IntakeReport>, writer: Gid) -> IntakeWatch {
+        IntakeWatch {
+            reports,
+            writer: writer.to_bytes16(),
+            taken: 0,
+            heard: 0,
+            previous: None,
+        }
+    }
+
+    /// Messages of the writer the node has taken, after reading the reports waiting.
+    pub fn taken(&mut self) -> u64 {
+        while let Ok(Some((report, _))) = self.reports.take() {
+            if report.writer_gid == self.writer {
+                self.heard += 1;
+                self.taken = self.taken.max(report.taken);
+            } else if let Some((gid, taken, heard)) = &mut self.previous {
+                if report.writer_gid == *gid {
+                    *taken = (*taken).max(report.taken);
+                    *heard = true;
+                }
+            }
+        }
+        self.taken
+    }
+
+    /// Follows `writer` on `reports` from now on (a new participant's); the writer followed
+    /// so far becomes the previous one ([`IntakeWatch::previous`]).
+    pub fn switch(&mut self, reports: Subscription<IntakeReport>, writer: Gid) {
+        self.taken();
+        self.previous = Some((self.writer, self.taken, false));
+        self.reports = reports;
+        self.writer = writer.to_bytes16();
+        self.taken = 0;
+        self.heard = 0;
+    }
+
+    /// What the node has taken of the previous writer, and whether a report about it has come
+    /// on the current subscription (the node repeats every count of the last 10 s each
+    /// second, so one comes soon after a switch if the node is there).
+    pub fn previous(&mut self) -> Option<(u64, bool)> {
+        self.taken();
+        self.previous.map(|(_, taken, heard)| (taken, heard))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gid(n: u8) -> Gid {
+        Gid::from([n; 16])
+    }
+
+    #[test]
+    fn counts_are_reported_when_grown_and_bounded_in_writers() {
+        let mut counts = WriterCounts::default();
+        let mut got = Vec::new();
+        for sn in 1..=REPORT_EVERY as i64 {
+            assert!(counts.taken(gid(1), sn));
+        }
+        // A redelivery (sequence number not above the highest) is skipped, not counted.
+        assert!(!counts.taken(gid(1), 5));
+        // A new count is due at once (its period has passed), then after REPORT_EVERY more.
+        counts.due(false, &mut |r| got.push(r));
+        assert_eq!(got.len(), 1);
+        assert_eq!(got[0].taken, REPORT_EVERY);
+        assert!(counts.taken(gid(1), REPORT_EVERY as i64 + 1));
+        counts.due(false, &mut |r| got.push(r));
+        assert_eq!(got.len(), 1, "one more message, within the period: not due");
+        counts.due(true, &mut |r| got.push(r));
+        assert_eq!(got.last().unwrap().taken, REPORT_EVERY + 1);
+        // Bounded: the least recently heard writer is forgotten.
+        for n in 0..MAX_WRITERS + 5 {
+            let mut bytes = [7u8; 16];
+            bytes[..8].copy_from_slice(&(n as u64).to_le_bytes());
+            counts.taken(Gid::from(bytes), 1);
+        }
+        assert_eq!(counts.counts.len(), MAX_WRITERS);
+        assert_eq!(counts.forgotten, 6);
+        assert_eq!(counts.of(gid(1)), 0);
+    }
+}
