@@ -395,8 +395,8 @@ fn csv_problems_are_reported_with_line_and_column_names() {
     let none = "p,P,34,-118,CI.RRS.00,0,,,,1.5,0.6,0.5,illustrative";
     assert_eq!(
         csv_error(&format!("{header}\n{none}\n")),
-        "test.csv:2: pbr[0] (id \"p\"): width_m is missing (fill width_m, width_m_min + \
-         width_m_max, or width_m_mean + width_m_sd)"
+        "test.csv:2: pbr[0] (id \"p\"): width_m is missing: this geometry needs width_m + \
+         height_m"
     );
 
     let not_a_number = CSV_ROW.replace("34.28", "north");
@@ -426,8 +426,9 @@ fn csv_header_problems_are_reported() {
     assert_eq!(
         csv_error(&format!("{CSV_HEADER},colour\n{CSV_ROW},red\n")),
         "test.csv:1: unknown column \"colour\" in the CSV header (known: id, name, lat, lon, \
-         station, azimuth_deg, source, ensemble, seed, and for P in width_m, height_m, mu_s, \
-         mu_k, restitution: P, P_min + P_max, or P_mean + P_sd)"
+         station, azimuth_deg, source, ensemble, seed, and for P in width_m, height_m, \
+         half_diagonal_m, alpha_deg, b_plus_m, b_minus_m, h_m, rho_m, mu_s, mu_k, restitution: \
+         P, P_min + P_max, or P_mean + P_sd)"
     );
     assert_eq!(
         csv_error(&format!("{CSV_HEADER},lat\n{CSV_ROW},1\n")),
@@ -522,18 +523,21 @@ fn example_catalogue_roles_hold_by_their_parameters() {
     for id in ["rrs-slender-pillar", "syl-slender-tombstone"] {
         let p = nominal(id);
         assert!(
-            p.tan_alpha <= 0.25 && p.mu_s > p.tan_alpha,
+            p.plus.tan_alpha <= 0.25 && p.mu_s > p.plus.tan_alpha,
             "{id}: slender, rocking-prone"
         );
     }
     for id in ["rrs-stocky-boulder", "syl-stocky-block"] {
         let p = nominal(id);
-        assert!(p.tan_alpha >= 1.25 && p.mu_s < p.tan_alpha, "{id}: stocky");
+        assert!(
+            p.plus.tan_alpha >= 1.25 && p.mu_s < p.plus.tan_alpha,
+            "{id}: stocky"
+        );
     }
     let slab = nominal("rrs-sliding-slab");
-    assert!(slab.mu_s < slab.tan_alpha && slab.mu_k < slab.tan_alpha);
+    assert!(slab.mu_s < slab.plus.tan_alpha && slab.mu_k < slab.plus.tan_alpha);
     let column = nominal("syl-slide-rock-column");
-    assert!(column.mu_k > column.tan_alpha && column.mu_s > column.tan_alpha);
+    assert!(column.mu_k > column.plus.tan_alpha && column.mu_s > column.plus.tan_alpha);
     let ensemble = cat.get("rrs-pinnacle-ensemble").unwrap();
     assert!(ensemble.ensemble_size() > 1);
 }
@@ -656,15 +660,18 @@ fn nominal_block_is_midpoint_of_ranges_and_mean_of_normals() {
     let nominal = pbr.nominal();
     // Midpoints (a+b)/2 of these decimal endpoints round to within one ulp of the literals.
     for (got, want) in [
-        (nominal.width_m, expected.width_m),
-        (nominal.height_m, expected.height_m),
+        (nominal.base_width_m(), expected.base_width_m()),
+        (2.0 * nominal.com_height_m, 2.0 * expected.com_height_m),
         (nominal.mu_s, expected.mu_s),
         (nominal.mu_k, expected.mu_k),
         (nominal.restitution.unwrap(), expected.restitution.unwrap()),
     ] {
         assert!((got - want).abs() < 1e-15, "{got} vs {want}");
     }
-    assert_eq!(pbr.width_m(), Distribution::Uniform { min: 0.5, max: 0.9 });
+    assert_eq!(
+        pbr.width_m(),
+        Some(Distribution::Uniform { min: 0.5, max: 0.9 })
+    );
     assert_eq!(pbr.ensemble_size(), 1);
 }
 
@@ -699,8 +706,8 @@ fn members_follow_the_documented_lhs_columns_and_quantile_maps() {
         let mu_k = 0.4 + 0.02 * standard_normal_quantile(u[2]);
         let e = 0.8 + u[3] * 0.15;
         // 1e-12: the quantile maps are a few flops; the only difference allowed is rounding.
-        assert!((m.width_m - width).abs() < 1e-12);
-        assert!((m.height_m - height).abs() < 1e-12);
+        assert!((m.base_width_m() - width).abs() < 1e-12);
+        assert!((2.0 * m.com_height_m - height).abs() < 1e-12);
         assert_eq!(m.mu_s, 0.75);
         assert!((m.mu_k - mu_k).abs() < 1e-12);
         assert!((m.restitution.unwrap() - e).abs() < 1e-12);
@@ -714,8 +721,10 @@ fn every_uncertain_margin_is_stratified_one_member_per_stratum() {
     let members = pbr.members().unwrap();
     assert_eq!(members.len(), k);
     let column = |f: fn(&BlockParams) -> f64| members.iter().map(f).collect::<Vec<_>>();
-    assert_stratified("width_m", &column(|p| p.width_m), |x| (x - 0.5) / 0.4);
-    assert_stratified("height_m", &column(|p| p.height_m), |x| {
+    assert_stratified("width_m", &column(|p| p.base_width_m()), |x| {
+        (x - 0.5) / 0.4
+    });
+    assert_stratified("height_m", &column(|p| 2.0 * p.com_height_m), |x| {
         phi_by_quadrature((x - 2.0) / 0.1)
     });
     assert_stratified("mu_s", &column(|p| p.mu_s), |x| (x - 0.7) / 0.1);
@@ -749,7 +758,11 @@ fn truncated_normal_members_stay_valid_and_are_stratified_in_the_truncated_cdf()
         ("width_m", Some("{ mean = 0.3, sd = 0.2 }")),
         ("ensemble", Some("500")),
     ]));
-    assert!(pbr.members().unwrap().iter().all(|p| p.width_m > 0.0));
+    assert!(pbr
+        .members()
+        .unwrap()
+        .iter()
+        .all(|p| p.base_width_m() > 0.0));
 }
 
 #[test]
@@ -760,7 +773,10 @@ fn members_are_reproducible_for_a_seed_and_differ_between_seeds() {
     assert_eq!(a.members().unwrap(), b.members().unwrap());
     assert_eq!(a.members().unwrap(), a.members().unwrap());
     let (ma, mc) = (a.members().unwrap(), c.members().unwrap());
-    assert!(ma.iter().zip(&mc).all(|(x, y)| x.width_m != y.width_m));
+    assert!(ma
+        .iter()
+        .zip(&mc)
+        .all(|(x, y)| x.base_width_m() != y.base_width_m()));
     // Different ids give different default seeds, hence different ensembles.
     let d = only(&entry(&[
         ("id", Some("\"other\"")),
@@ -793,7 +809,10 @@ fn normal_members_have_the_given_mean_and_sd_for_large_k() {
     for (name, values, mean, sd) in [
         (
             "height_m",
-            members.iter().map(|p| p.height_m).collect::<Vec<_>>(),
+            members
+                .iter()
+                .map(|p| 2.0 * p.com_height_m)
+                .collect::<Vec<_>>(),
             2.0,
             0.1,
         ),
@@ -885,5 +904,145 @@ fn a_nominal_mu_k_equal_to_mu_s_up_to_rounding_is_accepted_as_equal() {
     assert_eq!(
         toml_error(&text),
         "test.toml:1: pbr[0] (id \"pinnacle-2\"): nominal mu_k = 0.605 exceeds nominal mu_s = 0.6"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry forms: width/height, half-diagonal/alpha, general body (docs/general-body.md).
+
+type Change = (&'static str, Option<&'static str>);
+const NO_WIDTH_HEIGHT: [Change; 2] = [("width_m", None), ("height_m", None)];
+
+#[test]
+fn half_diagonal_and_alpha_give_the_same_block_as_width_and_height() {
+    let mut changes = NO_WIDTH_HEIGHT.to_vec();
+    changes.extend([
+        ("half_diagonal_m", Some("1.5")),
+        ("alpha_deg", Some("10.0")),
+    ]);
+    let pbr = only(&entry(&changes));
+    let expected = BlockParams::from_r_alpha(1.5, 10f64.to_radians(), 0.6, 0.5, None).unwrap();
+    assert_eq!(pbr.nominal(), expected);
+    assert!((pbr.nominal().alpha_rad.to_degrees() - 10.0).abs() < 1e-12);
+    assert_eq!(pbr.width_m(), None);
+}
+
+#[test]
+fn a_general_body_entry_is_built_from_its_four_fields_and_samples_them() {
+    let mut changes = NO_WIDTH_HEIGHT.to_vec();
+    changes.extend([
+        ("b_plus_m", Some("0.12")),
+        ("b_minus_m", Some("{ min = 0.25, max = 0.35 }")),
+        ("h_m", Some("0.9")),
+        ("rho_m", Some("{ mean = 0.4, sd = 0.02 }")),
+        ("ensemble", Some("20")),
+    ]);
+    let pbr = only(&entry(&changes));
+    let expected = BlockParams::from_body(0.12, 0.3, 0.9, 0.4, 0.6, 0.5, None).unwrap();
+    let nominal = pbr.nominal();
+    assert!((nominal.b_minus_m - 0.3).abs() < 1e-15);
+    assert_eq!(
+        (nominal.b_plus_m, nominal.com_height_m, nominal.rho_m),
+        (0.12, 0.9, 0.4)
+    );
+    assert!((nominal.plus.tan_alpha - expected.plus.tan_alpha).abs() < 1e-15);
+    let members = pbr.members().unwrap();
+    assert_eq!(members.len(), 20);
+    // b₋ stratified on [0.25, 0.35]: one member per stratum of width 0.005.
+    let mut strata: Vec<usize> = members
+        .iter()
+        .map(|p| ((p.b_minus_m - 0.25) / 0.005).floor() as usize)
+        .collect();
+    strata.sort_unstable();
+    assert_eq!(strata, (0..20).collect::<Vec<_>>());
+    assert!(members
+        .iter()
+        .all(|p| p.b_plus_m == 0.12 && p.com_height_m == 0.9));
+    assert!(members.iter().any(|p| p.rho_m != 0.4));
+
+    // The CSV form loads equal.
+    let csv = "id,name,lat,lon,station,azimuth_deg,b_plus_m,b_minus_m_min,b_minus_m_max,h_m,\
+               rho_m_mean,rho_m_sd,mu_s,mu_k,source,ensemble\n\
+               pinnacle-2,Pinnacle,34.28,-118.48,CI.RRS.00,228.0,0.12,0.25,0.35,0.9,0.4,0.02,0.6,\
+               0.5,illustrative,20\n";
+    let from_csv = Catalogue::from_csv_str(csv, "x.csv").unwrap();
+    assert_eq!(from_csv.pbrs()[0], pbr);
+}
+
+#[test]
+fn geometry_forms_are_validated_with_the_field_named() {
+    let body = |extra: &[(&'static str, Option<&'static str>)]| {
+        let mut changes = NO_WIDTH_HEIGHT.to_vec();
+        changes.extend([
+            ("b_plus_m", Some("0.12")),
+            ("b_minus_m", Some("0.3")),
+            ("h_m", Some("0.9")),
+            ("rho_m", Some("0.4")),
+        ]);
+        changes.extend_from_slice(extra);
+        changes
+    };
+    let forms = "width_m + height_m, half_diagonal_m + alpha_deg, or b_plus_m + b_minus_m + h_m \
+                 + rho_m";
+    let cases: Vec<(Vec<Change>, String)> =
+        vec![
+        (
+            NO_WIDTH_HEIGHT.to_vec(),
+            format!("the geometry is missing: give {forms}"),
+        ),
+        (
+            vec![("height_m", None)],
+            "height_m is missing: this geometry needs width_m + height_m".to_owned(),
+        ),
+        (
+            vec![("alpha_deg", Some("10"))],
+            format!("alpha_deg cannot be combined with width_m: give one geometry, {forms}"),
+        ),
+        (
+            body(&[("rho_m", None)]),
+            "rho_m is missing: this geometry needs b_plus_m + b_minus_m + h_m + rho_m".to_owned(),
+        ),
+        (
+            body(&[("h_m", Some("-0.9"))]),
+            "h_m = -0.9 must be a finite length > 0 (metres)".to_owned(),
+        ),
+        (
+            body(&[("rho_m", Some("{ min = 0.5, max = 0.4 }"))]),
+            "rho_m.min = 0.5 must be less than rho_m.max = 0.4 (use a plain number for a known \
+             value)"
+                .to_owned(),
+        ),
+        (
+            vec![
+                ("width_m", None),
+                ("height_m", None),
+                ("half_diagonal_m", Some("1.5")),
+                ("alpha_deg", Some("90")),
+            ],
+            "alpha_deg = 90 must be in (0, 90) degrees".to_owned(),
+        ),
+        (
+            // μk above the body's Painlevé bound 2√(c(1 + c)), c = ρ²/R² (here ≈ 0.17).
+            body(&[("rho_m", Some("0.1")), ("mu_s", Some("1.2")), ("mu_k", Some("1.1"))]),
+            "nominal block rejected".to_owned(),
+        ),
+    ];
+    for (changes, problem) in cases {
+        let text = two_entries(&changes);
+        let line = header_line(&text, 1);
+        let error = toml_error(&text);
+        let prefix = format!("test.toml:{line}: pbr[1] (id \"pinnacle-2\"): ");
+        assert!(
+            error.starts_with(&prefix) && error[prefix.len()..].starts_with(&problem),
+            "changes {changes:?}: {error}"
+        );
+    }
+    // The CSV names its columns the same way (sub-fields with '_').
+    let csv = "id,name,lat,lon,station,azimuth_deg,b_plus_m,b_minus_m,h_m,rho_m,mu_s,mu_k,source\n\
+               p,P,34.28,-118.48,CI.RRS.00,228.0,0.12,0.3,0.9,,0.6,0.5,x\n";
+    assert_eq!(
+        csv_error(csv),
+        "test.csv:2: pbr[0] (id \"p\"): rho_m is missing: this geometry needs b_plus_m + \
+         b_minus_m + h_m + rho_m"
     );
 }

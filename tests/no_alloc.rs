@@ -38,6 +38,11 @@ fn advance_does_not_allocate_in_any_mode() {
             BlockParams::from_width_height(0.6, 2.0, 0.32, 0.31, None).unwrap(),
             0.4,
         ),
+        // A general body (docs/general-body.md): asymmetric pivots, its own inertia.
+        (
+            BlockParams::from_body(0.12, 0.3, 0.9, 0.35, 0.5, 0.45, None).unwrap(),
+            0.6,
+        ),
     ];
     let mut visited = [false; 6];
     let mut blocks: Vec<(RigidBlock, Vec<GroundAccel>)> = cases

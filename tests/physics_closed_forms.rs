@@ -115,7 +115,7 @@ fn free_rocking_quarter_period_matches_energy_quadrature() {
         for &fraction in &[0.05, 0.3, 0.7, 0.95] {
             for side in [1.0, -1.0] {
                 let params = block_r_alpha(r_m, alpha, 10.0, 1.0, Some(1.0));
-                let geo = geometry(params.width_m, params.height_m);
+                let geo = geometry(params.base_width_m(), 2.0 * params.com_height_m);
                 let theta0 = fraction * geo.alpha;
                 let reference = quarter_period_quadrature(geo.p, geo.alpha, theta0);
                 let housner = (1.0 / (1.0 - fraction)).acosh() / geo.p;
@@ -155,7 +155,7 @@ fn free_rocking_quarter_period_matches_energy_quadrature() {
 /// cos α] between successive peaks (starting from the release angle), while the peaks stay
 /// above 1 % of α.
 fn check_impact_ratio_and_peak_decay(params: BlockParams, ratio: f64, theta0_fraction: f64) {
-    let geo = geometry(params.width_m, params.height_m);
+    let geo = geometry(params.base_width_m(), 2.0 * params.com_height_m);
     let theta0 = theta0_fraction * geo.alpha;
     let mut block = RigidBlock::released(params, BlockOptions::default(), theta0, 0.0);
     let events = drive(&mut block, &free(8.0), 0.01);
@@ -211,7 +211,7 @@ fn check_impact_ratio_and_peak_decay(params: BlockParams, ratio: f64, theta0_fra
 fn housner_impact_ratio_is_eta_and_peaks_decay_by_eta_squared() {
     for &(r_m, alpha) in &[(1.0, 0.15), (0.8, 0.3), (1.5, 0.45)] {
         let params = block_r_alpha(r_m, alpha, 10.0, 1.0, None);
-        let geo = geometry(params.width_m, params.height_m);
+        let geo = geometry(params.base_width_m(), 2.0 * params.com_height_m);
         let eta = 1.0 - 1.5 * geo.alpha.sin().powi(2);
         check_impact_ratio_and_peak_decay(params, eta, 0.8);
     }
@@ -233,7 +233,7 @@ fn restitution_replaces_eta_in_impact_ratio_and_peak_decay() {
 fn free_rocking_with_unit_restitution_conserves_energy() {
     for &(r_m, alpha, fraction) in &[(1.0, 0.2, 0.5), (0.5, 0.4, 0.9), (3.0, 0.1, 0.2)] {
         let params = block_r_alpha(r_m, alpha, 10.0, 1.0, Some(1.0));
-        let geo = geometry(params.width_m, params.height_m);
+        let geo = geometry(params.base_width_m(), 2.0 * params.com_height_m);
         let p2 = geo.p * geo.p;
         let theta0 = fraction * geo.alpha;
         // E = p² cos(α − |θ|) + θ̇²/2, released from rest.
@@ -661,7 +661,7 @@ fn minimum_rectangular_pulse_to_overturn_matches_exact_energy_threshold() {
     for &(r_m, alpha, t_d) in &[(1.0, 0.2, 0.15), (0.5, 0.1, 0.3), (2.0, 0.3, 0.5)] {
         // Huge μs: pure rocking, no slip.
         let params = block_r_alpha(r_m, alpha, 100.0, 1.0, None);
-        let geo = geometry(params.width_m, params.height_m);
+        let geo = geometry(params.base_width_m(), 2.0 * params.com_height_m);
         let (p, alpha) = (geo.p, geo.alpha);
         let linearised = G_MPS2 * alpha / (1.0 - (-p * t_d).exp());
         let a_lo = 1.001 * G_MPS2 * alpha.tan();
@@ -760,7 +760,7 @@ fn step_input_rocks_above_critical_friction_and_slide_rocks_below() {
             let mu_k = 0.5 * (tan_alpha + (1.0 - 1e-3) * mu_crit);
             let params = BlockParams::from_width_height(width, height, mu_s, mu_k, None).unwrap();
             assert!(
-                (critical_friction_for_step(&params, a.abs()) - mu_crit).abs() <= 1e-13,
+                (critical_friction_for_step(&params, -sign, a.abs()) - mu_crit).abs() <= 1e-13,
                 "engine's μ_crit"
             );
             let mut block = RigidBlock::new(params, BlockOptions::default());

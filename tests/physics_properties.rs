@@ -14,7 +14,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{newton_euler, Pivot, G_MPS2};
+use common::{accel_scale, newton_euler, Pivot, G_MPS2};
 use proptest::prelude::*;
 use rockwatch_core::dynamics::equations::{rocking, slide_rocking, sliding};
 use rockwatch_core::dynamics::impact::impact;
@@ -56,13 +56,6 @@ fn state() -> impl Strategy<Value = (f64, f64, f64, f64, f64, GroundAccel)> {
                 },
             )
         })
-}
-
-/// Acceleration scale of a state (m/s²): the sum of the magnitudes of the terms that enter
-/// the forces. A 6×6 LU solve with O(1) condition number (the rows are scaled to unit mass
-/// and lengths of order R) is accurate to ~1e-15 of this scale; 1e-12 leaves a wide margin.
-fn accel_scale(r_m: f64, theta_dot: f64, ground: GroundAccel) -> f64 {
-    G_MPS2 + ground.horizontal_mps2.abs() + ground.vertical_mps2.abs() + r_m * theta_dot.powi(2)
 }
 
 proptest! {
@@ -188,7 +181,7 @@ proptest! {
     fn impact_conserves_angular_momentum_about_new_corner_inside_coulomb_cone_without_energy_gain(
         (params, sigma_old, w0, v0) in impact_case(),
     ) {
-        let (b, h) = (params.width_m, params.height_m);
+        let (b, h) = (params.base_width_m(), 2.0 * params.com_height_m);
         let out = impact(&params, sigma_old, w0, v0);
         let sigma_new = -sigma_old;
         prop_assert_eq!(out.sigma_new, sigma_new);
@@ -314,7 +307,7 @@ proptest! {
             BlockParams::from_width_height(2.0 * r * sa, 2.0 * r * ca, 1e-12, 0.0, None).unwrap();
         let w0 = -sigma_old * w;
         let out = impact(&params, sigma_old, w0, v0);
-        let (b, h) = (params.width_m, params.height_m);
+        let (b, h) = (params.base_width_m(), 2.0 * params.com_height_m);
         let v_before = centroid_velocity(b, h, sigma_old, w0, v0);
         let v_after = centroid_velocity(b, h, -sigma_old, out.theta_dot, out.slip_dot);
         let v_scale = r * w + v0.abs();

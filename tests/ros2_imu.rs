@@ -273,13 +273,13 @@ fn imu_record_from_cyclone_overturns_the_slender_block_and_not_the_stocky_one() 
         "the record lifts blocks off (a_v < -g): the friction argument needs contact"
     );
     let stocky = STOCKY.params();
-    assert!(stocky.mu_k <= stocky.mu_s && stocky.mu_s < stocky.tan_alpha);
+    assert!(stocky.mu_k <= stocky.mu_s && stocky.mu_s < stocky.plus.tan_alpha);
     let slender = SLENDER.params();
     assert!(
-        slender.tan_alpha < slender.mu_s,
+        slender.plus.tan_alpha < slender.mu_s,
         "the slender block rocks first"
     );
-    let rock_onset_s = first_crossing(&slender_ax, &av, motion.dt_s, slender.tan_alpha)
+    let rock_onset_s = first_crossing(&slender_ax, &av, motion.dt_s, slender.plus.tan_alpha)
         .expect("the record exceeds the slender block's rocking threshold");
     let (stocky_ax, _) = motion.along(&STOCKY);
     let slide_onset_s = first_crossing(&stocky_ax, &av, motion.dt_s, stocky.mu_s)

@@ -363,7 +363,7 @@ fn fragility_fit_reports_unidentifiable_data() {
 fn block_spec_parses_and_rejects_bad_input() {
     let b = StudyBlock::parse_spec("sr:r=1.5,alpha-deg=10,mu-s=0.2,mu-k=0.19").unwrap();
     assert_eq!(b.name, "sr");
-    assert!((b.params.half_diagonal_m - 1.5).abs() < 1e-12);
+    assert!((b.params.plus.half_diagonal_m - 1.5).abs() < 1e-12);
     assert!((b.params.alpha_rad - 10f64.to_radians()).abs() < 1e-12);
     // μs = 0.2 > tan 10° = 0.176: the block rocks before it slides, so the DM is θ.
     assert_eq!(b.dm, DemandMeasure::Theta);
@@ -406,12 +406,12 @@ fn seed_blocks_have_the_papers_parameters() {
     assert_eq!((s.name.as_str(), s.dm), ("sliding", DemandMeasure::Slide));
     assert!((s.params.alpha_rad.to_degrees() - 45.0).abs() < 1e-12);
     assert_eq!((s.params.mu_s, s.params.mu_k), (0.1, 0.1));
-    assert!((s.params.half_diagonal_m - 1.12).abs() < 1e-12);
+    assert!((s.params.plus.half_diagonal_m - 1.12).abs() < 1e-12);
     let r = &config.blocks[1];
     assert_eq!((r.name.as_str(), r.dm), ("rocking", DemandMeasure::Theta));
     assert!((r.params.alpha_rad.to_degrees() - 11.31).abs() < 1e-12);
     assert_eq!((r.params.mu_s, r.params.mu_k), (1.5, 1.0));
-    assert!((r.params.half_diagonal_m - 3.29).abs() < 1e-12);
+    assert!((r.params.plus.half_diagonal_m - 3.29).abs() < 1e-12);
 }
 
 #[test]

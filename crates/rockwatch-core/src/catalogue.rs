@@ -39,8 +39,15 @@
 //!   stream). An empty location is written with the trailing dot: `"CI.RRS."`.
 //! - `azimuth_deg`: the azimuth of the block's +x axis (the axis of rocking and sliding),
 //!   clockwise from north, in [0, 360). See [`Pbr::project_horizontal`] and [`crate::azimuth`].
-//! - `width_m`, `height_m` (m, > 0), `mu_s` (> 0), `mu_k` (in [0, 4/3): μk ≥ 4/3 makes
-//!   slide-rocking ill-posed, the Painlevé paradox), optional `restitution` (in [0, 1]): each
+//! - the geometry, exactly one of three forms ([`Geometry`]; docs/general-body.md):
+//!   `width_m` + `height_m` (m, > 0: a rectangle B × H); `half_diagonal_m` (m, > 0) +
+//!   `alpha_deg` (in (0, 90): a rectangle by R and α); or `b_plus_m` + `b_minus_m` + `h_m` +
+//!   `rho_m` (m, > 0: a general body, horizontal distances from the centre of mass to the +x
+//!   and −x pivots, height of the centre of mass, radius of gyration). A missing field of a
+//!   form, or fields of two forms, are rejected naming the field.
+//! - `mu_s` (> 0), `mu_k` (in [0, 4/3): μk ≥ 4/3 makes slide-rocking ill-posed, the Painlevé
+//!   paradox; a general body's own bound 2√(c(1 + c)), c = ρ²/R², is checked on the nominal
+//!   block), optional `restitution` (in [0, 1]). Every geometry field and these are each
 //!   a [`Distribution`]: a number, a range `{ min = .., max = .. }` (uniform, `min < max`, both
 //!   in the domain) or a normal `{ mean = .., sd = .. }` (`mean` in the domain, `sd > 0`).
 //!   The nominal values (midpoint of a range, mean of a normal) must satisfy μk ≤ μs (an
@@ -55,7 +62,7 @@
 //!
 //! One header row, then one row per PBR; `#` starts a comment line; cells are trimmed; an empty
 //! cell means "absent". The columns are the TOML field names. An uncertain parameter `P` (one of
-//! `width_m`, `height_m`, `mu_s`, `mu_k`, `restitution`) can use, row by row, exactly one of:
+//! the geometry fields, `mu_s`, `mu_k`, `restitution`) can use, row by row, exactly one of:
 //! the column `P` (a number), the pair `P_min`,`P_max` (uniform) or the pair `P_mean`,`P_sd`
 //! (normal); the other cells of `P` in that row stay empty. Columns may come in any order;
 //! unknown or repeated column names are rejected at the header, as is a header without `id`,
@@ -75,12 +82,13 @@
 //!
 //! [`Pbr::nominal`] is the block built from the nominal values. [`Pbr::members`] returns K
 //! blocks: for K = 1 exactly the nominal block; for K > 1 the `d` uncertain parameters, in the
-//! order `width_m, height_m, mu_s, mu_k, restitution` (fixed ones skipped), are the columns of
+//! order of the geometry form's fields (as listed above), then `mu_s, mu_k, restitution`
+//! (fixed ones skipped), are the columns of
 //! [`latin_hypercube_seeded`]`(K, d, seed)`, and member `i` maps sample `i` through each
 //! parameter's quantile function:
 //! - range: `min + u·(max − min)`;
 //! - normal: the normal **truncated to the parameter's valid domain** [a, b] ((0, ∞) for sizes
-//!   and μs, [0, 4/3) for μk, [0, 1] for e), sampled by inverse CDF:
+//!   and μs, (0, 90) for α in degrees, [0, 4/3) for μk, [0, 1] for e), sampled by inverse CDF:
 //!   `mean + sd·Φ⁻¹(Φ(α) + u·(Φ(β) − Φ(α)))` with α, β the standardised bounds. Every margin is
 //!   therefore exactly stratified in the CDF of the distribution actually sampled (one member per
 //!   stratum), no member is clipped onto a bound, and when the bounds are many sd away (the usual
@@ -186,6 +194,13 @@ const SIZE_DOMAIN: Domain = Domain {
     hi: f64::INFINITY,
     hi_open: true,
     requirement: "a finite length > 0 (metres)",
+};
+const ALPHA_DEG_DOMAIN: Domain = Domain {
+    lo: 0.0,
+    lo_open: true,
+    hi: 90.0,
+    hi_open: true,
+    requirement: "in (0, 90) degrees",
 };
 const MU_S_DOMAIN: Domain = Domain {
     lo: 0.0,
@@ -318,8 +333,7 @@ pub struct Pbr {
     lon_deg: f64,
     station: StationId,
     azimuth: Azimuth,
-    width_m: Distribution,
-    height_m: Distribution,
+    geometry: Geometry,
     mu_s: Distribution,
     mu_k: Distribution,
     restitution: Option<Distribution>,
@@ -382,16 +396,28 @@ impl Pbr {
         self.azimuth
     }
 
-    /// Base width B (m).
+    /// The geometry as written: one of the three forms, each parameter a [`Distribution`].
     #[must_use]
-    pub fn width_m(&self) -> Distribution {
-        self.width_m
+    pub fn geometry(&self) -> Geometry {
+        self.geometry
     }
 
-    /// Height H (m).
+    /// Base width B (m), when the entry gives its geometry as `width_m` + `height_m`.
     #[must_use]
-    pub fn height_m(&self) -> Distribution {
-        self.height_m
+    pub fn width_m(&self) -> Option<Distribution> {
+        match self.geometry {
+            Geometry::WidthHeight { width_m, .. } => Some(width_m),
+            _ => None,
+        }
+    }
+
+    /// Height H (m), when the entry gives its geometry as `width_m` + `height_m`.
+    #[must_use]
+    pub fn height_m(&self) -> Option<Distribution> {
+        match self.geometry {
+            Geometry::WidthHeight { height_m, .. } => Some(height_m),
+            _ => None,
+        }
     }
 
     /// Static friction coefficient μs.
@@ -466,40 +492,175 @@ impl Pbr {
             return Ok(vec![self.nominal; self.ensemble]);
         }
         let lhs = latin_hypercube_seeded(self.ensemble, uncertain.len(), self.seed);
-        let nominal_values = parameters.map(|p| p.map_or(f64::NAN, |(d, _)| d.nominal()));
+        let nominal_values: Vec<f64> = parameters
+            .iter()
+            .map(|p| p.map_or(f64::NAN, |(d, _)| d.nominal()))
+            .collect();
+        let n_geometry = self.geometry.fields().len();
         let mut members = Vec::with_capacity(self.ensemble);
+        let mut values = nominal_values.clone();
         for (member, sample) in lhs.samples().enumerate() {
-            let mut values = nominal_values;
+            values.copy_from_slice(&nominal_values);
             for (&(k, distribution, domain), &u) in uncertain.iter().zip(sample) {
                 values[k] = distribution.quantile(u, domain);
             }
-            let [width_m, height_m, mu_s, mu_k, restitution] = values;
-            let params = BlockParams::from_width_height(
-                width_m,
-                height_m,
-                mu_s,
-                mu_k.min(mu_s),
-                self.restitution.map(|_| restitution),
-            )
-            .map_err(|reason| EnsembleError {
-                id: self.id.clone(),
-                member,
-                reason,
-            })?;
+            let (geometry, friction) = values.split_at(n_geometry);
+            let (mu_s, mu_k, restitution) = (friction[0], friction[1], friction[2]);
+            let params = self
+                .geometry
+                .block(
+                    geometry,
+                    mu_s,
+                    mu_k.min(mu_s),
+                    self.restitution.map(|_| restitution),
+                )
+                .map_err(|reason| EnsembleError {
+                    id: self.id.clone(),
+                    member,
+                    reason,
+                })?;
             members.push(params);
         }
         Ok(members)
     }
 
-    /// The five block parameters in LHS column order, each with its domain.
-    fn sampled_parameters(&self) -> [Option<(Distribution, Domain)>; 5] {
-        [
-            Some((self.width_m, SIZE_DOMAIN)),
-            Some((self.height_m, SIZE_DOMAIN)),
+    /// The block parameters in LHS column order (the geometry's fields in their form's
+    /// order, then `mu_s`, `mu_k`, `restitution`), each with its domain.
+    fn sampled_parameters(&self) -> Vec<Option<(Distribution, Domain)>> {
+        let mut parameters: Vec<Option<(Distribution, Domain)>> = self
+            .geometry
+            .fields()
+            .iter()
+            .map(|&(name, d)| Some((d, domain_of(name))))
+            .collect();
+        parameters.extend([
             Some((self.mu_s, MU_S_DOMAIN)),
             Some((self.mu_k, MU_K_DOMAIN)),
             self.restitution.map(|d| (d, RESTITUTION_DOMAIN)),
-        ]
+        ]);
+        parameters
+    }
+}
+
+/// The geometry of a catalogue entry, in one of three forms (docs/general-body.md), each
+/// parameter a [`Distribution`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Geometry {
+    /// A rectangle B × H: `width_m`, `height_m` (m).
+    WidthHeight {
+        width_m: Distribution,
+        height_m: Distribution,
+    },
+    /// A rectangle given by its half-diagonal R (m) and slenderness α (degrees, in (0, 90)):
+    /// `half_diagonal_m`, `alpha_deg`.
+    HalfDiagonalAlpha {
+        half_diagonal_m: Distribution,
+        alpha_deg: Distribution,
+    },
+    /// A general planar body: horizontal distances `b_plus_m`, `b_minus_m` from the centre of
+    /// mass to the +x and −x pivots, height `h_m` of the centre of mass above the base and
+    /// radius of gyration `rho_m` about it (all m).
+    Body {
+        b_plus_m: Distribution,
+        b_minus_m: Distribution,
+        h_m: Distribution,
+        rho_m: Distribution,
+    },
+}
+
+/// The fields of each geometry form, in LHS column order.
+const GEOMETRY_FORMS: [&[&str]; 3] = [
+    &["width_m", "height_m"],
+    &["half_diagonal_m", "alpha_deg"],
+    &["b_plus_m", "b_minus_m", "h_m", "rho_m"],
+];
+
+impl Geometry {
+    /// The fields with their names, in LHS column order.
+    #[must_use]
+    pub fn fields(&self) -> Vec<(&'static str, Distribution)> {
+        match *self {
+            Geometry::WidthHeight { width_m, height_m } => {
+                vec![("width_m", width_m), ("height_m", height_m)]
+            }
+            Geometry::HalfDiagonalAlpha {
+                half_diagonal_m,
+                alpha_deg,
+            } => vec![
+                ("half_diagonal_m", half_diagonal_m),
+                ("alpha_deg", alpha_deg),
+            ],
+            Geometry::Body {
+                b_plus_m,
+                b_minus_m,
+                h_m,
+                rho_m,
+            } => vec![
+                ("b_plus_m", b_plus_m),
+                ("b_minus_m", b_minus_m),
+                ("h_m", h_m),
+                ("rho_m", rho_m),
+            ],
+        }
+    }
+
+    /// The block for values of this form's fields (in [`Geometry::fields`] order).
+    fn block(
+        &self,
+        values: &[f64],
+        mu_s: f64,
+        mu_k: f64,
+        restitution: Option<f64>,
+    ) -> Result<BlockParams, ParamError> {
+        match self {
+            Geometry::WidthHeight { .. } => {
+                BlockParams::from_width_height(values[0], values[1], mu_s, mu_k, restitution)
+            }
+            Geometry::HalfDiagonalAlpha { .. } => BlockParams::from_r_alpha(
+                values[0],
+                values[1].to_radians(),
+                mu_s,
+                mu_k,
+                restitution,
+            ),
+            Geometry::Body { .. } => BlockParams::from_body(
+                values[0],
+                values[1],
+                values[2],
+                values[3],
+                mu_s,
+                mu_k,
+                restitution,
+            ),
+        }
+    }
+
+    /// The form `index` of [`GEOMETRY_FORMS`] from its distributions, in that order.
+    fn from_form(index: usize, d: &[Distribution]) -> Geometry {
+        match index {
+            0 => Geometry::WidthHeight {
+                width_m: d[0],
+                height_m: d[1],
+            },
+            1 => Geometry::HalfDiagonalAlpha {
+                half_diagonal_m: d[0],
+                alpha_deg: d[1],
+            },
+            _ => Geometry::Body {
+                b_plus_m: d[0],
+                b_minus_m: d[1],
+                h_m: d[2],
+                rho_m: d[3],
+            },
+        }
+    }
+}
+
+fn domain_of(field: &str) -> Domain {
+    if field == "alpha_deg" {
+        ALPHA_DEG_DOMAIN
+    } else {
+        SIZE_DOMAIN
     }
 }
 
@@ -803,8 +964,22 @@ struct RawPbr {
     lon: f64,
     station: String,
     azimuth_deg: f64,
-    width_m: Distribution,
-    height_m: Distribution,
+    #[serde(default)]
+    width_m: Option<Distribution>,
+    #[serde(default)]
+    height_m: Option<Distribution>,
+    #[serde(default)]
+    half_diagonal_m: Option<Distribution>,
+    #[serde(default)]
+    alpha_deg: Option<Distribution>,
+    #[serde(default)]
+    b_plus_m: Option<Distribution>,
+    #[serde(default)]
+    b_minus_m: Option<Distribution>,
+    #[serde(default)]
+    h_m: Option<Distribution>,
+    #[serde(default)]
+    rho_m: Option<Distribution>,
     mu_s: Distribution,
     mu_k: Distribution,
     #[serde(default)]
@@ -892,8 +1067,10 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
             )
         }
     };
-    check_distribution("width_m", &raw.width_m, SIZE_DOMAIN, sep)?;
-    check_distribution("height_m", &raw.height_m, SIZE_DOMAIN, sep)?;
+    let geometry = raw_geometry(&raw)?;
+    for (field, d) in geometry.fields() {
+        check_distribution(field, &d, domain_of(field), sep)?;
+    }
     check_distribution("mu_s", &raw.mu_s, MU_S_DOMAIN, sep)?;
     check_distribution("mu_k", &raw.mu_k, MU_K_DOMAIN, sep)?;
     if let Some(e) = &raw.restitution {
@@ -913,8 +1090,11 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
             format!("{nominal}mu_k = {mu_k} exceeds {nominal}mu_s = {mu_s}"),
         );
     }
-    let n_uncertain = [raw.width_m, raw.height_m, raw.mu_s, raw.mu_k]
+    let n_uncertain = geometry
+        .fields()
         .iter()
+        .map(|(_, d)| d)
+        .chain([raw.mu_s, raw.mu_k].iter())
         .chain(raw.restitution.iter())
         .filter(|d| !d.is_fixed())
         .count();
@@ -933,7 +1113,13 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
             "ensemble",
             format!(
                 "ensemble = {ensemble} but no parameter is uncertain: give a range or a normal \
-                 for at least one of width_m, height_m, mu_s, mu_k, restitution, or drop ensemble"
+                 for at least one of {}, mu_s, mu_k, restitution, or drop ensemble",
+                geometry
+                    .fields()
+                    .iter()
+                    .map(|(name, _)| *name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         );
     }
@@ -949,14 +1135,21 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
             }
         },
     };
-    let nominal = BlockParams::from_width_height(
-        raw.width_m.nominal(),
-        raw.height_m.nominal(),
-        mu_s,
-        mu_k.min(mu_s),
-        raw.restitution.map(|d| d.nominal()),
-    )
-    .map_err(|e| ("width_m".to_owned(), format!("nominal block rejected: {e}")))?;
+    let fields = geometry.fields();
+    let nominal_geometry: Vec<f64> = fields.iter().map(|(_, d)| d.nominal()).collect();
+    let nominal = geometry
+        .block(
+            &nominal_geometry,
+            mu_s,
+            mu_k.min(mu_s),
+            raw.restitution.map(|d| d.nominal()),
+        )
+        .map_err(|e| {
+            (
+                fields[0].0.to_owned(),
+                format!("nominal block rejected: {e}"),
+            )
+        })?;
     Ok(Pbr {
         id: raw.id,
         name: raw.name,
@@ -964,8 +1157,7 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
         lon_deg: raw.lon,
         station,
         azimuth,
-        width_m: raw.width_m,
-        height_m: raw.height_m,
+        geometry,
         mu_s: raw.mu_s,
         mu_k: raw.mu_k,
         restitution: raw.restitution,
@@ -974,6 +1166,65 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
         seed,
         nominal,
     })
+}
+
+/// The entry's geometry: exactly one complete form of [`GEOMETRY_FORMS`]; the error names the
+/// first field that conflicts or is missing.
+fn raw_geometry(raw: &RawPbr) -> Result<Geometry, (String, String)> {
+    let value = |field: &str| match field {
+        "width_m" => raw.width_m,
+        "height_m" => raw.height_m,
+        "half_diagonal_m" => raw.half_diagonal_m,
+        "alpha_deg" => raw.alpha_deg,
+        "b_plus_m" => raw.b_plus_m,
+        "b_minus_m" => raw.b_minus_m,
+        "h_m" => raw.h_m,
+        _ => raw.rho_m,
+    };
+    let forms_text = "width_m + height_m, half_diagonal_m + alpha_deg, or b_plus_m + b_minus_m \
+                      + h_m + rho_m";
+    let used: Vec<usize> = (0..GEOMETRY_FORMS.len())
+        .filter(|&i| GEOMETRY_FORMS[i].iter().any(|f| value(f).is_some()))
+        .collect();
+    match used[..] {
+        [] => Err((
+            "width_m".to_owned(),
+            format!("the geometry is missing: give {forms_text}"),
+        )),
+        [form] => {
+            let fields = GEOMETRY_FORMS[form];
+            let mut distributions = Vec::with_capacity(fields.len());
+            for field in fields {
+                match value(field) {
+                    Some(d) => distributions.push(d),
+                    None => {
+                        return Err((
+                            (*field).to_owned(),
+                            format!(
+                                "{field} is missing: this geometry needs {}",
+                                fields.join(" + ")
+                            ),
+                        ))
+                    }
+                }
+            }
+            Ok(Geometry::from_form(form, &distributions))
+        }
+        [first, second, ..] => {
+            let given = |i: usize| {
+                GEOMETRY_FORMS[i]
+                    .iter()
+                    .copied()
+                    .find(|f| value(f).is_some())
+                    .unwrap_or(GEOMETRY_FORMS[i][0])
+            };
+            let (a, b) = (given(first), given(second));
+            Err((
+                b.to_owned(),
+                format!("{b} cannot be combined with {a}: give one geometry, {forms_text}"),
+            ))
+        }
+    }
 }
 
 /// Checks one distribution against its parameter's domain; errors name `field` or
@@ -1025,7 +1276,19 @@ fn check_distribution(
 }
 
 /// The uncertain parameters, in LHS column order (also their CSV column stems).
-const UNCERTAIN_FIELDS: [&str; 5] = ["width_m", "height_m", "mu_s", "mu_k", "restitution"];
+const UNCERTAIN_FIELDS: [&str; 11] = [
+    "width_m",
+    "height_m",
+    "half_diagonal_m",
+    "alpha_deg",
+    "b_plus_m",
+    "b_minus_m",
+    "h_m",
+    "rho_m",
+    "mu_s",
+    "mu_k",
+    "restitution",
+];
 /// Scalar CSV columns that must be present.
 const REQUIRED_SCALAR_COLUMNS: [&str; 7] = [
     "id",
@@ -1082,7 +1345,7 @@ impl CsvColumns {
                 return Err(format!("the CSV header has no {required:?} column"));
             }
         }
-        for stem in &UNCERTAIN_FIELDS[..4] {
+        for stem in ["mu_s", "mu_k"] {
             if !DISTRIBUTION_SUFFIXES
                 .iter()
                 .any(|suffix| index.contains_key(&format!("{stem}{suffix}")))
@@ -1203,8 +1466,14 @@ impl CsvColumns {
             lon: self.number(record, "lon")?,
             station: self.string(record, "station"),
             azimuth_deg: self.number(record, "azimuth_deg")?,
-            width_m: required("width_m")?,
-            height_m: required("height_m")?,
+            width_m: self.distribution(record, "width_m")?,
+            height_m: self.distribution(record, "height_m")?,
+            half_diagonal_m: self.distribution(record, "half_diagonal_m")?,
+            alpha_deg: self.distribution(record, "alpha_deg")?,
+            b_plus_m: self.distribution(record, "b_plus_m")?,
+            b_minus_m: self.distribution(record, "b_minus_m")?,
+            h_m: self.distribution(record, "h_m")?,
+            rho_m: self.distribution(record, "rho_m")?,
             mu_s: required("mu_s")?,
             mu_k: required("mu_k")?,
             restitution: self.distribution(record, "restitution")?,

@@ -10,6 +10,7 @@ pub mod azimuth;
 pub mod catalogue;
 pub mod dynamics;
 pub mod engine;
+pub mod hazard;
 pub mod ims;
 pub mod lhs;
 pub mod ode;

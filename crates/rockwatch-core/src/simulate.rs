@@ -50,10 +50,16 @@ pub struct Summary {
     /// Last upward crossing of |θ| = α before the fall (s), if overturned.
     pub overturn_time: Option<f64>,
     pub exceeded_alpha: bool,
-    /// Slenderness α (rad).
+    /// Uplift angle α (rad): the rectangle's slenderness; for a general body the smaller of
+    /// α₊ and α₋.
     pub alpha: f64,
+    /// Uplift angle α₊ of the +x pivot (rad).
+    pub alpha_plus: f64,
+    /// Uplift angle α₋ of the −x pivot (rad).
+    pub alpha_minus: f64,
     /// max |θ| (rad); π/2 when the block overturned (the side face reached the ground).
     pub max_abs_theta: f64,
+    /// max |θ|/α_σ, each rotation measured against the uplift angle of its own pivot.
     pub max_abs_theta_over_alpha: f64,
     /// max |u| (m), slip of the contact point relative to the ground, before any overturn.
     pub max_abs_slide: f64,
@@ -193,8 +199,10 @@ pub fn simulate(
             overturn_time: stats.overturn_time_s,
             exceeded_alpha: stats.exceeded_alpha,
             alpha,
+            alpha_plus: params.plus.alpha_rad,
+            alpha_minus: params.minus.alpha_rad,
             max_abs_theta: stats.max_abs_theta_rad,
-            max_abs_theta_over_alpha: stats.max_abs_theta_rad / alpha,
+            max_abs_theta_over_alpha: stats.max_abs_theta_over_alpha,
             max_abs_slide: stats.max_abs_slide_m,
             residual_slide: block.slide_m(),
             n_impacts: stats.n_impacts,

@@ -127,10 +127,8 @@ where
     let (head, body) = root.split_vertically(48);
     head.titled(
         &format!(
-            "{title} — B = {} m, H = {} m, α = {} rad, μs = {}, μk = {}",
-            short_number(params.width_m),
-            short_number(params.height_m),
-            short_number(params.alpha_rad),
+            "{title} — {}, μs = {}, μk = {}",
+            params.geometry_label_with(short_number, short_number),
             short_number(params.mu_s),
             short_number(params.mu_k)
         ),
@@ -146,7 +144,7 @@ where
     let theta_over_alpha: Vec<f64> = trace
         .theta_rad
         .iter()
-        .map(|t| t / params.alpha_rad)
+        .map(|&t| params.theta_over_alpha(t))
         .collect();
     let mut accel: Vec<Series> = vec![(&horizontal_g, RGBColor(0, 0, 0), "horizontal")];
     if !vertical_g.is_empty() {

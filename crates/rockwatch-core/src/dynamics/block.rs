@@ -5,9 +5,12 @@
 //! Inside an interval the active mode's equations are integrated by Dormand–Prince 5(4); every
 //! mode change, impact, lift-off and overturn is located as a root of its event function on
 //! the dense output (spec §8), not as a sign change at a step end. Rest is handled in closed
-//! form: the rest-consistent set {g' > 0, |ẍg| ≤ min(μs, tan α) g'} is convex and the input is
-//! linear, so rest holds over an interval iff it holds at the end, and the exit time is the
-//! root of a linear function.
+//! form: the rest-consistent set {g' > 0, −min(μs, tan α₊) g' ≤ ẍg ≤ min(μs, tan α₋) g'} is
+//! convex and the input is linear, so rest holds over an interval iff it holds at both ends,
+//! and the exit time is the root of a linear function.
+//!
+//! The body is the general planar body of docs/general-body.md; every per-pivot constant
+//! (R_σ, α_σ, inertia about the pivot, impact ratio) is taken from the pivot in use.
 //!
 //! State vector `y = [θ (rad), θ̇ (rad/s), u (m), u̇ (m/s)]`; see spec §1 for the signs.
 
@@ -166,6 +169,9 @@ pub enum AdvanceError {
 pub struct ResponseStats {
     /// max |θ| (rad); π/2 once overturned.
     pub max_abs_theta_rad: f64,
+    /// max |θ|/α_σ over time, α_σ the uplift angle of the pivot θ leans to (1 = centre of
+    /// mass above the pivot); max |θ|/α for a rectangle.
+    pub max_abs_theta_over_alpha: f64,
     /// max |u| (m), slip of the contact point relative to the ground, before any overturn.
     pub max_abs_slide_m: f64,
     /// |θ| exceeded α at some time.
@@ -194,8 +200,19 @@ pub struct RigidBlock {
     y: Vector4<f64>,
     integrator: Dopri5<4>,
     stats: ResponseStats,
-    zeno_theta_dot_sq: f64,
-    significant_theta_dot_sq: f64,
+    /// Zeno cutoff θ̇² per pivot, `[+x, −x]` (spec §9.3).
+    zeno_theta_dot_sq: [f64; 2],
+    /// θ̇² of a significant impact per pivot, `[+x, −x]`.
+    significant_theta_dot_sq: [f64; 2],
+    /// Rest limits on |ẍg|/g' towards each pivot, `[min(μs, tan α₊), min(μs, tan α₋)]`
+    /// (precomputed: the rest test runs on every sample of every block at rest).
+    rest_limits: [f64; 2],
+}
+
+/// Index of pivot σ in the per-pivot arrays `[+x, −x]`.
+#[inline]
+fn side_index(sigma: f64) -> usize {
+    usize::from(sigma < 0.0)
 }
 
 // Indices of the event functions; the first four are terminal. Every event function is
@@ -258,7 +275,7 @@ fn pivot_events(p: &BlockParams, sigma: f64, y: &Vector4<f64>, slip: f64, normal
         slip,
         normal,
         std::f64::consts::FRAC_PI_2 - st,
-        st - p.alpha_rad,
+        st - p.side(sigma).alpha_rad,
         sigma * y[1],
     ]
 }
@@ -304,9 +321,26 @@ impl RigidBlock {
             y: Vector4::zeros(),
             integrator: Dopri5::new(options.tolerance, options.initial_step_s),
             stats: ResponseStats::default(),
-            zeno_theta_dot_sq: params.theta_dot_sq_for_excursion(options.zeno_fraction),
-            significant_theta_dot_sq: params
-                .theta_dot_sq_for_excursion(options.significant_fraction),
+            zeno_theta_dot_sq: [
+                params
+                    .plus
+                    .theta_dot_sq_for_excursion(options.zeno_fraction),
+                params
+                    .minus
+                    .theta_dot_sq_for_excursion(options.zeno_fraction),
+            ],
+            rest_limits: [
+                params.mu_s.min(params.plus.tan_alpha),
+                params.mu_s.min(params.minus.tan_alpha),
+            ],
+            significant_theta_dot_sq: [
+                params
+                    .plus
+                    .theta_dot_sq_for_excursion(options.significant_fraction),
+                params
+                    .minus
+                    .theta_dot_sq_for_excursion(options.significant_fraction),
+            ],
         }
     }
 
@@ -329,6 +363,7 @@ impl RigidBlock {
             block.phase = Phase::Rock { sigma };
             block.y = Vector4::new(theta_rad, theta_dot, 0.0, 0.0);
             block.stats.max_abs_theta_rad = theta_rad.abs();
+            block.stats.max_abs_theta_over_alpha = params.theta_over_alpha(theta_rad).abs();
         }
         block
     }
@@ -478,13 +513,14 @@ impl RigidBlock {
         Ok(())
     }
 
-    /// Rest is consistent for this ground acceleration (spec §7).
+    /// Rest is consistent for this ground acceleration (spec §7, docs/general-body.md §6):
+    /// g' > 0 and −min(μs, tan α₊) g' ≤ ẍg ≤ min(μs, tan α₋) g' (a ground pushed to +x tips
+    /// the body onto its −x pivot).
     #[inline]
     fn rest_holds(&self, ground: GroundAccel) -> bool {
-        let p = &self.params;
-        let gp = effective_gravity(p, ground);
-        let limit = p.mu_s.min(p.tan_alpha) * gp;
-        gp > 0.0 && ground.horizontal_mps2.abs() <= limit
+        let gp = effective_gravity(&self.params, ground);
+        let a = ground.horizontal_mps2;
+        gp > 0.0 && a <= self.rest_limits[1] * gp && -a <= self.rest_limits[0] * gp
     }
 
     /// Local time at which the input's right limit after an event at local time `t` is taken
@@ -511,12 +547,16 @@ impl RigidBlock {
         t0_abs: f64,
         on_event: &mut impl FnMut(BlockEvent),
     ) -> f64 {
-        let c = self.params.mu_s.min(self.params.tan_alpha);
-        // Margins c·g' ∓ ẍg, linear in t; rest holds while both are ≥ 0.
+        let p = &self.params;
+        let [c_plus, c_minus] = self.rest_limits;
+        // Margins c₋·g' − ẍg and c₊·g' + ẍg, linear in t; rest holds while both are ≥ 0.
         let margins = |t: f64| {
             let g = system.ground(t);
-            let cg = c * effective_gravity(&self.params, g);
-            [cg - g.horizontal_mps2, cg + g.horizontal_mps2]
+            let gp = effective_gravity(p, g);
+            [
+                c_minus * gp - g.horizontal_mps2,
+                c_plus * gp + g.horizontal_mps2,
+            ]
         };
         let (m_start, m_end) = (margins(tau), margins(dt));
         let mut exit = f64::INFINITY;
@@ -646,6 +686,9 @@ impl RigidBlock {
     fn record_extremes(&mut self, theta: f64, slide: f64) {
         let s = &mut self.stats;
         s.max_abs_theta_rad = s.max_abs_theta_rad.max(theta.abs());
+        s.max_abs_theta_over_alpha = s
+            .max_abs_theta_over_alpha
+            .max(self.params.theta_over_alpha(theta).abs());
         s.max_abs_slide_m = s.max_abs_slide_m.max(slide.abs());
     }
 
@@ -730,12 +773,12 @@ impl RigidBlock {
         let (w0, v0) = (self.y[1], self.y[3]);
         let out = impact(&self.params, sigma, w0, v0);
         self.stats.n_impacts += 1;
-        let significant = w0 * w0 >= self.significant_theta_dot_sq;
+        let significant = w0 * w0 >= self.significant_theta_dot_sq[side_index(sigma)];
         if significant {
             self.stats.n_impacts_significant += 1;
         }
         let zeno = out.kind != ImpactKind::FlatLanding
-            && out.theta_dot * out.theta_dot < self.zeno_theta_dot_sq;
+            && out.theta_dot * out.theta_dot < self.zeno_theta_dot_sq[side_index(out.sigma_new)];
         let landed = zeno || out.kind == ImpactKind::FlatLanding;
         self.y[0] = 0.0;
         self.y[3] = out.slip_dot;
@@ -775,7 +818,7 @@ impl RigidBlock {
     /// The block on corner `sigma` loses contact (N → 0): overturned if it is beyond α and
     /// rotating outward (no restoring moment in flight, spec §10), else free flight.
     fn lost_contact(&self, sigma: f64) -> Phase {
-        if sigma * self.y[0] > self.params.alpha_rad && sigma * self.y[1] > 0.0 {
+        if sigma * self.y[0] > self.params.side(sigma).alpha_rad && sigma * self.y[1] > 0.0 {
             Phase::Overturned
         } else {
             Phase::Flight
@@ -790,10 +833,12 @@ impl RigidBlock {
         if gp <= 0.0 {
             return Phase::Flight;
         }
-        let slide_possible = p.mu_k <= p.tan_alpha;
+        // Flat sliding in direction s keeps the normal resultant inside the base iff
+        // μk h ≤ b_s, i.e. μk ≤ tan α_s (spec §6, docs/general-body.md §5).
+        let slide_possible = |s: f64| p.mu_k <= p.side(s).tan_alpha;
         if slip_dot != 0.0 {
             let s = sign(slip_dot);
-            return if slide_possible {
+            return if slide_possible(s) {
                 Phase::Slide { s }
             } else {
                 Phase::SlideRock { sigma: s, s }
@@ -811,7 +856,7 @@ impl RigidBlock {
             return Phase::Rock { sigma };
         }
         let s = sigma;
-        if slide_possible && s * sliding(&p, s, ground) > 0.0 {
+        if slide_possible(s) && s * sliding(&p, s, ground) > 0.0 {
             return Phase::Slide { s };
         }
         for (sg, sl) in [(sigma, s), (sigma, -s), (-sigma, s), (-sigma, -s)] {

@@ -1,6 +1,7 @@
-//! Planar rigid-block dynamics (spec: shared/spec/block-dynamics.md): a block that rests,
-//! slides, rocks, slide-rocks, overturns or lifts off under horizontal and vertical ground
-//! acceleration.
+//! Planar rigid-body dynamics (spec: shared/spec/block-dynamics.md, generalised in
+//! docs/general-body.md): a body with a flat base between two pivots (a rectangular block or
+//! a real rock's measured section) that rests, slides, rocks, slide-rocks, overturns or lifts
+//! off under horizontal and vertical ground acceleration.
 //!
 //! - [`params`]: geometry and friction, validated;
 //! - [`equations`]: the equations of motion and contact forces as pure functions;
@@ -18,4 +19,4 @@ pub mod params;
 pub use block::{AdvanceError, BlockEvent, BlockOptions, Mode, ResponseStats, RigidBlock};
 pub use equations::GroundAccel;
 pub use impact::ImpactKind;
-pub use params::{BlockParams, ParamError};
+pub use params::{BlockParams, ParamError, PivotSide};

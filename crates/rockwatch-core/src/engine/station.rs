@@ -88,7 +88,10 @@ impl PbrRuntime {
     }
 
     fn theta_over_alpha(&self) -> f64 {
-        self.nominal.theta_rad().abs() / self.nominal.params().alpha_rad
+        self.nominal
+            .params()
+            .theta_over_alpha(self.nominal.theta_rad())
+            .abs()
     }
 
     fn overturn_probability(&self) -> f64 {
@@ -110,7 +113,10 @@ impl PbrRuntime {
             station: station.to_string(),
             mode: self.nominal.mode(),
             theta_rad: self.nominal.theta_rad(),
-            theta_over_alpha: self.nominal.theta_rad() / self.nominal.params().alpha_rad,
+            theta_over_alpha: self
+                .nominal
+                .params()
+                .theta_over_alpha(self.nominal.theta_rad()),
             slide_m: self.nominal.slide_m(),
             overturned: self.nominal.mode() == Mode::Overturned,
             overturn_probability: self.overturn_probability(),
@@ -201,7 +207,10 @@ impl PbrRuntime {
                     level,
                     episode: self.episode,
                     mode,
-                    theta_over_alpha: self.nominal.theta_rad() / self.nominal.params().alpha_rad,
+                    theta_over_alpha: self
+                        .nominal
+                        .params()
+                        .theta_over_alpha(self.nominal.theta_rad()),
                     slide_m: self.nominal.slide_m(),
                     overturn_probability: probability,
                     pga_mps2: at.pga_mps2,
@@ -251,7 +260,7 @@ impl PbrRuntime {
         PbrSummary {
             pbr_id: self.id.clone(),
             station: station.to_string(),
-            max_theta_over_alpha: stats.max_abs_theta_rad / self.nominal.params().alpha_rad,
+            max_theta_over_alpha: stats.max_abs_theta_over_alpha,
             max_slide_m: stats.max_abs_slide_m,
             overturned: self.nominal.mode() == Mode::Overturned,
             overturn_probability: self.overturn_probability(),

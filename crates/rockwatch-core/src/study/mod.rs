@@ -277,11 +277,13 @@ impl StudyBlock {
             name: name.to_string(),
             source,
         })?;
-        let dm = dm.unwrap_or(if params.mu_s > params.tan_alpha {
-            DemandMeasure::Theta
-        } else {
-            DemandMeasure::Slide
-        });
+        let dm = dm.unwrap_or(
+            if params.mu_s > params.plus.tan_alpha.min(params.minus.tan_alpha) {
+                DemandMeasure::Theta
+            } else {
+                DemandMeasure::Slide
+            },
+        );
         Ok(StudyBlock {
             name: name.to_string(),
             params,

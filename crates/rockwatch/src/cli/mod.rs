@@ -37,6 +37,7 @@ pub fn stdout_failed(error: std::io::Error) -> ! {
 
 mod alerts;
 mod demo;
+mod hazard;
 mod ims;
 mod monitor;
 mod node;
@@ -86,6 +87,9 @@ enum Command {
     /// Reproduce and extend the seed paper's intensity-measure study (efficiency and
     /// sufficiency of 37 IMs for sliding and rocking blocks, vector IMs, fragility).
     Study(study::StudyArgs),
+    /// Annual overturning rate, return period and survival probability of one rock from its
+    /// fragility and its site's hazard curve (OpenQuake or two-column CSV).
+    Hazard(hazard::HazardArgs),
 }
 
 /// Output format for people (`text`) or programs (`json`).
@@ -140,6 +144,7 @@ pub fn run() -> ExitCode {
         Command::Pulses(args) => pulses::run(args),
         Command::Ims(args) => ims::run(args),
         Command::Study(args) => study::run(args),
+        Command::Hazard(args) => hazard::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -30,12 +30,12 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 1.0, value_name = "X")]
     scale: f64,
     /// Base width B of the block (m); with --height. Alternatively give --half-diagonal
-    /// and --alpha.
+    /// and --alpha, or a general body with --b-plus, --b-minus, --com-height and --rho.
     #[arg(
         long,
         value_name = "B",
         requires = "height",
-        required_unless_present = "half_diagonal"
+        required_unless_present_any = ["half_diagonal", "b_plus"]
     )]
     width: Option<f64>,
     /// Height H of the block (m).
@@ -48,14 +48,29 @@ pub struct SimulateArgs {
     /// Slenderness α = atan(B/H) of the block (degrees), with --half-diagonal.
     #[arg(long, value_name = "DEG", requires = "half_diagonal", conflicts_with_all = ["width", "height"])]
     alpha: Option<f64>,
+    /// General body (docs/general-body.md): horizontal distance from the centre of mass to
+    /// the +x pivot (m). With --b-minus, --com-height and --rho, instead of a rectangle.
+    #[arg(long = "b-plus", value_name = "M", requires_all = ["b_minus", "com_height", "rho"], conflicts_with_all = ["width", "height", "half_diagonal", "alpha"])]
+    b_plus: Option<f64>,
+    /// General body: horizontal distance from the centre of mass to the −x pivot (m).
+    #[arg(long = "b-minus", value_name = "M", requires = "b_plus")]
+    b_minus: Option<f64>,
+    /// General body: height of the centre of mass above the base (m).
+    #[arg(long = "com-height", value_name = "M", requires = "b_plus")]
+    com_height: Option<f64>,
+    /// General body: radius of gyration about the centre of mass (m), I_c = m ρ²
+    /// (a B × H rectangle has ρ² = (B² + H²)/12).
+    #[arg(long, value_name = "M", requires = "b_plus")]
+    rho: Option<f64>,
     /// Static friction coefficient μs.
     #[arg(long = "mu-s", value_name = "MS")]
     mu_s: f64,
     /// Kinetic friction coefficient μk (≤ μs, < 4/3).
     #[arg(long = "mu-k", value_name = "MK")]
     mu_k: f64,
-    /// Angular-velocity ratio of a pure-rocking impact, in [0, 1]; default Housner's
-    /// η = 1 − 1.5 sin²α.
+    /// Restitution of a pure-rocking impact, in [0, 1]: the angular-velocity ratio for a
+    /// rectangle (kinetic-energy ratio e² for any body); default Housner's η = 1 − 1.5 sin²α
+    /// and its generalisation (ρ² + h² − b_old b_new)/(ρ² + R_new²).
     #[arg(long, value_name = "E")]
     restitution: Option<f64>,
     /// Seconds of zero ground motion simulated after the record ends (the record plus this
@@ -86,6 +101,14 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         }
     }
     let params = match (args.width, args.height, args.half_diagonal, args.alpha) {
+        _ if args.b_plus.is_some() => {
+            match (args.b_plus, args.b_minus, args.com_height, args.rho) {
+                (Some(bp), Some(bm), Some(h), Some(rho)) => {
+                    BlockParams::from_body(bp, bm, h, rho, args.mu_s, args.mu_k, args.restitution)
+                }
+                _ => bail!("--b-plus needs --b-minus, --com-height and --rho"),
+            }
+        }
         (Some(b), Some(h), _, _) => {
             BlockParams::from_width_height(b, h, args.mu_s, args.mu_k, args.restitution)
         }
@@ -96,7 +119,10 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             args.mu_k,
             args.restitution,
         ),
-        _ => bail!("give --width and --height, or --half-diagonal and --alpha"),
+        _ => bail!(
+            "give --width and --height, --half-diagonal and --alpha, or --b-plus, --b-minus, \
+             --com-height and --rho"
+        ),
     }
     .context("invalid block")?;
     let mut record = Record::read(&args.record)?;
@@ -148,15 +174,12 @@ fn text_summary(s: &Summary, p: &BlockParams, record: &Record) -> String {
     );
     let _ = writeln!(
         out,
-        "block       B = {} m, H = {} m, R = {:.4} m, α = {:.4} rad ({:.2}°), μs = {}, μk = {}, impact ratio {:.4}",
-        p.width_m,
-        p.height_m,
-        p.half_diagonal_m,
-        p.alpha_rad,
-        p.alpha_rad.to_degrees(),
+        "block       {}, μs = {}, μk = {}, impact ratio {:.4} (+ → −), {:.4} (− → +)",
+        p.geometry_label(),
         p.mu_s,
         p.mu_k,
-        p.impact_ratio
+        p.impact_ratio(1.0),
+        p.impact_ratio(-1.0)
     );
     let status = match s.status {
         Status::Ok => "standing".to_string(),

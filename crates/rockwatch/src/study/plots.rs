@@ -73,7 +73,7 @@ where
             "Block {}: {} vs the five best IMs — R = {:.2} m, α = {:.2}°, μs = {}, μk = {}",
             block.name,
             block.dm.label(),
-            params.half_diagonal_m,
+            params.plus.half_diagonal_m,
             params.alpha_rad.to_degrees(),
             params.mu_s,
             params.mu_k

@@ -473,7 +473,8 @@ fn block_summary(config: &StudyConfig, data: &StudyData, b: &BlockAnalysis) -> B
     let params = &config.blocks[b.block_index].params;
     BlockSummary {
         dm: b.dm.as_str(),
-        half_diagonal_m: params.half_diagonal_m,
+        // Study blocks are rectangles: both pivots have the same R.
+        half_diagonal_m: params.plus.half_diagonal_m,
         alpha_rad: params.alpha_rad,
         mu_s: params.mu_s,
         mu_k: params.mu_k,

@@ -1,0 +1,709 @@
+//! Hazard and exposure age for one rock: the annual rate of overturning
+//! λ = ∫ P(overturn | im) |dλ_H(im)| from a lognormal fragility and a site's hazard curve, the
+//! return period 1/λ and the probability of survival exp(−λT) after an exposure age T
+//! (Purvance et al. 2008; Baker, Whitney & Hanks 2013). Pure: parsing takes text, nothing here
+//! reads files.
+//!
+//! Hazard curves are read from
+//! - an OpenQuake `hazard_curve-mean-<IMT>_*.csv`: a first comment line holding
+//!   `investigation_time=…` (years) and `imt='…'`, a header `lon,lat,depth,poe-<level>,…`
+//!   and one row per site; probabilities of exceedance in the investigation time T_inv are
+//!   converted to annual rates by the Poisson relation λ = −ln(1 − PoE)/T_inv. OpenQuake's
+//!   units: PGA and SA in g, PGV in cm/s;
+//! - a two-column CSV `level,annual_rate` (optional header, `#` comments), whose unit must be
+//!   given.
+//!
+//! Units are explicit ([`ImUnit`]): the hazard levels are converted to the fragility's unit
+//! with the factor printed by the caller; an acceleration is never compared with a velocity.
+//!
+//! Integration (docs/hazard.md): λ_H is interpolated log-linearly in ln λ against ln im between
+//! the given levels (a power law per segment) and continued beyond the first and last level
+//! with the end segments' power laws; λ = ∫ P(e^u) k(u) λ_H(e^u) du (u = ln im, k the local
+//! slope −d ln λ_H/d ln im) by 20-point Gauss–Legendre on 16 panels per segment. The part of λ
+//! that comes from the extrapolated tails is reported ([`OverturnRate::extrapolated_fraction`]).
+
+use std::fmt;
+
+/// Why a hazard computation could not be done.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum HazardError {
+    /// The hazard-curve text is malformed; `line` is 1-based.
+    #[error("{source_name}:{line}: {message}")]
+    Parse {
+        source_name: String,
+        line: usize,
+        message: String,
+    },
+    /// Anything else: inconsistent inputs, units, out-of-range values.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Units of an intensity measure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ImUnit {
+    /// Standard gravity g = 9.80665 m/s².
+    G,
+    MetrePerSecond2,
+    CentimetrePerSecond2,
+    MetrePerSecond,
+    CentimetrePerSecond,
+}
+
+impl ImUnit {
+    /// Parses `g`, `m/s2` (or `m/s²`, `m/s^2`), `cm/s2` (`gal`), `m/s`, `cm/s`.
+    pub fn parse(text: &str) -> Result<ImUnit, HazardError> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "g" => Ok(ImUnit::G),
+            "m/s2" | "m/s²" | "m/s^2" => Ok(ImUnit::MetrePerSecond2),
+            "cm/s2" | "cm/s²" | "cm/s^2" | "gal" => Ok(ImUnit::CentimetrePerSecond2),
+            "m/s" => Ok(ImUnit::MetrePerSecond),
+            "cm/s" => Ok(ImUnit::CentimetrePerSecond),
+            other => Err(HazardError::Invalid(format!(
+                "unknown IM unit {other:?} (known: g, m/s2, cm/s2, m/s, cm/s)"
+            ))),
+        }
+    }
+
+    /// Value of one unit in SI (m/s² or m/s).
+    #[must_use]
+    pub fn to_si(self) -> f64 {
+        match self {
+            ImUnit::G => crate::STANDARD_GRAVITY_MPS2,
+            ImUnit::MetrePerSecond2 | ImUnit::MetrePerSecond => 1.0,
+            ImUnit::CentimetrePerSecond2 | ImUnit::CentimetrePerSecond => 0.01,
+        }
+    }
+
+    /// True for accelerations, false for velocities.
+    #[must_use]
+    pub fn is_acceleration(self) -> bool {
+        matches!(
+            self,
+            ImUnit::G | ImUnit::MetrePerSecond2 | ImUnit::CentimetrePerSecond2
+        )
+    }
+
+    /// The factor that converts a value in `self` into `to`; an error between an
+    /// acceleration and a velocity.
+    pub fn factor_to(self, to: ImUnit) -> Result<f64, HazardError> {
+        if self.is_acceleration() != to.is_acceleration() {
+            return Err(HazardError::Invalid(format!(
+                "unit mismatch: the hazard curve is in {self} and the fragility in {to} (an \
+                 acceleration and a velocity)"
+            )));
+        }
+        Ok(self.to_si() / to.to_si())
+    }
+
+    /// The unit OpenQuake uses for an IMT: g for PGA and SA(T), cm/s for PGV.
+    pub fn of_openquake_imt(imt: &str) -> Result<ImUnit, HazardError> {
+        let imt = imt.trim().to_ascii_uppercase();
+        if imt == "PGA" || imt.starts_with("SA(") {
+            Ok(ImUnit::G)
+        } else if imt == "PGV" {
+            Ok(ImUnit::CentimetrePerSecond)
+        } else {
+            Err(HazardError::Invalid(format!(
+                "OpenQuake IMT {imt:?} is not supported (PGA, PGV, SA(T))"
+            )))
+        }
+    }
+}
+
+impl fmt::Display for ImUnit {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ImUnit::G => "g",
+            ImUnit::MetrePerSecond2 => "m/s2",
+            ImUnit::CentimetrePerSecond2 => "cm/s2",
+            ImUnit::MetrePerSecond => "m/s",
+            ImUnit::CentimetrePerSecond => "cm/s",
+        })
+    }
+}
+
+/// A hazard curve: annual rates of exceedance at increasing IM levels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HazardCurve {
+    /// The IMT as written in the file (`"PGV"`, `"SA(1.0)"`), if the file says.
+    pub imt: Option<String>,
+    /// Unit of `levels`.
+    pub unit: ImUnit,
+    /// IM levels, strictly increasing, > 0.
+    pub levels: Vec<f64>,
+    /// Annual rates of exceedance λ_H(level) (1/yr), > 0 and non-increasing.
+    pub annual_rates: Vec<f64>,
+    /// Investigation time the file's probabilities referred to (yr), for OpenQuake files.
+    pub investigation_time_years: Option<f64>,
+    /// (lon, lat) of the site, for OpenQuake files.
+    pub site: Option<(f64, f64)>,
+}
+
+impl HazardCurve {
+    /// Builds a curve, checking levels (finite, > 0, strictly increasing, at least 2) and
+    /// rates (finite, > 0, non-increasing). Levels whose rate is 0 (PoE = 0 in OpenQuake
+    /// files, beyond the computed range) are dropped first, and said so by the caller through
+    /// the reduced length.
+    pub fn new(
+        imt: Option<String>,
+        unit: ImUnit,
+        levels: Vec<f64>,
+        annual_rates: Vec<f64>,
+    ) -> Result<HazardCurve, HazardError> {
+        let bad = |m: String| Err(HazardError::Invalid(m));
+        if levels.len() != annual_rates.len() {
+            return bad("levels and rates differ in length".into());
+        }
+        let (levels, annual_rates): (Vec<f64>, Vec<f64>) = levels
+            .into_iter()
+            .zip(annual_rates)
+            .filter(|&(_, r)| r != 0.0)
+            .unzip();
+        if levels.len() < 2 {
+            return bad("a hazard curve needs at least two levels with a positive rate".into());
+        }
+        for (i, (&x, &r)) in levels.iter().zip(&annual_rates).enumerate() {
+            if !(x.is_finite() && x > 0.0) {
+                return bad(format!("level {i} = {x} must be a finite number > 0"));
+            }
+            if !(r.is_finite() && r > 0.0) {
+                return bad(format!("annual rate {i} = {r} must be a finite number ≥ 0"));
+            }
+            if i > 0 && x <= levels[i - 1] {
+                return bad(format!("levels must increase: {} then {x}", levels[i - 1]));
+            }
+            if i > 0 && r > annual_rates[i - 1] {
+                return bad(format!(
+                    "rates of exceedance must not increase with the level: {} then {r} at {x}",
+                    annual_rates[i - 1]
+                ));
+            }
+        }
+        Ok(HazardCurve {
+            imt,
+            unit,
+            levels,
+            annual_rates,
+            investigation_time_years: None,
+            site: None,
+        })
+    }
+
+    /// The same curve with its levels in `unit` (explicit conversion by
+    /// [`ImUnit::factor_to`]).
+    pub fn converted_to(&self, unit: ImUnit) -> Result<HazardCurve, HazardError> {
+        let factor = self.unit.factor_to(unit)?;
+        let mut out = self.clone();
+        out.unit = unit;
+        out.levels.iter_mut().for_each(|x| *x *= factor);
+        Ok(out)
+    }
+
+    /// λ_H(im) (1/yr): log-log interpolation, power-law continuation beyond the ends.
+    #[must_use]
+    pub fn rate(&self, im: f64) -> f64 {
+        let u = im.ln();
+        let i = self.segment(u);
+        let (k, ln_l0, u0) = self.segment_law(i);
+        (ln_l0 - k * (u - u0)).exp()
+    }
+
+    /// Index i of the segment [levels[i], levels[i+1]] used at u = ln im (the end segments
+    /// extend to ±∞).
+    fn segment(&self, u: f64) -> usize {
+        let n = self.levels.len();
+        let mut i = 0;
+        while i + 2 < n && u > self.levels[i + 1].ln() {
+            i += 1;
+        }
+        i
+    }
+
+    /// Power law of segment i: (k = −Δ ln λ/Δ ln im, ln λ at its start, ln of its start).
+    fn segment_law(&self, i: usize) -> (f64, f64, f64) {
+        let (u0, u1) = (self.levels[i].ln(), self.levels[i + 1].ln());
+        let (l0, l1) = (self.annual_rates[i].ln(), self.annual_rates[i + 1].ln());
+        (-(l1 - l0) / (u1 - u0), l0, u0)
+    }
+}
+
+/// Parses an OpenQuake hazard-curve CSV (`hazard_curve-mean-<IMT>_*.csv`), taking the row of
+/// site `site_index` (0-based). `investigation_time_years` overrides or supplies the
+/// investigation time; if the file states one too, the two must agree.
+pub fn parse_openquake_csv(
+    text: &str,
+    source_name: &str,
+    site_index: usize,
+    investigation_time_years: Option<f64>,
+) -> Result<HazardCurve, HazardError> {
+    let parse_err = |line: usize, message: String| HazardError::Parse {
+        source_name: source_name.to_owned(),
+        line,
+        message,
+    };
+    let mut lines = text.lines().enumerate();
+    let (_, first) = lines
+        .next()
+        .ok_or_else(|| parse_err(1, "empty file".into()))?;
+    if !first.trim_start().starts_with('#') {
+        return Err(parse_err(
+            1,
+            "an OpenQuake hazard curve starts with a comment line holding investigation_time"
+                .into(),
+        ));
+    }
+    let file_time = metadata(first, "investigation_time")
+        .map(|v| {
+            v.parse::<f64>()
+                .map_err(|_| parse_err(1, format!("investigation_time = {v:?} is not a number")))
+        })
+        .transpose()?;
+    let time = match (file_time, investigation_time_years) {
+        (Some(f), Some(g)) if (f - g).abs() > 1e-9 * f.abs() => {
+            return Err(HazardError::Invalid(format!(
+                "--investigation-time {g} disagrees with the file's investigation_time = {f}"
+            )))
+        }
+        (Some(f), _) => f,
+        (None, Some(g)) => g,
+        (None, None) => {
+            return Err(parse_err(
+                1,
+                "no investigation_time in the comment line: give --investigation-time".into(),
+            ))
+        }
+    };
+    if !(time.is_finite() && time > 0.0) {
+        return Err(HazardError::Invalid(format!(
+            "investigation time {time} must be a finite number of years > 0"
+        )));
+    }
+    let imt = metadata(first, "imt");
+    let (header_line, header) = lines
+        .find(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+        .ok_or_else(|| parse_err(2, "no header line".into()))?;
+    let columns: Vec<&str> = header.split(',').map(str::trim).collect();
+    if columns.len() < 5 || columns[..3] != ["lon", "lat", "depth"] {
+        return Err(parse_err(
+            header_line + 1,
+            format!("the header must be lon,lat,depth,poe-<level>,… (got {header:?})"),
+        ));
+    }
+    let mut levels = Vec::with_capacity(columns.len() - 3);
+    for c in &columns[3..] {
+        let level = c
+            .strip_prefix("poe-")
+            .and_then(|v| v.parse::<f64>().ok())
+            .ok_or_else(|| {
+                parse_err(header_line + 1, format!("column {c:?} is not poe-<level>"))
+            })?;
+        levels.push(level);
+    }
+    let rows: Vec<(usize, &str)> = lines
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+        .collect();
+    let &(row_line, row) = rows.get(site_index).ok_or_else(|| {
+        HazardError::Invalid(format!(
+            "{source_name}: site {site_index} requested, the file has {} site rows",
+            rows.len()
+        ))
+    })?;
+    let cells: Vec<&str> = row.split(',').map(str::trim).collect();
+    if cells.len() != columns.len() {
+        return Err(parse_err(
+            row_line + 1,
+            format!("{} cells, the header has {}", cells.len(), columns.len()),
+        ));
+    }
+    let number = |k: usize| {
+        cells[k].parse::<f64>().map_err(|_| {
+            parse_err(
+                row_line + 1,
+                format!("{} = {:?} is not a number", columns[k], cells[k]),
+            )
+        })
+    };
+    let site = (number(0)?, number(1)?);
+    let mut rates = Vec::with_capacity(levels.len());
+    for (k, column) in columns.iter().enumerate().skip(3) {
+        let poe = number(k)?;
+        if !(0.0..1.0).contains(&poe) {
+            return Err(parse_err(
+                row_line + 1,
+                format!("{column} = {poe} must be a probability in [0, 1)"),
+            ));
+        }
+        // Poisson: PoE = 1 − exp(−λ T).
+        rates.push(-(-poe).ln_1p() / time);
+    }
+    let unit = match &imt {
+        Some(imt) => ImUnit::of_openquake_imt(imt)?,
+        None => {
+            return Err(parse_err(
+                1,
+                "no imt in the comment line: the unit of the levels is unknown".into(),
+            ))
+        }
+    };
+    let mut curve = HazardCurve::new(imt, unit, levels, rates)
+        .map_err(|e| HazardError::Invalid(format!("{source_name}: {e}")))?;
+    curve.investigation_time_years = Some(time);
+    curve.site = Some(site);
+    Ok(curve)
+}
+
+/// The value of `key=value` or `key='value'` in OpenQuake's comment line.
+fn metadata(line: &str, key: &str) -> Option<String> {
+    let start = line.find(&format!("{key}="))? + key.len() + 1;
+    let rest = &line[start..];
+    let rest = rest.trim_start_matches(['\'', '"']);
+    let end = rest.find(['\'', '"', ',']).unwrap_or(rest.len());
+    Some(rest[..end].trim().to_owned())
+}
+
+/// Parses a two-column CSV `level,annual_rate` (levels in `unit`). An optional first row
+/// whose first cell is not a number is a header; `#` lines are comments.
+pub fn parse_two_column_csv(
+    text: &str,
+    source_name: &str,
+    unit: ImUnit,
+) -> Result<HazardCurve, HazardError> {
+    let (mut levels, mut rates) = (Vec::new(), Vec::new());
+    let mut first_data = true;
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        let parse_err = |message: String| HazardError::Parse {
+            source_name: source_name.to_owned(),
+            line: i + 1,
+            message,
+        };
+        if first_data && cells[0].parse::<f64>().is_err() {
+            first_data = false;
+            continue; // header
+        }
+        first_data = false;
+        if cells.len() != 2 {
+            return Err(parse_err(format!(
+                "expected 2 cells (level, annual rate), got {}",
+                cells.len()
+            )));
+        }
+        let value = |k: usize| {
+            cells[k]
+                .parse::<f64>()
+                .map_err(|_| parse_err(format!("{:?} is not a number", cells[k])))
+        };
+        levels.push(value(0)?);
+        rates.push(value(1)?);
+    }
+    HazardCurve::new(None, unit, levels, rates)
+        .map_err(|e| HazardError::Invalid(format!("{source_name}: {e}")))
+}
+
+/// A lognormal fragility P(overturn | im) = Φ(ln(im/θ)/β).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lognormal {
+    /// Median θ (IM units, > 0).
+    pub median: f64,
+    /// Logarithmic standard deviation β (> 0).
+    pub beta: f64,
+}
+
+impl Lognormal {
+    /// Checks θ > 0 and β > 0, both finite.
+    pub fn new(median: f64, beta: f64) -> Result<Lognormal, HazardError> {
+        if !(median.is_finite() && median > 0.0 && beta.is_finite() && beta > 0.0) {
+            return Err(HazardError::Invalid(format!(
+                "a lognormal fragility needs a finite median > 0 and beta > 0, got median = \
+                 {median}, beta = {beta}"
+            )));
+        }
+        Ok(Lognormal { median, beta })
+    }
+
+    /// P(overturn | im).
+    #[must_use]
+    pub fn probability(&self, im: f64) -> f64 {
+        if im > 0.0 {
+            crate::study::special::normal_cdf((im / self.median).ln() / self.beta)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A fragility read from a JSON file, with the IM it is a function of.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FragilityInput {
+    pub curve: Lognormal,
+    /// The IM's name as written in the file.
+    pub im: String,
+    /// The IM's unit.
+    pub unit: ImUnit,
+}
+
+/// The canonical name of an IM for matching: upper case, the study's `pha`/`phv` (peak
+/// horizontal acceleration/velocity) as `PGA`/`PGV`.
+#[must_use]
+pub fn canonical_im(name: &str) -> String {
+    let upper = name.trim().to_ascii_uppercase();
+    match upper.as_str() {
+        "PHA" => "PGA".to_owned(),
+        "PHV" => "PGV".to_owned(),
+        _ => upper,
+    }
+}
+
+/// The SI unit assumed for an IM when the fragility file does not give one: m/s for PGV,
+/// m/s² for PGA and SA(T).
+fn default_unit(im: &str) -> Result<ImUnit, HazardError> {
+    let im = canonical_im(im);
+    if im == "PGV" {
+        Ok(ImUnit::MetrePerSecond)
+    } else if im == "PGA" || im.starts_with("SA(") {
+        Ok(ImUnit::MetrePerSecond2)
+    } else {
+        Err(HazardError::Invalid(format!(
+            "the fragility gives no unit for IM {im:?}: add \"unit\""
+        )))
+    }
+}
+
+/// Reads the lognormal fragility of IM `im` from a fragility JSON, either
+/// - `{"ims": {"PGV": {"median", "beta", "unit"?, …}, …}}` (one rock, several IMs; the unit
+///   defaults to SI: m/s for PGV, m/s² for PGA and SA), or
+/// - the `fragility.json` of `rockwatch study`: `{"blocks": {NAME: {"im", "im_unit",
+///   "median", "beta", …} | null}}`; `block` picks NAME when there are several.
+///
+/// IM names match case-insensitively, the study's `pha`/`phv` as `PGA`/`PGV`.
+pub fn fragility_from_json(
+    text: &str,
+    source_name: &str,
+    im: &str,
+    block: Option<&str>,
+) -> Result<FragilityInput, HazardError> {
+    use serde_json::Value;
+    let bad = |m: String| HazardError::Invalid(format!("{source_name}: {m}"));
+    let root: Value =
+        serde_json::from_str(text).map_err(|e| bad(format!("not valid JSON: {e}")))?;
+    let wanted = canonical_im(im);
+    let number = |v: &Value, key: &str| {
+        v.get(key)
+            .and_then(Value::as_f64)
+            .ok_or_else(|| bad(format!("{key} is missing or not a number")))
+    };
+    if let Some(ims) = root.get("ims").and_then(Value::as_object) {
+        let (name, entry) = ims
+            .iter()
+            .find(|(name, _)| canonical_im(name) == wanted)
+            .ok_or_else(|| {
+                bad(format!(
+                    "no fragility for IM {im:?} (the file has {})",
+                    ims.keys().cloned().collect::<Vec<_>>().join(", ")
+                ))
+            })?;
+        let unit = match entry.get("unit").or_else(|| entry.get("im_unit")) {
+            Some(u) => ImUnit::parse(u.as_str().unwrap_or(""))?,
+            None => default_unit(name)?,
+        };
+        let curve = Lognormal::new(number(entry, "median")?, number(entry, "beta")?)
+            .map_err(|e| bad(format!("ims.{name}: {e}")))?;
+        return Ok(FragilityInput {
+            curve,
+            im: name.clone(),
+            unit,
+        });
+    }
+    if let Some(blocks) = root.get("blocks").and_then(Value::as_object) {
+        let (name, entry) = match block {
+            Some(b) => blocks
+                .get_key_value(b)
+                .ok_or_else(|| bad(format!("no block {b:?} in the file")))?,
+            None if blocks.len() == 1 => blocks.iter().next().ok_or_else(|| bad("".into()))?,
+            None => {
+                return Err(bad(format!(
+                    "the file holds {} blocks ({}): choose one with --block",
+                    blocks.len(),
+                    blocks.keys().cloned().collect::<Vec<_>>().join(", ")
+                )))
+            }
+        };
+        if entry.is_null() {
+            return Err(bad(format!("block {name:?} has no fragility curve (null)")));
+        }
+        let file_im = entry.get("im").and_then(Value::as_str).unwrap_or("");
+        if canonical_im(file_im) != wanted {
+            return Err(bad(format!(
+                "block {name:?}'s fragility is a function of {file_im:?}, not {im:?}"
+            )));
+        }
+        let unit = ImUnit::parse(entry.get("im_unit").and_then(Value::as_str).unwrap_or(""))?;
+        let curve = Lognormal::new(number(entry, "median")?, number(entry, "beta")?)
+            .map_err(|e| bad(format!("blocks.{name}: {e}")))?;
+        return Ok(FragilityInput {
+            curve,
+            im: file_im.to_owned(),
+            unit,
+        });
+    }
+    Err(bad(
+        "expected {\"ims\": {IM: {\"median\", \"beta\"}}} or a study fragility.json          {\"blocks\": {…}}"
+            .into(),
+    ))
+}
+
+/// The annual rate of overturning and what it implies.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OverturnRate {
+    /// λ (1/yr).
+    pub annual_rate: f64,
+    /// The part of λ contributed by the power-law continuation of the hazard curve below its
+    /// first and above its last level (0–1): large values mean the curve does not cover the
+    /// fragility's range.
+    pub extrapolated_fraction: f64,
+}
+
+impl OverturnRate {
+    /// 1/λ (yr); infinite for λ = 0.
+    #[must_use]
+    pub fn return_period_years(&self) -> f64 {
+        1.0 / self.annual_rate
+    }
+
+    /// exp(−λT): probability that the rock survives T years of Poissonian shaking.
+    #[must_use]
+    pub fn survival(&self, years: f64) -> f64 {
+        (-self.annual_rate * years).exp()
+    }
+}
+
+/// λ = ∫ P(overturn | im) |dλ_H(im)| (see the module doc). `curve` and `fragility` must be in
+/// the same unit (convert with [`HazardCurve::converted_to`]).
+#[must_use]
+pub fn overturn_rate(curve: &HazardCurve, fragility: &Lognormal) -> OverturnRate {
+    const PANELS: usize = 16;
+    let (nodes, weights) = gauss_legendre_20();
+    let n = curve.levels.len();
+    let ln_median = fragility.median.ln();
+    // Integration range in u = ln im: from where P is below 1e-300 (40 β under the median)
+    // to where the last power law has decayed by e⁻⁶⁰ (or 40 β above the median).
+    let u_first = curve.levels[0].ln();
+    let u_last = curve.levels[n - 1].ln();
+    let (k_last, _, _) = curve.segment_law(n - 2);
+    let u_min = (ln_median - 40.0 * fragility.beta).min(u_first);
+    let u_max = if k_last > 0.0 {
+        u_last + 60.0 / k_last
+    } else {
+        u_last
+    }
+    .max(ln_median + 40.0 * fragility.beta)
+    .max(u_last);
+    let mut pieces: Vec<(f64, f64, usize)> = vec![(u_min, u_first, 0)];
+    for i in 0..n - 1 {
+        pieces.push((curve.levels[i].ln(), curve.levels[i + 1].ln(), i));
+    }
+    pieces.push((u_last, u_max, n - 2));
+    let (mut total, mut tails) = (0.0, 0.0);
+    for (j, &(a, b, seg)) in pieces.iter().enumerate() {
+        if b <= a {
+            continue;
+        }
+        let (k, ln_l0, u0) = curve.segment_law(seg);
+        let integrand = |u: f64| fragility.probability(u.exp()) * k * (ln_l0 - k * (u - u0)).exp();
+        let h = (b - a) / PANELS as f64;
+        let mut sum = 0.0;
+        for p in 0..PANELS {
+            let mid = a + (p as f64 + 0.5) * h;
+            for (x, w) in nodes.iter().zip(&weights) {
+                sum += w * integrand(mid + 0.5 * h * x);
+            }
+        }
+        let part = 0.5 * h * sum;
+        total += part;
+        if j == 0 || j == pieces.len() - 1 {
+            tails += part;
+        }
+    }
+    OverturnRate {
+        annual_rate: total,
+        extrapolated_fraction: if total > 0.0 { tails / total } else { 0.0 },
+    }
+}
+
+/// Nodes and weights of the 20-point Gauss–Legendre rule on [−1, 1] (Newton on the Legendre
+/// recurrence, to machine precision).
+fn gauss_legendre_20() -> ([f64; 20], [f64; 20]) {
+    const N: usize = 20;
+    let (mut nodes, mut weights) = ([0.0; N], [0.0; N]);
+    for i in 0..N {
+        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (N as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, x);
+            for k in 2..=N {
+                let k = k as f64;
+                let p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+                p0 = p1;
+                p1 = p2;
+            }
+            dp = N as f64 * (x * p1 - p0) / (x * x - 1.0);
+            let dx = p1 / dp;
+            x -= dx;
+            if dx.abs() < 1e-16 {
+                break;
+            }
+        }
+        nodes[i] = x;
+        weights[i] = 2.0 / ((1.0 - x * x) * dp * dp);
+    }
+    (nodes, weights)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_factors_and_mismatch() {
+        assert_eq!(
+            ImUnit::CentimetrePerSecond
+                .factor_to(ImUnit::MetrePerSecond)
+                .unwrap(),
+            0.01
+        );
+        assert_eq!(
+            ImUnit::G.factor_to(ImUnit::MetrePerSecond2).unwrap(),
+            crate::STANDARD_GRAVITY_MPS2
+        );
+        assert!(ImUnit::G
+            .factor_to(ImUnit::MetrePerSecond)
+            .unwrap_err()
+            .to_string()
+            .contains("unit mismatch"));
+        assert_eq!(ImUnit::parse("cm/s").unwrap(), ImUnit::CentimetrePerSecond);
+        assert!(ImUnit::parse("inch/s").is_err());
+    }
+
+    #[test]
+    fn openquake_metadata_is_read() {
+        let line = "#,,,,\"generated_by='OpenQuake engine 3.16', start_date='2023', \
+                    checksum=1, kind='mean', investigation_time=50.0, imt='PGV'\"";
+        assert_eq!(
+            metadata(line, "investigation_time").as_deref(),
+            Some("50.0")
+        );
+        assert_eq!(metadata(line, "imt").as_deref(), Some("PGV"));
+    }
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials_exactly() {
+        let (x, w) = gauss_legendre_20();
+        let integral: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(38)).sum();
+        assert!((integral - 2.0 / 39.0).abs() < 1e-15);
+    }
+}

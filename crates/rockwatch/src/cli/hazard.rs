@@ -1,0 +1,193 @@
+//! `rockwatch hazard`: annual overturning rate, return period and survival probability of one
+//! rock from its fragility and its site's hazard curve (docs/hazard.md).
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use rockwatch_core::hazard::{
+    canonical_im, fragility_from_json, overturn_rate, parse_openquake_csv, parse_two_column_csv,
+    HazardCurve, ImUnit,
+};
+
+use super::OutputFormat;
+
+/// Combine a rock's lognormal overturning fragility with its site's hazard curve:
+/// λ = ∫ P(overturn | im) |dλ_H(im)| (1/yr), the return period 1/λ and the probability
+/// exp(−λT) that the rock survives T years (its exposure age).
+///
+/// The hazard levels are converted to the fragility's unit explicitly (the factor is printed);
+/// an acceleration and a velocity are never mixed.
+#[derive(Debug, clap::Args)]
+pub struct HazardArgs {
+    /// Fragility JSON: `{"ims": {"PGV": {"median": θ, "beta": β, "unit": "m/s"}}}` (unit
+    /// optional: SI, m/s for PGV, m/s2 for PGA and SA), or the fragility.json written by
+    /// `rockwatch study` (`{"blocks": {NAME: {"im", "im_unit", "median", "beta", …}}}`).
+    #[arg(long, value_name = "FILE")]
+    fragility: PathBuf,
+    /// The IM of the fragility and the hazard curve: PGA, PGV, SA(T) (case-insensitive; the
+    /// study's pha/phv are PGA/PGV).
+    #[arg(long, value_name = "IM")]
+    im: String,
+    /// With a study fragility.json holding several blocks: the block to use.
+    #[arg(long, value_name = "NAME")]
+    block: Option<String>,
+    /// Hazard curve: an OpenQuake hazard_curve-mean-<IMT>_*.csv (comment line with
+    /// investigation_time and imt, header lon,lat,depth,poe-<level>…; PoE → annual rate by
+    /// λ = −ln(1 − PoE)/T; levels in g for PGA/SA, cm/s for PGV), or a two-column CSV
+    /// `level,annual_rate` (with --hazard-unit).
+    #[arg(long = "hazard-curve", value_name = "FILE")]
+    hazard_curve: PathBuf,
+    /// Unit of the levels of a two-column hazard curve: g, m/s2, cm/s2, m/s or cm/s.
+    /// For an OpenQuake file it is implied by the IMT and, if given, must agree.
+    #[arg(long = "hazard-unit", value_name = "UNIT")]
+    hazard_unit: Option<String>,
+    /// Investigation time (years) of an OpenQuake file's probabilities, if its comment line
+    /// lacks it (if both are given they must agree).
+    #[arg(long = "investigation-time", value_name = "Y")]
+    investigation_time: Option<f64>,
+    /// Row (0-based) of the site in an OpenQuake file with several sites.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    site: usize,
+    /// Exposure ages T (years), comma-separated: prints exp(−λT) for each.
+    #[arg(
+        long = "age-years",
+        value_name = "T[,T2…]",
+        value_delimiter = ',',
+        required = true
+    )]
+    age_years: Vec<f64>,
+    /// Output format on stdout.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
+    format: OutputFormat,
+}
+
+/// The hazard curve file: OpenQuake if it starts with a comment line mentioning
+/// investigation_time or has a lon,lat,depth header, else two columns.
+fn read_curve(args: &HazardArgs, text: &str, name: &str) -> anyhow::Result<HazardCurve> {
+    let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
+    let openquake = (first.trim_start().starts_with('#') && first.contains("investigation_time"))
+        || text
+            .lines()
+            .any(|l| l.trim_start().starts_with("lon,lat,depth"));
+    if openquake {
+        let curve = parse_openquake_csv(text, name, args.site, args.investigation_time)?;
+        if let Some(imt) = &curve.imt {
+            if canonical_im(imt) != canonical_im(&args.im) {
+                bail!("{name}: the hazard curve is for {imt}, not {}", args.im);
+            }
+        }
+        if let Some(u) = &args.hazard_unit {
+            let given = ImUnit::parse(u)?;
+            if given != curve.unit {
+                bail!(
+                    "--hazard-unit {given} disagrees with OpenQuake's unit {} for {}",
+                    curve.unit,
+                    curve.imt.as_deref().unwrap_or("?")
+                );
+            }
+        }
+        Ok(curve)
+    } else {
+        if args.investigation_time.is_some() {
+            bail!("--investigation-time applies to OpenQuake files; {name} has annual rates");
+        }
+        let unit = args.hazard_unit.as_deref().with_context(|| {
+            format!(
+                "{name}: a two-column hazard curve needs --hazard-unit (g, m/s2, cm/s2, m/s, cm/s)"
+            )
+        })?;
+        Ok(parse_two_column_csv(text, name, ImUnit::parse(unit)?)?)
+    }
+}
+
+pub fn run(args: HazardArgs) -> anyhow::Result<()> {
+    for &t in &args.age_years {
+        if !(t.is_finite() && t >= 0.0) {
+            bail!("--age-years: {t} must be a finite number of years ≥ 0");
+        }
+    }
+    let read = |path: &PathBuf| {
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
+    };
+    let fragility_name = args.fragility.display().to_string();
+    let fragility = fragility_from_json(
+        &read(&args.fragility)?,
+        &fragility_name,
+        &args.im,
+        args.block.as_deref(),
+    )?;
+    let curve_name = args.hazard_curve.display().to_string();
+    let curve = read_curve(&args, &read(&args.hazard_curve)?, &curve_name)?;
+    let factor = curve.unit.factor_to(fragility.unit)?;
+    let converted = curve.converted_to(fragility.unit)?;
+    let rate = overturn_rate(&converted, &fragility.curve);
+    let survival: BTreeMap<String, f64> = args
+        .age_years
+        .iter()
+        .map(|&t| (format_years(t), rate.survival(t)))
+        .collect();
+    match args.format {
+        OutputFormat::Json => {
+            let json = serde_json::json!({
+                "annual_overturn_rate": rate.annual_rate,
+                "return_period_years": rate.return_period_years(),
+                "survival": survival,
+                "extrapolated_fraction": rate.extrapolated_fraction,
+                "im": fragility.im,
+                "unit": fragility.unit.to_string(),
+                "median": fragility.curve.median,
+                "beta": fragility.curve.beta,
+                "hazard_unit": curve.unit.to_string(),
+                "hazard_to_fragility_factor": factor,
+                "hazard_levels": curve.levels.len(),
+            });
+            outln!("{}", serde_json::to_string_pretty(&json)?);
+        }
+        OutputFormat::Text => {
+            outln!(
+                "fragility   {} ({}): median {} {}, beta {}",
+                fragility_name,
+                fragility.im,
+                fragility.curve.median,
+                fragility.unit,
+                fragility.curve.beta
+            );
+            let site = curve
+                .site
+                .map(|(lon, lat)| format!(", site {lon}, {lat}"))
+                .unwrap_or_default();
+            outln!(
+                "hazard      {} ({} levels {} to {} {}{site}; × {factor} → {})",
+                curve_name,
+                curve.levels.len(),
+                curve.levels[0],
+                curve.levels[curve.levels.len() - 1],
+                curve.unit,
+                fragility.unit
+            );
+            outln!("λ           {:.4e} overturns per year", rate.annual_rate);
+            outln!("return      {:.4e} years", rate.return_period_years());
+            for (t, p) in &survival {
+                outln!("survival    {p:.6} after {t} years");
+            }
+            outln!(
+                "tails       {:.2} % of λ comes from beyond the curve's levels (power-law continuation)",
+                100.0 * rate.extrapolated_fraction
+            );
+        }
+    }
+    if rate.extrapolated_fraction > 0.01 {
+        eprintln!(
+            "rockwatch: warning: {:.1} % of λ comes from the power-law continuation of the hazard \
+             curve beyond its levels: extend the curve to cover the fragility",
+            100.0 * rate.extrapolated_fraction
+        );
+    }
+    Ok(())
+}
+
+/// An age as a JSON key: `10000`, `12500.5`.
+fn format_years(t: f64) -> String {
+    format!("{t}")
+}

@@ -1,0 +1,356 @@
+//! `rockwatch_core::hazard` and `rockwatch hazard`: the annual overturning rate
+//! λ = ∫ P(overturn | im) |dλ_H(im)| against
+//! - the closed form for a lognormal fragility and a power-law hazard curve,
+//!   λ = k0 θ^(−k) exp(k²β²/2) (Cornell, Jalayer, Hamburger & Foutch 2002, eq. 11);
+//! - a direct numerical integration of a curved (non-power-law) hazard curve, written here
+//!   independently (midpoint sum of P·Δλ on a fine grid of the analytic curve);
+//!
+//! and the unit handling and error messages.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use rockwatch_core::hazard::{
+    overturn_rate, parse_openquake_csv, parse_two_column_csv, HazardCurve, ImUnit, Lognormal,
+};
+
+const G: f64 = 9.80665;
+
+/// Φ(z) = ½ + ∫₀^z φ by Simpson's rule on 2000 panels (error < 1e-14 for |z| ≤ 8; 0 or 1
+/// beyond, where Φ differs from them by < 1e-15), independent of the library's Φ.
+fn phi(z: f64) -> f64 {
+    if z.abs() > 8.0 {
+        return if z > 0.0 { 1.0 } else { 0.0 };
+    }
+    let n = 2000;
+    let h = z / n as f64;
+    let f = |x: f64| (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt();
+    let mut s = f(0.0) + f(z);
+    for i in 1..n {
+        s += if i % 2 == 1 { 4.0 } else { 2.0 } * f(i as f64 * h);
+    }
+    0.5 + s * h / 3.0
+}
+
+fn log_levels(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| (lo.ln() + (hi / lo).ln() * i as f64 / (n - 1) as f64).exp())
+        .collect()
+}
+
+#[test]
+fn power_law_hazard_and_lognormal_fragility_match_cornell_closed_form() {
+    for (k0, k, theta, beta) in [
+        (1e-4, 2.5, 0.4, 0.35),
+        (3e-3, 1.5, 0.15, 0.6),
+        (1e-5, 3.2, 1.2, 0.2),
+    ] {
+        let levels = log_levels(0.005, 20.0, 30);
+        let rates: Vec<f64> = levels.iter().map(|x: &f64| k0 * x.powf(-k)).collect();
+        let curve = HazardCurve::new(None, ImUnit::MetrePerSecond, levels, rates).unwrap();
+        let rate = overturn_rate(&curve, &Lognormal::new(theta, beta).unwrap());
+        let exact = k0 * theta.powf(-k) * (0.5 * k * k * beta * beta).exp();
+        // A power law is reproduced exactly by the log-log interpolation; 20-point Gauss on
+        // 16 panels per segment integrates the smooth integrand to ~1e-14; 1e-10 leaves room
+        // for the tails cut at 40 β.
+        assert!(
+            ((rate.annual_rate - exact) / exact).abs() < 1e-10,
+            "k0 {k0} k {k} θ {theta} β {beta}: {} vs {exact}",
+            rate.annual_rate
+        );
+        assert!(rate.extrapolated_fraction < 1e-3);
+        assert!((rate.return_period_years() - 1.0 / exact).abs() < 1e-9 / exact);
+        assert!((rate.survival(1e4) - (-exact * 1e4).exp()).abs() < 1e-12);
+    }
+}
+
+/// A curved hazard curve: λ_H(x) = a exp(−c (ln(x/x0))² − d ln(x/x0)), steepening with x
+/// like real curves (decreasing for x > x0 e^(−d/2c) ≈ 3e-7).
+fn curved(x: f64) -> f64 {
+    let u = (x / 0.05).ln();
+    2e-2 * (-0.05 * u * u - 1.2 * u).exp()
+}
+
+#[test]
+fn curved_hazard_matches_direct_numerical_integration() {
+    let fragility = Lognormal::new(0.35, 0.4).unwrap();
+    // 60 tabulated levels (OpenQuake files have 20–50) from 1e-3 to 10.
+    let levels = log_levels(1e-3, 10.0, 60);
+    let rates: Vec<f64> = levels.iter().map(|&x| curved(x)).collect();
+    let curve = HazardCurve::new(None, ImUnit::MetrePerSecond, levels, rates).unwrap();
+    let engine = overturn_rate(&curve, &fragility).annual_rate;
+    // Direct: Σ P(x_mid)(λ(x_i) − λ(x_{i+1})) on 2·10⁵ log-spaced points of the analytic
+    // curve from 1e-4 to 1e4 (beyond, P·|dλ| is negligible: P(1e-4) ~ 1e-50, λ(1e4) ~ 1e-11).
+    let n = 200_000;
+    let grid = log_levels(1e-4, 1e4, n);
+    let mut direct = 0.0;
+    for w in grid.windows(2) {
+        let mid = (w[0] * w[1]).sqrt();
+        direct += phi((mid / 0.35).ln() / 0.4) * (curved(w[0]) - curved(w[1]));
+    }
+    // The engine interpolates the 60 levels log-linearly (a curvature error of
+    // ~(Δ ln x)²·c/8 ≈ 3e-4 in ln λ per segment): agreement to 1e-3.
+    assert!(
+        ((engine - direct) / direct).abs() < 1e-3,
+        "engine {engine} vs direct {direct}"
+    );
+}
+
+fn openquake_text(imt: &str, time: f64, levels_oq: &[f64], rate: impl Fn(f64) -> f64) -> String {
+    let mut text = format!(
+        "#,,,,\"generated_by='OpenQuake engine 3.16.0', start_date='2024-01-01T00:00:00', \
+         checksum=123, kind='mean', investigation_time={time}, imt='{imt}'\"\nlon,lat,depth"
+    );
+    for x in levels_oq {
+        text.push_str(&format!(",poe-{x}"));
+    }
+    text.push_str("\n-118.48000,34.28000,0.00000E+00");
+    for &x in levels_oq {
+        let poe = -(-rate(x) * time).exp_m1();
+        text.push_str(&format!(",{poe:.17e}"));
+    }
+    text.push('\n');
+    text
+}
+
+#[test]
+fn openquake_pgv_in_cm_per_s_is_converted_to_the_fragility_in_m_per_s() {
+    // Power law in m/s: λ = k0 v^(−k); OpenQuake tabulates PGV in cm/s and PoE in 50 years.
+    let (k0, k, theta, beta) = (2e-6, 2.2, 0.5, 0.3);
+    let levels_cm: Vec<f64> = log_levels(0.5, 500.0, 25);
+    let text = openquake_text("PGV", 50.0, &levels_cm, |x_cm| k0 * (x_cm / 100.0).powf(-k));
+    let curve = parse_openquake_csv(&text, "oq.csv", 0, None).unwrap();
+    assert_eq!(curve.unit, ImUnit::CentimetrePerSecond);
+    assert_eq!(curve.investigation_time_years, Some(50.0));
+    assert_eq!(curve.site, Some((-118.48, 34.28)));
+    let si = curve.converted_to(ImUnit::MetrePerSecond).unwrap();
+    let rate = overturn_rate(&si, &Lognormal::new(theta, beta).unwrap()).annual_rate;
+    let exact = k0 * theta.powf(-k) * (0.5 * k * k * beta * beta).exp();
+    // PoE written with 17 digits and inverted by −ln(1 − PoE)/T: 1e-10.
+    assert!(((rate - exact) / exact).abs() < 1e-10, "{rate} vs {exact}");
+    // Without the conversion (cm/s read as m/s) the answer would be wrong by far.
+    let wrong = overturn_rate(&curve, &Lognormal::new(theta, beta).unwrap()).annual_rate;
+    assert!((wrong / exact).abs() > 10.0);
+    // An acceleration curve cannot feed a velocity fragility.
+    assert!(ImUnit::G.factor_to(ImUnit::MetrePerSecond).is_err());
+
+    // The investigation time: from --investigation-time when the file lacks it; a
+    // disagreement is refused.
+    let bare = text.replace("investigation_time=50, ", "");
+    assert!(parse_openquake_csv(&bare, "oq.csv", 0, None)
+        .unwrap_err()
+        .to_string()
+        .contains("investigation_time"));
+    assert_eq!(
+        parse_openquake_csv(&bare, "oq.csv", 0, Some(50.0)).unwrap(),
+        curve
+    );
+    assert!(parse_openquake_csv(&text, "oq.csv", 0, Some(30.0))
+        .unwrap_err()
+        .to_string()
+        .contains("disagrees"));
+    assert!(parse_openquake_csv(&text, "oq.csv", 1, None)
+        .unwrap_err()
+        .to_string()
+        .contains("site 1 requested, the file has 1 site rows"));
+}
+
+#[test]
+fn malformed_curves_are_refused_with_a_reason() {
+    let two = |t: &str| {
+        parse_two_column_csv(t, "h.csv", ImUnit::G)
+            .unwrap_err()
+            .to_string()
+    };
+    assert!(two("level,rate\n0.1,1e-2\n0.2,2e-2\n").contains("must not increase"));
+    assert!(two("0.1,1e-2\n0.1,1e-3\n").contains("levels must increase"));
+    assert!(two("0.1,1e-2\n0.2,x\n").contains("h.csv:2: \"x\" is not a number"));
+    assert!(two("0.1,1e-2,3\n").contains("expected 2 cells"));
+    assert!(two("0.1,1e-2\n").contains("at least two levels"));
+    let ok = parse_two_column_csv(
+        "# curve\nlevel_g,annual_rate\n0.1,1e-2\n0.2,1e-3\n",
+        "h.csv",
+        ImUnit::G,
+    )
+    .unwrap();
+    assert_eq!(ok.levels, vec![0.1, 0.2]);
+    let oq = |t: &str| {
+        parse_openquake_csv(t, "oq.csv", 0, None)
+            .unwrap_err()
+            .to_string()
+    };
+    assert!(oq("lon,lat,depth,poe-0.1\n").contains("comment line"));
+    assert!(
+        oq("#,investigation_time=50, imt='PGA'\nlon,lat,poe-0.1,poe-0.2\n1,2,0.1,0.01\n")
+            .contains("lon,lat,depth")
+    );
+    assert!(oq(
+        "#,investigation_time=50, imt='PGA'\nlon,lat,depth,poe-0.1,poe-0.2\n1,2,0,1.0,0.1\n"
+    )
+    .contains("probability in [0, 1)"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// CLI
+
+fn cli(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("rockwatch-hazard-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn cli_prints_rate_return_period_and_survival_as_json() {
+    let dir = temp_dir("json");
+    let (k0, k, theta, beta) = (1e-3, 2.0, 0.6 * G, 0.4);
+    // Fragility of PGA in m/s² (the §3 schema); hazard in g from OpenQuake.
+    let fragility = write(
+        &dir,
+        "fragility.json",
+        &format!(r#"{{"ims": {{"PGA": {{"median": {theta}, "beta": {beta}, "unit": "m/s2"}}}}}}"#),
+    );
+    let levels_g = log_levels(0.005, 5.0, 30);
+    let curve = write(
+        &dir,
+        "hazard_curve-mean-PGA_1.csv",
+        &openquake_text("PGA", 50.0, &levels_g, |g| k0 * (g * G).powf(-k)),
+    );
+    let (ok, stdout, stderr) = cli(&[
+        "hazard",
+        "--fragility",
+        &fragility,
+        "--im",
+        "pga",
+        "--hazard-curve",
+        &curve,
+        "--age-years",
+        "10000,50000",
+        "--format",
+        "json",
+    ]);
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let exact = k0 * theta.powf(-k) * (0.5 * k * k * beta * beta).exp();
+    let lambda = json["annual_overturn_rate"].as_f64().unwrap();
+    assert!(
+        ((lambda - exact) / exact).abs() < 1e-9,
+        "{lambda} vs {exact}"
+    );
+    assert!((json["return_period_years"].as_f64().unwrap() * exact - 1.0).abs() < 1e-9);
+    for t in [10000.0, 50000.0] {
+        let p = json["survival"][format!("{t}")].as_f64().unwrap();
+        assert!((p - (-exact * t).exp()).abs() < 1e-9, "{t}: {p}");
+    }
+    assert_eq!(json["hazard_to_fragility_factor"].as_f64().unwrap(), G);
+
+    // Text output names the numbers with their units.
+    let (ok, text, _) = cli(&[
+        "hazard",
+        "--fragility",
+        &fragility,
+        "--im",
+        "PGA",
+        "--hazard-curve",
+        &curve,
+        "--age-years",
+        "10000",
+    ]);
+    assert!(ok);
+    assert!(
+        text.contains("overturns per year") && text.contains("after 10000 years"),
+        "{text}"
+    );
+    assert!(text.contains("× 9.80665 → m/s2"), "{text}");
+}
+
+#[test]
+fn cli_reads_a_study_fragility_and_a_two_column_curve_and_refuses_mismatches() {
+    let dir = temp_dir("study");
+    // The schema written by `rockwatch study` (crates/rockwatch/src/study/report.rs).
+    let study = write(
+        &dir,
+        "fragility.json",
+        r#"{"blocks": {"rocking": {"im": "phv", "im_unit": "m/s", "a": 2.5, "b": 2.5,
+            "covariance": [[0.1, 0.0], [0.0, 0.1]], "median": 0.3678794411714424, "beta": 0.4,
+            "n": 100, "n_events": 40, "log_likelihood": -50.0}, "sliding": null}}"#,
+    );
+    let curve = write(
+        &dir,
+        "pgv.csv",
+        "pgv_cm_s,annual_rate\n1,1e-1\n10,1e-2\n100,1e-4\n300,1e-6\n",
+    );
+    let base = |extra: &[&str]| {
+        let mut args = vec![
+            "hazard",
+            "--fragility",
+            &study,
+            "--im",
+            "PGV",
+            "--hazard-curve",
+            &curve,
+            "--age-years",
+            "20000",
+            "--format",
+            "json",
+        ];
+        args.extend_from_slice(extra);
+        cli(&args)
+    };
+    let (ok, stdout, stderr) = base(&["--block", "rocking", "--hazard-unit", "cm/s"]);
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(json["hazard_to_fragility_factor"].as_f64().unwrap(), 0.01);
+    let lambda = json["annual_overturn_rate"].as_f64().unwrap();
+    assert!(lambda > 1e-5 && lambda < 1e-2, "{lambda}");
+
+    let error = |extra: &[&str]| {
+        let (ok, _, stderr) = base(extra);
+        assert!(!ok);
+        assert!(
+            stderr.starts_with("rockwatch: error: ") && stderr.lines().count() <= 2,
+            "{stderr}"
+        );
+        stderr
+    };
+    assert!(error(&["--hazard-unit", "cm/s"]).contains("choose one with --block"));
+    assert!(error(&["--block", "sliding", "--hazard-unit", "cm/s"]).contains("no fragility curve"));
+    assert!(error(&["--block", "rocking"]).contains("needs --hazard-unit"));
+    assert!(error(&["--block", "rocking", "--hazard-unit", "g"]).contains("unit mismatch"));
+    let (ok, _, stderr) = cli(&[
+        "hazard",
+        "--fragility",
+        &study,
+        "--im",
+        "PGA",
+        "--block",
+        "rocking",
+        "--hazard-curve",
+        &curve,
+        "--hazard-unit",
+        "g",
+        "--age-years",
+        "1",
+    ]);
+    assert!(
+        !ok && stderr.contains("is a function of \"phv\", not \"PGA\""),
+        "{stderr}"
+    );
+}
