@@ -11,6 +11,7 @@ pub mod catalogue;
 pub mod dynamics;
 pub mod engine;
 pub mod ims;
+pub mod inventory;
 pub mod lhs;
 pub mod ode;
 pub mod pulse;
@@ -18,6 +19,7 @@ pub mod record;
 pub mod simulate;
 pub mod station_id;
 pub mod study;
+pub mod utc;
 
 /// Standard gravity g (m/s²): the unit of AT2 records and the gravity of the block dynamics.
 pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;
