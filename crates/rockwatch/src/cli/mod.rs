@@ -43,6 +43,7 @@ mod node;
 mod pulses;
 mod replay;
 mod simulate;
+mod stations;
 mod study;
 
 /// rockwatch: seismic monitoring of precariously balanced rocks and other freestanding blocks.
@@ -83,6 +84,8 @@ enum Command {
     /// Generate synthetic near-fault pulses (Mavroeidis & Papageorgiou 2003) and write one
     /// record file per pulse.
     Pulses(pulses::PulsesArgs),
+    /// Show StationXML channel epochs and whether each is usable (gain, orientation, units).
+    Stations(stations::StationsArgs),
     /// Reproduce and extend the seed paper's intensity-measure study (efficiency and
     /// sufficiency of 37 IMs for sliding and rocking blocks, vector IMs, fragility).
     Study(study::StudyArgs),
@@ -137,6 +140,7 @@ pub fn run() -> ExitCode {
         Command::Simulate(args) => simulate::run(args),
         Command::Pulses(args) => pulses::run(args),
         Command::Ims(args) => ims::run(args),
+        Command::Stations(args) => stations::run(args),
         Command::Study(args) => study::run(args),
     };
     match result {
