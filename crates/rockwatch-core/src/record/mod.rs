@@ -88,7 +88,16 @@ impl Record {
     /// Attaches a vertical component read from a second file (AT2 or a CSV `t,ax` whose
     /// single column is taken as vertical). The sampling interval and length must match.
     pub fn attach_vertical(&mut self, path: &Path) -> Result<(), RecordError> {
-        let vertical = Record::read(path)?;
+        self.attach_vertical_record(Record::read(path)?, path)
+    }
+
+    /// Attaches `vertical` (a single-component record, read from `path`) as the vertical
+    /// component. The sampling interval and length must match.
+    pub fn attach_vertical_record(
+        &mut self,
+        vertical: Record,
+        path: &Path,
+    ) -> Result<(), RecordError> {
         if vertical.vertical_mps2.is_some() {
             return Err(RecordError::new(
                 path,

@@ -487,8 +487,8 @@ pub fn read_single_channel_record(path: &Path) -> Result<Record, RecordError> {
             path,
             None,
             format!(
-                "channel {} holds integer counts, not m/s²: convert it with a gain \
-                 ((m/s²)/count) via rockwatch_core::record::mseed::read_mseed and Channel::to_record",
+                "channel {} holds integer counts, not m/s², and no gain is known: give the \
+                 station's StationXML (--stationxml), or convert it with Channel::to_record",
                 channel.id()
             ),
         ));
