@@ -4,10 +4,11 @@
 //! from the documents' text.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use rockwatch_core::inventory::{Inventory, LookupError, Unusable};
 use rockwatch_core::utc::parse_utc_ns;
+
+mod obspy_peer;
 
 fn data(name: &str) -> PathBuf {
     Path::new(concat!(
@@ -229,32 +230,8 @@ else:
     dump(sys.argv[2:])
 "#;
 
-/// Runs the script; None (with a printed reason) when python3 or ObsPy is missing, except
-/// under CI (`CI` set, where `.ci/run` installs ObsPy): there the test fails instead.
 fn obspy(args: &[&str]) -> Option<Vec<serde_json::Value>> {
-    let output = match Command::new("python3")
-        .arg("-c")
-        .arg(OBSPY_SCRIPT)
-        .args(args)
-        .output()
-    {
-        Ok(o) => o,
-        Err(e) => {
-            let reason = format!("python3 not available ({e}); install it and `pip install obspy`");
-            assert!(std::env::var_os("CI").is_none(), "{reason}");
-            println!("SKIPPED: {reason}");
-            return None;
-        }
-    };
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    if !output.status.success() && stderr.contains("No module named 'obspy'") {
-        let reason = "ObsPy not importable; run `pip install obspy`";
-        assert!(std::env::var_os("CI").is_none(), "{reason}");
-        println!("SKIPPED: {reason}");
-        return None;
-    }
-    assert!(output.status.success(), "ObsPy failed: {stderr}");
-    Some(serde_json::from_slice(&output.stdout).unwrap())
+    obspy_peer::run_obspy(OBSPY_SCRIPT, args).map(|out| serde_json::from_slice(&out).unwrap())
 }
 
 /// Our epochs equal ObsPy's, field by field (numbers exactly: both parse the same decimal

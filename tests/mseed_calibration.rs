@@ -12,6 +12,8 @@ use rockwatch::replay::{MseedCalibration, Traces};
 use rockwatch_core::engine::StationId;
 use rockwatch_core::inventory::Inventory;
 
+mod obspy_peer;
+
 fn data(rel: &str) -> PathBuf {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data")).join(rel)
 }
@@ -241,31 +243,13 @@ fn calibration_and_rotation_agree_with_obspy_to_1e_6() {
     let dir = tempfile::tempdir().unwrap();
     let xml = dir.path().join("tilted.xml");
     let counts = data("mseed/k2_STNA_HN123_counts.mseed");
-    let output = match Command::new("python3")
-        .args([
-            "-c",
-            OBSPY_ROTATE,
-            xml.to_str().unwrap(),
-            counts.to_str().unwrap(),
-        ])
-        .output()
-    {
-        Ok(o) => o,
-        Err(e) => {
-            let reason = format!("python3 not available ({e}); `pip install obspy`");
-            assert!(std::env::var_os("CI").is_none(), "{reason}");
-            println!("SKIPPED: {reason}");
-            return;
-        }
-    };
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    if !output.status.success() && stderr.contains("No module named 'obspy'") {
-        assert!(std::env::var_os("CI").is_none(), "ObsPy missing under CI");
-        println!("SKIPPED: ObsPy not importable; `pip install obspy`");
+    let Some(stdout) = obspy_peer::run_obspy(
+        OBSPY_ROTATE,
+        &[xml.to_str().unwrap(), counts.to_str().unwrap()],
+    ) else {
         return;
-    }
-    assert!(output.status.success(), "ObsPy failed: {stderr}");
-    let theirs: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    };
+    let theirs: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
     let inventory = Inventory::read(&xml).unwrap();
     let station = StationId::parse("XX.STN.").unwrap();
     let calibration =
