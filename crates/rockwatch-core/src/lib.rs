@@ -16,6 +16,7 @@ pub mod lhs;
 pub mod ode;
 pub mod pulse;
 pub mod record;
+pub mod seedlink;
 pub mod simulate;
 pub mod station_id;
 pub mod study;

@@ -14,5 +14,6 @@ pub mod plot;
 pub mod ports;
 pub mod replay;
 pub mod ros2;
+pub mod seedlink;
 pub mod study;
 pub mod wire_codes;
