@@ -6,6 +6,7 @@
 //! iceoryx2, the live node, files of state, CLI) is built on this crate and never the reverse.
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
+pub mod assembly;
 pub mod azimuth;
 pub mod catalogue;
 pub mod dynamics;
