@@ -18,8 +18,10 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use rockwatch::seedlink::{LinkCounters, ProtocolChoice, SeedLinkClient, SeedLinkConfig};
-use rockwatch_core::record::mseed::{parse_mseed, read_mseed};
+use rockwatch::seedlink::{
+    EachRecord, LinkCounters, ProtocolChoice, SeedLinkClient, SeedLinkConfig,
+};
+use rockwatch_core::record::mseed::{parse_mseed, read_mseed, Channel};
 use seedlink_rs_server::{DataStore, SeedLinkServer, ShutdownHandle};
 
 const K2: &str = concat!(
@@ -108,14 +110,17 @@ fn start_client(
     let (flag, out) = (Arc::clone(&stop), Arc::clone(out));
     let thread = std::thread::spawn(move || {
         client
-            .run(&flag, &mut |channel| {
-                let segment = &channel.segments[0];
-                out.lock().unwrap().push((
-                    channel.id(),
-                    segment.start_time_ns,
-                    segment.samples.clone(),
-                ));
-            })
+            .run(
+                &flag,
+                &mut EachRecord(|channel: &Channel| {
+                    let segment = &channel.segments[0];
+                    out.lock().unwrap().push((
+                        channel.id(),
+                        segment.start_time_ns,
+                        segment.samples.clone(),
+                    ));
+                }),
+            )
             .unwrap();
         client.counters()
     });
@@ -271,7 +276,9 @@ fn a_silent_server_is_dropped_after_the_idle_timeout_and_reconnected() {
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     let thread = std::thread::spawn(move || {
-        client.run(&flag, &mut |_| {}).unwrap();
+        client
+            .run(&flag, &mut EachRecord(|_: &Channel| {}))
+            .unwrap();
         client.counters()
     });
     std::thread::sleep(Duration::from_millis(1500));

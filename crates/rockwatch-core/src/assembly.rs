@@ -8,7 +8,8 @@
 //! - Its components are the channels of that code in the inventory at the first record's
 //!   time (2 horizontal, or 3); their gains and axes come from there, and are looked up again
 //!   when a record falls outside the cached epoch.
-//! - Grid: the first record's first sample is index 0; a record whose start is more than
+//! - Grid: the earliest record before the first packet is index 0; a record whose start is
+//!   more than
 //!   [`MAX_ALIGNMENT_OFFSET_SAMPLES`] of a sample off the grid, or at another rate, is refused.
 //! - Overlaps with what was emitted are trimmed (counted); gaps stay gaps (the engine bridges
 //!   or breaks them).
@@ -230,6 +231,18 @@ impl Assembler {
             }
             let mut k = k as i64;
             let mut samples = &segment.samples[..];
+            let limit = (self.config.max_buffer_s * station.rate_hz) as i64;
+            if k < 0 && station.sequence == 0 && -k <= limit {
+                // Nothing emitted yet: the grid starts at the earliest record (records of
+                // the components arrive in any order after a (re)start).
+                station.t0_ns = station.time_ns(k);
+                for c in &mut station.components {
+                    for _ in 0..-k {
+                        c.buffer.push_front(f64::NAN);
+                    }
+                }
+                k = 0;
+            }
             if k < station.emitted {
                 let skip = ((station.emitted - k) as usize).min(samples.len());
                 self.counters.overlap_samples += skip as u64;
@@ -239,7 +252,6 @@ impl Assembler {
             if samples.is_empty() {
                 continue;
             }
-            let limit = (self.config.max_buffer_s * station.rate_hz) as i64;
             let offset = (k - station.emitted) as usize;
             if (offset + samples.len()) as i64 > limit.max(1) {
                 // Too far ahead of a lagging component: give up waiting for the old data.
@@ -612,6 +624,27 @@ mod tests {
         let starts: Vec<(i64, usize)> = out.iter().map(|p| (p.start_time_ns, p.len())).collect();
         assert_eq!(starts, vec![(0, 4), (100_000_000, 4)]);
         assert_eq!(asm.counters().overlap_samples, 12);
+    }
+
+    #[test]
+    fn records_before_the_first_packet_move_the_grid_start_back() {
+        let mut asm = Assembler::new(inventory(), AssemblyConfig::default());
+        let x = [1.0; 4];
+        // After a restart the vertical's record from index 10 comes first, then the others
+        // from index 6.
+        let mut out = run(
+            &mut asm,
+            &[record("HN3", 10, &x), record("HN1", 6, &[2.0; 8])],
+            0,
+        );
+        out.extend(run(
+            &mut asm,
+            &[record("HN2", 6, &[3.0; 8]), record("HN3", 6, &x)],
+            0,
+        ));
+        assert_eq!(out.len(), 1);
+        assert_eq!((out[0].start_time_ns, out[0].len()), (60_000_000, 8));
+        assert_eq!(asm.counters().overlap_samples, 0);
     }
 
     #[test]

@@ -5,6 +5,7 @@
 //! `rockwatch_core`; this crate translates the outside world into calls on it.
 //! See ARCHITECTURE.md for the map of crates and modules.
 
+pub mod acquire;
 pub mod iox;
 pub mod journal;
 pub mod log_text;

@@ -35,6 +35,7 @@ pub fn stdout_failed(error: std::io::Error) -> ! {
     std::process::exit(1);
 }
 
+mod acquire;
 mod alerts;
 mod demo;
 mod ims;
@@ -63,6 +64,9 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Acquire stations from a SeedLink server (StationXML calibration) and publish them to
+    /// the node.
+    Acquire(acquire::AcquireArgs),
     /// List the alert history of a state directory.
     Alerts(alerts::AlertsArgs),
     // No doc comment here: a variant's doc comment replaces the long help, and `reset --help`
@@ -131,6 +135,7 @@ pub fn run() -> ExitCode {
         }
     };
     let result = match cli.command {
+        Command::Acquire(args) => acquire::run(args),
         Command::Alerts(args) => alerts::run_alerts(args),
         Command::Reset(args) => alerts::run_reset(args),
         Command::Demo(args) => demo::run(args),

@@ -159,6 +159,52 @@ pub struct LinkCounters {
     pub unselected: u64,
 }
 
+/// Where the client's records go.
+///
+/// Resume state is saved only for what the sink has finished with: a record is *committed*
+/// when [`RecordSink::record`] returns `false` (nothing held), or once
+/// [`RecordSink::published_until_ns`] of its station passes the record's end. A station's
+/// saved sequence number never passes a record that is not committed, so a record held when
+/// `acquire` is killed is fetched again on restart.
+pub trait RecordSink {
+    /// A new record of a selected stream (decoded: one channel, one record). `true` when the
+    /// sink holds some of its samples to publish later.
+    fn record(&mut self, record: &Channel) -> bool;
+    /// Time before which every sample of station `NET.STA.LOC` has been published (ns).
+    fn published_until_ns(&self, station: &str) -> Option<i64> {
+        let _ = station;
+        None
+    }
+    /// Called about every 100 ms (bounded waits, housekeeping).
+    fn tick(&mut self) {}
+}
+
+/// A sink that takes every record at once (nothing held).
+pub struct EachRecord<F: FnMut(&Channel)>(pub F);
+
+impl<F: FnMut(&Channel)> RecordSink for EachRecord<F> {
+    fn record(&mut self, record: &Channel) -> bool {
+        (self.0)(record);
+        false
+    }
+}
+
+/// A delivered record not yet committed.
+#[derive(Debug, Clone)]
+struct Pending {
+    /// `NET_STA` of the sequence number.
+    station_key: String,
+    /// `NET.STA.LOC` of the sink.
+    station: String,
+    stream: String,
+    sequence: u64,
+    protocol: Protocol,
+    advances: bool,
+    start_ns: i64,
+    /// End of the record (ns), when the sink holds some of it; `None`: nothing held.
+    held_until_ns: Option<i64>,
+}
+
 /// Most characters of server-supplied text (replies, errors) in a log line.
 const SERVER_TEXT_CHARS: usize = 300;
 
@@ -174,6 +220,8 @@ pub struct SeedLinkClient {
     state: ResumeState,
     state_file: Option<StateFile>,
     delivered: HashMap<String, DeliveredStarts>,
+    /// Delivered records, in order, whose samples the sink still holds.
+    pending: std::collections::VecDeque<Pending>,
     counters: LinkCounters,
     /// (kind, key) already logged: each problem is logged once per stream, then counted.
     logged: BTreeSet<(&'static str, String)>,
@@ -197,6 +245,7 @@ impl SeedLinkClient {
             state,
             state_file,
             delivered: HashMap::new(),
+            pending: std::collections::VecDeque::new(),
             counters: LinkCounters::default(),
             logged: BTreeSet::new(),
         })
@@ -213,20 +262,17 @@ impl SeedLinkClient {
         &self.state
     }
 
-    /// Runs until `stop` is set: connects, requests, calls `deliver` with every new record of
-    /// a selected stream (decoded, one channel, one record), reconnects after failures. The
-    /// state is saved after every batch and durably on return.
-    pub fn run(
-        &mut self,
-        stop: &AtomicBool,
-        deliver: &mut dyn FnMut(&Channel),
-    ) -> Result<(), String> {
+    /// Runs until `stop` is set: connects, requests, passes every new record of a selected
+    /// stream to `sink`, reconnects after failures. The state (what the sink has committed)
+    /// is saved after every batch and durably on return.
+    pub fn run(&mut self, stop: &AtomicBool, sink: &mut dyn RecordSink) -> Result<(), String> {
         let initial = Duration::from_secs_f64(self.config.reconnect_initial_s);
         let max = Duration::from_secs_f64(self.config.reconnect_max_s);
         let mut backoff = initial;
         while !stop.load(Ordering::Relaxed) {
             let delivered_before = self.counters.delivered;
-            let result = self.session(stop, deliver);
+            let result = self.session(stop, sink);
+            let _ = self.commit(sink);
             self.save(true)?;
             match result {
                 Ok(()) => break,
@@ -251,15 +297,48 @@ impl SeedLinkClient {
                 }
             }
         }
+        let _ = self.commit(sink);
         self.save(true)
     }
 
+    /// Moves what the sink has finished with from `pending` into the resume state; true if
+    /// anything moved.
+    fn commit(&mut self, sink: &dyn RecordSink) -> bool {
+        let mut moved = false;
+        while let Some(p) = self.pending.front() {
+            if let Some(end) = p.held_until_ns {
+                if sink.published_until_ns(&p.station).is_none_or(|t| t < end) {
+                    break;
+                }
+            }
+            if let Some(p) = self.pending.pop_front() {
+                self.commit_one(&p);
+                moved = true;
+            }
+        }
+        moved
+    }
+
+    fn commit_one(&mut self, p: &Pending) {
+        let latest = self
+            .state
+            .streams
+            .entry(p.stream.clone())
+            .or_insert(p.start_ns);
+        *latest = (*latest).max(p.start_ns);
+        if p.advances {
+            self.state.stations.insert(
+                p.station_key.clone(),
+                StationResume {
+                    sequence: p.sequence,
+                    protocol: p.protocol,
+                },
+            );
+        }
+    }
+
     /// One connection, until `stop` (`Ok`) or a failure.
-    fn session(
-        &mut self,
-        stop: &AtomicBool,
-        deliver: &mut dyn FnMut(&Channel),
-    ) -> Result<(), LinkError> {
+    fn session(&mut self, stop: &AtomicBool, sink: &mut dyn RecordSink) -> Result<(), LinkError> {
         let timeout = Duration::from_secs_f64(self.config.connect_timeout_s);
         let mut conn = Connection::open(&self.config.server, self.config.protocol, timeout)?;
         self.counters.connections += 1;
@@ -319,8 +398,8 @@ impl SeedLinkClient {
                 return Ok(());
             }
             let before = self.counters.packets;
-            let got =
-                conn.poll_frames(TICK, &mut |frame| self.on_frame(protocol, frame, deliver))?;
+            let got = conn.poll_frames(TICK, &mut |frame| self.on_frame(protocol, frame, sink))?;
+            sink.tick();
             if got {
                 last_packet = Instant::now();
             } else if last_packet.elapsed() > idle {
@@ -329,7 +408,8 @@ impl SeedLinkClient {
                     self.config.idle_timeout_s
                 )));
             }
-            if self.counters.packets > before {
+            let committed = self.commit(sink);
+            if self.counters.packets > before || committed {
                 let durable = last_durable.elapsed() >= DURABLE_EVERY;
                 self.save(durable).map_err(LinkError::Io)?;
                 if durable {
@@ -340,12 +420,7 @@ impl SeedLinkClient {
     }
 
     /// Judges and delivers one packet.
-    fn on_frame(
-        &mut self,
-        protocol: Protocol,
-        frame: Frame<'_>,
-        deliver: &mut dyn FnMut(&Channel),
-    ) {
+    fn on_frame(&mut self, protocol: Protocol, frame: Frame<'_>, sink: &mut dyn RecordSink) {
         self.counters.packets += 1;
         let Some(sequence) = frame.sequence.filter(|_| frame.is_miniseed_data()) else {
             self.counters.other_packets += 1;
@@ -408,16 +483,28 @@ impl SeedLinkClient {
                 }
                 Verdict::DeliverReordered => self.counters.reordered += 1,
             }
-            deliver(channel);
+            let held = sink.record(channel);
             delivered.insert(start_ns);
             self.counters.delivered += 1;
-            if let Some(latest) = delivered.latest() {
-                self.state.streams.insert(id, latest);
-            }
-            if verdict.advances_sequence() {
-                self.state
-                    .stations
-                    .insert(key, StationResume { sequence, protocol });
+            let samples: usize = channel.segments.iter().map(|s| s.samples.len()).sum();
+            let pending = Pending {
+                station_key: key,
+                station: format!("{}.{}.{}", channel.net, channel.sta, channel.loc),
+                stream: id,
+                sequence,
+                protocol,
+                advances: verdict.advances_sequence(),
+                start_ns,
+                held_until_ns: held.then(|| {
+                    start_ns
+                        + (samples as f64 * 1e9 / channel.sample_rate_hz.max(1e-9)).round() as i64
+                }),
+            };
+            if held || !self.pending.is_empty() {
+                // Held, or behind a held record: committed in order.
+                self.pending.push_back(pending);
+            } else {
+                self.commit_one(&pending);
             }
         }
     }
