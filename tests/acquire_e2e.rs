@@ -10,59 +10,15 @@
 //! for its ~0.05 m/s² to rock them, at several thresholds so alerts fall through the record.
 
 mod ros2_util;
+mod seedlink_server;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use rockwatch::iox::{IoxAlertSubscriber, IoxConfig};
-use rockwatch_core::record::mseed::parse_mseed;
 use ros2_util::{repo, rockwatch};
-use seedlink_rs_server::{DataStore, SeedLinkServer, ShutdownHandle};
-
-struct Server {
-    runtime: tokio::runtime::Runtime,
-    shutdown: ShutdownHandle,
-    store: DataStore,
-    addr: std::net::SocketAddr,
-}
-
-impl Server {
-    fn start() -> Server {
-        let runtime = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .enable_all()
-            .build()
-            .unwrap();
-        let server = runtime
-            .block_on(SeedLinkServer::bind("127.0.0.1:0"))
-            .unwrap();
-        let (addr, store) = (server.local_addr().unwrap(), server.store().clone());
-        let shutdown = server.shutdown_handle();
-        runtime.spawn(server.run());
-        Server {
-            runtime,
-            shutdown,
-            store,
-            addr,
-        }
-    }
-}
-
-fn records_in_time_order() -> Vec<Vec<u8>> {
-    let bytes = std::fs::read(repo().join("tests/data/mseed/k2_STNA_HN123_counts.mseed")).unwrap();
-    let mut records: Vec<(i64, Vec<u8>)> = bytes
-        .chunks(512)
-        .map(|r| {
-            (
-                parse_mseed(r, Path::new("r")).unwrap().channels[0].segments[0].start_time_ns,
-                r.to_vec(),
-            )
-        })
-        .collect();
-    records.sort_by_key(|(t, _)| *t);
-    records.into_iter().map(|(_, r)| r).collect()
-}
+use seedlink_server::{records_in_time_order, Server};
 
 /// Blocks on XX.STN. rocking from |a| = g·B/H (0.01 to 0.06 m/s²): with this record their
 /// alerts fall from 0 to about 10 s (3 overturn), before and after the SIGKILL at ~5 s.
@@ -162,7 +118,7 @@ fn seedlink_to_acquire_to_node_alerts_equal_monitor_across_a_sigkill_of_acquire(
         "the test needs alerts through the record: {expected:?}"
     );
 
-    let server = Server::start();
+    let server = Server::start("127.0.0.1:0");
     let id = std::process::id();
     let (accel, alerts_service) = (
         format!("rockwatch-acq-{id}/accel"),
@@ -231,9 +187,7 @@ fn seedlink_to_acquire_to_node_alerts_equal_monitor_across_a_sigkill_of_acquire(
     // 15 of 104 records (time order, ~3 records per second): about the first 5 s.
     let half = 15;
     let acquire_state = dir.path().join("acquire-state");
-    for r in &records[..half] {
-        server.store.push("XX", "STN", r).unwrap();
-    }
+    server.push(&records[..half]);
     let mut first = acquire(&acquire_config, &acquire_state);
     // Mid-stream: once something is committed, SIGKILL.
     let state_file = acquire_state.join(format!(
@@ -247,9 +201,7 @@ fn seedlink_to_acquire_to_node_alerts_equal_monitor_across_a_sigkill_of_acquire(
     }
     first.kill().unwrap(); // SIGKILL
     let first_stderr = stderr_of(first);
-    for r in &records[half..] {
-        server.store.push("XX", "STN", r).unwrap();
-    }
+    server.push(&records[half..]);
     let second = acquire(&acquire_config, &acquire_state);
 
     let deadline = Instant::now() + Duration::from_secs(40);
@@ -270,8 +222,7 @@ fn seedlink_to_acquire_to_node_alerts_equal_monitor_across_a_sigkill_of_acquire(
         .status();
     let _ = node.wait();
     let node_stderr = stderr_of(node);
-    server.shutdown.shutdown();
-    server.runtime.shutdown_timeout(Duration::from_secs(2));
+    server.stop();
 
     let context = format!(
         "\nfirst acquire:\n{first_stderr}\nsecond acquire:\n{second_stderr}\nnode:\n{node_stderr}"

@@ -10,6 +10,8 @@
 //! nothing (the v4 test selects whole stations, `XX.STN..*`, which sends no SELECT); commands
 //! end with CR LF; it refuses `DATA ALL start` (the client falls back to `DATA`, everything).
 
+mod seedlink_server;
+
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
 use std::path::Path;
@@ -21,66 +23,8 @@ use std::time::{Duration, Instant};
 use rockwatch::seedlink::{
     EachRecord, LinkCounters, ProtocolChoice, SeedLinkClient, SeedLinkConfig,
 };
-use rockwatch_core::record::mseed::{parse_mseed, read_mseed, Channel};
-use seedlink_rs_server::{DataStore, SeedLinkServer, ShutdownHandle};
-
-const K2: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../tests/data/mseed/k2_STNA_HN123_counts.mseed"
-);
-
-struct Server {
-    runtime: tokio::runtime::Runtime,
-    shutdown: ShutdownHandle,
-    store: DataStore,
-    addr: SocketAddr,
-}
-
-impl Server {
-    fn start(addr: &str) -> Server {
-        let runtime = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .enable_all()
-            .build()
-            .unwrap();
-        let server = runtime.block_on(SeedLinkServer::bind(addr)).unwrap();
-        let (addr, store) = (server.local_addr().unwrap(), server.store().clone());
-        let shutdown = server.shutdown_handle();
-        runtime.spawn(server.run());
-        Server {
-            runtime,
-            shutdown,
-            store,
-            addr,
-        }
-    }
-
-    fn push(&self, records: &[Vec<u8>]) {
-        for r in records {
-            self.store.push("XX", "STN", r).unwrap();
-        }
-    }
-
-    fn stop(self) {
-        self.shutdown.shutdown();
-        self.runtime.shutdown_timeout(Duration::from_secs(2));
-    }
-}
-
-/// The file's 512-byte records sorted by start time (stable: channel order at equal times).
-fn records_in_time_order() -> Vec<Vec<u8>> {
-    let bytes = std::fs::read(K2).unwrap();
-    assert_eq!(bytes.len() % 512, 0);
-    let mut records: Vec<(i64, Vec<u8>)> = bytes
-        .chunks(512)
-        .map(|r| {
-            let file = parse_mseed(r, Path::new("record")).unwrap();
-            (file.channels[0].segments[0].start_time_ns, r.to_vec())
-        })
-        .collect();
-    records.sort_by_key(|(t, _)| *t);
-    records.into_iter().map(|(_, r)| r).collect()
-}
+use rockwatch_core::record::mseed::{read_mseed, Channel};
+use seedlink_server::{records_in_time_order, Server, K2};
 
 type Received = Arc<Mutex<Vec<(String, i64, Vec<f64>)>>>;
 

@@ -109,7 +109,10 @@ struct StationAssembly {
 
 /// The assembler of every station.
 pub struct Assembler {
-    inventory: Inventory,
+    /// The inventory split by station (`NET.STA.LOC`): lookups scan one station's epochs.
+    inventory: HashMap<String, Inventory>,
+    /// For stations the inventory does not have.
+    empty: Inventory,
     config: AssemblyConfig,
     stations: HashMap<String, StationAssembly>,
     counters: AssemblyCounters,
@@ -118,8 +121,14 @@ pub struct Assembler {
 impl Assembler {
     #[must_use]
     pub fn new(inventory: Inventory, config: AssemblyConfig) -> Assembler {
+        let mut by_station: HashMap<String, Inventory> = HashMap::new();
+        for epoch in inventory.channels {
+            let key = format!("{}.{}.{}", epoch.network, epoch.station, epoch.location);
+            by_station.entry(key).or_default().channels.push(epoch);
+        }
         Assembler {
-            inventory,
+            inventory: by_station,
+            empty: Inventory::default(),
             config,
             stations: HashMap::new(),
             counters: AssemblyCounters::default(),
@@ -202,7 +211,8 @@ impl Assembler {
         // A new epoch (gain or axis changed): look up again and rebuild the rotation.
         let (from, to) = station.components[slot].valid;
         if from.is_some_and(|f| t_ns < f) || to.is_some_and(|e| t_ns >= e) {
-            let (calibration, valid) = lookup(&self.inventory, &id, t_ns, record.sample_rate_hz)?;
+            let inventory = self.inventory.get(&key).unwrap_or(&self.empty);
+            let (calibration, valid) = lookup(inventory, &id, t_ns, record.sample_rate_hz)?;
             station.components[slot].calibration = calibration;
             station.components[slot].valid = valid;
             let axes: Vec<_> = station
@@ -284,11 +294,11 @@ impl Assembler {
         start_ns: i64,
     ) -> Result<StationAssembly, RecordIssue> {
         let t_ns = i128::from(start_ns);
+        let inventory = self.inventory.get(key).unwrap_or(&self.empty);
         let id = StationId::parse(key).map_err(|e| RecordIssue::Grid(format!("{key}: {e}")))?;
         // The components: the inventory's channels of this band at this time, by code.
         let prefix = format!("{key}.{band}");
-        let mut codes: Vec<String> = self
-            .inventory
+        let mut codes: Vec<String> = inventory
             .channels
             .iter()
             .filter(|c| c.contains(t_ns))
@@ -299,11 +309,11 @@ impl Assembler {
         codes.dedup();
         if codes.is_empty() || !codes.contains(&record.id()) {
             // Names the channel: not in the inventory at all, or no epoch at this time.
-            lookup(&self.inventory, &record.id(), t_ns, record.sample_rate_hz)?;
+            lookup(inventory, &record.id(), t_ns, record.sample_rate_hz)?;
         }
         let mut components = Vec::with_capacity(codes.len());
         for code in &codes {
-            let (calibration, valid) = lookup(&self.inventory, code, t_ns, record.sample_rate_hz)?;
+            let (calibration, valid) = lookup(inventory, code, t_ns, record.sample_rate_hz)?;
             components.push(Component {
                 id: code.clone(),
                 calibration,
