@@ -6,19 +6,23 @@
 //! iceoryx2, the live node, files of state, CLI) is built on this crate and never the reverse.
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
+pub mod assembly;
 pub mod azimuth;
 pub mod catalogue;
 pub mod dynamics;
 pub mod engine;
 pub mod hazard;
 pub mod ims;
+pub mod inventory;
 pub mod lhs;
 pub mod ode;
 pub mod pulse;
 pub mod record;
+pub mod seedlink;
 pub mod simulate;
 pub mod station_id;
 pub mod study;
+pub mod utc;
 
 /// Standard gravity g (m/s²): the unit of AT2 records and the gravity of the block dynamics.
 pub const STANDARD_GRAVITY_MPS2: f64 = 9.80665;

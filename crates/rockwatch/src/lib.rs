@@ -5,6 +5,7 @@
 //! `rockwatch_core`; this crate translates the outside world into calls on it.
 //! See ARCHITECTURE.md for the map of crates and modules.
 
+pub mod acquire;
 pub mod alert_json;
 pub mod iox;
 pub mod journal;
@@ -16,6 +17,7 @@ pub mod plot;
 pub mod ports;
 pub mod replay;
 pub mod ros2;
+pub mod seedlink;
 pub mod signals;
 pub mod stderr_log;
 pub mod study;

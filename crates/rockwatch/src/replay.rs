@@ -4,11 +4,15 @@
 
 use std::path::Path;
 
+use crate::node_config::NodeConfig;
 use crate::ports::PacketSink;
-use rockwatch_core::azimuth::Azimuth;
+use rockwatch_core::azimuth::{Azimuth, ChannelsToEnu};
 use rockwatch_core::engine::packet::MAX_SAMPLES_PER_PACKET;
-use rockwatch_core::engine::{AccelPacket, StationId};
-use rockwatch_core::record::mseed::{align_channels, read_mseed, Channel, GapFill};
+use rockwatch_core::engine::{AccelPacket, Orientation, StationId};
+use rockwatch_core::inventory::Inventory;
+use rockwatch_core::record::mseed::{
+    align_channels, read_mseed, AlignedChannels, Channel, GapFill, SampleKind,
+};
 use rockwatch_core::record::{Record, RecordError, MAX_RECORD_SAMPLES};
 
 /// Longest quiet tail a replay or monitor run appends (s): one day.
@@ -24,6 +28,48 @@ pub fn check_packet_flags(packet_ms: u32, tail_s: f64) -> Result<(), String> {
         return Err(format!("--tail must be 0 to {MAX_TAIL_S} s, got {tail_s}"));
     }
     Ok(())
+}
+
+/// How the values of MiniSEED channels become m/s² on east/north/up
+/// ([`Traces::from_mseed`]).
+#[derive(Debug, Clone, Copy)]
+pub enum MseedCalibration<'a> {
+    /// Values as stored, channels 1/E, 2/N, 3/Z as east, north, up. Integer counts only when
+    /// `counts_have_gain`: the station's configured gain converts them downstream.
+    AsStored { counts_have_gain: bool },
+    /// Gains and sensor axes from StationXML.
+    Inventory(&'a Inventory),
+}
+
+impl<'a> MseedCalibration<'a> {
+    /// The calibration of `station`'s MiniSEED data: the inventory when given — then the
+    /// station's configuration must leave gain and orientation at their defaults, or the data
+    /// would be converted twice — else as stored, counts allowed when the configuration gives
+    /// the station a gain.
+    pub fn for_station(
+        inventory: Option<&'a Inventory>,
+        config: &NodeConfig,
+        station: &StationId,
+    ) -> Result<MseedCalibration<'a>, String> {
+        let configured = config.stations.iter().find(|s| &s.id == station);
+        let gain = configured.and_then(|s| s.gain_mps2_per_count);
+        match inventory {
+            Some(inventory) => {
+                if let Some(s) = configured {
+                    if gain.is_some() || s.orientation != Orientation::EastNorth {
+                        return Err(format!(
+                            "station {station}: --stationxml gives gains and orientation, so \
+                             the configuration must not set gain_mps2_per_count or orientation"
+                        ));
+                    }
+                }
+                Ok(MseedCalibration::Inventory(inventory))
+            }
+            None => Ok(MseedCalibration::AsStored {
+                counts_have_gain: gain.is_some(),
+            }),
+        }
+    }
 }
 
 /// Three aligned components (m/s², or counts for integer MiniSEED) with their timing.
@@ -57,14 +103,24 @@ impl Traces {
         }
     }
 
-    /// The channels of `station` in a MiniSEED file: …E or …1 as east, …N or …2 as north, …Z
-    /// or …3 as up (a missing horizontal is zero). Gaps inside the file are filled linearly;
-    /// the channels are aligned and cut to their common time window by
-    /// [`align_channels`] (same rate, sample instants within
+    /// The channels of `station` in a MiniSEED file: …E or …1 first, …N or …2 second, …Z or
+    /// …3 third (a missing horizontal is zero). Gaps inside the file are filled linearly; the
+    /// channels are aligned and cut to their common time window by [`align_channels`] (same
+    /// rate, sample instants within
     /// [`MAX_ALIGNMENT_OFFSET_SAMPLES`](rockwatch_core::record::mseed::MAX_ALIGNMENT_OFFSET_SAMPLES)
-    /// of a sample). Values are as stored (counts for integer encodings: the station's gain
-    /// converts them).
-    pub fn from_mseed(path: &Path, station: &StationId) -> Result<Traces, RecordError> {
+    /// of a sample). What the values become depends on `calibration`:
+    /// - [`MseedCalibration::AsStored`]: the first channel is east, the second north, the third
+    ///   up, values as stored. Integer (count) channels are refused, naming the channel, unless
+    ///   `counts_have_gain` (the station's configured gain converts them downstream).
+    /// - [`MseedCalibration::Inventory`]: each channel's gain, azimuth and dip come from the
+    ///   inventory epoch containing the first common sample (its rate must match); the counts
+    ///   are calibrated and rotated to m/s² on east/north/up ([`ChannelsToEnu`]), whatever the
+    ///   channels are called.
+    pub fn from_mseed(
+        path: &Path,
+        station: &StationId,
+        calibration: MseedCalibration<'_>,
+    ) -> Result<Traces, RecordError> {
         let err = |problem: String| RecordError::new(path, None, problem);
         let file = read_mseed(path)?;
         let mine: Vec<&Channel> = file
@@ -86,10 +142,29 @@ impl Traces {
                 "station {station} has no horizontal channel (…E/…N or …1/…2)"
             )));
         }
-        // Values as stored: gain 1.
+        if let MseedCalibration::AsStored {
+            counts_have_gain: false,
+        } = calibration
+        {
+            if let Some(c) = picked
+                .iter()
+                .flatten()
+                .find(|c| c.sample_kind != SampleKind::Float)
+            {
+                return Err(err(format!(
+                    "channel {} holds integer counts and no gain is known: give --stationxml \
+                     FILE, or the station's gain_mps2_per_count in the configuration",
+                    c.id()
+                )));
+            }
+        }
+        // Values as stored (gain 1): the inventory's gains, signs included, are applied below.
         let present: Vec<(&Channel, f64)> = picked.iter().flatten().map(|&c| (c, 1.0)).collect();
         let aligned = align_channels(&present, GapFill::Linear)?;
         let len = aligned.samples[0].len();
+        if let MseedCalibration::Inventory(inventory) = calibration {
+            return Self::calibrated(aligned, &present, inventory).map_err(err);
+        }
         let mut series = aligned.samples.into_iter();
         let [east, north, up] = picked.map(|c| c.and_then(|_| series.next()));
         Ok(Traces {
@@ -97,6 +172,48 @@ impl Traces {
             rate_hz: aligned.sample_rate_hz,
             east: east.unwrap_or_else(|| vec![0.0; len]),
             north: north.unwrap_or_else(|| vec![0.0; len]),
+            up,
+        })
+    }
+
+    /// Aligned raw channels calibrated and rotated to east/north/up with the inventory.
+    fn calibrated(
+        aligned: AlignedChannels,
+        channels: &[(&Channel, f64)],
+        inventory: &Inventory,
+    ) -> Result<Traces, String> {
+        let mut axes = Vec::with_capacity(channels.len());
+        for (channel, _) in channels {
+            let cal = inventory
+                .calibration_at(
+                    &channel.id(),
+                    i128::from(aligned.start_time_ns),
+                    aligned.sample_rate_hz,
+                )
+                .map_err(|e| e.to_string())?;
+            axes.push((cal.axis, cal.gain_mps2_per_count));
+        }
+        let ids: Vec<String> = channels.iter().map(|(c, _)| c.id()).collect();
+        let to_enu =
+            ChannelsToEnu::new(&axes).map_err(|e| format!("channels {}: {e}", ids.join(", ")))?;
+        let len = aligned.samples[0].len();
+        let (mut east, mut north) = (Vec::with_capacity(len), Vec::with_capacity(len));
+        let mut up = to_enu.has_up().then(|| Vec::with_capacity(len));
+        let s = &aligned.samples;
+        for i in 0..len {
+            let reading = [s[0][i], s[1][i], s.get(2).map_or(0.0, |c| c[i])];
+            let [e, n, u] = to_enu.apply(reading);
+            east.push(e);
+            north.push(n);
+            if let Some(up) = &mut up {
+                up.push(u);
+            }
+        }
+        Ok(Traces {
+            start_ns: aligned.start_time_ns,
+            rate_hz: aligned.sample_rate_hz,
+            east,
+            north,
             up,
         })
     }

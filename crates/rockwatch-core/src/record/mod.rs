@@ -83,36 +83,33 @@ impl Record {
 
     /// Checks that the record is within the bounds every tool relies on: sampling interval in
     /// [`DT_RANGE_S`], 1 to [`MAX_RECORD_SAMPLES`] samples, every value finite and within
-    /// ±[`MAX_ABS_ACCEL_MPS2`]. The message names the first problem (not the file).
-    pub fn check_bounds(&self) -> Result<(), String> {
+    /// ±[`MAX_ABS_ACCEL_MPS2`]. The error names the first problem (not the file).
+    pub fn check_bounds(&self) -> Result<(), RecordBoundsError> {
         let (lo, hi) = DT_RANGE_S;
         if !(self.dt_s.is_finite() && (lo..=hi).contains(&self.dt_s)) {
-            return Err(format!(
-                "sampling interval {:?} s is outside [{lo}, {hi}] s (1 Hz to 10 kHz)",
-                self.dt_s
-            ));
+            return Err(RecordBoundsError::SamplingInterval { dt_s: self.dt_s });
         }
         if self.is_empty() || self.len() > MAX_RECORD_SAMPLES {
-            return Err(format!(
-                "{} samples: a record holds 1 to {MAX_RECORD_SAMPLES}",
-                self.len()
-            ));
+            return Err(RecordBoundsError::Length {
+                samples: self.len(),
+            });
         }
         let components = [
             ("horizontal", Some(&self.horizontal_mps2)),
             ("vertical", self.vertical_mps2.as_ref()),
         ];
-        for (name, values) in components {
+        for (component, values) in components {
             let Some(values) = values else { continue };
-            if let Some((i, a)) = values
+            if let Some((index, &value)) = values
                 .iter()
                 .enumerate()
                 .find(|(_, a)| !a.is_finite() || a.abs() > MAX_ABS_ACCEL_MPS2)
             {
-                return Err(format!(
-                    "{name} sample {i} = {a:?} m/s² is beyond ±{MAX_ABS_ACCEL_MPS2} m/s² (100 g): \
-                     corrupt data or wrong units"
-                ));
+                return Err(RecordBoundsError::Value {
+                    component,
+                    index,
+                    value,
+                });
             }
         }
         Ok(())
@@ -128,7 +125,7 @@ impl Record {
         let record = Self::read_unchecked(path)?;
         record
             .check_bounds()
-            .map_err(|problem| RecordError::new(path, None, problem))?;
+            .map_err(|problem| RecordError::new(path, None, problem.to_string()))?;
         Ok(record)
     }
 
@@ -149,7 +146,16 @@ impl Record {
     /// Attaches a vertical component read from a second file (AT2 or a CSV `t,ax` whose
     /// single column is taken as vertical). The sampling interval and length must match.
     pub fn attach_vertical(&mut self, path: &Path) -> Result<(), RecordError> {
-        let vertical = Record::read(path)?;
+        self.attach_vertical_record(Record::read(path)?, path)
+    }
+
+    /// Attaches `vertical` (a single-component record, read from `path`) as the vertical
+    /// component. The sampling interval and length must match.
+    pub fn attach_vertical_record(
+        &mut self,
+        vertical: Record,
+        path: &Path,
+    ) -> Result<(), RecordError> {
         if vertical.vertical_mps2.is_some() {
             return Err(RecordError::new(
                 path,
@@ -217,6 +223,24 @@ impl fmt::Display for RecordError {
 }
 
 impl std::error::Error for RecordError {}
+
+/// A record outside the bounds every tool relies on ([`Record::check_bounds`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RecordBoundsError {
+    /// The sampling interval is outside [`DT_RANGE_S`].
+    #[error("sampling interval {dt_s:?} s is outside [{}, {}] s (1 Hz to 10 kHz)", DT_RANGE_S.0, DT_RANGE_S.1)]
+    SamplingInterval { dt_s: f64 },
+    /// Empty, or more than [`MAX_RECORD_SAMPLES`] samples.
+    #[error("{samples} samples: a record holds 1 to {MAX_RECORD_SAMPLES}")]
+    Length { samples: usize },
+    /// A value is not finite or beyond ±[`MAX_ABS_ACCEL_MPS2`].
+    #[error("{component} sample {index} = {value:?} m/s² is beyond ±{MAX_ABS_ACCEL_MPS2} m/s² (100 g): corrupt data or wrong units")]
+    Value {
+        component: &'static str,
+        index: usize,
+        value: f64,
+    },
+}
 
 fn extension_lowercase(path: &Path) -> Option<String> {
     path.extension()

@@ -1,12 +1,14 @@
 //! `rockwatch ims`: intensity measures of a record, as a table or as JSON.
 
-use anyhow::Context;
+use anyhow::{bail, Context};
 use rockwatch_core::ims::baseline::{pre_event, remove_offset};
 use rockwatch_core::ims::spectrum::format_period_s;
 use rockwatch_core::ims::{compute_ims, ImOptions, ImSet, DEFAULT_SA_PERIODS_S};
+use rockwatch_core::inventory::Inventory;
+use rockwatch_core::record::mseed::{read_mseed, Channel, GapFill};
 use rockwatch_core::record::{Record, STANDARD_GRAVITY_MPS2};
 use serde::ser::{Serialize, SerializeMap, Serializer};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::OutputFormat as Format;
 
@@ -32,6 +34,12 @@ pub struct ImsArgs {
     /// record; its IMs are reported too (JSON key `vertical`).
     #[arg(long, value_name = "FILE")]
     pub vertical: Option<PathBuf>,
+
+    /// StationXML documents giving the gain of MiniSEED --record/--vertical channels, so that
+    /// integer counts become m/s² (the epoch in force at the record's start; acceleration
+    /// units only; its sampling rate must match). See docs/stationxml.md.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    pub stationxml: Vec<PathBuf>,
 
     /// Comma-separated periods (s) at which SA is reported
     /// [default: 0.1,0.2,0.3,0.5,1.0,1.5,2.0,2.5,3.0].
@@ -63,10 +71,17 @@ pub struct ImsArgs {
 
 /// Runs `rockwatch ims`.
 pub fn run(args: ImsArgs) -> anyhow::Result<()> {
-    let mut record = Record::read(&args.record).context("cannot read the record")?;
+    let inventory = match args.stationxml.as_slice() {
+        [] => None,
+        files => Some(Inventory::read_all(files)?),
+    };
+    let mut record =
+        read_record(&args.record, inventory.as_ref()).context("cannot read the record")?;
     if let Some(path) = &args.vertical {
+        let vertical =
+            read_record(path, inventory.as_ref()).context("cannot read the vertical record")?;
         record
-            .attach_vertical(path)
+            .attach_vertical_record(vertical, path)
             .context("cannot use the vertical record")?;
     }
     let options = ImOptions {
@@ -136,6 +151,43 @@ fn check_baseline(source: &str, component: &str, a: &mut [f64], dt_s: f64, demea
             100.0 * pre.mean.abs() / pre.peak
         );
     }
+}
+
+/// Reads a record; with an inventory, a MiniSEED file must hold one channel, calibrated to
+/// m/s² with its gain from the inventory (integer counts or floats alike).
+fn read_record(path: &Path, inventory: Option<&Inventory>) -> anyhow::Result<Record> {
+    let is_mseed = matches!(
+        path.extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref(),
+        Some("mseed" | "ms" | "miniseed")
+    );
+    let (Some(inventory), true) = (inventory, is_mseed) else {
+        return Ok(Record::read(path)?);
+    };
+    let file = read_mseed(path)?;
+    let [channel] = file.channels.as_slice() else {
+        let ids: Vec<String> = file.channels.iter().map(Channel::id).collect();
+        bail!(
+            "{}: holds {} channels ({}); a record file must hold exactly one",
+            path.display(),
+            ids.len(),
+            ids.join(", ")
+        );
+    };
+    let start_ns = channel.segments.first().map_or(0, |s| s.start_time_ns);
+    let gain = inventory
+        .calibration_at(&channel.id(), i128::from(start_ns), channel.sample_rate_hz)
+        .with_context(|| path.display().to_string())?
+        .gain_mps2_per_count;
+    // The gain's magnitude through the reader's conversion, then its sign (reversed polarity).
+    let mut record = channel.to_record(gain.abs(), GapFill::Reject)?;
+    if gain < 0.0 {
+        record.horizontal_mps2.iter_mut().for_each(|a| *a = -*a);
+    }
+    record.source = path.display().to_string();
+    Ok(record)
 }
 
 /// Writes to standard output; a closed pipe (e.g. `| head`) is not an error.

@@ -35,6 +35,7 @@ pub fn stdout_failed(error: std::io::Error) -> ! {
     std::process::exit(1);
 }
 
+mod acquire;
 mod alerts;
 mod demo;
 mod hazard;
@@ -44,6 +45,7 @@ mod node;
 mod pulses;
 mod replay;
 mod simulate;
+mod stations;
 mod study;
 
 /// rockwatch: seismic monitoring of precariously balanced rocks and other freestanding blocks.
@@ -63,6 +65,9 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Acquire stations from a SeedLink server (StationXML calibration) and publish them to
+    /// the node.
+    Acquire(acquire::AcquireArgs),
     /// List the alert history of a state directory.
     Alerts(alerts::AlertsArgs),
     // No doc comment here: a variant's doc comment replaces the long help, and `reset --help`
@@ -84,6 +89,8 @@ enum Command {
     /// Generate synthetic near-fault pulses (Mavroeidis & Papageorgiou 2003) and write one
     /// record file per pulse.
     Pulses(pulses::PulsesArgs),
+    /// Show StationXML channel epochs and whether each is usable (gain, orientation, units).
+    Stations(stations::StationsArgs),
     /// Reproduce and extend the seed paper's intensity-measure study (efficiency and
     /// sufficiency of 37 IMs for sliding and rocking blocks, vector IMs, fragility).
     Study(study::StudyArgs),
@@ -134,6 +141,7 @@ pub fn run() -> ExitCode {
     // RustDDS and ros2-client log through the `log` facade: their errors reach stderr.
     rockwatch::stderr_log::init();
     let result = match cli.command {
+        Command::Acquire(args) => acquire::run(args),
         Command::Alerts(args) => alerts::run_alerts(args),
         Command::Reset(args) => alerts::run_reset(args),
         Command::Demo(args) => demo::run(args),
@@ -143,6 +151,7 @@ pub fn run() -> ExitCode {
         Command::Simulate(args) => simulate::run(args),
         Command::Pulses(args) => pulses::run(args),
         Command::Ims(args) => ims::run(args),
+        Command::Stations(args) => stations::run(args),
         Command::Study(args) => study::run(args),
         Command::Hazard(args) => hazard::run(args),
     };

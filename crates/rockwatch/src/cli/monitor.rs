@@ -12,11 +12,12 @@ use rockwatch::log_text::{printable, STATION_CHARS};
 use rockwatch::node::{NodeOptions, NodeRuntime, NoticeLog};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::Publication;
-use rockwatch::replay::Traces;
+use rockwatch::replay::{MseedCalibration, Traces};
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{
     Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StreamCounters,
 };
+use rockwatch_core::inventory::Inventory;
 use rockwatch_core::record::Record;
 
 /// Run the monitoring engine over a record: "which of my rocks should have toppled?".
@@ -44,10 +45,16 @@ pub struct MonitorArgs {
     /// Direction of --record's component, degrees clockwise from north (90 = east).
     #[arg(long, default_value_t = 90.0, value_name = "DEG", requires = "record")]
     azimuth: f64,
-    /// MiniSEED file with the station's channels (E/N/Z or 1/2/3; integer data need the
-    /// station's gain in the configuration). Gaps inside the file are filled linearly.
+    /// MiniSEED file with the station's channels (E/N/Z or 1/2/3). Integer counts need a gain:
+    /// --stationxml, or the station's gain_mps2_per_count in the configuration; without one
+    /// they are refused. Gaps inside the file are filled linearly.
     #[arg(long, value_name = "FILE")]
     mseed: Option<PathBuf>,
+    /// StationXML documents giving each --mseed channel's gain, azimuth and dip (the epoch in
+    /// force at the data's start; its sampling rate must match): counts become m/s² on
+    /// east/north/up, whatever the channels are called. See docs/stationxml.md.
+    #[arg(long, value_name = "FILE", num_args = 1.., requires = "mseed")]
+    stationxml: Vec<PathBuf>,
     /// Station the data belong to (NET.STA.LOC).
     #[arg(long, value_name = "ID")]
     station: String,
@@ -98,8 +105,11 @@ enum MonitorInput {
         vertical: Option<PathBuf>,
         azimuth: Azimuth,
     },
-    /// A MiniSEED file with the station's channels.
-    Mseed(PathBuf),
+    /// A MiniSEED file with the station's channels, and the station's inventory (if given).
+    Mseed {
+        path: PathBuf,
+        inventory: Option<Inventory>,
+    },
 }
 
 /// What a monitoring run leaves once its alerts have been reported.
@@ -195,7 +205,13 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
             vertical: args.vertical,
             azimuth: Azimuth::from_degrees(args.azimuth)?,
         },
-        (None, Some(path)) => MonitorInput::Mseed(path),
+        (None, Some(path)) => MonitorInput::Mseed {
+            path,
+            inventory: match args.stationxml.as_slice() {
+                [] => None,
+                files => Some(Inventory::read_all(files)?),
+            },
+        },
         (None, None) => bail!("give --record FILE or --mseed FILE"),
     };
     Ok(MonitorPlan {
@@ -210,7 +226,11 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
 }
 
 /// Reads the input as the station's traces.
-fn read_traces(input: &MonitorInput, station: &StationId) -> anyhow::Result<Traces> {
+fn read_traces(
+    input: &MonitorInput,
+    config: &NodeConfig,
+    station: &StationId,
+) -> anyhow::Result<Traces> {
     Ok(match input {
         MonitorInput::Record {
             path,
@@ -223,7 +243,11 @@ fn read_traces(input: &MonitorInput, station: &StationId) -> anyhow::Result<Trac
             }
             Traces::from_record(&record, *azimuth)
         }
-        MonitorInput::Mseed(path) => Traces::from_mseed(path, station)?,
+        MonitorInput::Mseed { path, inventory } => {
+            let calibration = MseedCalibration::for_station(inventory.as_ref(), config, station)
+                .map_err(anyhow::Error::msg)?;
+            Traces::from_mseed(path, station, calibration)?
+        }
     })
 }
 
@@ -240,7 +264,7 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
         tail_s,
         format,
     } = plan;
-    let traces = read_traces(&input, &station)?;
+    let traces = read_traces(&input, &options.config, &station)?;
     traces
         .check_packets(packet_ms, tail_s)
         .map_err(anyhow::Error::msg)?;

@@ -8,10 +8,11 @@ use anyhow::{bail, Context};
 use rockwatch::iox::IoxPacketSink;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::PacketSink;
-use rockwatch::replay::{replay, Restamp, Speed, Traces};
+use rockwatch::replay::{replay, MseedCalibration, Restamp, Speed, Traces};
 use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::StationId;
+use rockwatch_core::inventory::Inventory;
 use rockwatch_core::pulse::{sample_pulses, PulseScenario};
 use rockwatch_core::record::Record;
 
@@ -48,9 +49,15 @@ pub struct ReplayArgs {
     /// Vertical component for --record (AT2 or CSV, same dt and length).
     #[arg(long, value_name = "FILE", requires = "record")]
     vertical: Option<PathBuf>,
-    /// MiniSEED file with the station's channels (E/N/Z or 1/2/3).
+    /// MiniSEED file with the station's channels (E/N/Z or 1/2/3). Integer counts need a gain:
+    /// --stationxml, or the station's gain_mps2_per_count in --config (the node's
+    /// configuration, which then converts them); without one they are refused.
     #[arg(long, value_name = "FILE")]
     mseed: Option<PathBuf>,
+    /// StationXML documents giving each --mseed channel's gain, azimuth and dip: the packets
+    /// are sent in m/s² on east/north/up. See docs/stationxml.md.
+    #[arg(long, value_name = "FILE", num_args = 1.., requires = "mseed")]
+    stationxml: Vec<PathBuf>,
     /// A synthetic Mavroeidis–Papageorgiou pulse drawn for --mw and --r-km with --seed.
     #[arg(long, requires_all = ["mw", "r_km"])]
     synthetic: bool,
@@ -102,7 +109,7 @@ pub struct ReplayArgs {
 }
 
 /// The traces the arguments describe, scaled.
-fn traces(args: &ReplayArgs, station: &StationId) -> anyhow::Result<Traces> {
+fn traces(args: &ReplayArgs, config: &NodeConfig, station: &StationId) -> anyhow::Result<Traces> {
     let mut traces = if let Some(path) = &args.record {
         let mut record = Record::read(path)?;
         if let Some(v) = &args.vertical {
@@ -110,7 +117,13 @@ fn traces(args: &ReplayArgs, station: &StationId) -> anyhow::Result<Traces> {
         }
         Traces::from_record(&record, Azimuth::from_degrees(args.azimuth)?)
     } else if let Some(path) = &args.mseed {
-        Traces::from_mseed(path, station)?
+        let inventory = match args.stationxml.as_slice() {
+            [] => None,
+            files => Some(Inventory::read_all(files)?),
+        };
+        let calibration = MseedCalibration::for_station(inventory.as_ref(), config, station)
+            .map_err(anyhow::Error::msg)?;
+        Traces::from_mseed(path, station, calibration)?
     } else {
         let (Some(mw), Some(r_km)) = (args.mw, args.r_km) else {
             bail!("--synthetic needs --mw and --r-km");
@@ -144,9 +157,13 @@ fn traces(args: &ReplayArgs, station: &StationId) -> anyhow::Result<Traces> {
 }
 
 /// Replays `args` through `sink` and prints what was sent.
-pub fn replay_through(args: &ReplayArgs, sink: &mut dyn PacketSink) -> anyhow::Result<()> {
+pub fn replay_through(
+    args: &ReplayArgs,
+    config: &NodeConfig,
+    sink: &mut dyn PacketSink,
+) -> anyhow::Result<()> {
     let station = StationId::parse(&args.station)?;
-    let traces = traces(args, &station)?;
+    let traces = traces(args, config, &station)?;
     traces
         .check_packets(args.packet_ms, args.tail)
         .map_err(anyhow::Error::msg)?;
@@ -199,7 +216,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
             if args.wait_s.is_finite() && args.wait_s >= 0.0 {
                 sink.set_wait(Duration::from_secs_f64(args.wait_s));
             }
-            replay_through(&args, &mut sink)
+            replay_through(&args, &config, &mut sink)
         }
         Transport::Iceoryx2 => {
             if config.iceoryx2.config_file.is_none() {
@@ -209,7 +226,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
                 );
             }
             let mut sink = IoxPacketSink::new(&config.iceoryx2)?;
-            replay_through(&args, &mut sink)
+            replay_through(&args, &config, &mut sink)
         }
     }
 }

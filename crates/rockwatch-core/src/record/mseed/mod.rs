@@ -488,10 +488,10 @@ pub fn read_single_channel_record(path: &Path) -> Result<Record, RecordError> {
             path,
             None,
             format!(
-                "channel {} holds integer counts, not m/s², and this command has no gain \
-                 for it: convert the file to m/s² (counts × gain in (m/s²)/count), or run \
-                 `rockwatch monitor --mseed FILE --config CONFIG` with the station's \
-                 `gain_mps2_per_count`",
+                "channel {} holds integer counts, not m/s², and no gain is known for it: give \
+                 the station's StationXML (--stationxml FILE), or the station's \
+                 `gain_mps2_per_count` in the configuration (rockwatch monitor --config), or \
+                 convert the file to m/s² (counts × gain in (m/s²)/count)",
                 channel.id()
             ),
         ));
@@ -525,29 +525,11 @@ fn samples_to_ns(count: usize, rate_hz: f64) -> i64 {
     (count as f64 * NS_PER_S as f64 / rate_hz).round() as i64
 }
 
-/// Formats ns since the epoch as ISO 8601 UTC (`YYYY-MM-DDThh:mm:ss.fffffffffZ`).
+/// Formats ns since the epoch as ISO 8601 UTC (`YYYY-MM-DDThh:mm:ss.fffffffffZ`); see
+/// [`format_utc_ns`](crate::utc::format_utc_ns).
 #[must_use]
 pub fn format_time_ns(t_ns: i64) -> String {
-    let secs = t_ns.div_euclid(NS_PER_S);
-    let ns = t_ns.rem_euclid(NS_PER_S);
-    let days = secs.div_euclid(86_400);
-    let rem = secs.rem_euclid(86_400);
-    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{ns:09}Z",
-        rem / 3600,
-        rem / 60 % 60,
-        rem % 60
-    )
+    crate::utc::format_utc_ns(i128::from(t_ns))
 }
 
 #[cfg(test)]

@@ -1,0 +1,528 @@
+//! SeedLink acquisition: a reconnecting client ([`SeedLinkClient`]) around one connection
+//! ([`connection::Connection`]) with its resume state in the state directory
+//! ([`state::StateFile`]). The protocol logic that needs no socket (packets, selections,
+//! sequence numbers, duplicates) is `rockwatch_core::seedlink`. See docs/seedlink.md.
+//!
+//! Guarantees: the client reconnects with exponential backoff after EOF, a timeout (no packet
+//! for `idle_timeout_s`) or an I/O error; resumes each station after its last sequence number
+//! (saved atomically after every batch of packets); drops duplicates by (stream, record start
+//! time), so a packet sent again after a reconnect or a restart of `acquire` is delivered
+//! once; and recognises a restarted server whose numbers start again (new data behind the
+//! last number) instead of dropping its packets as duplicates.
+
+pub mod connection;
+pub mod state;
+
+use std::collections::{BTreeSet, HashMap};
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use rockwatch_core::record::mseed::{parse_mseed, Channel};
+use rockwatch_core::seedlink::frame::Frame;
+use rockwatch_core::seedlink::select::StreamPattern;
+use rockwatch_core::seedlink::sequence::{judge, DeliveredStarts, Verdict};
+use rockwatch_core::seedlink::Protocol;
+
+use crate::log_text::{printable, STATION_CHARS};
+use connection::{Connection, Resume};
+use state::{ResumeState, StateFile, StationResume};
+
+/// Which protocol to speak.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ProtocolChoice {
+    /// v4 when the server offers it, else v3.
+    #[default]
+    Auto,
+    V3,
+    V4,
+}
+
+impl<'de> serde::Deserialize<'de> for ProtocolChoice {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(serde::Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Text(String),
+            Number(i64),
+        }
+        match Raw::deserialize(d)? {
+            Raw::Text(t) if t == "auto" => Ok(ProtocolChoice::Auto),
+            Raw::Text(t) if t == "3" => Ok(ProtocolChoice::V3),
+            Raw::Text(t) if t == "4" => Ok(ProtocolChoice::V4),
+            Raw::Number(3) => Ok(ProtocolChoice::V3),
+            Raw::Number(4) => Ok(ProtocolChoice::V4),
+            _ => Err(serde::de::Error::custom(
+                "protocol must be \"auto\", 3 or 4",
+            )),
+        }
+    }
+}
+
+/// The `[seedlink]` section of the acquisition configuration.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeedLinkConfig {
+    /// `HOST:PORT` of the SeedLink server.
+    pub server: String,
+    /// `NET.STA.LOC.CHA` patterns (`?`, `*` wildcards).
+    pub streams: Vec<String>,
+    /// `"auto"` (v4 when offered, else v3), 3 or 4.
+    #[serde(default)]
+    pub protocol: ProtocolChoice,
+    /// Seconds allowed for connecting and for each response during negotiation.
+    #[serde(default = "default_connect_timeout_s")]
+    pub connect_timeout_s: f64,
+    /// Seconds without any packet after which the connection is dropped and made again.
+    #[serde(default = "default_idle_timeout_s")]
+    pub idle_timeout_s: f64,
+    /// First wait before reconnecting (s); doubled after each failure up to
+    /// `reconnect_max_s`, back to this after a connection that delivered data.
+    #[serde(default = "default_reconnect_initial_s")]
+    pub reconnect_initial_s: f64,
+    #[serde(default = "default_reconnect_max_s")]
+    pub reconnect_max_s: f64,
+}
+
+fn default_connect_timeout_s() -> f64 {
+    10.0
+}
+fn default_idle_timeout_s() -> f64 {
+    120.0
+}
+fn default_reconnect_initial_s() -> f64 {
+    1.0
+}
+fn default_reconnect_max_s() -> f64 {
+    30.0
+}
+
+impl SeedLinkConfig {
+    /// The stream patterns, checked; and the durations in range.
+    pub fn patterns(&self) -> Result<Vec<StreamPattern>, String> {
+        if self.streams.is_empty() {
+            return Err("seedlink.streams is empty: list NET.STA.LOC.CHA patterns".into());
+        }
+        for (key, v, max) in [
+            ("connect_timeout_s", self.connect_timeout_s, 3600.0),
+            ("idle_timeout_s", self.idle_timeout_s, 86_400.0),
+            ("reconnect_initial_s", self.reconnect_initial_s, 3600.0),
+            ("reconnect_max_s", self.reconnect_max_s, 86_400.0),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v <= max) {
+                return Err(format!("seedlink.{key} = {v} is out of range (0, {max}] s"));
+            }
+        }
+        self.streams
+            .iter()
+            .map(|s| StreamPattern::parse(s).map_err(|e| format!("seedlink.streams: {e}")))
+            .collect()
+    }
+}
+
+/// Why a connection ended.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LinkError {
+    #[error("{0}")]
+    Io(String),
+    #[error("the server closed the connection")]
+    Eof,
+    #[error("timeout: {0}")]
+    Timeout(String),
+    #[error("refused: {0}")]
+    Refused(String),
+    #[error("protocol error: {0}")]
+    Protocol(String),
+}
+
+/// What the client did (monotonic counters).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct LinkCounters {
+    pub connections: u64,
+    pub disconnects: u64,
+    pub packets: u64,
+    pub delivered: u64,
+    pub duplicates: u64,
+    /// Sequence numbers skipped (gaps in the server's ring, or other stations' packets on a
+    /// server with one sequence for all).
+    pub missing_sequences: u64,
+    pub server_resets: u64,
+    /// Connections on which the server's start time had changed (a restart): the stations
+    /// resumed by time, not by sequence number.
+    pub server_restarts: u64,
+    pub reordered: u64,
+    /// Packets that are not MiniSEED data (INFO, JSON, …).
+    pub other_packets: u64,
+    /// Records that could not be decoded.
+    pub malformed: u64,
+    /// Records of streams no pattern selects.
+    pub unselected: u64,
+}
+
+/// Where the client's records go.
+///
+/// Resume state is saved only for what the sink has finished with: a record is *committed*
+/// when [`RecordSink::record`] returns `false` (nothing held), or once
+/// [`RecordSink::published_until_ns`] of its station passes the record's end. A station's
+/// saved sequence number never passes a record that is not committed, so a record held when
+/// `acquire` is killed is fetched again on restart.
+pub trait RecordSink {
+    /// A new record of a selected stream (decoded: one channel, one record). `true` when the
+    /// sink holds some of its samples to publish later.
+    fn record(&mut self, record: &Channel) -> bool;
+    /// Time before which every sample of station `NET.STA.LOC` has been published (ns).
+    fn published_until_ns(&self, station: &str) -> Option<i64> {
+        let _ = station;
+        None
+    }
+    /// Called about every 100 ms (bounded waits, housekeeping).
+    fn tick(&mut self) {}
+}
+
+/// A sink that takes every record at once (nothing held).
+pub struct EachRecord<F: FnMut(&Channel)>(pub F);
+
+impl<F: FnMut(&Channel)> RecordSink for EachRecord<F> {
+    fn record(&mut self, record: &Channel) -> bool {
+        (self.0)(record);
+        false
+    }
+}
+
+/// A delivered record not yet committed.
+#[derive(Debug, Clone)]
+struct Pending {
+    /// `NET_STA` of the sequence number.
+    station_key: String,
+    /// `NET.STA.LOC` of the sink.
+    station: String,
+    stream: String,
+    sequence: u64,
+    protocol: Protocol,
+    advances: bool,
+    start_ns: i64,
+    /// End of the record (ns), when the sink holds some of it; `None`: nothing held.
+    held_until_ns: Option<i64>,
+}
+
+/// Most characters of server-supplied text (replies, errors) in a log line.
+const SERVER_TEXT_CHARS: usize = 300;
+
+/// How often the state file is synced to disk (it is renamed into place after every batch).
+const DURABLE_EVERY: Duration = Duration::from_secs(1);
+/// Longest wait for packets before checking the stop flag.
+const TICK: Duration = Duration::from_millis(100);
+
+/// A SeedLink client that keeps going: connection, requests, packets, reconnections.
+pub struct SeedLinkClient {
+    config: SeedLinkConfig,
+    patterns: Vec<StreamPattern>,
+    state: ResumeState,
+    state_file: Option<StateFile>,
+    delivered: HashMap<String, DeliveredStarts>,
+    /// Delivered records, in order, whose samples the sink still holds.
+    pending: std::collections::VecDeque<Pending>,
+    counters: LinkCounters,
+    /// (kind, key) already logged: each problem is logged once per stream, then counted.
+    logged: BTreeSet<(&'static str, String)>,
+}
+
+impl SeedLinkClient {
+    /// A client for `config`, resuming from `state_dir`'s state for the server if given.
+    pub fn new(config: SeedLinkConfig, state_dir: Option<&Path>) -> Result<SeedLinkClient, String> {
+        let patterns = config.patterns()?;
+        let state_file = state_dir.map(|d| StateFile::in_dir(d, &config.server));
+        let state = match &state_file {
+            Some(f) => f.load(&config.server)?,
+            None => ResumeState {
+                server: config.server.clone(),
+                ..ResumeState::default()
+            },
+        };
+        Ok(SeedLinkClient {
+            config,
+            patterns,
+            state,
+            state_file,
+            delivered: HashMap::new(),
+            pending: std::collections::VecDeque::new(),
+            counters: LinkCounters::default(),
+            logged: BTreeSet::new(),
+        })
+    }
+
+    #[must_use]
+    pub fn counters(&self) -> LinkCounters {
+        self.counters
+    }
+
+    /// The resume state as it stands.
+    #[must_use]
+    pub fn state(&self) -> &ResumeState {
+        &self.state
+    }
+
+    /// Runs until `stop` is set: connects, requests, passes every new record of a selected
+    /// stream to `sink`, reconnects after failures. The state (what the sink has committed)
+    /// is saved after every batch and durably on return.
+    pub fn run(&mut self, stop: &AtomicBool, sink: &mut dyn RecordSink) -> Result<(), String> {
+        let initial = Duration::from_secs_f64(self.config.reconnect_initial_s);
+        let max = Duration::from_secs_f64(self.config.reconnect_max_s);
+        let mut backoff = initial;
+        while !stop.load(Ordering::Relaxed) {
+            let delivered_before = self.counters.delivered;
+            let result = self.session(stop, sink);
+            let _ = self.commit(sink);
+            self.save(true)?;
+            match result {
+                Ok(()) => break,
+                Err(e) => {
+                    self.counters.disconnects += 1;
+                    if self.counters.delivered > delivered_before {
+                        backoff = initial;
+                    }
+                    eprintln!(
+                        "rockwatch: seedlink {}: {}; reconnecting in {:.1} s",
+                        self.config.server,
+                        printable(&e.to_string(), SERVER_TEXT_CHARS),
+                        backoff.as_secs_f64()
+                    );
+                    let until = Instant::now() + backoff;
+                    while Instant::now() < until && !stop.load(Ordering::Relaxed) {
+                        std::thread::sleep(
+                            TICK.min(until.saturating_duration_since(Instant::now())),
+                        );
+                    }
+                    backoff = (backoff * 2).min(max);
+                }
+            }
+        }
+        let _ = self.commit(sink);
+        self.save(true)
+    }
+
+    /// Moves what the sink has finished with from `pending` into the resume state; true if
+    /// anything moved.
+    fn commit(&mut self, sink: &dyn RecordSink) -> bool {
+        let mut moved = false;
+        while let Some(p) = self.pending.front() {
+            if let Some(end) = p.held_until_ns {
+                if sink.published_until_ns(&p.station).is_none_or(|t| t < end) {
+                    break;
+                }
+            }
+            if let Some(p) = self.pending.pop_front() {
+                self.commit_one(&p);
+                moved = true;
+            }
+        }
+        moved
+    }
+
+    fn commit_one(&mut self, p: &Pending) {
+        let latest = self
+            .state
+            .streams
+            .entry(p.stream.clone())
+            .or_insert(p.start_ns);
+        *latest = (*latest).max(p.start_ns);
+        if p.advances {
+            self.state.stations.insert(
+                p.station_key.clone(),
+                StationResume {
+                    sequence: p.sequence,
+                    protocol: p.protocol,
+                },
+            );
+        }
+    }
+
+    /// One connection, until `stop` (`Ok`) or a failure.
+    fn session(&mut self, stop: &AtomicBool, sink: &mut dyn RecordSink) -> Result<(), LinkError> {
+        let timeout = Duration::from_secs_f64(self.config.connect_timeout_s);
+        let mut conn = Connection::open(&self.config.server, self.config.protocol, timeout)?;
+        self.counters.connections += 1;
+        let protocol = conn.protocol;
+        let restarted = match (&self.state.server_started, &conn.server_started) {
+            (Some(before), Some(now)) => before != now,
+            _ => false,
+        };
+        if restarted {
+            self.counters.server_restarts += 1;
+            eprintln!(
+                "rockwatch: seedlink {}: the server restarted (started {:?}, was {:?}): resuming by time",
+                self.config.server,
+                conn.server_started.as_deref().unwrap_or(""),
+                self.state.server_started.as_deref().unwrap_or("")
+            );
+            // The old numbers mean nothing now.
+            self.state.stations.clear();
+        }
+        if conn.server_started.is_some() {
+            self.state.server_started.clone_from(&conn.server_started);
+        }
+        let state = &self.state;
+        let resume = |p: &StreamPattern| {
+            let by_sequence = p
+                .exact_station()
+                .and_then(|key| state.stations.get(&key).copied())
+                .filter(|s| s.protocol == protocol);
+            if let Some(s) = by_sequence {
+                return Resume::After(s.sequence);
+            }
+            // Without a number: from the earliest of the latest records delivered on the
+            // station's streams (their records arrive interleaved in time; duplicates are
+            // dropped), else from now.
+            let prefix = format!("{}.{}.", p.network, p.station);
+            let since = state
+                .streams
+                .iter()
+                .filter(|(id, _)| id.starts_with(&prefix))
+                .map(|(_, &t)| t)
+                .min();
+            since.map_or(Resume::Next, Resume::Since)
+        };
+        for refused in conn.request(&self.patterns, &resume, timeout)? {
+            eprintln!(
+                "rockwatch: seedlink {}: station refused: {}",
+                self.config.server,
+                printable(&refused, SERVER_TEXT_CHARS)
+            );
+        }
+        let idle = Duration::from_secs_f64(self.config.idle_timeout_s);
+        let mut last_packet = Instant::now();
+        let mut last_durable = Instant::now();
+        loop {
+            if stop.load(Ordering::Relaxed) {
+                conn.close();
+                return Ok(());
+            }
+            let before = self.counters.packets;
+            let got = conn.poll_frames(TICK, &mut |frame| self.on_frame(protocol, frame, sink))?;
+            sink.tick();
+            if got {
+                last_packet = Instant::now();
+            } else if last_packet.elapsed() > idle {
+                return Err(LinkError::Timeout(format!(
+                    "no packet for {} s",
+                    self.config.idle_timeout_s
+                )));
+            }
+            let committed = self.commit(sink);
+            if self.counters.packets > before || committed {
+                let durable = last_durable.elapsed() >= DURABLE_EVERY;
+                self.save(durable).map_err(LinkError::Io)?;
+                if durable {
+                    last_durable = Instant::now();
+                }
+            }
+        }
+    }
+
+    /// Judges and delivers one packet.
+    fn on_frame(&mut self, protocol: Protocol, frame: Frame<'_>, sink: &mut dyn RecordSink) {
+        self.counters.packets += 1;
+        let Some(sequence) = frame.sequence.filter(|_| frame.is_miniseed_data()) else {
+            self.counters.other_packets += 1;
+            return;
+        };
+        let source = format!("seedlink {} packet {sequence}", self.config.server);
+        let file = match parse_mseed(frame.payload, Path::new(&source)) {
+            Ok(f) => f,
+            Err(e) => {
+                self.counters.malformed += 1;
+                self.log_once("malformed", frame.station.to_string(), &e.to_string());
+                return;
+            }
+        };
+        for channel in &file.channels {
+            let id = channel.id();
+            if !self
+                .patterns
+                .iter()
+                .any(|p| p.matches(&channel.net, &channel.sta, &channel.loc, &channel.cha))
+            {
+                self.counters.unselected += 1;
+                self.log_once(
+                    "unselected",
+                    id,
+                    "stream not selected by any pattern; dropped",
+                );
+                continue;
+            }
+            let Some(start_ns) = channel.segments.first().map(|s| s.start_time_ns) else {
+                continue;
+            };
+            let key = format!("{}_{}", channel.net, channel.sta);
+            let last = self
+                .state
+                .stations
+                .get(&key)
+                .filter(|s| s.protocol == protocol)
+                .map(|s| s.sequence);
+            let saved = self.state.streams.get(&id).copied();
+            let delivered = self
+                .delivered
+                .entry(id.clone())
+                .or_insert_with(|| DeliveredStarts::from_latest(saved));
+            let verdict = judge(protocol, last, sequence, delivered, start_ns);
+            match verdict {
+                Verdict::Duplicate => {
+                    self.counters.duplicates += 1;
+                    continue;
+                }
+                Verdict::Deliver { missing } => self.counters.missing_sequences += missing,
+                Verdict::DeliverAfterReset => {
+                    self.counters.server_resets += 1;
+                    eprintln!(
+                        "rockwatch: seedlink {}: station {}: sequence {sequence} after {} with new data: the server restarted its numbering",
+                        self.config.server,
+                        printable(&key, STATION_CHARS),
+                        last.unwrap_or(0)
+                    );
+                }
+                Verdict::DeliverReordered => self.counters.reordered += 1,
+            }
+            let held = sink.record(channel);
+            delivered.insert(start_ns);
+            self.counters.delivered += 1;
+            let samples: usize = channel.segments.iter().map(|s| s.samples.len()).sum();
+            let pending = Pending {
+                station_key: key,
+                station: format!("{}.{}.{}", channel.net, channel.sta, channel.loc),
+                stream: id,
+                sequence,
+                protocol,
+                advances: verdict.advances_sequence(),
+                start_ns,
+                held_until_ns: held.then(|| {
+                    start_ns
+                        + (samples as f64 * 1e9 / channel.sample_rate_hz.max(1e-9)).round() as i64
+                }),
+            };
+            if held || !self.pending.is_empty() {
+                // Held, or behind a held record: committed in order.
+                self.pending.push_back(pending);
+            } else {
+                self.commit_one(&pending);
+            }
+        }
+    }
+
+    fn save(&self, durable: bool) -> Result<(), String> {
+        match &self.state_file {
+            Some(file) => file.save(&self.state, durable),
+            None => Ok(()),
+        }
+    }
+
+    fn log_once(&mut self, kind: &'static str, key: String, message: &str) {
+        if self.logged.len() < 10_000 && self.logged.insert((kind, key.clone())) {
+            eprintln!(
+                "rockwatch: seedlink {}: {}: {message} (logged once; counted)",
+                self.config.server,
+                printable(&key, STATION_CHARS)
+            );
+        }
+    }
+}
