@@ -2,41 +2,66 @@
 //! 100 Hz in 100 ms packets with M blocks, split into blocks at rest and in motion, and the
 //! per-packet processing latency. Run: `cargo bench --bench engine` (prints the figures).
 //!
-//! Load: 1000 stations with 10 blocks each (10 000 blocks). 100 "shaking" stations see a
-//! 0.3 g, 1.5 Hz horizontal sine (their 1000 blocks rock), the other 900 weak noise of
-//! 0.005 g (their blocks stay at rest). Ensemble size 1. Ten seconds of data.
+//! Cases (ten seconds of data each, ensemble size 1, so every block is one integrated block):
+//! - **existing**: 1000 stations with 10 blocks each (10 000 blocks). 100 "shaking" stations
+//!   see a 0.3 g, 1.5 Hz horizontal sine (their 1000 blocks rock), the other 900 weak noise of
+//!   0.005 g (their blocks stay at rest). Also run on the sharded engine.
+//! - **capacity**: 5000 stations with 20 blocks each (100 000 blocks, azimuths 18° apart),
+//!   500 shaking (10 000 blocks rocking), one core; prints the resident size and the resident
+//!   bytes per block.
+//! - **at rest**: 1000 quiet stations with 20 blocks each against the same stations with no
+//!   block: the difference is the amortised cost of a block at rest per sample, with the
+//!   station's shared rest check and without it (every block takes its own rest check).
+//!
+//! Moving blocks' cost per sample: `cargo bench --bench block_step` (b, c).
 
 use std::time::Instant;
 
 use rockwatch_core::azimuth::Azimuth;
-use rockwatch_core::dynamics::BlockParams;
+use rockwatch_core::dynamics::{BlockParams, Mode, RigidBlock};
 use rockwatch_core::engine::{
-    AccelPacket, Engine, EngineConfig, Output, PbrSpec, ShardedEngine, StationId,
+    AccelPacket, Engine, EngineConfig, Output, PbrSpec, ShardedEngine, StationConfig, StationId,
 };
 
-const STATIONS: usize = 1000;
-const SHAKING: usize = 100;
-const BLOCKS_PER_STATION: usize = 10;
 const RATE_HZ: f64 = 100.0;
 const PACKET: usize = 10; // 100 ms
 const SECONDS: usize = 10;
+const ROUNDS: usize = SECONDS * 10;
+
+/// One benchmark load.
+#[derive(Clone, Copy)]
+struct Case {
+    stations: usize,
+    /// The first `shaking` stations see 0.3 g; the others 0.005 g.
+    shaking: usize,
+    blocks_per_station: usize,
+}
+
+impl Case {
+    fn blocks(self) -> usize {
+        self.stations * self.blocks_per_station
+    }
+}
 
 fn station(i: usize) -> String {
     format!("XX.S{i:04}.00")
 }
 
-fn pbrs() -> Vec<PbrSpec> {
-    (0..STATIONS)
+fn pbrs(case: Case) -> Vec<PbrSpec> {
+    let n = case.blocks_per_station;
+    (0..case.stations)
         .flat_map(|s| {
-            (0..BLOCKS_PER_STATION).map(move |b| {
+            (0..n).map(move |b| {
                 // Large, moderately slender blocks: α ≈ 0.16–0.25 rad, R ≈ 2–3 m; they rock
-                // under 0.3 g without falling within 10 s.
-                let width = 0.8 + 0.05 * b as f64;
-                let height = 4.0 + 0.1 * b as f64;
+                // under 0.3 g without falling within 10 s. Azimuths spread over 360°.
+                let k = (b % 10) as f64;
+                let width = 0.8 + 0.05 * k;
+                let height = 4.0 + 0.1 * k;
                 PbrSpec {
                     id: format!("{}-{b}", station(s)),
                     station: StationId::parse(&station(s)).expect("valid id"),
-                    azimuth: Azimuth::from_degrees(36.0 * b as f64).expect("finite azimuth"),
+                    azimuth: Azimuth::from_degrees(360.0 * b as f64 / n as f64)
+                        .expect("finite azimuth"),
                     nominal: BlockParams::from_width_height(width, height, 0.9, 0.7, None)
                         .expect("valid block"),
                     members: vec![],
@@ -46,11 +71,11 @@ fn pbrs() -> Vec<PbrSpec> {
         .collect()
 }
 
-/// All packets of one round (100 ms) for every station, in station order.
-fn round(r: usize) -> Vec<AccelPacket> {
-    (0..STATIONS)
+/// All packets of round `r` (100 ms) for every station, in station order.
+fn round(case: Case, r: usize) -> Vec<AccelPacket> {
+    (0..case.stations)
         .map(|s| {
-            let amp = if s < SHAKING { 0.3 } else { 0.005 } * 9.80665;
+            let amp = if s < case.shaking { 0.3 } else { 0.005 } * 9.80665;
             let phase = s as f64 * 0.37;
             let sample = |i: usize, f: f64| {
                 let t = (r * PACKET + i) as f64 / RATE_HZ;
@@ -73,53 +98,128 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * p).round() as usize]
 }
 
-fn main() {
-    let specs = pbrs();
-    let rounds: Vec<Vec<AccelPacket>> = (0..SECONDS * 10).map(round).collect();
-    let data_s = SECONDS as f64;
+/// Resident set size of this process (bytes), from /proc/self/status (0 if unavailable).
+fn resident_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmRSS:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
 
-    // One core: a single engine, each packet timed.
-    let mut engine = Engine::new(EngineConfig::default(), vec![], &specs).expect("engine");
+/// This thread's time on a CPU and waiting for one (run queue), in s, from
+/// /proc/thread-self/schedstat (zeros if unavailable). On a shared machine the CPU time is
+/// what the engine needs of a core; the wall time also holds the waits for one.
+fn thread_cpu_and_wait_s() -> (f64, f64) {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
+    let mut fields = text
+        .split_whitespace()
+        .map(|f| f.parse::<f64>().unwrap_or(0.0) * 1e-9);
+    (fields.next().unwrap_or(0.0), fields.next().unwrap_or(0.0))
+}
+
+/// What one timed run measured.
+struct Run {
+    /// Seconds spent inside `Engine::process` (wall).
+    engine_s: f64,
+    /// CPU seconds of this thread over the `process` calls (and their timing), and seconds it
+    /// waited for a CPU meanwhile.
+    cpu_s: f64,
+    waited_s: f64,
+    latencies_us: Vec<f64>,
+    in_motion: usize,
+    overturned: usize,
+}
+
+impl Run {
+    /// Engine time and real-time factor, wall and CPU.
+    fn timing(&self) -> String {
+        format!(
+            "engine time {:.3} s → real-time factor {:.2}× (CPU time {:.3} s → {:.2}× on a core of its own; {:.3} s waiting for a CPU)",
+            self.engine_s,
+            SECONDS as f64 / self.engine_s,
+            self.cpu_s,
+            SECONDS as f64 / self.cpu_s,
+            self.waited_s
+        )
+    }
+
+    /// Percentiles of the per-packet processing time.
+    fn latency(&self) -> String {
+        let l = &self.latencies_us;
+        format!(
+            "per-packet latency: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+            percentile(l, 0.5),
+            percentile(l, 0.99),
+            l.last().copied().unwrap_or(0.0)
+        )
+    }
+}
+
+/// Feeds the case's ten seconds to `engine` round by round (input generated outside the
+/// timed calls) and times each `process` call.
+fn timed_run(case: Case, engine: &mut Engine) -> Run {
     let mut out = Vec::new();
-    let mut latencies_us = Vec::with_capacity(STATIONS * SECONDS * 10);
-    let mut moving = std::collections::HashMap::new();
-    let input = rounds.clone();
-    let start = Instant::now();
-    for packets in input {
+    let mut latencies_us = Vec::with_capacity(case.stations * ROUNDS);
+    let mut modes = std::collections::HashMap::new();
+    let (mut engine_s, mut cpu_s, mut waited_s) = (0.0, 0.0, 0.0);
+    for r in 0..ROUNDS {
+        let packets = round(case, r);
+        let (cpu0, wait0) = thread_cpu_and_wait_s();
         for p in packets {
             let t = Instant::now();
             engine.process(p, 0, &mut out);
-            latencies_us.push(t.elapsed().as_secs_f64() * 1e6);
-            for o in out.drain(..) {
-                if let Output::State(s) = o {
-                    moving.insert(s.pbr_id, s.mode);
-                }
+            let dt = t.elapsed().as_secs_f64();
+            engine_s += dt;
+            latencies_us.push(dt * 1e6);
+        }
+        let (cpu1, wait1) = thread_cpu_and_wait_s();
+        cpu_s += cpu1 - cpu0;
+        waited_s += wait1 - wait0;
+        for o in out.drain(..) {
+            if let Output::State(s) = o {
+                modes.insert(s.pbr_id, s.mode);
             }
         }
     }
-    let wall = start.elapsed().as_secs_f64();
     latencies_us.sort_by(f64::total_cmp);
-    let in_motion = moving
-        .values()
-        .filter(|m| !matches!(m, rockwatch_core::dynamics::Mode::Rest))
-        .count();
-    let overturned = engine.summaries().iter().filter(|s| s.overturned).count();
+    Run {
+        engine_s,
+        cpu_s,
+        waited_s,
+        latencies_us,
+        in_motion: modes.values().filter(|m| **m != Mode::Rest).count(),
+        overturned: engine.summaries().iter().filter(|s| s.overturned).count(),
+    }
+}
+
+fn existing_case() {
+    let case = Case {
+        stations: 1000,
+        shaking: 100,
+        blocks_per_station: 10,
+    };
+    let specs = pbrs(case);
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &specs).expect("engine");
+    let run = timed_run(case, &mut engine);
     println!(
-        "engine, 1 core: {STATIONS} stations × 3 components at {RATE_HZ} Hz, {} blocks ({in_motion} in motion at the end, {overturned} overturned), {SECONDS} s of data",
-        specs.len()
+        "engine, 1 core: {} stations × 3 components at {RATE_HZ} Hz, {} blocks ({} in motion at the end, {} overturned), {SECONDS} s of data",
+        case.stations,
+        case.blocks(),
+        run.in_motion,
+        run.overturned
     );
+    println!("  {}", run.timing());
     println!(
-        "  wall {wall:.3} s → real-time factor {:.2}×",
-        data_s / wall
-    );
-    println!(
-        "  per-packet latency: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs (shaking-station packets carry 10 moving blocks)",
-        percentile(&latencies_us, 0.5),
-        percentile(&latencies_us, 0.99),
-        latencies_us.last().copied().unwrap_or(0.0)
+        "  {} (shaking-station packets carry 10 moving blocks)",
+        run.latency()
     );
 
     // All cores: the sharded engine (the producer feeding it runs on one of the cores too).
+    let rounds: Vec<Vec<AccelPacket>> = (0..ROUNDS).map(|r| round(case, r)).collect();
     for shards in [1, 2] {
         let pool =
             ShardedEngine::start(EngineConfig::default(), &[], &specs, &[], shards).expect("pool");
@@ -135,7 +235,90 @@ fn main() {
         let wall = start.elapsed().as_secs_f64();
         println!(
             "  sharded, {shards} worker(s): wall {wall:.3} s → real-time factor {:.2}×",
-            data_s / wall
+            SECONDS as f64 / wall
         );
+    }
+}
+
+fn capacity_case() {
+    let case = Case {
+        stations: 5000,
+        shaking: 500,
+        blocks_per_station: 20,
+    };
+    let specs = pbrs(case);
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &specs).expect("engine");
+    drop(specs);
+    let resident_before = resident_bytes();
+    let run = timed_run(case, &mut engine);
+    let resident_after = resident_bytes();
+    println!(
+        "capacity: {} stations × 3 components at {RATE_HZ} Hz, {} blocks ({} in motion at the end, {} overturned), {SECONDS} s of data, 1 core: {}",
+        case.stations,
+        case.blocks(),
+        run.in_motion,
+        run.overturned,
+        run.timing()
+    );
+    println!("  {}", run.latency());
+    println!(
+        "  resident size: process {:.0} MiB after the run (+{:.0} MiB during it: the stations' running intensity windows, the benchmark's records); blocks {:.1} MiB = {:.0} B per block (Engine::block_bytes; an ensemble member is one RigidBlock, {} B)",
+        resident_after as f64 / 1048576.0,
+        resident_after.saturating_sub(resident_before) as f64 / 1048576.0,
+        engine.block_bytes() as f64 / 1048576.0,
+        engine.block_bytes() as f64 / case.blocks() as f64,
+        std::mem::size_of::<RigidBlock>()
+    );
+}
+
+fn at_rest_case() {
+    let quiet = |blocks_per_station| Case {
+        stations: 1000,
+        shaking: 0,
+        blocks_per_station,
+    };
+    let time = |case: Case, shared: bool| {
+        let configs = (0..case.stations)
+            .map(|s| StationConfig::default_for(StationId::parse(&station(s)).expect("id")))
+            .collect();
+        let mut engine =
+            Engine::new(EngineConfig::default(), configs, &pbrs(case)).expect("engine");
+        engine.set_shared_rest_check(shared);
+        timed_run(case, &mut engine).cpu_s
+    };
+    let bare = time(quiet(0), true);
+    let samples = (1000 * ROUNDS * PACKET) as f64;
+    for shared in [true, false] {
+        let with = time(quiet(20), shared);
+        println!(
+            "  at rest ({}): {:.2} ns per block per sample amortised (1000 quiet stations, 20 blocks each vs none: {:.3} s vs {:.3} s of CPU)",
+            if shared {
+                "station's shared rest check"
+            } else {
+                "each block's own rest check"
+            },
+            (with - bare) / (samples * 20.0) * 1e9,
+            with,
+            bare
+        );
+    }
+}
+
+fn main() {
+    // `cargo bench --bench engine -- capacity` runs only the cases whose name contains an
+    // argument (flags such as `--bench` are ignored).
+    let filters: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    let cases: [(&str, fn()); 3] = [
+        ("existing", existing_case),
+        ("capacity", capacity_case),
+        ("at_rest", at_rest_case),
+    ];
+    for (name, case) in cases {
+        if filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str())) {
+            case();
+        }
     }
 }

@@ -82,3 +82,74 @@ fn advance_does_not_allocate_in_any_mode() {
         assert!(visited[mode as usize], "the test must exercise {mode}");
     }
 }
+
+/// Architecture invariant: a quiet station whose blocks share the rest check (and, for
+/// comparison, one whose blocks each take their own) processes packets without allocating
+/// once nothing is due for output (the state interval is set to its maximum here; states and
+/// intensities, when due, are outputs and allocate by design).
+#[test]
+fn a_quiet_station_with_resting_blocks_does_not_allocate() {
+    use rockwatch_core::azimuth::Azimuth;
+    use rockwatch_core::engine::{AccelPacket, Engine, EngineConfig, PbrSpec, StationId};
+    let station = StationId::parse("XX.Q.00").unwrap();
+    let pbrs: Vec<PbrSpec> = (0..20)
+        .map(|k| PbrSpec {
+            id: format!("q-{k}"),
+            station: station.clone(),
+            azimuth: Azimuth::from_degrees(18.0 * k as f64).unwrap(),
+            nominal: BlockParams::from_width_height(0.5 + 0.05 * k as f64, 2.0, 0.7, 0.5, None)
+                .unwrap(),
+            members: if k % 4 == 0 {
+                vec![BlockParams::from_width_height(0.6, 2.0, 0.7, 0.5, None).unwrap(); 3]
+            } else {
+                vec![]
+            },
+        })
+        .collect();
+    let packet = |i: usize| AccelPacket {
+        station: "XX.Q.00".into(),
+        start_time_ns: i as i64 * 100_000_000,
+        sample_rate_hz: 100.0,
+        sequence: i as u64,
+        east: (0..10)
+            .map(|j| 0.01 * ((i * 10 + j) as f32 * 0.7).sin())
+            .collect(),
+        north: (0..10)
+            .map(|j| 0.01 * ((i * 10 + j) as f32 * 0.3).cos())
+            .collect(),
+        up: (0..10)
+            .map(|j| 0.005 * ((i * 10 + j) as f32 * 0.9).sin())
+            .collect(),
+    };
+    for shared in [true, false] {
+        let config = EngineConfig {
+            state_interval_s: 3600.0,
+            ..EngineConfig::default()
+        };
+        let mut engine = Engine::new(config, vec![], &pbrs).unwrap();
+        engine.set_shared_rest_check(shared);
+        let mut out = Vec::with_capacity(1024);
+        for i in 0..20 {
+            engine.process(packet(i), 0, &mut out);
+        }
+        out.clear();
+        let packets: Vec<AccelPacket> = (20..120).map(packet).collect();
+        let info = allocation_counter::measure(|| {
+            for p in packets {
+                engine.process(p, 0, &mut out);
+            }
+        });
+        assert!(out.is_empty(), "nothing is due: {out:?}");
+        assert_eq!(
+            engine.parked_blocks(),
+            if shared { pbrs.len() } else { 0 },
+            "shared check {shared}"
+        );
+        // Freeing the moved-in packets is allowed (they were allocated by the caller).
+        assert_eq!(
+            info.count_total, 0,
+            "shared check {shared}: {} allocations",
+            info.count_total
+        );
+    }
+}

@@ -190,6 +190,32 @@ pub struct ResponseStats {
     pub overturn_time_s: Option<f64>,
 }
 
+/// A symmetric rest condition (spec §7): a flat body at rest stays at rest under the ground
+/// acceleration (ẍg, ÿg) if the effective gravity g' = `gravity_mps2` + ÿg is positive and
+/// |ẍg| ≤ `friction_limit`·g', where `friction_limit` = min(μs, tan α₊, tan α₋) covers both
+/// the sliding (μs) and the rocking (tan α±) thresholds: exact for a symmetric body, a
+/// sufficient condition for an asymmetric one ([`RigidBlock::rest_limit`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RestLimit {
+    /// min(μs, tan α) (dimensionless).
+    pub friction_limit: f64,
+    /// Gravity g (m/s²).
+    pub gravity_mps2: f64,
+}
+
+impl RestLimit {
+    /// True when rest is consistent for `ground`: g' = g + ÿg > 0 and
+    /// |ẍg| ≤ fl(`friction_limit`·g'), evaluated exactly as written here (the station-wide
+    /// rest check's proof relies on these operations).
+    #[inline]
+    #[must_use]
+    pub fn holds(self, ground: GroundAccel) -> bool {
+        let gp = self.gravity_mps2 + ground.vertical_mps2;
+        let limit = self.friction_limit * gp;
+        gp > 0.0 && ground.horizontal_mps2.abs() <= limit
+    }
+}
+
 /// A rigid block and its full dynamic state.
 #[derive(Debug, Clone)]
 pub struct RigidBlock {
@@ -521,6 +547,34 @@ impl RigidBlock {
         let gp = effective_gravity(&self.params, ground);
         let a = ground.horizontal_mps2;
         gp > 0.0 && a <= self.rest_limits[1] * gp && -a <= self.rest_limits[0] * gp
+    }
+
+    /// A sufficient rest condition of the block (spec §7), symmetric, for a caller that checks
+    /// many blocks at once: `min(μs, tan α₊, tan α₋)` on either side. When it holds, the
+    /// block's own (possibly asymmetric) `rest_holds` holds too, since each side's limit is at
+    /// least this one and rounding is monotone; for a symmetric body (a rectangle) the two are
+    /// the same condition, bit for bit.
+    #[inline]
+    #[must_use]
+    pub fn rest_limit(&self) -> RestLimit {
+        RestLimit {
+            friction_limit: self.rest_limits[0].min(self.rest_limits[1]),
+            gravity_mps2: self.params.gravity_mps2,
+        }
+    }
+
+    /// Moves the clock of a block at rest to `time_s` without stepping it, for a caller that
+    /// has established that rest held at both ends of every input interval in between (the
+    /// engine's station-wide rest check, `engine::rest_group`). The state is then bit for bit
+    /// what [`advance`](Self::advance) would have left: on such an interval its at-rest path
+    /// only adds the interval's length to the time, and the caller advanced its own clock by
+    /// the same additions in the same order. Ignored (false) unless the block is at rest.
+    pub fn stay_at_rest_until(&mut self, time_s: f64) -> bool {
+        let at_rest = self.phase == Phase::Rest;
+        if at_rest {
+            self.time_s = time_s;
+        }
+        at_rest
     }
 
     /// Local time at which the input's right limit after an event at local time `t` is taken

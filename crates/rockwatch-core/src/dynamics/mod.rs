@@ -16,7 +16,9 @@ pub mod equations;
 pub mod impact;
 pub mod params;
 
-pub use block::{AdvanceError, BlockEvent, BlockOptions, Mode, ResponseStats, RigidBlock};
+pub use block::{
+    AdvanceError, BlockEvent, BlockOptions, Mode, ResponseStats, RestLimit, RigidBlock,
+};
 pub use equations::GroundAccel;
 pub use impact::ImpactKind;
 pub use params::{BlockParams, ParamError, PivotSide};

@@ -72,6 +72,14 @@ impl AccelPacket {
     /// Checks the packet's structure and values (not its place in the stream).
     pub fn validate(&self) -> Result<StationId, PacketError> {
         let station = StationId::parse(&self.station)?;
+        self.validate_samples()?;
+        Ok(station)
+    }
+
+    /// The checks of [`validate`](Self::validate) but the station identifier's (for a
+    /// caller that has already resolved it): lengths, sample rate, start time, finiteness.
+    /// Does not allocate.
+    pub fn validate_samples(&self) -> Result<(), PacketError> {
         let n = self.east.len();
         if n == 0 {
             return Err(PacketError::Empty);
@@ -110,7 +118,7 @@ impl AccelPacket {
                 });
             }
         }
-        Ok(station)
+        Ok(())
     }
 }
 

@@ -8,9 +8,10 @@ use super::output::{
     Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink, PbrState, RaisedLevels,
     StationIntensity,
 };
+use super::rest_group::{GroundSample as Sample, RestGroup};
 use super::stream::{Gap, Released, Sequencer, StreamConfig};
 use crate::azimuth::Azimuth;
-use crate::dynamics::{BlockEvent, BlockOptions, GroundAccel, Mode, RigidBlock};
+use crate::dynamics::{BlockEvent, BlockOptions, GroundAccel, Mode, RestLimit, RigidBlock};
 use crate::ims::{RunningConfig, RunningIms};
 
 /// Longest intensity window (s): a station that never goes quiet restarts its running IMs
@@ -99,6 +100,44 @@ impl PbrRuntime {
             f64::from(u8::from(self.nominal.mode() == Mode::Overturned))
         } else {
             self.members_overturned as f64 / self.members.len() as f64
+        }
+    }
+
+    /// The most demanding rest limit among the nominal block and the members (the
+    /// componentwise minimum: every block's own limit is at least this one).
+    fn rest_limit(&self) -> RestLimit {
+        self.members
+            .iter()
+            .fold(self.nominal.rest_limit(), |acc, m| {
+                let l = m.rest_limit();
+                RestLimit {
+                    friction_limit: acc.friction_limit.min(l.friction_limit),
+                    gravity_mps2: acc.gravity_mps2.min(l.gravity_mps2),
+                }
+            })
+    }
+
+    /// The block may join its station's rest group (`rest_group`): every integrated block at
+    /// rest at time `clock_s`, no episode open (nothing to end), no member fallen, and no
+    /// alert that could be raised at rest (θ = 0 there and the overturn probability is 0, so
+    /// only thresholds ≤ 0 could raise one; `EngineConfig::validate` rejects those, this
+    /// guards a config set without validation).
+    fn may_rest_in_group(&self, clock_s: f64, alerts: &AlertConfig) -> bool {
+        let resting = |b: &RigidBlock| b.mode() == Mode::Rest && b.time_s() == clock_s;
+        !self.in_episode
+            && self.members_overturned == 0
+            && alerts.imminent_theta_ratio > 0.0
+            && alerts.imminent_probability > 0.0
+            && self.nominal.theta_rad() == 0.0
+            && resting(&self.nominal)
+            && self.members.iter().all(resting)
+    }
+
+    /// Leaves the rest group: the blocks' clocks are set to the group's.
+    fn leave_rest_group(&mut self, clock_s: f64) {
+        self.nominal.stay_at_rest_until(clock_s);
+        for m in &mut self.members {
+            m.stay_at_rest_until(clock_s);
         }
     }
 
@@ -270,24 +309,19 @@ impl PbrRuntime {
     }
 }
 
-/// Ground acceleration of one sample at a station, rotated to east/north/up, in m/s².
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Sample {
-    east: f64,
-    north: f64,
-    up: f64,
-}
-
 /// Everything the engine keeps for one station.
 #[derive(Debug)]
 pub(crate) struct StationRuntime {
     pub(crate) config: StationConfig,
     pub(crate) name: String,
     sequencer: Sequencer,
-    ims: Option<[RunningIms; 3]>,
-    has_up: bool,
+    /// Running intensity measures of the east and north components (the published values
+    /// are the larger horizontal's; no vertical measure is published, so none is kept).
+    ims: Option<[RunningIms; 2]>,
     last: Option<Sample>,
     pub(crate) pbrs: Vec<PbrRuntime>,
+    /// The blocks at rest that share one rest check per sample.
+    rest: RestGroup,
     quiet_since_ns: Option<i64>,
     last_intensity_ns: Option<i64>,
     pub(crate) counters: StationCounters,
@@ -336,14 +370,15 @@ fn notice(station: &str, kind: &'static str, message: String, out: &mut dyn Outp
 
 impl StationRuntime {
     pub(crate) fn new(config: StationConfig, pbrs: &[&PbrSpec], stream: StreamConfig) -> Self {
+        let pbrs: Vec<PbrRuntime> = pbrs.iter().map(|s| PbrRuntime::new(s)).collect();
         StationRuntime {
+            rest: RestGroup::new(pbrs.iter().map(PbrRuntime::rest_limit).collect()),
             name: config.id.to_string(),
             config,
             sequencer: Sequencer::new(stream),
             ims: None,
-            has_up: false,
             last: None,
-            pbrs: pbrs.iter().map(|s| PbrRuntime::new(s)).collect(),
+            pbrs,
             quiet_since_ns: None,
             last_intensity_ns: None,
             counters: StationCounters::default(),
@@ -387,6 +422,7 @@ impl StationRuntime {
     /// Restores the blocks' alerts and episodes from the journal `records`; the blocks in
     /// `fallen` ([`super::output::fallen_blocks`] of the same records) are restored fallen.
     pub(crate) fn restore(&mut self, records: &[JournalRecord], fallen: &HashSet<String>) {
+        self.leave_rest_group();
         for pbr in &mut self.pbrs {
             let (mut last_episode, mut ended) = (0, 0);
             for record in records {
@@ -424,6 +460,10 @@ impl StationRuntime {
 
     /// An operator reset: the block stands again at rest, its episode closed.
     pub(crate) fn reset_pbr(&mut self, id: &str) -> bool {
+        if !self.pbrs.iter().any(|p| p.id == id) {
+            return false;
+        }
+        self.leave_rest_group();
         let Some(pbr) = self.pbrs.iter_mut().find(|p| p.id == id) else {
             return false;
         };
@@ -436,6 +476,38 @@ impl StationRuntime {
         pbr.in_episode = false;
         pbr.raised = RaisedLevels::default();
         true
+    }
+
+    /// Uses the shared rest check (`true`, the default) or steps every block (`false`, for
+    /// comparison); the outputs are the same either way.
+    pub(crate) fn set_shared_rest_check(&mut self, enabled: bool) {
+        if !enabled {
+            self.leave_rest_group();
+        }
+        self.rest.set_enabled(enabled);
+    }
+
+    /// Bytes held for this station's catalogued blocks: their runtimes (nominal block
+    /// inline), ids, member lists and rest-group entries (allocator overhead excluded).
+    pub(crate) fn block_bytes(&self) -> usize {
+        self.pbrs.capacity() * std::mem::size_of::<PbrRuntime>()
+            + self
+                .pbrs
+                .iter()
+                .map(|p| p.id.capacity() + p.members.capacity() * std::mem::size_of::<RigidBlock>())
+                .sum::<usize>()
+            + self.rest.heap_bytes()
+    }
+
+    pub(crate) fn parked_blocks(&self) -> usize {
+        self.rest.parked_count()
+    }
+
+    /// Every block leaves the rest group (before blocks are changed directly).
+    fn leave_rest_group(&mut self) {
+        let pbrs = &mut self.pbrs;
+        self.rest
+            .release_all(|i, clock_s| pbrs[i].leave_rest_group(clock_s));
     }
 
     /// The ground input of every block jumps here: drop their integrators' stale state.
@@ -481,9 +553,8 @@ impl StationRuntime {
                 self.ims = match (
                     RunningIms::new(dt_s, &config),
                     RunningIms::new(dt_s, &config),
-                    RunningIms::new(dt_s, &config),
                 ) {
-                    (Ok(e), Ok(n), Ok(u)) => Some([e, n, u]),
+                    (Ok(e), Ok(n)) => Some([e, n]),
                     _ => None,
                 };
                 self.input_discontinuity();
@@ -521,9 +592,6 @@ impl StationRuntime {
                     p.data_gap = true;
                 }
             }
-        }
-        if !r.packet.up.is_empty() {
-            self.has_up = true;
         }
         for i in r.skip..r.packet.len() {
             if let Some(s) = self.sample(&r.packet, i) {
@@ -580,7 +648,7 @@ impl StationRuntime {
 
     /// Larger of the horizontal components' running PGA and PGV.
     fn horizontal_pga_pgv(&self) -> (f64, f64) {
-        self.ims.as_ref().map_or((0.0, 0.0), |[e, n, _]| {
+        self.ims.as_ref().map_or((0.0, 0.0), |[e, n]| {
             (e.pga_mps2().max(n.pga_mps2()), e.pgv_mps().max(n.pgv_mps()))
         })
     }
@@ -607,7 +675,31 @@ impl StationRuntime {
             quiet_long,
         };
         let t_prev_ns = t_ns - (dt_s * 1e9).round() as i64;
-        for pbr in &mut self.pbrs {
+        // Without a previous sample no block is stepped; otherwise the parked blocks stay
+        // parked while the shared check holds, and those whose own check fails leave.
+        if let Some(prev) = prev {
+            if self.rest.any_parked() && !self.rest.holds(prev, s, dt_s) {
+                let pbrs = &mut self.pbrs;
+                self.rest.release_failing(prev, s, dt_s, |i, clock_s| {
+                    pbrs[i].leave_rest_group(clock_s);
+                });
+            }
+            self.rest.tick(dt_s);
+        }
+        let parked_states_due = self.rest.states_may_be_due(t_ns, ctx.state_interval_s);
+        if self.rest.all_parked() && !parked_states_due {
+            self.emit_intensity_if_due(t_ns, ctx, out);
+            self.restart_intensity_window_if_settled(quiet_long, dt_s, ctx);
+            return;
+        }
+        for (i, pbr) in self.pbrs.iter_mut().enumerate() {
+            if self.rest.is_parked(i) {
+                // Its step would be idle (rest_group): only its periodic state may be due.
+                if parked_states_due {
+                    pbr.emit_state_if_due(&at, false, ctx, out);
+                }
+                continue;
+            }
             let step = prev.map_or_else(BlockStep::default, |prev| {
                 pbr.advance(prev, s, dt_s, t_prev_ns)
             });
@@ -626,20 +718,26 @@ impl StationRuntime {
             pbr.raise_alerts(&at, step.first_change_ns, ctx, out);
             pbr.end_episode_if_settled(&at, out);
             pbr.emit_state_if_due(&at, step.first_change_ns.is_some(), ctx, out);
+            if self.rest.may_park(i, pbr.nominal.time_s())
+                && pbr.may_rest_in_group(self.rest.clock_s(), ctx.alerts)
+            {
+                self.rest.park(i, pbr.last_state_ns, ctx.state_interval_s);
+            }
+        }
+        if parked_states_due {
+            let pbrs = &self.pbrs;
+            self.rest
+                .rebound_states(ctx.state_interval_s, |i| pbrs[i].last_state_ns);
         }
         self.emit_intensity_if_due(t_ns, ctx, out);
         self.restart_intensity_window_if_settled(quiet_long, dt_s, ctx);
     }
 
-    /// Adds the sample to the running intensity measures (the vertical once the station has
-    /// sent one).
+    /// Adds the sample's horizontal components to the running intensity measures.
     fn push_intensities(&mut self, s: Sample) {
-        if let Some([e, n, u]) = &mut self.ims {
+        if let Some([e, n]) = &mut self.ims {
             e.push(s.east);
             n.push(s.north);
-            if self.has_up {
-                u.push(s.up);
-            }
         }
     }
 
@@ -682,13 +780,14 @@ impl StationRuntime {
         dt_s: f64,
         ctx: &PacketContext<'_>,
     ) {
-        let settled = self
-            .pbrs
-            .iter()
-            .all(|p| !p.in_episode || p.nominal.mode() == Mode::Overturned);
+        let pbrs = &self.pbrs;
+        let settled = || {
+            pbrs.iter()
+                .all(|p| !p.in_episode || p.nominal.mode() == Mode::Overturned)
+        };
         if let Some(ims) = &mut self.ims {
             let window_s = ims[0].npts() as f64 * dt_s;
-            if (quiet_long && settled && window_s > 2.0 * ctx.alerts.quiet_s)
+            if (quiet_long && window_s > 2.0 * ctx.alerts.quiet_s && settled())
                 || window_s > MAX_INTENSITY_WINDOW_S
             {
                 ims.iter_mut().for_each(RunningIms::reset);
@@ -715,7 +814,7 @@ impl StationRuntime {
             gap_samples: stream.missing_samples,
             late_samples: stream.overlap_samples,
         };
-        if let Some([e, n, _]) = &self.ims {
+        if let Some([e, n]) = &self.ims {
             // Each value is the larger horizontal component's.
             out.pgd_m = e.pgd_m().max(n.pgd_m());
             out.cav_mps = e.cav_mps().max(n.cav_mps());
