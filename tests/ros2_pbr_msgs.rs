@@ -136,14 +136,16 @@ fn rclpy_peer_with_the_generated_types_gets_overturned_for_the_slender_block_onl
     // packet of its station, in sequence (no duplicate, none late).
     assert!(
         stderr.contains(&format!(
-            "{n_packets} packets received over ROS 2 (0 undecodable)"
+            "{n_packets} packets received over ROS 2 (0 undecodable, 0 participant rebuilds, \
+             0 redelivered and skipped)"
         )),
         "{all}"
     );
     assert!(
         stderr.contains(&format!(
-            "engine input: {n_packets} packets, 0 rejected as invalid, 0 with a malformed \
-             station id, 0 from unknown stations, 0 duplicate, 0 late"
+            "engine input: {n_packets} packets, 0 rejected as invalid (0 beyond the physical \
+             bound), 0 stamped too far ahead (not processed), 0 with a malformed station id, \
+             0 from unknown stations, 0 duplicate, 0 late, 0 time-grid rewinds"
         )),
         "{all}"
     );

@@ -343,7 +343,10 @@ impl std::str::FromStr for Speed {
 /// Time stamps of replayed packets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Restamp {
-    /// Shifted so that the first sample is "now" (UTC) and later ones follow at the data rate.
+    /// Shifted to the wall clock ([`now_shift_ns`]): at real time or slower the first sample
+    /// is "now" (UTC) and later ones follow at the data rate; faster than real time the
+    /// stream is placed to end "now", so that no packet is stamped ahead of the clock (a live
+    /// node rejects such packets: `engine.plausibility.max_ahead_s`).
     Now,
     /// As in the record.
     Original,
@@ -360,6 +363,24 @@ pub struct ReplayReport {
     pub wall_s: f64,
     /// Largest lateness of a packet behind its schedule (s), at finite speeds.
     pub max_lag_s: f64,
+}
+
+/// The shift (ns) that [`Restamp::Now`] adds to the time stamps of `packets` replayed
+/// `loops` times at `speed`, the wall clock reading `now_ns` (UTC ns) at the start: the first
+/// sample at `now_ns` when the replay is no faster than real time (each packet then leaves
+/// when its last sample would have been recorded, never ahead of the clock); faster, the
+/// whole stream ends at `now_ns`, so it lies in the past as it is sent.
+#[must_use]
+pub fn now_shift_ns(packets: &[AccelPacket], speed: Speed, loops: u32, now_ns: i64) -> i64 {
+    let (Some(first), Some(last)) = (packets.first(), packets.last()) else {
+        return 0;
+    };
+    let duration_ns = last.start_time_ns - first.start_time_ns
+        + (last.len() as f64 * 1e9 / last.sample_rate_hz).round() as i64;
+    match speed {
+        Speed::Times(factor) if factor <= 1.0 => now_ns - first.start_time_ns,
+        _ => now_ns - first.start_time_ns - duration_ns.saturating_mul(i64::from(loops)),
+    }
 }
 
 /// Sends `packets` (of one station, in order) `loops` times through `sink`. At a finite speed
@@ -381,9 +402,9 @@ pub fn replay(
         + (last.len() as f64 * 1e9 / last.sample_rate_hz).round() as i64;
     let wall_epoch_ns = SystemTime::now()
         .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos() as i64);
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
     let shift_ns = match restamp {
-        Restamp::Now => wall_epoch_ns - first.start_time_ns,
+        Restamp::Now => now_shift_ns(packets, speed, loops, wall_epoch_ns),
         Restamp::Original => 0,
     };
     let start = Instant::now();
@@ -419,6 +440,42 @@ pub fn replay(
 mod replay_tests {
     use super::*;
     use std::time::Duration;
+
+    /// Restamp::Now: live-like at real time, in the past when faster (never ahead of the
+    /// clock), over every loop.
+    #[test]
+    fn now_shift_puts_the_first_sample_now_at_real_time_and_the_end_now_when_faster() {
+        let packets: Vec<AccelPacket> = (0..10)
+            .map(|i| AccelPacket {
+                station: "XX.T.00".into(),
+                start_time_ns: 5_000_000_000 + i * 100_000_000,
+                sample_rate_hz: 100.0,
+                sequence: i as u64,
+                east: vec![0.0; 10],
+                north: vec![0.0; 10],
+                up: Vec::new(),
+            })
+            .collect();
+        let now = 1_800_000_000_000_000_000;
+        // 10 packets of 0.1 s: 1 s of data.
+        assert_eq!(
+            now_shift_ns(&packets, Speed::Times(1.0), 1, now),
+            now - 5_000_000_000
+        );
+        assert_eq!(
+            now_shift_ns(&packets, Speed::Times(0.5), 3, now),
+            now - 5_000_000_000
+        );
+        assert_eq!(
+            now_shift_ns(&packets, Speed::Max, 1, now),
+            now - 5_000_000_000 - 1_000_000_000
+        );
+        assert_eq!(
+            now_shift_ns(&packets, Speed::Times(10.0), 3, now),
+            now - 5_000_000_000 - 3_000_000_000
+        );
+        assert_eq!(now_shift_ns(&[], Speed::Max, 1, now), 0);
+    }
 
     struct Recorder(Vec<(std::time::Instant, AccelPacket)>);
     impl PacketSink for Recorder {

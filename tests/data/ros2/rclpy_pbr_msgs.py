@@ -5,8 +5,9 @@ loopback only (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST).
 It subscribes /pbr/alerts (pbr_msgs/PbrAlert; reliable, transient local, keep last 1000 like
 the node's writer), waits until the node subscribes /pbr/accel, publishes there the packets of
 PACKETS.json (a JSON list of {station, start_time_ns, sample_rate_hz, sequence, east, north, up})
-as pbr_msgs/AccelPacket (reliable, volatile, keep all), restamped so that the first packet
-starts now, waits until the node has acknowledged them all, and prints every alert received.
+as pbr_msgs/AccelPacket (reliable, volatile, keep all), restamped so that the record ends
+now (it is sent flat out: a live node rejects data stamped ahead of its clock), waits until
+the node has acknowledged them all, and prints every alert received.
 
 Usage: rclpy_pbr_msgs.py PACKETS.json --wait-s S --quiet-s Q
 Prints one JSON object per line:
@@ -95,12 +96,15 @@ def main():
             sys.exit(2)
         rclpy.spin_once(node, timeout_sec=0.05)
 
-    shift_ns = time.time_ns() - packets[0]["start_time_ns"]
+    # Sent flat out, so stamped to END now: the whole record lies in the past, as a live
+    # node requires (it rejects data stamped ahead of its clock, engine.plausibility).
+    last = packets[-1]
+    duration_ns = (last["start_time_ns"] - packets[0]["start_time_ns"]
+                   + round(len(last["east"]) * NS_PER_S / last["sample_rate_hz"]))
+    shift_ns = time.time_ns() - duration_ns - packets[0]["start_time_ns"]
     for p in packets:
         pub.publish(packet_msg(p, shift_ns))
-    last = packets[-1]
-    end_ns = (last["start_time_ns"] + shift_ns
-              + round(len(last["east"]) * NS_PER_S / last["sample_rate_hz"]))
+    end_ns = packets[0]["start_time_ns"] + shift_ns + duration_ns
     acked = pub.wait_for_all_acked(Duration(seconds=max(deadline - time.monotonic(), 0.0)))
     print(json.dumps({"sent": len(packets), "acked": acked,
                       "first_stamp_ns": packets[0]["start_time_ns"] + shift_ns,

@@ -15,7 +15,7 @@ use rockwatch::log_text::{printable, PBR_ID_CHARS};
 use rockwatch::node::{NodeOptions, ServeReport};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::{PacketSink, Publication, Publisher};
-use rockwatch::replay::{replay, Restamp, Speed, Traces};
+use rockwatch::replay::{now_shift_ns, replay, Restamp, Speed, Traces};
 use rockwatch::ros2::{
     msg, network_plan, NetworkPlan, Ros2AlertListener, Ros2Config, Ros2PacketSink,
 };
@@ -218,7 +218,7 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
                     stop.store(true, Ordering::Relaxed);
                     anyhow::bail!("the node did not subscribe to /pbr/accel within 30 s");
                 }
-                let origin_ns = restamp_to_now(&mut packets);
+                let origin_ns = restamp_to_now(&mut packets, speed);
                 record_origin_ns.store(origin_ns, Ordering::Relaxed);
                 replay(&packets, &mut sink, speed, Restamp::Original, 1)?;
                 if !sink.finish(Duration::from_secs(30))? {
@@ -281,17 +281,18 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
     })
 }
 
-/// Shifts the packets' time stamps so that the record's first sample is now (UTC); returns
-/// that instant (ns since the Unix epoch).
-fn restamp_to_now(packets: &mut [AccelPacket]) -> i64 {
+/// Shifts the packets' time stamps to the wall clock as `replay` does for `--restamp now`
+/// ([`now_shift_ns`]: in the past as they are sent, when faster than real time); returns the
+/// UTC time (ns) of the record's first sample.
+fn restamp_to_now(packets: &mut [AccelPacket], speed: Speed) -> i64 {
     let now_ns = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
-    let shift_ns = packets.first().map_or(0, |p| now_ns - p.start_time_ns);
-    for p in packets {
+    let shift_ns = now_shift_ns(packets, speed, 1, now_ns);
+    for p in packets.iter_mut() {
         p.start_time_ns += shift_ns;
     }
-    now_ns
+    packets.first().map_or(now_ns, |p| p.start_time_ns)
 }
 
 /// One alert as a line under the header printed by [`execute`]: the data time of the alert

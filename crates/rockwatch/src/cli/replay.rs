@@ -28,7 +28,9 @@ pub enum Transport {
 /// Time stamps of the replayed packets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RestampArg {
-    /// The first sample is stamped "now" (UTC); later ones follow at the data rate.
+    /// Stamped to the wall clock (UTC): at --speed 1 or slower the first sample is "now" and
+    /// later ones follow at the data rate; faster, the stream ends "now" (a live node rejects
+    /// data stamped ahead of its clock).
     Now,
     /// As in the record (AT2/CSV records start at the Unix epoch).
     Original,
