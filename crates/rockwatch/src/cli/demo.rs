@@ -328,7 +328,7 @@ fn print_blocks(outcome: &DemoOutcome) {
     } = outcome;
     outln!();
     outln!(
-        "{:<24} {:<10} {:>8} {:>10} {:>10} {:>8}  {:<25} {:>10}",
+        "{:<24} {:<10} {:>9} {:>10} {:>10} {:>8}  {:<25} {:>10}",
         "block",
         "station",
         "max |θ|/α",
@@ -356,7 +356,7 @@ fn print_blocks(outcome: &DemoOutcome) {
             .find_map(|l| latencies.get(&(s.pbr_id.clone(), *l)))
             .map_or("-".to_string(), |ns| format!("{:.3} ms", *ns as f64 * 1e-6));
         outln!(
-            "{:<24} {:<10} {:>8.3} {:>8.4} m {:>10} {:>8.2}  {:<25} {:>10}",
+            "{:<24} {:<10} {:>9.3} {:>8.4} m {:>10} {:>8.2}  {:<25} {:>10}",
             s.pbr_id,
             s.station,
             s.max_theta_over_alpha,
