@@ -211,22 +211,24 @@ pub fn check_segments(deployment: &Deployment, uid: u32) -> Result<(), String> {
     Ok(())
 }
 
+/// The global management segments of the deployment in its shared-memory directory (one,
+/// once a node was created; none if the directory cannot be read).
+pub fn management_segments(deployment: &Deployment) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(&deployment.shm_dir) else {
+        return Vec::new();
+    };
+    entries
+        .flatten()
+        .filter(|e| deployment.is_management_segment(&e.file_name().to_string_lossy()))
+        .map(|e| e.path())
+        .collect()
+}
+
 /// Restricts this user's global management segment (if it exists) to mode 0600: iceoryx2
 /// creates it readable and writable by everyone. Returns the segments restricted.
 pub fn restrict_management_segment(deployment: &Deployment) -> Result<Vec<PathBuf>, String> {
     let mut restricted = Vec::new();
-    let entries = std::fs::read_dir(&deployment.shm_dir).map_err(|e| {
-        format!(
-            "iceoryx2 shared memory {}: {e}",
-            deployment.shm_dir.display()
-        )
-    })?;
-    for entry in entries.flatten() {
-        let name = entry.file_name();
-        if !deployment.is_management_segment(&name.to_string_lossy()) {
-            continue;
-        }
-        let path = entry.path();
+    for path in management_segments(deployment) {
         let Ok(meta) = std::fs::symlink_metadata(&path) else {
             continue;
         };

@@ -8,7 +8,7 @@ use std::path::Path;
 use anyhow::anyhow;
 use iceoryx2::prelude::*;
 
-use super::access::{effective_uid, restrict_management_segment, Deployment};
+use super::access::{effective_uid, management_segments, restrict_management_segment, Deployment};
 use super::config::IoxConfig;
 use super::types::{AccelHeader, AccelSample, PbrAlertIox};
 
@@ -90,7 +90,15 @@ pub(super) fn create_node(config: &IoxConfig) -> anyhow::Result<Node<ipc::Servic
         .config(&iox_config)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
-        .map_err(iox_err("cannot create the iceoryx2 node"))?;
+        .map_err(|e| {
+            // A management segment of this user whose content a process of this user (or one
+            // that opened it while it was world-writable) overwrote: iceoryx2 recreates it.
+            let hint = management_segments(&deployment)
+                .iter()
+                .map(|p| format!(" (if {} was overwritten, remove it)", p.display()))
+                .collect::<String>();
+            anyhow!("cannot create the iceoryx2 node: {e:?}{hint}")
+        })?;
     restrict_management_segment(&deployment).map_err(refused)?;
     Ok(node)
 }
