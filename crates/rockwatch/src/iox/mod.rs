@@ -18,10 +18,12 @@
 //! - [`types`]: the wire layouts;
 //! - `config.rs`: the `[iceoryx2]` configuration section and the iceoryx2 configuration file;
 //! - `service.rs`: the iceoryx2 node and services every endpoint opens;
+//! - [`access`]: who can reach them (private root directory, owner-only segments);
 //! - the node's side: `input.rs` (with `intake.rs`, `stats.rs` and `cleanup.rs`, the clean-up
 //!   of dead nodes) and `alert_publisher.rs`;
 //! - `alert_subscriber.rs`, `replay_sink.rs`: clients.
 
+pub mod access;
 mod alert_publisher;
 mod alert_subscriber;
 mod cleanup;

@@ -3,10 +3,12 @@
 //! conversion of iceoryx2's errors.
 
 use std::fmt::Debug;
+use std::path::Path;
 
 use anyhow::anyhow;
 use iceoryx2::prelude::*;
 
+use super::access::{effective_uid, management_segments, restrict_management_segment, Deployment};
 use super::config::IoxConfig;
 use super::types::{AccelHeader, AccelSample, PbrAlertIox};
 
@@ -72,12 +74,31 @@ pub(super) fn open_alert_service(
         )))
 }
 
-/// An iceoryx2 node that leaves SIGINT/SIGTERM to the application.
+/// An iceoryx2 node that leaves SIGINT/SIGTERM to the application, created only if no other
+/// user can reach this deployment's resources (`access.rs`: private root directory, no
+/// foreign segment with the prefix), with the global management segment restricted to 0600
+/// before and right after the creation.
 pub(super) fn create_node(config: &IoxConfig) -> anyhow::Result<Node<ipc::Service>> {
     let iox_config = config.load_iceoryx2_config()?;
-    NodeBuilder::new()
+    let file = config.config_file.as_deref().unwrap_or(Path::new("?"));
+    let refused = |e: String| anyhow!("{e} (iceoryx2 configuration {})", file.display());
+    let deployment = Deployment::of(&iox_config);
+    effective_uid()
+        .and_then(|uid| deployment.check_before_node(uid))
+        .map_err(refused)?;
+    let node = NodeBuilder::new()
         .config(&iox_config)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
-        .map_err(iox_err("cannot create the iceoryx2 node"))
+        .map_err(|e| {
+            // A management segment of this user whose content a process of this user (or one
+            // that opened it while it was world-writable) overwrote: iceoryx2 recreates it.
+            let hint = management_segments(&deployment)
+                .iter()
+                .map(|p| format!(" (if {} was overwritten, remove it)", p.display()))
+                .collect::<String>();
+            anyhow!("cannot create the iceoryx2 node: {e:?}{hint}")
+        })?;
+    restrict_management_segment(&deployment).map_err(refused)?;
+    Ok(node)
 }
