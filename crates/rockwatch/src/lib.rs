@@ -19,6 +19,6 @@ pub mod replay;
 pub mod ros2;
 pub mod seedlink;
 pub mod signals;
-pub mod stderr_log;
+pub mod logging;
 pub mod study;
 pub mod wire_codes;

@@ -122,11 +122,12 @@ pub struct NodeOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum NoticeLog {
     /// The live node: at most one line per (station, kind) every 10 s, with the count of the
-    /// lines suppressed since.
+    /// lines suppressed since; every alert is logged too (target `rockwatch::alert`).
     #[default]
     RateLimited,
     /// An offline run: every notice is counted per (station, kind)
-    /// ([`Stopped::notice_counts`]), and the first `lines` of each (station, kind) are logged.
+    /// ([`Stopped::notice_counts`]), and the first `lines` of each (station, kind) are logged;
+    /// alerts are not logged (the run prints them).
     Counted { lines: u64 },
 }
 
@@ -171,8 +172,8 @@ impl NodeOptions {
         };
         let (journal, records, report) = Journal::open(&dir)?;
         if !report.corrupt_lines.is_empty() || report.truncated_tail {
-            eprintln!(
-                "rockwatch: warning: {}: journal repaired ({report:?})",
+            tracing::warn!(
+                "{}: journal repaired ({report:?})",
                 dir.display()
             );
         }
@@ -279,7 +280,7 @@ impl RateLimitedLog {
             } else {
                 String::new()
             };
-            eprintln!("rockwatch: {station}: {kind}: {message}{more}");
+            tracing::warn!(target: "rockwatch::notice", station = %station, kind, "{station}: {kind}: {message}{more}");
             entry.0 = now;
         } else {
             entry.1 += 1;
@@ -293,6 +294,8 @@ impl RateLimitedLog {
 struct Emitter {
     journal: Option<JournalWriter>,
     epoch: Instant,
+    /// UTC (ns since the Unix epoch) at `epoch`: arrival stamps in UTC.
+    epoch_utc_ns: i64,
     log: RateLimitedLog,
     notice_log: NoticeLog,
     /// Notices per (station, kind), with [`NoticeLog::Counted`] (else empty).
@@ -351,8 +354,8 @@ impl Emitter {
             );
             self.log.log("state directory", "journal_failing", &message);
         } else if was_failing && backlog == 0 {
-            eprintln!(
-                "rockwatch: state directory recovered: {written} waiting records journaled \
+            tracing::info!(
+                "state directory recovered: {written} waiting records journaled \
                  ({} failed writes)",
                 writer.failures
             );
@@ -371,8 +374,8 @@ impl Emitter {
                     .or_insert(0);
                 *count += 1;
                 if *count <= lines {
-                    eprintln!(
-                        "rockwatch: {}: {}: {}",
+                    tracing::info!(
+                        "{}: {}: {}",
                         printable(&notice.station, STATION_CHARS),
                         notice.kind,
                         printable(&notice.message, MESSAGE_CHARS)
@@ -450,6 +453,9 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 }
                 self.emit.stats.alerts += 1;
                 let latency_ns = self.emit.now_ns() - alert.arrival_ns;
+                if self.emit.notice_log == NoticeLog::RateLimited {
+                    log_alert(&alert, self.emit.epoch_utc_ns, latency_ns, !journaled);
+                }
                 (self.publish)(Publication::Alert {
                     alert,
                     latency_ns,
@@ -461,6 +467,40 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             Output::Notice(n) => self.emit.notice(&n),
         }
     }
+}
+
+/// Logs one alert as it is handed to the publishers (target `rockwatch::alert`, level warn):
+/// its level, block, station, episode, data time (ISO 8601 UTC) and the two latencies —
+/// `data_latency_ms`, from the triggering sample's data time to the arrival of its packet
+/// (UTC clocks of the station and the node), and `latency_ms`, from that arrival to now
+/// (the node's processing, journal sync included).
+fn log_alert(alert: &Alert, epoch_utc_ns: i64, latency_ns: i64, journal_pending: bool) {
+    let data_time = rockwatch_core::utc::format_utc_ns(i128::from(alert.data_time_ns));
+    let data_latency_ms = (epoch_utc_ns + alert.arrival_ns - alert.data_time_ns) as f64 * 1e-6;
+    let latency_ms = latency_ns as f64 * 1e-6;
+    let pbr_id = printable(&alert.pbr_id, PBR_ID_CHARS);
+    let station = printable(&alert.station, STATION_CHARS);
+    tracing::warn!(
+        target: "rockwatch::alert",
+        level = alert.level.as_str(),
+        pbr_id = %pbr_id,
+        station = %station,
+        episode = alert.episode,
+        data_time = %data_time,
+        data_latency_ms,
+        latency_ms,
+        theta_over_alpha = alert.theta_over_alpha,
+        overturn_probability = alert.overturn_probability,
+        journal_pending,
+        "ALERT {} {pbr_id} (station {station}, episode {}): data time {data_time}, |θ|/α {:.3}, \
+         P(overturn) {:.2}; data → arrival {data_latency_ms:.1} ms, arrival → published \
+         {latency_ms:.3} ms{}",
+        alert.level.as_str(),
+        alert.episode,
+        alert.theta_over_alpha.abs(),
+        alert.overturn_probability,
+        if journal_pending { " (not journaled yet: the state directory is failing)" } else { "" }
+    );
 }
 
 /// The engine of a [`NodeRuntime`].
@@ -479,8 +519,6 @@ pub struct NodeRuntime {
     emit: Emitter,
     pbr_ids: Vec<String>,
     last_flush: Instant,
-    /// UTC (ns since the Unix epoch) at `emit.epoch`: arrival stamps in UTC.
-    epoch_utc_ns: i64,
     /// [`NodeOptions::reject_future`]: the tolerance (ns), when on.
     max_ahead_ns: Option<i64>,
     /// The journal's last [`REPUBLISH_DEPTH`] alerts, each with whether it was published
@@ -547,6 +585,9 @@ impl NodeRuntime {
             emit: Emitter {
                 journal: journal.map(JournalWriter::new),
                 epoch: Instant::now(),
+                epoch_utc_ns: std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)),
                 log: RateLimitedLog::new(),
                 notice_log: options.notices,
                 notice_counts: BTreeMap::new(),
@@ -559,9 +600,6 @@ impl NodeRuntime {
             },
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
             last_flush: Instant::now(),
-            epoch_utc_ns: std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)),
             max_ahead_ns: options
                 .reject_future
                 .then_some((config.engine.plausibility.max_ahead_s * 1e9) as i64),
@@ -692,7 +730,7 @@ impl NodeRuntime {
             0.0 // an invalid rate is the engine's to reject and report
         };
         let end_ns = packet.start_time_ns as f64 + span_ns;
-        let ahead_s = (end_ns - (self.epoch_utc_ns + arrival) as f64) * 1e-9;
+        let ahead_s = (end_ns - (self.emit.epoch_utc_ns + arrival) as f64) * 1e-9;
         if ahead_s * 1e9 <= max_ahead_ns as f64 {
             return false;
         }
@@ -757,8 +795,8 @@ impl NodeRuntime {
             }
         };
         match outcome {
-            ResetOutcome::Reset => eprintln!(
-                "rockwatch: {}: reset by the operator: stands again at rest",
+            ResetOutcome::Reset => tracing::info!(
+                "{}: reset by the operator: stands again at rest",
                 printable(pbr_id, PBR_ID_CHARS)
             ),
             _ => self

@@ -383,8 +383,8 @@ fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
         }
     }
     if all > 0 {
-        eprintln!(
-            "rockwatch: journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
+        tracing::info!(
+            "journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
         );
     }
 }
@@ -446,8 +446,8 @@ impl Watchdog {
         registry: &mio::Registry,
     ) -> anyhow::Result<bool> {
         let since = *self.down_since.get_or_insert_with(Instant::now);
-        eprintln!(
-            "rockwatch: error: ROS 2 transport dead: the DDS participant's thread {thread} has ended \
+        tracing::error!(
+            "ROS 2 transport dead: the DDS participant's thread {thread} has ended \
              (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT or a debugger \
              attach); rebuilding the participant ({} rebuilds so far)",
             self.rebuilds
@@ -463,16 +463,16 @@ impl Watchdog {
             Ok(()) => {
                 self.rebuilds += 1;
                 self.down_since = None;
-                eprintln!(
-                    "rockwatch: ROS 2 participant rebuilt after {:.1} s ({} rebuilds in all); the engine's state is kept",
+                tracing::info!(
+                    "ROS 2 participant rebuilt after {:.1} s ({} rebuilds in all); the engine's state is kept",
                     since.elapsed().as_secs_f64(),
                     self.rebuilds
                 );
                 Ok(true)
             }
             Err(e) if since.elapsed() < REBUILD_GIVE_UP => {
-                eprintln!(
-                    "rockwatch: error: cannot rebuild the ROS 2 participant ({e:#}): trying again"
+                tracing::error!(
+                    "cannot rebuild the ROS 2 participant ({e:#}): trying again"
                 );
                 Ok(false)
             }

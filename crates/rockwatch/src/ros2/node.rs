@@ -143,8 +143,8 @@ impl Ros2Node {
         if let Some(e) = failed {
             self.intake_errors += 1;
             if self.intake_errors.is_power_of_two() {
-                eprintln!(
-                    "rockwatch: ROS 2 {INTAKE_TOPIC}: cannot publish a report ({e}; {} in all)",
+                tracing::warn!(
+                    "ROS 2 {INTAKE_TOPIC}: cannot publish a report ({e}; {} in all)",
                     self.intake_errors
                 );
             }
