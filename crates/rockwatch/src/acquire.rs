@@ -162,7 +162,10 @@ fn send_all<'s>(
         Ok(()) => counters.packets_sent += 1,
         Err(e) => {
             if counters.send_errors == 0 {
-                tracing::warn!("acquire: cannot publish a packet of {}: {e:#} (further failures counted)", printable(&packet.station, STATION_CHARS));
+                tracing::warn!(
+                    "acquire: cannot publish a packet of {}: {e:#} (further failures counted)",
+                    printable(&packet.station, STATION_CHARS)
+                );
             }
             counters.send_errors += 1;
         }

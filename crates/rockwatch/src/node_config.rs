@@ -58,6 +58,12 @@ pub struct NodeConfig {
     /// Alert receivers (`[[notify]]`, see `crate::notify`), used by `rockwatch node`.
     #[serde(default)]
     pub notify: Vec<crate::notify::NotifyConfig>,
+    /// `/diagnostics` and `/rosout` (`[status]`, see `crate::status`).
+    #[serde(default)]
+    pub status: crate::status::StatusConfig,
+    /// The optional Prometheus endpoint (`[metrics]`, see `crate::metrics`).
+    #[serde(default)]
+    pub metrics: crate::metrics::MetricsConfig,
 }
 
 /// Why a configuration file could not be loaded: `path: problem`.
@@ -84,6 +90,9 @@ pub enum NodeConfigProblem {
     /// A `[[notify]]` entry is invalid: its number (1-based) and why.
     #[error("[[notify]] #{0}: {1}")]
     Notify(usize, String),
+    /// A `[status]` value is invalid.
+    #[error("{0}")]
+    Status(String),
 }
 
 impl NodeConfig {
@@ -107,6 +116,10 @@ impl NodeConfig {
         for s in &config.stations {
             s.validate().map_err(|e| error(e.into()))?;
         }
+        config
+            .status
+            .validate()
+            .map_err(|e| error(NodeConfigProblem::Status(e)))?;
         for (i, n) in config.notify.iter().enumerate() {
             n.validate()
                 .map_err(|e| error(NodeConfigProblem::Notify(i + 1, e)))?;
@@ -196,6 +209,8 @@ mod tests {
             "[[ros2.imu]]\ntopic = \"/t\"\nstation = \"XX.IMU.00\"\nsample_rate_hz = 100.0",
             "[iceoryx2]",
             "[[notify]]\nkind = \"exec\"\ncommand = [\"true\"]",
+            "[status]",
+            "[metrics]",
         ];
         for section in sections {
             let probe = format!("{section}\nno_such_key = 0\n");

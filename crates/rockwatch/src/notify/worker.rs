@@ -133,7 +133,8 @@ pub(crate) fn run(
                 if failures > 0 {
                     tracing::info!(
                         "notify {}: {what} delivered after {} failed attempts",
-                        shared.name, failures
+                        shared.name,
+                        failures
                     );
                 }
                 failures = 0;

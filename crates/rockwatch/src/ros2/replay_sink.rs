@@ -15,8 +15,8 @@ use super::names::{ACCEL_TOPIC, INTAKE_TOPIC};
 use super::network::NetworkPlan;
 use super::qos::{intake_qos, replay_qos, REPLAY_HISTORY};
 use super::session::Ros2Session;
-use crate::ports::PacketSink;
 use crate::logging::MuteLibraries;
+use crate::ports::PacketSink;
 use rockwatch_core::engine::AccelPacket;
 
 /// Most packets a replay has sent that the node has not yet reported taken. Below the node's
