@@ -24,21 +24,28 @@ pub(crate) struct Liveness {
     pub(crate) rate_hz: f64,
     /// Stale now (see the module doc).
     pub(crate) stale: bool,
+    /// While stale: since when it has been silent (its last arrival, or the first check).
+    pub(crate) silent_since_ns: i64,
     /// Times the station went stale.
     pub(crate) stale_events: u64,
 }
 
 impl Liveness {
     /// An accepted packet arrived at `arrival_ns`, its last sample at `last_sample_ns` (UTC).
-    /// Returns true if the station was stale (it has recovered).
-    pub(crate) fn accepted(&mut self, arrival_ns: i64, last_sample_ns: i64, rate_hz: f64) -> bool {
+    /// Returns how long it was silent if it was stale (it has recovered).
+    pub(crate) fn accepted(
+        &mut self,
+        arrival_ns: i64,
+        last_sample_ns: i64,
+        rate_hz: f64,
+    ) -> Option<i64> {
         self.last_arrival_ns = Some(arrival_ns);
         self.last_sample_ns = Some(
             self.last_sample_ns
                 .map_or(last_sample_ns, |t| t.max(last_sample_ns)),
         );
         self.rate_hz = rate_hz;
-        std::mem::replace(&mut self.stale, false)
+        std::mem::replace(&mut self.stale, false).then(|| arrival_ns - self.silent_since_ns)
     }
 
     /// At `now_ns`, with health checks running since `since_ns` and the limit `stale_after_ns`:
@@ -52,11 +59,13 @@ impl Liveness {
         if self.stale {
             return None;
         }
-        let silent_ns = now_ns - self.last_arrival_ns.unwrap_or(since_ns);
+        let silent_since_ns = self.last_arrival_ns.unwrap_or(since_ns);
+        let silent_ns = now_ns - silent_since_ns;
         if silent_ns <= stale_after_ns {
             return None;
         }
         self.stale = true;
+        self.silent_since_ns = silent_since_ns;
         self.stale_events += 1;
         Some(silent_ns)
     }

@@ -408,9 +408,7 @@ impl StationRuntime {
     ) {
         let last_sample_ns =
             start_ns + ((samples.saturating_sub(1)) as f64 * 1e9 / rate_hz).round() as i64;
-        let silent_since = self.liveness.last_arrival_ns;
-        if self.liveness.accepted(arrival_ns, last_sample_ns, rate_hz) {
-            let silent_ns = silent_since.map_or(0, |t| arrival_ns - t);
+        if let Some(silent_ns) = self.liveness.accepted(arrival_ns, last_sample_ns, rate_hz) {
             self.report_health(true, silent_ns, out);
         }
     }
