@@ -146,6 +146,14 @@ fn filter(options: &LogOptions) -> Result<(EnvFilter, Option<String>), String> {
 /// the `log` records of the libraries bridged in. Errors: a `--log-level` that is not a
 /// filter.
 pub fn init(options: &LogOptions) -> Result<(), String> {
+    init_with_writer(options, std::io::stderr)
+}
+
+/// As [`init`], writing to `writer` instead of stderr (tests).
+pub fn init_with_writer<W>(options: &LogOptions, writer: W) -> Result<(), String>
+where
+    W: for<'w> tracing_subscriber::fmt::MakeWriter<'w> + Send + Sync + 'static,
+{
     let (filter, warning) = filter(options)?;
     // The `log` records (RustDDS, iceoryx2) go through the same filter; `log`'s own
     // max level cuts the ones no directive can enable before any formatting.
@@ -165,7 +173,7 @@ pub fn init(options: &LogOptions) -> Result<(), String> {
         LogFormat::Text => registry
             .with(
                 tracing_subscriber::fmt::layer()
-                    .with_writer(std::io::stderr)
+                    .with_writer(writer)
                     .event_format(TextLine),
             )
             .try_init(),
@@ -173,7 +181,7 @@ pub fn init(options: &LogOptions) -> Result<(), String> {
             .with(
                 tracing_subscriber::fmt::layer()
                     .json()
-                    .with_writer(std::io::stderr)
+                    .with_writer(writer)
                     .with_current_span(false)
                     .with_span_list(false),
             )

@@ -127,3 +127,45 @@ fn serve(mut stream: TcpStream, text: &Mutex<String>) -> std::io::Result<()> {
     )?;
     stream.flush()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn get(address: SocketAddr, request: &str) -> String {
+        let mut s = TcpStream::connect(address).unwrap();
+        s.write_all(request.as_bytes()).unwrap();
+        let mut reply = String::new();
+        s.read_to_string(&mut reply).unwrap();
+        reply
+    }
+
+    #[test]
+    fn serves_the_last_text_on_get_metrics_only() {
+        let server = MetricsServer::start("127.0.0.1:0").unwrap();
+        let address = server.address();
+        let first = get(address, "GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n");
+        assert!(first.starts_with("HTTP/1.1 200 OK\r\n"), "{first}");
+        assert!(first.ends_with("\r\n\r\n# no status yet\n"), "{first}");
+        server.update("# TYPE rockwatch_up gauge\nrockwatch_up 1\n".into());
+        let reply = get(address, "GET /metrics?x=1 HTTP/1.0\r\n\r\n");
+        let (head, body) = reply.split_once("\r\n\r\n").unwrap();
+        assert!(
+            head.contains("Content-Type: text/plain; version=0.0.4"),
+            "{head}"
+        );
+        assert!(
+            head.contains(&format!("Content-Length: {}", body.len())),
+            "{head}"
+        );
+        assert_eq!(body, "# TYPE rockwatch_up gauge\nrockwatch_up 1\n");
+        assert!(get(address, "GET / HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 404"));
+        assert!(get(address, "POST /metrics HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 405"));
+        // A client that sends nothing is dropped after IO_TIMEOUT; the next is served.
+        let idle = TcpStream::connect(address).unwrap();
+        assert!(get(address, "GET /metrics HTTP/1.1\r\n\r\n").contains("rockwatch_up 1"));
+        drop(idle);
+        drop(server); // the thread ends (joined)
+        assert!(TcpStream::connect_timeout(&address, Duration::from_millis(200)).is_err());
+    }
+}
