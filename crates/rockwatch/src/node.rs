@@ -992,6 +992,7 @@ impl NodeRuntime {
             ros2_rebuilds: transports.ros2_rebuilds,
             iceoryx2: transports.iceoryx2,
             realtime_factor,
+            shards: self.shards(),
             packets: stats.packets,
             alerts: stats.alerts,
             rosout_dropped: crate::logging::rosout_dropped(),

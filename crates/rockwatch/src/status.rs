@@ -86,8 +86,11 @@ pub struct NodeStatus {
     pub ros2_up: bool,
     pub ros2_rebuilds: u64,
     pub iceoryx2: bool,
-    /// Data seconds processed per second of processing over the last period (None: idle).
+    /// Data seconds processed per second of processing over the last period (None: idle, or
+    /// not measured: the engine runs on worker threads).
     pub realtime_factor: Option<f64>,
+    /// Engine shards (1: inline on the event loop, where the real-time factor is measured).
+    pub shards: usize,
     pub packets: u64,
     pub alerts: u64,
     pub rosout_dropped: u64,
@@ -158,6 +161,13 @@ impl NodeStatus {
             ],
         });
         let (level, message) = match self.realtime_factor {
+            None if self.shards > 1 => (
+                Level::Ok,
+                format!(
+                    "real-time factor not measured ({} engine worker threads)",
+                    self.shards
+                ),
+            ),
             None => (Level::Ok, "idle (no data in the last period)".to_string()),
             Some(f) if f < 1.0 => (Level::Error, format!("behind real time: {f:.2}×")),
             Some(f) if f < MARGIN_WARN => {
@@ -568,6 +578,7 @@ mod tests {
             ros2_rebuilds: 0,
             iceoryx2: false,
             realtime_factor: Some(12.5),
+            shards: 1,
             packets: 10,
             alerts: 0,
             rosout_dropped: 0,

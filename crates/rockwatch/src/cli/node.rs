@@ -24,7 +24,10 @@ use rockwatch::signals::stop_on_signals;
 /// the state directory, give the receivers up to 5 s to deliver what is queued, exit 0. A DDS
 /// participant found dead (its RustDDS threads ended, e.g. after SIGSTOP/SIGCONT) is reported
 /// and rebuilt, the engine's state kept; if it cannot be rebuilt within 30 s the node exits 1.
-/// ROCKWATCH_LOG sets the log level of the libraries (default: their errors).
+/// Logs (--log-level, --log-format text|json, RUST_LOG) log every alert and station health
+/// change; `engine.stale_after_s` (60 s) without data makes a station stale (its blocks'
+/// /pbr/state not_monitored). Status on /diagnostics, records on /rosout, optional Prometheus
+/// text on `[metrics] listen`.
 #[derive(Debug, clap::Args)]
 pub struct NodeArgs {
     /// Node configuration (TOML, e.g. config/node.toml): catalogue, stations, thresholds,
