@@ -16,6 +16,7 @@
 //! - /rosout carries the alert records (level WARN = 30) under the node's logger name;
 //! - the metrics endpoint, scraped over loopback, parses as the Prometheus text format with
 //!   the same figures.
+//!
 //! Without rclpy, diagnostic_msgs or the pbr_msgs build the test is skipped locally and FAILS
 //! under CI=true.
 
@@ -251,7 +252,7 @@ fn node_logs_json_reports_station_health_on_diagnostics_rosout_state_and_metrics
     assert!(
         rrs.len() >= 2
             && rrs.iter().enumerate().all(|(i, &m)| m == (i % 2 == 1))
-            && rrs.len() % 2 == 0,
+            && rrs.len().is_multiple_of(2),
         "CI.RRS.00 monitored: {rrs:?}\n{context}"
     );
     // The silence between the replays: stale after the first alert.
