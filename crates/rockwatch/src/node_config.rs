@@ -287,11 +287,18 @@ mod tests {
         assert!(e.contains("node.toml") && e.contains("R-S"), "{e}");
         let e = load("[[station]]\nid = \"CI.RRS.00\"\norientation = { kind = \"azimuths\", h1_deg = 0.0, h2_deg = 45.0 }\n").unwrap_err();
         assert!(e.contains("orthogonal"), "{e}");
+        let e = load("[status]\nrosout_level = \"loud\"\n").unwrap_err();
+        assert!(
+            e.contains("node.toml") && e.contains("status.rosout_level") && e.contains("loud"),
+            "{e}"
+        );
         for bad in [
             "[engine.stream]\nreorder_window_packets = 9223372036854775807\n",
             "[engine.alerts]\nimminent_theta_ratio = -1.0\n",
             "[engine.alerts]\nquiet_s = nan\n",
             "[engine.stream]\nmax_bridge_s = 1e12\n",
+            "[engine]\nstale_after_s = 0.0\n",
+            "[status]\ndiagnostics_period_s = 0.0\n",
         ] {
             let e = load(bad).unwrap_err();
             assert!(
