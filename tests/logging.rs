@@ -95,3 +95,72 @@ fn one_log_for_rockwatch_and_the_libraries_with_muting_filter_and_rosout() {
     assert!(queued[0].file.ends_with("logging.rs") && queued[0].line > 0);
     assert!(queued[0].stamp_ns > 1_700_000_000_000_000_000);
 }
+
+/// The flags and variables through the binary: a bad `--log-level` (before or after the
+/// subcommand) is the one-line CLI error and exit 1; a bad `RUST_LOG` is reported once and
+/// the default used.
+#[test]
+fn log_flags_and_variables_through_the_binary() {
+    let bin = env!("CARGO_BIN_EXE_rockwatch");
+    let state = tempfile::tempdir().unwrap();
+    let run = |args: &[&str], env: &[(&str, &str)]| {
+        let mut cmd = std::process::Command::new(bin);
+        cmd.args(args)
+            .env_remove("RUST_LOG")
+            .env_remove("ROCKWATCH_LOG");
+        for (k, v) in env {
+            cmd.env(k, v);
+        }
+        let out = cmd.output().unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let dir = state.path().to_str().unwrap();
+    for args in [
+        &[
+            "--log-level",
+            "rockwatch=loud",
+            "alerts",
+            "--state-dir",
+            dir,
+        ][..],
+        &[
+            "acquire",
+            "--log-level",
+            "rockwatch=loud",
+            "--config",
+            "/nonexistent",
+        ][..],
+    ] {
+        let (code, stderr) = run(args, &[]);
+        assert_eq!(code, Some(1), "{args:?}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.starts_with("rockwatch: error: --log-level \"rockwatch=loud\""),
+            "{stderr}"
+        );
+    }
+    let (code, stderr) = run(&["alerts", "--state-dir", dir], &[("RUST_LOG", "x=loud")]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(
+        stderr.starts_with("rockwatch: warning: RUST_LOG=\"x=loud\" is not a log filter")
+            && stderr.contains("using the default"),
+        "{stderr}"
+    );
+    // --log-level wins over the variables (a bad variable is then not even read).
+    let (code, stderr) = run(
+        &[
+            "--log-level",
+            "warn",
+            "--log-format",
+            "json",
+            "alerts",
+            "--state-dir",
+            dir,
+        ],
+        &[("RUST_LOG", "x=loud"), ("ROCKWATCH_LOG", "loud")],
+    );
+    assert_eq!((code, stderr.as_str()), (Some(0), ""));
+}
