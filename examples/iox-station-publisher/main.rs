@@ -104,6 +104,8 @@ fn repo_path(relative: &str) -> PathBuf {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
+    // The libraries' errors (iceoryx2, RustDDS log through `log`) on stderr, as the node's.
+    rockwatch::logging::init(&rockwatch::logging::LogOptions::default())?;
     let station = StationId::parse(&args.station).map_err(|e| {
         anyhow!(
             "--station {:?}: {e} (the node drops such packets)",

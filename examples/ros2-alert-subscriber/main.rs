@@ -57,6 +57,8 @@ struct Args {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
+    // The libraries' errors (iceoryx2, RustDDS log through `log`) on stderr, as the node's.
+    rockwatch::logging::init(&rockwatch::logging::LogOptions::default())?;
     let deadline = match args.timeout {
         Some(s) if s.is_finite() && s >= 0.0 => Some(Instant::now() + Duration::from_secs_f64(s)),
         Some(s) => {

@@ -162,7 +162,10 @@ fn send_all<'s>(
         Ok(()) => counters.packets_sent += 1,
         Err(e) => {
             if counters.send_errors == 0 {
-                eprintln!("rockwatch: acquire: cannot publish a packet of {}: {e:#} (further failures counted)", printable(&packet.station, STATION_CHARS));
+                tracing::warn!(
+                    "acquire: cannot publish a packet of {}: {e:#} (further failures counted)",
+                    printable(&packet.station, STATION_CHARS)
+                );
             }
             counters.send_errors += 1;
         }
@@ -179,8 +182,8 @@ impl RecordSink for PacketPublisher<'_> {
             let id = record.id();
             let problem = issue.to_string();
             if self.logged.len() < 10_000 && self.logged.insert((id.clone(), problem.clone())) {
-                eprintln!(
-                    "rockwatch: acquire: {}: {} (record dropped; logged once, counted)",
+                tracing::warn!(
+                    "acquire: {}: {} (record dropped; logged once, counted)",
                     printable(&id, STATION_CHARS),
                     printable(&problem, 300)
                 );

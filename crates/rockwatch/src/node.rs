@@ -39,10 +39,11 @@ use crate::ports::{Control, ControlSender, Publication, Publisher, Wake};
 use crate::journal::{Appended, Journal, JournalWriter};
 use crate::log_text::{printable, MESSAGE_CHARS, PBR_ID_CHARS, STATION_CHARS};
 use crate::node_config::NodeConfig;
+use crate::status::{AlertLatency, NodeStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
-    fallen_blocks, journaled_alerts, AccelPacket, Alert, AlertLevel, Engine, JournalRecord, Notice,
-    Output, OutputSink, PbrSpec, PbrSummary, ShardedEngine,
+    fallen_blocks, journaled_alerts, AccelPacket, Alert, AlertLevel, Engine, HealthChange,
+    JournalRecord, Notice, Output, OutputSink, PbrSpec, PbrSummary, ShardedEngine, StationHealth,
 };
 
 /// Journaled alerts a starting node publishes again on ROS 2 (the depth of the
@@ -122,11 +123,12 @@ pub struct NodeOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum NoticeLog {
     /// The live node: at most one line per (station, kind) every 10 s, with the count of the
-    /// lines suppressed since.
+    /// lines suppressed since; every alert is logged too (target `rockwatch::alert`).
     #[default]
     RateLimited,
     /// An offline run: every notice is counted per (station, kind)
-    /// ([`Stopped::notice_counts`]), and the first `lines` of each (station, kind) are logged.
+    /// ([`Stopped::notice_counts`]), and the first `lines` of each (station, kind) are logged;
+    /// alerts are not logged (the run prints them).
     Counted { lines: u64 },
 }
 
@@ -171,10 +173,7 @@ impl NodeOptions {
         };
         let (journal, records, report) = Journal::open(&dir)?;
         if !report.corrupt_lines.is_empty() || report.truncated_tail {
-            eprintln!(
-                "rockwatch: warning: {}: journal repaired ({report:?})",
-                dir.display()
-            );
+            tracing::warn!("{}: journal repaired ({report:?})", dir.display());
         }
         Ok(Some((journal, records)))
     }
@@ -279,7 +278,7 @@ impl RateLimitedLog {
             } else {
                 String::new()
             };
-            eprintln!("rockwatch: {station}: {kind}: {message}{more}");
+            tracing::warn!(target: "rockwatch::notice", station = %station, kind, "{station}: {kind}: {message}{more}");
             entry.0 = now;
         } else {
             entry.1 += 1;
@@ -293,6 +292,8 @@ impl RateLimitedLog {
 struct Emitter {
     journal: Option<JournalWriter>,
     epoch: Instant,
+    /// UTC (ns since the Unix epoch) at `epoch`: arrival stamps in UTC.
+    epoch_utc_ns: i64,
     log: RateLimitedLog,
     notice_log: NoticeLog,
     /// Notices per (station, kind), with [`NoticeLog::Counted`] (else empty).
@@ -305,6 +306,12 @@ struct Emitter {
     /// Blocks overturned and not reset since: restored from the journal, then every
     /// `overturned` alert the engine raises (inline or on a worker) until an operator reset.
     overturned: HashSet<String>,
+    /// Each station's last alert and its latencies (for the status).
+    last_alerts: HashMap<String, AlertLatency>,
+    /// The stations' health as the sharded engine's workers last reported it.
+    health_reports: BTreeMap<String, StationHealth>,
+    /// `engine.stale_after_s`, for the log lines.
+    stale_after_s: f64,
 }
 
 impl Emitter {
@@ -351,8 +358,8 @@ impl Emitter {
             );
             self.log.log("state directory", "journal_failing", &message);
         } else if was_failing && backlog == 0 {
-            eprintln!(
-                "rockwatch: state directory recovered: {written} waiting records journaled \
+            tracing::info!(
+                "state directory recovered: {written} waiting records journaled \
                  ({} failed writes)",
                 writer.failures
             );
@@ -371,8 +378,8 @@ impl Emitter {
                     .or_insert(0);
                 *count += 1;
                 if *count <= lines {
-                    eprintln!(
-                        "rockwatch: {}: {}: {}",
+                    tracing::info!(
+                        "{}: {}: {}",
                         printable(&notice.station, STATION_CHARS),
                         notice.kind,
                         printable(&notice.message, MESSAGE_CHARS)
@@ -450,6 +457,22 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 }
                 self.emit.stats.alerts += 1;
                 let latency_ns = self.emit.now_ns() - alert.arrival_ns;
+                let data_to_arrival_ns =
+                    self.emit.epoch_utc_ns + alert.arrival_ns - alert.data_time_ns;
+                let latency = AlertLatency {
+                    data_time_ns: alert.data_time_ns,
+                    data_to_arrival_s: data_to_arrival_ns as f64 * 1e-9,
+                    arrival_to_published_s: latency_ns as f64 * 1e-9,
+                };
+                match self.emit.last_alerts.get_mut(alert.station.as_str()) {
+                    Some(last) => *last = latency,
+                    None => {
+                        self.emit.last_alerts.insert(alert.station.clone(), latency);
+                    }
+                }
+                if self.emit.notice_log == NoticeLog::RateLimited {
+                    log_alert(&alert, &latency, !journaled);
+                }
                 (self.publish)(Publication::Alert {
                     alert,
                     latency_ns,
@@ -459,8 +482,83 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             Output::EpisodeEnd { .. } => {}
             Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
             Output::Notice(n) => self.emit.notice(&n),
+            Output::Health(change) => log_health(&change, self.emit.stale_after_s),
+            Output::HealthReport(report) => {
+                for h in report {
+                    self.emit.health_reports.insert(h.station.clone(), h);
+                }
+            }
         }
     }
+}
+
+/// Logs one alert as it is handed to the publishers (target `rockwatch::alert`, level warn):
+/// its level, block, station, episode, data time (ISO 8601 UTC) and the two latencies —
+/// `data_latency_ms`, from the triggering sample's data time to the arrival of its packet
+/// (UTC clocks of the station and the node), and `latency_ms`, from that arrival to now
+/// (the node's processing, journal sync included).
+fn log_alert(alert: &Alert, latency: &AlertLatency, journal_pending: bool) {
+    let data_time = rockwatch_core::utc::format_utc_ns(i128::from(alert.data_time_ns));
+    let data_latency_ms = latency.data_to_arrival_s * 1e3;
+    let latency_ms = latency.arrival_to_published_s * 1e3;
+    let pbr_id = printable(&alert.pbr_id, PBR_ID_CHARS);
+    let station = printable(&alert.station, STATION_CHARS);
+    tracing::warn!(
+        target: "rockwatch::alert",
+        level = alert.level.as_str(),
+        pbr_id = %pbr_id,
+        station = %station,
+        episode = alert.episode,
+        data_time = %data_time,
+        data_latency_ms,
+        latency_ms,
+        theta_over_alpha = alert.theta_over_alpha,
+        overturn_probability = alert.overturn_probability,
+        journal_pending,
+        "ALERT {} {pbr_id} (station {station}, episode {}): data time {data_time}, |θ|/α {:.3}, \
+         P(overturn) {:.2}; data → arrival {data_latency_ms:.1} ms, arrival → published \
+         {latency_ms:.3} ms{}",
+        alert.level.as_str(),
+        alert.episode,
+        alert.theta_over_alpha.abs(),
+        alert.overturn_probability,
+        if journal_pending { " (not journaled yet: the state directory is failing)" } else { "" }
+    );
+}
+
+/// Logs a station going stale (warn) or recovering (info), target `rockwatch::health`.
+fn log_health(change: &HealthChange, stale_after_s: f64) {
+    let station = printable(&change.station, STATION_CHARS);
+    let silent_s = change.silent_ns as f64 * 1e-9;
+    if change.monitored {
+        tracing::info!(
+            target: "rockwatch::health",
+            station = %station,
+            monitored = true,
+            silent_s,
+            blocks = change.blocks,
+            "{station}: data again after {silent_s:.1} s of silence: its {} blocks are monitored again",
+            change.blocks
+        );
+    } else {
+        tracing::warn!(
+            target: "rockwatch::health",
+            station = %station,
+            monitored = false,
+            silent_s,
+            blocks = change.blocks,
+            "{station}: stale: no data for {silent_s:.1} s (engine.stale_after_s = {stale_after_s} s): its {} blocks are NOT MONITORED",
+            change.blocks
+        );
+    }
+}
+
+/// What the transports say about themselves, for [`NodeRuntime::status`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TransportStatus {
+    pub ros2_up: bool,
+    pub ros2_rebuilds: u64,
+    pub iceoryx2: bool,
 }
 
 /// The engine of a [`NodeRuntime`].
@@ -479,8 +577,6 @@ pub struct NodeRuntime {
     emit: Emitter,
     pbr_ids: Vec<String>,
     last_flush: Instant,
-    /// UTC (ns since the Unix epoch) at `emit.epoch`: arrival stamps in UTC.
-    epoch_utc_ns: i64,
     /// [`NodeOptions::reject_future`]: the tolerance (ns), when on.
     max_ahead_ns: Option<i64>,
     /// The journal's last [`REPUBLISH_DEPTH`] alerts, each with whether it was published
@@ -488,6 +584,12 @@ pub struct NodeRuntime {
     journaled: Vec<(Alert, bool)>,
     /// `Published` markers that could not be journaled.
     marker_errors: u64,
+    /// Judges the stations report after report.
+    status: StatusBuilder,
+    /// Time spent in the inline engine, and seconds of data it processed, since the last
+    /// status (the real-time factor).
+    busy_ns: u64,
+    data_s: f64,
 }
 
 impl NodeRuntime {
@@ -547,6 +649,9 @@ impl NodeRuntime {
             emit: Emitter {
                 journal: journal.map(JournalWriter::new),
                 epoch: Instant::now(),
+                epoch_utc_ns: std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)),
                 log: RateLimitedLog::new(),
                 notice_log: options.notices,
                 notice_counts: BTreeMap::new(),
@@ -556,12 +661,15 @@ impl NodeRuntime {
                 stats: NodeStats::default(),
                 deferred: Vec::new(),
                 overturned,
+                last_alerts: HashMap::new(),
+                health_reports: BTreeMap::new(),
+                stale_after_s: config.engine.stale_after_s,
             },
+            status: StatusBuilder::default(),
+            busy_ns: 0,
+            data_s: 0.0,
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
             last_flush: Instant::now(),
-            epoch_utc_ns: std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)),
             max_ahead_ns: options
                 .reject_future
                 .then_some((config.engine.plausibility.max_ahead_s * 1e9) as i64),
@@ -665,9 +773,16 @@ impl NodeRuntime {
             Some(EngineMode::Inline(engine)) => {
                 // Each alert is journaled and published the moment the engine raises it; the
                 // rest of the packet is processed after.
+                let started = Instant::now();
+                let rate = packet.sample_rate_hz;
+                if rate.is_finite() && rate > 0.0 {
+                    self.data_s += packet.len() as f64 / rate;
+                }
                 let mut sink = self.emit.sink(publish);
                 engine.process(packet, arrival, &mut sink);
-                sink.finish()
+                let finished = sink.finish();
+                self.busy_ns += started.elapsed().as_nanos() as u64;
+                finished
             }
             Some(EngineMode::Sharded(engine)) => {
                 engine.submit(packet, arrival);
@@ -692,7 +807,7 @@ impl NodeRuntime {
             0.0 // an invalid rate is the engine's to reject and report
         };
         let end_ns = packet.start_time_ns as f64 + span_ns;
-        let ahead_s = (end_ns - (self.epoch_utc_ns + arrival) as f64) * 1e-9;
+        let ahead_s = (end_ns - (self.emit.epoch_utc_ns + arrival) as f64) * 1e-9;
         if ahead_s * 1e9 <= max_ahead_ns as f64 {
             return false;
         }
@@ -757,8 +872,8 @@ impl NodeRuntime {
             }
         };
         match outcome {
-            ResetOutcome::Reset => eprintln!(
-                "rockwatch: {}: reset by the operator: stands again at rest",
+            ResetOutcome::Reset => tracing::info!(
+                "{}: reset by the operator: stands again at rest",
                 printable(pbr_id, PBR_ID_CHARS)
             ),
             _ => self
@@ -817,6 +932,70 @@ impl NodeRuntime {
                 Ok(())
             }
             None => Ok(()),
+        }
+    }
+
+    /// Judges every station's health now ([`Engine::check_health`]): a station silent for
+    /// `engine.stale_after_s` is reported (a log line, its blocks' states flagged
+    /// `not_monitored`, published), and its recovery likewise. The event loop calls it on
+    /// every tick; sharded, the workers answer through [`NodeRuntime::poll`].
+    pub fn check_health(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
+        let now = self.now_ns();
+        match &mut self.engine {
+            Some(EngineMode::Inline(engine)) => {
+                let mut sink = self.emit.sink(publish);
+                engine.check_health(now, &mut sink);
+                sink.finish()
+            }
+            Some(EngineMode::Sharded(engine)) => {
+                engine.check_health(now);
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// The node's status now (stations, journal, engine margin; the transports' part from
+    /// `transports`). The real-time factor covers the time since the previous call (inline
+    /// engine only). Sharded, the stations are as the workers last reported them (asked
+    /// again by this call).
+    pub fn status(&mut self, transports: TransportStatus) -> NodeStatus {
+        let now = self.now_ns();
+        let healths: Vec<StationHealth> = match &self.engine {
+            Some(EngineMode::Inline(engine)) => engine.health(),
+            Some(EngineMode::Sharded(engine)) => {
+                engine.report_health();
+                self.emit.health_reports.values().cloned().collect()
+            }
+            None => Vec::new(),
+        };
+        let epoch_utc_ns = self.emit.epoch_utc_ns;
+        let stations = healths
+            .into_iter()
+            .map(|h| {
+                let last_alert = self.emit.last_alerts.get(h.station.as_str()).copied();
+                self.status.station(h, now, epoch_utc_ns, last_alert)
+            })
+            .collect();
+        let realtime_factor = (self.data_s > 0.0 && self.busy_ns > 0)
+            .then(|| self.data_s / (self.busy_ns as f64 * 1e-9));
+        (self.busy_ns, self.data_s) = (0, 0.0);
+        let stats = self.emit.stats;
+        NodeStatus {
+            stamp_ns: epoch_utc_ns + now,
+            stations,
+            journal_configured: self.emit.journal.is_some(),
+            journal_failures: stats.journal_failures,
+            journal_backlog: stats.journal_backlog,
+            journal_dropped: stats.journal_dropped,
+            ros2_up: transports.ros2_up,
+            ros2_rebuilds: transports.ros2_rebuilds,
+            iceoryx2: transports.iceoryx2,
+            realtime_factor,
+            shards: self.shards(),
+            packets: stats.packets,
+            alerts: stats.alerts,
+            rosout_dropped: crate::logging::rosout_dropped(),
         }
     }
 

@@ -58,6 +58,12 @@ pub struct NodeConfig {
     /// Alert receivers (`[[notify]]`, see `crate::notify`), used by `rockwatch node`.
     #[serde(default)]
     pub notify: Vec<crate::notify::NotifyConfig>,
+    /// `/diagnostics` and `/rosout` (`[status]`, see `crate::status`).
+    #[serde(default)]
+    pub status: crate::status::StatusConfig,
+    /// The optional Prometheus endpoint (`[metrics]`, see `crate::metrics`).
+    #[serde(default)]
+    pub metrics: crate::metrics::MetricsConfig,
 }
 
 /// Why a configuration file could not be loaded: `path: problem`.
@@ -84,6 +90,9 @@ pub enum NodeConfigProblem {
     /// A `[[notify]]` entry is invalid: its number (1-based) and why.
     #[error("[[notify]] #{0}: {1}")]
     Notify(usize, String),
+    /// A `[status]` value is invalid.
+    #[error("{0}")]
+    Status(String),
 }
 
 impl NodeConfig {
@@ -107,6 +116,10 @@ impl NodeConfig {
         for s in &config.stations {
             s.validate().map_err(|e| error(e.into()))?;
         }
+        config
+            .status
+            .validate()
+            .map_err(|e| error(NodeConfigProblem::Status(e)))?;
         for (i, n) in config.notify.iter().enumerate() {
             n.validate()
                 .map_err(|e| error(NodeConfigProblem::Notify(i + 1, e)))?;
@@ -196,6 +209,8 @@ mod tests {
             "[[ros2.imu]]\ntopic = \"/t\"\nstation = \"XX.IMU.00\"\nsample_rate_hz = 100.0",
             "[iceoryx2]",
             "[[notify]]\nkind = \"exec\"\ncommand = [\"true\"]",
+            "[status]",
+            "[metrics]",
         ];
         for section in sections {
             let probe = format!("{section}\nno_such_key = 0\n");
@@ -272,11 +287,18 @@ mod tests {
         assert!(e.contains("node.toml") && e.contains("R-S"), "{e}");
         let e = load("[[station]]\nid = \"CI.RRS.00\"\norientation = { kind = \"azimuths\", h1_deg = 0.0, h2_deg = 45.0 }\n").unwrap_err();
         assert!(e.contains("orthogonal"), "{e}");
+        let e = load("[status]\nrosout_level = \"loud\"\n").unwrap_err();
+        assert!(
+            e.contains("node.toml") && e.contains("status.rosout_level") && e.contains("loud"),
+            "{e}"
+        );
         for bad in [
             "[engine.stream]\nreorder_window_packets = 9223372036854775807\n",
             "[engine.alerts]\nimminent_theta_ratio = -1.0\n",
             "[engine.alerts]\nquiet_s = nan\n",
             "[engine.stream]\nmax_bridge_s = 1e12\n",
+            "[engine]\nstale_after_s = 0.0\n",
+            "[status]\ndiagnostics_period_s = 0.0\n",
         ] {
             let e = load(bad).unwrap_err();
             assert!(

@@ -36,8 +36,8 @@ pub fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
             match set.wait() {
                 Ok(signal) => {
                     let again = flag.swap(true, Ordering::Relaxed);
-                    eprintln!(
-                        "rockwatch: {signal}: {}",
+                    tracing::info!(
+                        "{signal}: {}",
                         if again {
                             "already stopping"
                         } else {
@@ -46,7 +46,7 @@ pub fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
                     );
                 }
                 Err(e) => {
-                    eprintln!("rockwatch: error: waiting for signals failed ({e}): stopping");
+                    tracing::error!("waiting for signals failed ({e}): stopping");
                     flag.store(true, Ordering::Relaxed);
                     return;
                 }

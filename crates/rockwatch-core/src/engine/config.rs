@@ -196,6 +196,9 @@ pub struct EngineConfig {
     /// Each block's state is published on every mode change and at least this often (s of
     /// data time); station intensities at the same rate.
     pub state_interval_s: f64,
+    /// A station from which no accepted packet has arrived for this long (s, on the node's
+    /// clock) is stale: reported, and its blocks flagged not monitored (`engine::health`).
+    pub stale_after_s: f64,
 }
 
 impl Default for EngineConfig {
@@ -205,6 +208,7 @@ impl Default for EngineConfig {
             alerts: AlertConfig::default(),
             plausibility: PlausibilityConfig::default(),
             state_interval_s: 1.0,
+            stale_after_s: 60.0,
         }
     }
 }
@@ -214,7 +218,12 @@ impl EngineConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         let a = &self.alerts;
         let p = &self.plausibility;
-        let checks: [(&str, f64, bool); 10] = [
+        let checks: [(&str, f64, bool); 11] = [
+            (
+                "engine.stale_after_s",
+                self.stale_after_s,
+                self.stale_after_s > 0.0 && self.stale_after_s <= 86_400.0,
+            ),
             (
                 "engine.state_interval_s",
                 self.state_interval_s,
@@ -276,7 +285,7 @@ impl EngineConfig {
                     "engine.plausibility.max_abs_accel_g" => "(0, 1000] g",
                     "engine.plausibility.max_ahead_s" => "[0, 86400] s",
                     "engine.alerts.imminent_probability" => "(0, 1]",
-                    "engine.alerts.quiet_s" => "(0, 86400] s",
+                    "engine.alerts.quiet_s" | "engine.stale_after_s" => "(0, 86400] s",
                     _ => "a finite positive number",
                 };
                 return Err(ConfigError::OutOfRange { key, value, range });

@@ -8,6 +8,7 @@
 //! - [`output`]: alerts, states, intensities, notices;
 //! - [`sensor_frame`]: an accelerometer's specific force as ground acceleration (ENU, gravity);
 //! - `station`: one station's runtime (sample-by-sample processing);
+//! - [`health`]: whether each station still sends (stale / recovered) and its figures;
 //! - [`sharded`]: stations spread over worker threads.
 //!
 //! Architecture invariant: deterministic — the same packets in the same order give the same
@@ -22,6 +23,7 @@
 //! the blocks' last state (the motion during the gap is unknown; the flag says so).
 
 pub mod config;
+pub mod health;
 pub mod output;
 pub mod packet;
 mod rest_group;
@@ -35,6 +37,7 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 pub use config::{
     AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, StationConfig,
 };
+pub use health::{HealthChange, StationHealth};
 pub use output::{
     fallen_blocks, journaled_alerts, Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output,
     OutputSink, PbrState, StationIntensity,
@@ -79,6 +82,9 @@ pub struct Engine {
     counters: EngineCounters,
     journaled: HashSet<AlertKey>,
     scratch: Vec<stream::Released>,
+    /// `now_ns` of the first [`Engine::check_health`]: a station never heard from is stale
+    /// `stale_after_s` after it.
+    health_since_ns: Option<i64>,
 }
 
 impl Engine {
@@ -124,6 +130,7 @@ impl Engine {
             counters: EngineCounters::default(),
             journaled: HashSet::new(),
             scratch: Vec::new(),
+            health_since_ns: None,
         })
     }
 
@@ -205,6 +212,13 @@ impl Engine {
             }));
             return;
         }
+        station.accepted(
+            arrival_ns,
+            packet.start_time_ns,
+            packet.len(),
+            packet.sample_rate_hz,
+            out,
+        );
         let ctx = PacketContext {
             alerts: &self.config.alerts,
             journaled: &self.journaled,
@@ -212,6 +226,32 @@ impl Engine {
             arrival_ns,
         };
         station.offer(packet, &ctx, &mut self.scratch, out);
+    }
+
+    /// Judges every station's health at `now_ns` (the clock of the arrival stamps passed to
+    /// [`Engine::process`]): a station silent for more than `stale_after_s` goes stale, which
+    /// is reported ([`Output::Health`], then a state of each of its blocks flagged
+    /// `not_monitored`); its next accepted packet reports the recovery. A station never heard
+    /// from counts from the first call. Call it regularly (the node does on every tick of its
+    /// event loop); it allocates only to report a change.
+    pub fn check_health(&mut self, now_ns: i64, out: &mut dyn OutputSink) {
+        let since_ns = *self.health_since_ns.get_or_insert(now_ns);
+        let stale_after_ns = (self.config.stale_after_s * 1e9) as i64;
+        for station in self.stations.values_mut() {
+            station.check_stale(now_ns, since_ns, stale_after_ns, out);
+        }
+    }
+
+    /// Every station's health now, by station id.
+    #[must_use]
+    pub fn health(&self) -> Vec<StationHealth> {
+        self.stations.values().map(|s| s.health()).collect()
+    }
+
+    /// Pushes [`Engine::health`] as one [`Output::HealthReport`] (how a sharded engine's
+    /// workers answer).
+    pub fn report_health(&self, out: &mut dyn OutputSink) {
+        out.push(Output::HealthReport(self.health()));
     }
 
     /// Restores alerts, episodes and fallen blocks from the journal of a previous run. Alerts

@@ -99,8 +99,11 @@ pub struct PbrState {
     pub overturn_probability: f64,
     /// The block's prediction is uncertain: data were missing (a gap too long to bridge).
     pub data_gap: bool,
-    /// UTC time of the latest sample integrated (ns).
+    /// UTC time of the latest sample integrated (ns; 0 if its station never sent data).
     pub data_time_ns: i64,
+    /// Its station is stale (no data for `engine.stale_after_s`): the block is not monitored,
+    /// whatever its last state says (`engine::health`).
+    pub not_monitored: bool,
 }
 
 /// A station's running intensity measures over the current event window.
@@ -144,6 +147,11 @@ pub enum Output {
         pbr_id: String,
         episode: u32,
     },
+    /// A station went stale or recovered; the states of its blocks follow (`engine::health`).
+    Health(super::health::HealthChange),
+    /// Every station's health, asked for by `Engine::report_health` (a sharded engine's
+    /// workers answer through their outputs).
+    HealthReport(Vec<super::health::StationHealth>),
 }
 
 /// A durable record of the state directory's journal (see `crate::journal`).

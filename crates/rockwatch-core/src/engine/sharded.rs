@@ -16,6 +16,8 @@ use super::{
 enum Command {
     Packet(AccelPacket, i64),
     Flush(i64),
+    CheckHealth(i64),
+    ReportHealth,
     SetAlerts(AlertConfig),
     SetStateInterval(f64),
     Reset(String),
@@ -53,6 +55,16 @@ impl EngineHandle {
     /// New alert thresholds on every shard (effective for the next packet).
     pub fn set_alert_config(&self, alerts: AlertConfig) {
         self.broadcast(|| Command::SetAlerts(alerts));
+    }
+
+    /// [`Engine::check_health`] at `now_ns` on every shard.
+    pub fn check_health(&self, now_ns: i64) {
+        self.broadcast(|| Command::CheckHealth(now_ns));
+    }
+
+    /// [`Engine::report_health`] on every shard: one `Output::HealthReport` from each.
+    pub fn report_health(&self) {
+        self.broadcast(|| Command::ReportHealth);
     }
 
     /// New state publication interval (s of data) on every shard; ignored unless > 0.
@@ -135,6 +147,8 @@ impl ShardedEngine {
                         match command {
                             Command::Packet(p, arrival) => engine.process(p, arrival, &mut out),
                             Command::Flush(arrival) => engine.flush(arrival, &mut out),
+                            Command::CheckHealth(now) => engine.check_health(now, &mut out),
+                            Command::ReportHealth => engine.report_health(&mut out),
                             Command::SetAlerts(a) => engine.set_alert_config(a),
                             Command::SetStateInterval(s) => {
                                 engine.set_state_interval_s(s);
@@ -191,6 +205,16 @@ impl ShardedEngine {
     /// New alert thresholds on every shard (effective for the next packet).
     pub fn set_alert_config(&self, alerts: AlertConfig) {
         self.handle.set_alert_config(alerts);
+    }
+
+    /// [`Engine::check_health`] at `now_ns` on every shard (changes come as outputs).
+    pub fn check_health(&self, now_ns: i64) {
+        self.handle.check_health(now_ns);
+    }
+
+    /// [`Engine::report_health`] on every shard: one `Output::HealthReport` each, as outputs.
+    pub fn report_health(&self) {
+        self.handle.report_health();
     }
 
     /// New state publication interval (s of data) on every shard; ignored unless > 0.

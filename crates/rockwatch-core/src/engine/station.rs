@@ -4,6 +4,7 @@
 use super::config::{AlertConfig, Orientation, PbrSpec, StationConfig};
 use std::collections::HashSet;
 
+use super::health::{HealthChange, Liveness, StationHealth};
 use super::output::{
     Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink, PbrState, RaisedLevels,
     StationIntensity,
@@ -147,6 +148,11 @@ impl PbrRuntime {
     }
 
     fn state(&self, station: &str, data_time_ns: i64) -> PbrState {
+        self.state_monitored(station, data_time_ns, false)
+    }
+
+    /// The block's state, flagged `not_monitored` as given (a stale station's blocks).
+    fn state_monitored(&self, station: &str, data_time_ns: i64, not_monitored: bool) -> PbrState {
         PbrState {
             pbr_id: self.id.clone(),
             station: station.to_string(),
@@ -161,6 +167,7 @@ impl PbrRuntime {
             overturn_probability: self.overturn_probability(),
             data_gap: self.data_gap,
             data_time_ns,
+            not_monitored,
         }
     }
 
@@ -325,6 +332,8 @@ pub(crate) struct StationRuntime {
     quiet_since_ns: Option<i64>,
     last_intensity_ns: Option<i64>,
     pub(crate) counters: StationCounters,
+    /// Whether the station still sends (`engine::health`).
+    pub(crate) liveness: Liveness,
 }
 
 /// Context of one released packet, shared by its samples.
@@ -382,6 +391,82 @@ impl StationRuntime {
             quiet_since_ns: None,
             last_intensity_ns: None,
             counters: StationCounters::default(),
+            liveness: Liveness::default(),
+        }
+    }
+
+    /// An accepted packet (validated, plausible) of `samples` samples at `rate_hz` starting at
+    /// `start_ns` arrived at `arrival_ns`: if the station was stale, reports its recovery and
+    /// the states of its blocks (monitored again).
+    pub(crate) fn accepted(
+        &mut self,
+        arrival_ns: i64,
+        start_ns: i64,
+        samples: usize,
+        rate_hz: f64,
+        out: &mut dyn OutputSink,
+    ) {
+        let last_sample_ns =
+            start_ns + ((samples.saturating_sub(1)) as f64 * 1e9 / rate_hz).round() as i64;
+        if let Some(silent_ns) = self.liveness.accepted(arrival_ns, last_sample_ns, rate_hz) {
+            self.report_health(true, silent_ns, out);
+        }
+    }
+
+    /// At `now_ns` (health checks since `since_ns`): if the station goes stale now, reports
+    /// it and the states of its blocks (not monitored).
+    pub(crate) fn check_stale(
+        &mut self,
+        now_ns: i64,
+        since_ns: i64,
+        stale_after_ns: i64,
+        out: &mut dyn OutputSink,
+    ) {
+        if let Some(silent_ns) = self.liveness.goes_stale(now_ns, since_ns, stale_after_ns) {
+            self.report_health(false, silent_ns, out);
+        }
+    }
+
+    /// One [`Output::Health`], then a state of each block flagged as `monitored` says.
+    fn report_health(&self, monitored: bool, silent_ns: i64, out: &mut dyn OutputSink) {
+        out.push(Output::Health(HealthChange {
+            station: self.name.clone(),
+            monitored,
+            silent_ns,
+            blocks: self.pbrs.len(),
+        }));
+        let data_time_ns = self.liveness.last_sample_ns.unwrap_or(0);
+        for p in &self.pbrs {
+            out.push(Output::State(p.state_monitored(
+                &self.name,
+                data_time_ns,
+                !monitored,
+            )));
+        }
+    }
+
+    /// The station's health now.
+    pub(crate) fn health(&self) -> StationHealth {
+        let stream = self.sequencer.counters;
+        let l = &self.liveness;
+        StationHealth {
+            station: self.name.clone(),
+            monitored: !l.stale,
+            blocks: self.pbrs.len(),
+            last_arrival_ns: l.last_arrival_ns,
+            last_sample_ns: l.last_sample_ns,
+            sample_rate_hz: l.rate_hz,
+            packets: self.counters.packets,
+            samples: self.counters.samples,
+            rejected_packets: self.counters.rejected_packets,
+            rejected_samples: self.counters.rejected_samples,
+            clipped_samples: self.counters.clipped_samples,
+            gaps_bridged: stream.gaps_bridged,
+            gaps_broken: stream.gaps_broken,
+            missing_samples: stream.missing_samples,
+            late_packets: stream.late_packets,
+            duplicate_packets: stream.duplicate_packets,
+            stale_events: l.stale_events,
         }
     }
 

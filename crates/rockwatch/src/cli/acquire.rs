@@ -76,8 +76,8 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
             Box::new(Ros2PacketSink::open(&plan, &config.ros2.namespace)?)
         }
     };
-    eprintln!(
-        "rockwatch: acquire: {} streams from {}; waiting for the node's subscription",
+    tracing::info!(
+        "acquire: {} streams from {}; waiting for the node's subscription",
         config.seedlink.streams.len(),
         config.seedlink.server
     );
@@ -90,8 +90,8 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     let result = client.run(&stop, &mut publisher);
     let (published, assembled) = publisher.counters();
     let link = client.counters();
-    eprintln!(
-        "rockwatch: acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
+    tracing::info!(
+        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
         link.packets,
         link.delivered,
         link.duplicates,
@@ -107,7 +107,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     );
     result.map_err(anyhow::Error::msg)?;
     if !sink.finish(Duration::from_secs(5))? {
-        eprintln!("rockwatch: acquire: the node did not acknowledge every packet within 5 s");
+        tracing::warn!("acquire: the node did not acknowledge every packet within 5 s");
     }
     Ok(())
 }

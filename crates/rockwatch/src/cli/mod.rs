@@ -61,6 +61,15 @@ mod study;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Log filter: a level (error, warn, info, debug, trace, off) or target=level pairs
+    /// (`rockwatch=debug,rustdds=warn`). Wins over RUST_LOG and ROCKWATCH_LOG; default:
+    /// rockwatch's lines from info up, the libraries' (RustDDS, iceoryx2) errors.
+    #[arg(long = "log-level", global = true, value_name = "FILTER")]
+    log_level: Option<String>,
+    /// Log lines on stderr: `text` for people, `json` for log shippers (one object per
+    /// line: timestamp, level, target, fields).
+    #[arg(long = "log-format", global = true, value_enum, default_value_t = rockwatch::logging::LogFormat::Text)]
+    log_format: rockwatch::logging::LogFormat,
 }
 
 #[derive(Debug, Subcommand)]
@@ -138,8 +147,16 @@ pub fn run() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    // RustDDS and ros2-client log through the `log` facade: their errors reach stderr.
-    rockwatch::stderr_log::init();
+    // rockwatch's records and the libraries' (RustDDS and iceoryx2 through `log`, ros2-client
+    // through `tracing`) on stderr.
+    let log = rockwatch::logging::LogOptions {
+        level: cli.log_level.clone(),
+        format: cli.log_format,
+    };
+    if let Err(e) = rockwatch::logging::init(&log) {
+        eprintln!("rockwatch: error: {e}");
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Acquire(args) => acquire::run(args),
         Command::Alerts(args) => alerts::run_alerts(args),

@@ -24,7 +24,10 @@ use rockwatch::signals::stop_on_signals;
 /// the state directory, give the receivers up to 5 s to deliver what is queued, exit 0. A DDS
 /// participant found dead (its RustDDS threads ended, e.g. after SIGSTOP/SIGCONT) is reported
 /// and rebuilt, the engine's state kept; if it cannot be rebuilt within 30 s the node exits 1.
-/// ROCKWATCH_LOG sets the log level of the libraries (default: their errors).
+/// Logs (--log-level, --log-format text|json, RUST_LOG) log every alert and station health
+/// change; `engine.stale_after_s` (60 s) without data makes a station stale (its blocks'
+/// /pbr/state not_monitored). Status on /diagnostics, records on /rosout, optional Prometheus
+/// text on `[metrics] listen`.
 #[derive(Debug, clap::Args)]
 pub struct NodeArgs {
     /// Node configuration (TOML, e.g. config/node.toml): catalogue, stations, thresholds,
@@ -62,8 +65,8 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         notices: NoticeLog::RateLimited,
         reject_future: true,
     };
-    eprintln!(
-        "rockwatch: node {}/{} on DDS domain {} ({})",
+    tracing::info!(
+        "node {}/{} on DDS domain {} ({})",
         options.config.ros2.namespace.trim_end_matches('/'),
         rockwatch::ros2::NODE_NAME,
         plan.domain_id,
@@ -89,14 +92,14 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     let mut notifier = Notifier::start(&options.config.notify, state_dir.as_deref(), &journal)?;
     let report = serve(&options, &plan, &stop, &mut [&mut notifier])?;
     for r in notifier.shutdown(STOP_GRACE) {
-        eprintln!(
-            "rockwatch: notify {}: {} delivered, {} failed attempts, {} queue overflows, {} spool errors, {} undelivered (kept for the next start)",
+        tracing::info!(
+            "notify {}: {} delivered, {} failed attempts, {} queue overflows, {} spool errors, {} undelivered (kept for the next start)",
             r.name, r.delivered, r.failed_attempts, r.overflows, r.spool_errors, r.pending
         );
     }
     let fallen = report.summaries.iter().filter(|s| s.overturned).count();
-    eprintln!(
-        "rockwatch: stopped: {} packets received over ROS 2 ({} undecodable, {} participant rebuilds, {} redelivered and skipped), {} blocks, {} overturned",
+    tracing::info!(
+        "stopped: {} packets received over ROS 2 ({} undecodable, {} participant rebuilds, {} redelivered and skipped), {} blocks, {} overturned",
         report.ros2_packets,
         report.ros2_decode_errors,
         report.ros2_rebuilds,
@@ -105,8 +108,8 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         fallen
     );
     let input = report.input;
-    eprintln!(
-        "rockwatch: engine input: {} packets, {} rejected as invalid ({} beyond the physical bound), {} stamped too far ahead (not processed), {} with a malformed station id, {} from unknown stations, {} duplicate, {} late, {} time-grid rewinds",
+    tracing::info!(
+        "engine input: {} packets, {} rejected as invalid ({} beyond the physical bound), {} stamped too far ahead (not processed), {} with a malformed station id, {} from unknown stations, {} duplicate, {} late, {} time-grid rewinds",
         input.packets,
         input.rejected_packets,
         input.implausible_packets,
@@ -118,8 +121,8 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         input.grid_rewinds
     );
     if let Some(iox) = report.iox {
-        eprintln!(
-            "rockwatch: iceoryx2: {} packets received, {} submitted, {} rejected, {} sequence gaps, {} dead publishers cleaned",
+        tracing::info!(
+            "iceoryx2: {} packets received, {} submitted, {} rejected, {} sequence gaps, {} dead publishers cleaned",
             iox.received,
             iox.submitted,
             iox.rejected_count_mismatch + iox.rejected_station + iox.rejected_structure + iox.rejected_values,
@@ -129,8 +132,8 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     }
     let stats = report.stats;
     if stats.journal_failures > 0 {
-        eprintln!(
-            "rockwatch: state directory: {} failed writes, {} alerts published before they could be journaled, {} records still not journaled, {} lost (backlog full)",
+        tracing::warn!(
+            "state directory: {} failed writes, {} alerts published before they could be journaled, {} records still not journaled, {} lost (backlog full)",
             stats.journal_failures,
             stats.journal_pending_alerts,
             stats.journal_backlog,

@@ -28,9 +28,11 @@ use mio::{Events, Poll, Token, Waker};
 
 use super::{
     Control, ControlSender, InputTotals, NodeOptions, NodeRuntime, Publication, Publisher,
-    RateLimitedLog, Wake,
+    RateLimitedLog, TransportStatus, Wake,
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
+use crate::logging::{take_rosout, RosoutRecord};
+use crate::metrics::MetricsServer;
 use crate::ros2::msg::ResetPbrResponse;
 use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher, ALERTS_TOPIC};
 use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary};
@@ -130,6 +132,9 @@ pub struct Reactor {
     ros2: Ros2Node,
     ros2_publisher: Ros2Publisher,
     iox: Option<(IoxInput, IoxAlertPublisher)>,
+    /// How often the status goes to `/diagnostics` and the metrics endpoint.
+    status_period: Duration,
+    metrics: Option<MetricsServer>,
 }
 
 /// Runs the node until `stop` is set: [`Reactor::start`], then [`Reactor::run`] with the
@@ -181,6 +186,14 @@ impl Reactor {
             }
             None => None,
         };
+        // The node's own log records at or above `[status] rosout_level` also go to /rosout.
+        crate::logging::enable_rosout(config.status.rosout().map_err(anyhow::Error::msg)?);
+        let metrics = config
+            .metrics
+            .listen
+            .as_deref()
+            .map(MetricsServer::start)
+            .transpose()?;
         Ok(Reactor {
             runtime,
             poll,
@@ -189,6 +202,8 @@ impl Reactor {
             ros2,
             ros2_publisher,
             iox,
+            status_period: Duration::from_secs_f64(config.status.diagnostics_period_s),
+            metrics,
         })
     }
 
@@ -196,6 +211,12 @@ impl Reactor {
     #[must_use]
     pub fn epoch(&self) -> std::time::Instant {
         self.runtime.epoch()
+    }
+
+    /// The metrics endpoint's address, when `[metrics] listen` is set.
+    #[must_use]
+    pub fn metrics_address(&self) -> Option<std::net::SocketAddr> {
+        self.metrics.as_ref().map(MetricsServer::address)
     }
 
     /// The intake counters, readable from other threads while the node runs.
@@ -224,6 +245,8 @@ impl Reactor {
             mut ros2,
             ros2_publisher,
             iox,
+            status_period,
+            metrics,
         } = self;
         let (mut iox_input, mut iox_publisher) = match iox {
             Some((input, publisher)) => (Some(input), Some(publisher)),
@@ -251,6 +274,9 @@ impl Reactor {
         // Requests of /pbr/reset may be waiting (edge-triggered, like the inputs).
         let mut resets_due = true;
         let mut watchdog = Watchdog::new();
+        // Station health is judged every TICK, the status published every status period.
+        let (mut last_health, mut last_status) = (None::<Instant>, Instant::now());
+        let mut rosout: Vec<RosoutRecord> = Vec::new();
         while !stop.load(Ordering::Relaxed) {
             let pending = resets_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
             let timeout = if pending {
@@ -299,7 +325,27 @@ impl Reactor {
                 &controls,
             )?;
             runtime.flush_if_due(&mut |p| out.publish(p))?;
+            if last_health.is_none_or(|t| t.elapsed() >= TICK) {
+                last_health = Some(Instant::now());
+                runtime.check_health(&mut |p| out.publish(p))?;
+            }
             out.settle(&mut runtime);
+            if last_status.elapsed() >= status_period {
+                last_status = Instant::now();
+                let status = runtime.status(TransportStatus {
+                    ros2_up: watchdog.down_since.is_none(),
+                    ros2_rebuilds: watchdog.rebuilds,
+                    iceoryx2: iox_input.is_some(),
+                });
+                ros2.publish_status(&status);
+                if let Some(m) = &metrics {
+                    m.update(status.prometheus());
+                }
+            }
+            take_rosout(&mut rosout);
+            if !rosout.is_empty() {
+                ros2.publish_rosout(&mut rosout);
+            }
             ros2.publish_intake_reports(false);
             if let Some(input) = &mut iox_input {
                 input.maintain();
@@ -338,6 +384,8 @@ impl Reactor {
         ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
         ros2.flush_replies();
         ros2.publish_intake_reports(true);
+        take_rosout(&mut rosout);
+        ros2.publish_rosout(&mut rosout);
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
         let stopped = runtime.stop(&mut |p| out.publish(p))?;
         out.flush();
@@ -383,8 +431,8 @@ fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
         }
     }
     if all > 0 {
-        eprintln!(
-            "rockwatch: journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
+        tracing::info!(
+            "journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
         );
     }
 }
@@ -446,8 +494,8 @@ impl Watchdog {
         registry: &mio::Registry,
     ) -> anyhow::Result<bool> {
         let since = *self.down_since.get_or_insert_with(Instant::now);
-        eprintln!(
-            "rockwatch: error: ROS 2 transport dead: the DDS participant's thread {thread} has ended \
+        tracing::error!(
+            "ROS 2 transport dead: the DDS participant's thread {thread} has ended \
              (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT or a debugger \
              attach); rebuilding the participant ({} rebuilds so far)",
             self.rebuilds
@@ -463,17 +511,15 @@ impl Watchdog {
             Ok(()) => {
                 self.rebuilds += 1;
                 self.down_since = None;
-                eprintln!(
-                    "rockwatch: ROS 2 participant rebuilt after {:.1} s ({} rebuilds in all); the engine's state is kept",
+                tracing::info!(
+                    "ROS 2 participant rebuilt after {:.1} s ({} rebuilds in all); the engine's state is kept",
                     since.elapsed().as_secs_f64(),
                     self.rebuilds
                 );
                 Ok(true)
             }
             Err(e) if since.elapsed() < REBUILD_GIVE_UP => {
-                eprintln!(
-                    "rockwatch: error: cannot rebuild the ROS 2 participant ({e:#}): trying again"
-                );
+                tracing::error!("cannot rebuild the ROS 2 participant ({e:#}): trying again");
                 Ok(false)
             }
             Err(e) => Err(e.context(format!(

@@ -91,8 +91,8 @@ impl Notifier {
         journal: &[JournalRecord],
     ) -> anyhow::Result<Notifier> {
         if !configs.is_empty() && state_dir.is_none() {
-            eprintln!(
-                "rockwatch: warning: [[notify]] without a state directory: alerts not delivered \
+            tracing::warn!(
+                "[[notify]] without a state directory: alerts not delivered \
                  when the node stops are lost (set state_dir or --state-dir)"
             );
         }
@@ -105,8 +105,8 @@ impl Notifier {
                     let (mut spool, report) = Spool::open(&path)
                         .with_context(|| format!("notify {name}: cannot open its spool"))?;
                     if !report.corrupt_lines.is_empty() {
-                        eprintln!(
-                            "rockwatch: warning: {}: skipped corrupt spool lines {:?}",
+                        tracing::warn!(
+                            "{}: skipped corrupt spool lines {:?}",
                             path.display(),
                             report.corrupt_lines
                         );
@@ -115,8 +115,8 @@ impl Notifier {
                         .with_context(|| format!("notify {name}: {}", path.display()))?;
                     let pending = spool.pending().len();
                     if pending > 0 {
-                        eprintln!(
-                            "rockwatch: notify {name}: {pending} undelivered alerts from {}",
+                        tracing::info!(
+                            "notify {name}: {pending} undelivered alerts from {}",
                             path.display()
                         );
                     }
@@ -268,8 +268,8 @@ impl Publisher for Notifier {
                     r.shared.behind.store(true, Ordering::Relaxed);
                     let n = r.shared.counters.overflows.fetch_add(1, Ordering::Relaxed) + 1;
                     if n.is_power_of_two() {
-                        eprintln!(
-                            "rockwatch: notify {}: queue full ({} alerts): alert kept in the spool, delivered from there ({n} overflows so far)",
+                        tracing::warn!(
+                            "notify {}: queue full ({} alerts): alert kept in the spool, delivered from there ({n} overflows so far)",
                             r.shared.name, r.config.queue
                         );
                     }

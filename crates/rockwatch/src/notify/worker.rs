@@ -124,16 +124,17 @@ pub(crate) fn run(
             Ok(()) => {
                 if let Err(e) = shared.spool().ack(&key) {
                     shared.counters.spool_errors.fetch_add(1, Ordering::Relaxed);
-                    eprintln!(
-                        "rockwatch: notify {}: cannot record the delivery of {what} in the spool (it may be delivered again): {e}",
+                    tracing::warn!(
+                        "notify {}: cannot record the delivery of {what} in the spool (it may be delivered again): {e}",
                         shared.name
                     );
                 }
                 shared.counters.delivered.fetch_add(1, Ordering::Relaxed);
                 if failures > 0 {
-                    eprintln!(
-                        "rockwatch: notify {}: {what} delivered after {} failed attempts",
-                        shared.name, failures
+                    tracing::info!(
+                        "notify {}: {what} delivered after {} failed attempts",
+                        shared.name,
+                        failures
                     );
                 }
                 failures = 0;
@@ -147,8 +148,8 @@ pub(crate) fn run(
                     .failed_attempts
                     .fetch_add(1, Ordering::Relaxed);
                 let stopping = shared.stopping.load(Ordering::Relaxed);
-                eprintln!(
-                    "rockwatch: notify {}: {what} not delivered (attempt {failures}): {}; {}",
+                tracing::warn!(
+                    "notify {}: {what} not delivered (attempt {failures}): {}; {}",
                     shared.name,
                     printable(&e, 300),
                     if stopping {

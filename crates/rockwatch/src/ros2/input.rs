@@ -59,7 +59,7 @@ impl IntakeLog {
             .last_error_report
             .is_none_or(|t| t.elapsed() >= Duration::from_secs(10))
         {
-            eprintln!("rockwatch: ROS 2 {what}: undecodable message ({error}; {n} in all)");
+            tracing::warn!("ROS 2 {what}: undecodable message ({error}; {n} in all)");
             self.last_error_report = Some(Instant::now());
         }
     }

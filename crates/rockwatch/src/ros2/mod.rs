@@ -9,6 +9,7 @@
 //!
 //! - [`msg`]: the `pbr_msgs` messages and service on the wire;
 //! - `names.rs`: the node, topic and service names;
+//! - [`diagnostics`]: the node's status on `/diagnostics`, its log records on `/rosout`;
 //! - `config.rs`: the `[ros2]` configuration section;
 //! - `network.rs`: the DDS domain and interfaces ([`NetworkPlan`]);
 //! - `qos.rs`: the QoS profiles;
@@ -22,6 +23,7 @@
 
 mod alert_listener;
 mod config;
+pub mod diagnostics;
 mod imu;
 mod input;
 mod intake_report;
@@ -45,8 +47,8 @@ pub use input::IntakeCounters;
 pub use intake_report::{IntakeWatch, WriterCounts, MAX_WRITERS, REPORT_EVERY, REPORT_PERIOD};
 pub use liveness::DdsThreads;
 pub use names::{
-    ACCEL_TOPIC, ALERTS_TOPIC, IMS_TOPIC, INTAKE_TOPIC, NODE_NAME, RESET_SERVICE,
-    RESET_SERVICE_MAPPING, STATE_TOPIC,
+    ACCEL_TOPIC, ALERTS_TOPIC, DIAGNOSTICS_TOPIC, IMS_TOPIC, INTAKE_TOPIC, NODE_NAME,
+    RESET_SERVICE, RESET_SERVICE_MAPPING, STATE_TOPIC,
 };
 pub use network::{network_plan, network_plan_from_env, NetworkPlan, NetworkPlanError};
 pub use node::Ros2Node;

@@ -108,6 +108,9 @@ pub struct PbrState {
     pub data_gap: bool,
     /// Fraction of the ensemble that overturned (0..1).
     pub overturn_probability: f64,
+    /// The block's station is stale (no data for `engine.stale_after_s`): the block is not
+    /// monitored. Published for each block when its station goes stale and when it recovers.
+    pub not_monitored: bool,
 }
 
 /// `pbr_msgs/PbrAlert`: an alert about one block.
@@ -230,6 +233,7 @@ impl From<&engine::PbrState> for PbrState {
             slide: s.slide_m,
             data_gap: s.data_gap,
             overturn_probability: s.overturn_probability,
+            not_monitored: s.not_monitored,
         }
     }
 }

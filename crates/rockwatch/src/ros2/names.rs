@@ -13,6 +13,8 @@ pub const STATE_TOPIC: &str = "/pbr/state";
 pub const ALERTS_TOPIC: &str = "/pbr/alerts";
 /// What the node has taken from each writer of [`ACCEL_TOPIC`] (`pbr_msgs/IntakeReport`).
 pub const INTAKE_TOPIC: &str = "/pbr/intake";
+/// The node's status (`diagnostic_msgs/DiagnosticArray`), absolute as diagnostic_updater's.
+pub const DIAGNOSTICS_TOPIC: &str = "/diagnostics";
 /// The operator reset service (`pbr_msgs/srv/ResetPbr`), absolute like the topics.
 pub const RESET_SERVICE: &str = "/pbr/reset";
 /// The ROS 2 <-> DDS mapping of the reset service: the "enhanced" RPC-over-DDS mapping, that of

@@ -8,6 +8,7 @@ use ros2_client::dds::rustdds::mio1::{Registry, Token};
 use ros2_client::NodeOptions;
 
 use super::config::Ros2Config;
+use super::diagnostics::StatusPublisher;
 use super::input::{Inputs, IntakeCounters, IntakeLog};
 use super::msg;
 use super::names::{INTAKE_TOPIC, NODE_NAME};
@@ -36,6 +37,8 @@ pub struct Ros2Node {
     intake: ros2_client::Publisher<msg::IntakeReport>,
     /// Reports that could not be published.
     intake_errors: u64,
+    /// `/diagnostics` and `/rosout`.
+    status: StatusPublisher,
     /// Last: the endpoints above are dropped before their participant.
     session: Ros2Session,
 }
@@ -88,6 +91,7 @@ impl Ros2Node {
         let inputs = Inputs::subscribe(&mut session, config)?;
         let reset = ResetServer::open(&mut session, &config.namespace)?;
         let intake = session.publisher(INTAKE_TOPIC, "IntakeReport", intake_qos())?;
+        let status = StatusPublisher::open(&mut session, &config.namespace)?;
         Ok((
             Ros2Node {
                 session,
@@ -98,6 +102,7 @@ impl Ros2Node {
                 reset,
                 intake,
                 intake_errors: 0,
+                status,
             },
             publisher,
         ))
@@ -143,12 +148,22 @@ impl Ros2Node {
         if let Some(e) = failed {
             self.intake_errors += 1;
             if self.intake_errors.is_power_of_two() {
-                eprintln!(
-                    "rockwatch: ROS 2 {INTAKE_TOPIC}: cannot publish a report ({e}; {} in all)",
+                tracing::warn!(
+                    "ROS 2 {INTAKE_TOPIC}: cannot publish a report ({e}; {} in all)",
                     self.intake_errors
                 );
             }
         }
+    }
+
+    /// Publishes the node's status on `/diagnostics`.
+    pub fn publish_status(&mut self, status: &crate::status::NodeStatus) {
+        self.status.publish_status(status);
+    }
+
+    /// Publishes log records on `/rosout` (drained).
+    pub fn publish_rosout(&mut self, records: &mut Vec<crate::logging::RosoutRecord>) {
+        self.status.publish_rosout(records);
     }
 
     /// Registers the `/pbr/reset` server with `registry` as `token`, readable (edge-triggered:

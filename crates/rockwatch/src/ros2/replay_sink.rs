@@ -15,8 +15,8 @@ use super::names::{ACCEL_TOPIC, INTAKE_TOPIC};
 use super::network::NetworkPlan;
 use super::qos::{intake_qos, replay_qos, REPLAY_HISTORY};
 use super::session::Ros2Session;
+use crate::logging::MuteLibraries;
 use crate::ports::PacketSink;
-use crate::stderr_log::MuteLibraries;
 use rockwatch_core::engine::AccelPacket;
 
 /// Most packets a replay has sent that the node has not yet reported taken. Below the node's
@@ -145,8 +145,8 @@ impl Ros2PacketSink {
     /// Replaces the dead participant: a new writer, the node's count of the dead writer's
     /// packets, and the packets after those sent again.
     fn rebuild(&mut self, thread: &str) -> anyhow::Result<()> {
-        eprintln!(
-            "rockwatch: error: ROS 2 transport dead: the replay's DDS participant thread {thread} \
+        tracing::error!(
+            "ROS 2 transport dead: the replay's DDS participant thread {thread} \
              has ended (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT); \
              rebuilding it and sending again what the node has not taken"
         );
@@ -193,8 +193,8 @@ impl Ros2PacketSink {
             self.send_msg(m.clone())?;
         }
         self.rebuilds += 1;
-        eprintln!(
-            "rockwatch: replay participant rebuilt: the node had taken {} of {} packets; {} sent again",
+        tracing::info!(
+            "replay participant rebuilt: the node had taken {} of {} packets; {} sent again",
             self.base,
             self.sent,
             again.len()

@@ -162,6 +162,6 @@ fn send_response(
     response: msg::ResetPbrResponse,
 ) {
     if let Err(e) = server.send_response(id, response) {
-        eprintln!("rockwatch: ROS 2 {RESET_SERVICE}: response not sent: {e:?}");
+        tracing::warn!("ROS 2 {RESET_SERVICE}: response not sent: {e:?}");
     }
 }

@@ -13,7 +13,7 @@ use ros2_client::{
 use super::liveness::DdsThreads;
 use super::msg;
 use super::network::NetworkPlan;
-use crate::stderr_log::MuteLibraries;
+use crate::logging::MuteLibraries;
 
 fn dds_err(what: &str) -> impl Fn(ros2_client::CreateError) -> anyhow::Error + '_ {
     move |e| anyhow!("ROS 2: {what}: {e:?}")
@@ -58,7 +58,7 @@ impl Ros2Session {
             .name(format!("ros2-spin-{name}"))
             .spawn(move || {
                 if let Err(e) = futures::executor::block_on(spinner.spin()) {
-                    eprintln!("rockwatch: ROS 2 spinner stopped: {e:?}");
+                    tracing::warn!("ROS 2 spinner stopped: {e:?}");
                 }
             })?;
         Ok(Ros2Session {

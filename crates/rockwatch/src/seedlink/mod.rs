@@ -281,8 +281,8 @@ impl SeedLinkClient {
                     if self.counters.delivered > delivered_before {
                         backoff = initial;
                     }
-                    eprintln!(
-                        "rockwatch: seedlink {}: {}; reconnecting in {:.1} s",
+                    tracing::warn!(
+                        "seedlink {}: {}; reconnecting in {:.1} s",
                         self.config.server,
                         printable(&e.to_string(), SERVER_TEXT_CHARS),
                         backoff.as_secs_f64()
@@ -349,8 +349,8 @@ impl SeedLinkClient {
         };
         if restarted {
             self.counters.server_restarts += 1;
-            eprintln!(
-                "rockwatch: seedlink {}: the server restarted (started {:?}, was {:?}): resuming by time",
+            tracing::info!(
+                "seedlink {}: the server restarted (started {:?}, was {:?}): resuming by time",
                 self.config.server,
                 conn.server_started.as_deref().unwrap_or(""),
                 self.state.server_started.as_deref().unwrap_or("")
@@ -383,8 +383,8 @@ impl SeedLinkClient {
             since.map_or(Resume::Next, Resume::Since)
         };
         for refused in conn.request(&self.patterns, &resume, timeout)? {
-            eprintln!(
-                "rockwatch: seedlink {}: station refused: {}",
+            tracing::warn!(
+                "seedlink {}: station refused: {}",
                 self.config.server,
                 printable(&refused, SERVER_TEXT_CHARS)
             );
@@ -474,8 +474,8 @@ impl SeedLinkClient {
                 Verdict::Deliver { missing } => self.counters.missing_sequences += missing,
                 Verdict::DeliverAfterReset => {
                     self.counters.server_resets += 1;
-                    eprintln!(
-                        "rockwatch: seedlink {}: station {}: sequence {sequence} after {} with new data: the server restarted its numbering",
+                    tracing::info!(
+                        "seedlink {}: station {}: sequence {sequence} after {} with new data: the server restarted its numbering",
                         self.config.server,
                         printable(&key, STATION_CHARS),
                         last.unwrap_or(0)
@@ -518,8 +518,8 @@ impl SeedLinkClient {
 
     fn log_once(&mut self, kind: &'static str, key: String, message: &str) {
         if self.logged.len() < 10_000 && self.logged.insert((kind, key.clone())) {
-            eprintln!(
-                "rockwatch: seedlink {}: {}: {message} (logged once; counted)",
+            tracing::warn!(
+                "seedlink {}: {}: {message} (logged once; counted)",
                 self.config.server,
                 printable(&key, STATION_CHARS)
             );

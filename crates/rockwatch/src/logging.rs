@@ -1,0 +1,372 @@
+//! The process's log: `tracing` events of rockwatch, of ros2-client (which logs through
+//! `tracing`) and the `log` records of RustDDS and iceoryx2 (bridged by `tracing-log`), as
+//! human lines or one JSON object per line on stderr.
+//!
+//! - **Levels**: `--log-level FILTER`, else `RUST_LOG`, else `ROCKWATCH_LOG` (a single level
+//!   for every target, the older variable), else the default [`DEFAULT_FILTER`]: rockwatch's
+//!   own lines from `info` up, the libraries' errors only (RustDDS's warnings are chatty in
+//!   normal operation). A filter is `tracing-subscriber`'s `EnvFilter` syntax: `debug`, or
+//!   `rockwatch=debug,rustdds=warn`.
+//! - **Formats** ([`LogFormat`]): `text` (the default), one line per record:
+//!   `rockwatch: [error: |warning: |debug: |trace: ]message` (a library's line names its
+//!   target: `rockwatch: error: rustdds::…: message`); `json`, for log shippers: one object
+//!   per line, `{"timestamp": RFC 3339 UTC, "level", "target", "fields": {"message", …}}`.
+//!   Text lines carry the message only; the structured fields (an alert's `pbr_id`,
+//!   `latency_ms`, …) are in the JSON objects.
+//! - **Muting** ([`MuteLibraries`]): while a guard lives, the libraries' records (not
+//!   rockwatch's) are dropped: a DDS participant's teardown logs an error per endpoint.
+//! - **`/rosout`** ([`enable_rosout`], [`take_rosout`]): rockwatch's own records at or above
+//!   a level are also queued (bounded) for the node's event loop, which publishes them as
+//!   `rcl_interfaces/msg/Log` on its own thread (no record is ever published from a DDS
+//!   thread, so a library's record cannot deadlock RustDDS).
+//!
+//! Cost: a disabled level costs one cached check per call site; records are formatted only
+//! when enabled. The node logs per alert and per event (a station going silent), never per
+//! sample.
+
+use std::collections::VecDeque;
+use std::fmt;
+use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use tracing::field::{Field, Visit};
+use tracing::subscriber::Interest;
+use tracing::{Event, Level, Metadata, Subscriber};
+use tracing_subscriber::filter::EnvFilter;
+use tracing_subscriber::fmt::format::Writer;
+use tracing_subscriber::fmt::{FmtContext, FormatEvent, FormatFields};
+use tracing_subscriber::layer::{Context, Layer, SubscriberExt};
+use tracing_subscriber::registry::LookupSpan;
+use tracing_subscriber::util::SubscriberInitExt;
+
+/// The older environment variable of the log level: one level for every target.
+pub const LOG_ENV: &str = "ROCKWATCH_LOG";
+
+/// The filter without `--log-level`, `RUST_LOG` or `ROCKWATCH_LOG`.
+pub const DEFAULT_FILTER: &str = "error,rockwatch=info";
+
+/// How records are written on stderr.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum LogFormat {
+    /// Human lines: `rockwatch: [level: ]message`.
+    #[default]
+    Text,
+    /// One JSON object per line (timestamp, level, target, fields), for log shippers.
+    Json,
+}
+
+/// Where the levels and the format come from.
+#[derive(Debug, Clone, Default)]
+pub struct LogOptions {
+    /// `--log-level`: an `EnvFilter` (a level, or `target=level,…`); wins over the variables.
+    pub level: Option<String>,
+    pub format: LogFormat,
+}
+
+/// Open [`MuteLibraries`] guards: while any is, the libraries' records are dropped.
+static MUTED: AtomicUsize = AtomicUsize::new(0);
+
+/// While this guard lives, the libraries' log records (not rockwatch's) are dropped: for the
+/// teardown of a DDS participant, where RustDDS reports every endpoint it cannot remove from
+/// an event loop that has ended (or every multicast group it leaves) at error level.
+#[derive(Debug)]
+pub struct MuteLibraries(());
+
+impl MuteLibraries {
+    #[must_use]
+    pub fn new() -> MuteLibraries {
+        MUTED.fetch_add(1, Ordering::Relaxed);
+        MuteLibraries(())
+    }
+}
+
+impl Default for MuteLibraries {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Drop for MuteLibraries {
+    fn drop(&mut self) {
+        MUTED.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+/// Whether a target is rockwatch's own (the library, the binary, `rockwatch::…`).
+fn own(target: &str) -> bool {
+    target.starts_with("rockwatch")
+}
+
+/// The layer of [`MuteLibraries`]: the libraries' call sites are checked at every record
+/// (`Interest::sometimes`), rockwatch's are never muted.
+struct Mute;
+
+impl<S: Subscriber> Layer<S> for Mute {
+    fn register_callsite(&self, metadata: &'static Metadata<'static>) -> Interest {
+        if own(metadata.target()) {
+            Interest::always()
+        } else {
+            Interest::sometimes()
+        }
+    }
+
+    fn enabled(&self, metadata: &Metadata<'_>, _: Context<'_, S>) -> bool {
+        own(metadata.target()) || MUTED.load(Ordering::Relaxed) == 0
+    }
+}
+
+/// The filter in force: `--log-level`, else `RUST_LOG`, else `ROCKWATCH_LOG`, else
+/// [`DEFAULT_FILTER`]. A bad `--log-level` is an error; a bad variable is reported (returned
+/// as a warning) and the default used.
+fn filter(options: &LogOptions) -> Result<(EnvFilter, Option<String>), String> {
+    if let Some(level) = &options.level {
+        return EnvFilter::builder()
+            .parse(level)
+            .map(|f| (f, None))
+            .map_err(|e| format!("--log-level {level:?} is not a log filter ({e}): give a level (error, warn, info, debug, trace, off) or target=level pairs, e.g. rockwatch=debug,rustdds=warn"));
+    }
+    for var in ["RUST_LOG", LOG_ENV] {
+        let Ok(value) = std::env::var(var) else {
+            continue;
+        };
+        return match EnvFilter::builder().parse(&value) {
+            Ok(f) => Ok((f, None)),
+            Err(e) => Ok((
+                EnvFilter::new(DEFAULT_FILTER),
+                Some(format!(
+                    "{var}={value:?} is not a log filter ({e}): using the default ({DEFAULT_FILTER})"
+                )),
+            )),
+        };
+    }
+    Ok((EnvFilter::new(DEFAULT_FILTER), None))
+}
+
+/// Installs the process's log (once; a second call does nothing): stderr in `options.format`,
+/// the `log` records of the libraries bridged in. Errors: a `--log-level` that is not a
+/// filter.
+pub fn init(options: &LogOptions) -> Result<(), String> {
+    init_with_writer(options, std::io::stderr)
+}
+
+/// As [`init`], writing to `writer` instead of stderr (tests).
+pub fn init_with_writer<W>(options: &LogOptions, writer: W) -> Result<(), String>
+where
+    W: for<'w> tracing_subscriber::fmt::MakeWriter<'w> + Send + Sync + 'static,
+{
+    let (filter, warning) = filter(options)?;
+    // The `log` records (RustDDS, iceoryx2) go through the same filter; `log`'s own
+    // max level cuts the ones no directive can enable before any formatting.
+    let max = match filter.max_level_hint() {
+        Some(tracing::level_filters::LevelFilter::OFF) => log::LevelFilter::Off,
+        Some(tracing::level_filters::LevelFilter::ERROR) => log::LevelFilter::Error,
+        Some(tracing::level_filters::LevelFilter::WARN) => log::LevelFilter::Warn,
+        Some(tracing::level_filters::LevelFilter::INFO) => log::LevelFilter::Info,
+        Some(tracing::level_filters::LevelFilter::DEBUG) => log::LevelFilter::Debug,
+        _ => log::LevelFilter::Trace,
+    };
+    let registry = tracing_subscriber::registry()
+        .with(filter)
+        .with(Mute)
+        .with(RosoutLayer);
+    let installed = match options.format {
+        LogFormat::Text => registry
+            .with(
+                tracing_subscriber::fmt::layer()
+                    .with_writer(writer)
+                    .event_format(TextLine),
+            )
+            .try_init(),
+        LogFormat::Json => registry
+            .with(
+                tracing_subscriber::fmt::layer()
+                    .json()
+                    .with_writer(writer)
+                    .with_current_span(false)
+                    .with_span_list(false),
+            )
+            .try_init(),
+    };
+    if installed.is_ok() {
+        // Fails only if a `log` logger is installed already (then theirs stays).
+        let _ = tracing_log::LogTracer::init_with_filter(max);
+        if let Some(w) = warning {
+            tracing::warn!(target: "rockwatch::logging", "{w}");
+        }
+    }
+    Ok(())
+}
+
+/// The text format: `rockwatch: [level: ][target: ]message` (target for the libraries only).
+struct TextLine;
+
+impl<S, N> FormatEvent<S, N> for TextLine
+where
+    S: Subscriber + for<'a> LookupSpan<'a>,
+    N: for<'a> FormatFields<'a> + 'static,
+{
+    fn format_event(
+        &self,
+        _ctx: &FmtContext<'_, S, N>,
+        mut writer: Writer<'_>,
+        event: &Event<'_>,
+    ) -> fmt::Result {
+        let meta = event.metadata();
+        write!(writer, "rockwatch: ")?;
+        match *meta.level() {
+            Level::ERROR => write!(writer, "error: ")?,
+            Level::WARN => write!(writer, "warning: ")?,
+            Level::INFO => {}
+            Level::DEBUG => write!(writer, "debug: ")?,
+            Level::TRACE => write!(writer, "trace: ")?,
+        }
+        // A `log` record's target is in its `log.target` field.
+        let mut message = MessageOf::default();
+        event.record(&mut message);
+        let target = message.log_target.as_deref().unwrap_or(meta.target());
+        if !own(target) {
+            write!(writer, "{target}: ")?;
+        }
+        writeln!(writer, "{}", message.text)
+    }
+}
+
+/// The `message` field of a record (and a `log` record's target).
+#[derive(Default)]
+struct MessageOf {
+    text: String,
+    log_target: Option<String>,
+}
+
+impl Visit for MessageOf {
+    fn record_str(&mut self, field: &Field, value: &str) {
+        match field.name() {
+            "message" => self.text.push_str(value),
+            "log.target" => self.log_target = Some(value.to_string()),
+            _ => {}
+        }
+    }
+
+    fn record_debug(&mut self, field: &Field, value: &dyn fmt::Debug) {
+        if field.name() == "message" {
+            use fmt::Write as _;
+            let _ = write!(self.text, "{value:?}");
+        }
+    }
+}
+
+/// One record for `/rosout` (`rcl_interfaces/msg/Log`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RosoutRecord {
+    /// UTC, ns since the Unix epoch.
+    pub stamp_ns: i64,
+    /// `rcl_interfaces/msg/Log` level: 10 debug, 20 info, 30 warn, 40 error.
+    pub level: u8,
+    /// The record's target (`rockwatch::node`, …).
+    pub target: String,
+    pub message: String,
+    pub file: String,
+    pub line: u32,
+}
+
+/// Records queued for `/rosout` at most; beyond, records are dropped and counted
+/// ([`rosout_dropped`]).
+pub const ROSOUT_QUEUE: usize = 1000;
+
+/// `/rosout` level: 0 off (the default), else the lowest `rcl_interfaces/msg/Log` level queued.
+static ROSOUT_LEVEL: AtomicU8 = AtomicU8::new(0);
+static ROSOUT_DROPPED: AtomicU64 = AtomicU64::new(0);
+static ROSOUT: Mutex<VecDeque<RosoutRecord>> = Mutex::new(VecDeque::new());
+
+/// The `rcl_interfaces/msg/Log` level of a tracing level.
+#[must_use]
+pub fn rosout_level(level: Level) -> u8 {
+    match level {
+        Level::ERROR => 40,
+        Level::WARN => 30,
+        Level::INFO => 20,
+        Level::DEBUG | Level::TRACE => 10,
+    }
+}
+
+/// From now on, rockwatch's records at or above `level` (that pass the filter) are queued
+/// for `/rosout`; `None` turns it off.
+pub fn enable_rosout(level: Option<Level>) {
+    ROSOUT_LEVEL.store(level.map_or(0, rosout_level), Ordering::Relaxed);
+}
+
+/// Takes the records queued for `/rosout` (the node's event loop publishes them).
+pub fn take_rosout(into: &mut Vec<RosoutRecord>) {
+    if let Ok(mut queue) = ROSOUT.lock() {
+        into.extend(queue.drain(..));
+    }
+}
+
+/// Records dropped because the `/rosout` queue was full.
+#[must_use]
+pub fn rosout_dropped() -> u64 {
+    ROSOUT_DROPPED.load(Ordering::Relaxed)
+}
+
+/// Queues rockwatch's records for `/rosout` (see [`enable_rosout`]).
+struct RosoutLayer;
+
+impl<S: Subscriber> Layer<S> for RosoutLayer {
+    fn on_event(&self, event: &Event<'_>, _: Context<'_, S>) {
+        let min = ROSOUT_LEVEL.load(Ordering::Relaxed);
+        let meta = event.metadata();
+        let level = rosout_level(*meta.level());
+        if min == 0 || level < min || !own(meta.target()) {
+            return;
+        }
+        let mut message = MessageOf::default();
+        event.record(&mut message);
+        let stamp_ns = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+        let record = RosoutRecord {
+            stamp_ns,
+            level,
+            target: meta.target().to_string(),
+            message: message.text,
+            file: meta.file().unwrap_or("").to_string(),
+            line: meta.line().unwrap_or(0),
+        };
+        if let Ok(mut queue) = ROSOUT.lock() {
+            if queue.len() < ROSOUT_QUEUE {
+                queue.push_back(record);
+                return;
+            }
+        }
+        ROSOUT_DROPPED.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bad_log_level_is_refused_with_the_flag_named() {
+        let options = LogOptions {
+            level: Some("rockwatch=loud".into()),
+            format: LogFormat::Text,
+        };
+        let err = filter(&options).unwrap_err();
+        assert!(err.contains("--log-level") && err.contains("loud"), "{err}");
+        let ok = LogOptions {
+            level: Some("rockwatch=debug,rustdds=warn".into()),
+            format: LogFormat::Json,
+        };
+        assert!(filter(&ok).is_ok());
+    }
+
+    #[test]
+    fn rosout_levels_are_those_of_rcl_interfaces_log() {
+        // rcl_interfaces/msg/Log: DEBUG=10 INFO=20 WARN=30 ERROR=40 FATAL=50.
+        assert_eq!(rosout_level(Level::DEBUG), 10);
+        assert_eq!(rosout_level(Level::INFO), 20);
+        assert_eq!(rosout_level(Level::WARN), 30);
+        assert_eq!(rosout_level(Level::ERROR), 40);
+    }
+}
