@@ -222,7 +222,13 @@ pub fn fit_probit<const P: usize>(
             t *= 0.5;
         }
         if !accepted {
-            return Err(FitError::NotConverged);
+            // No ascent left in floating point: at a finite optimum the step would have been
+            // tiny; a steep standardised slope means the climb was towards separation.
+            return Err(if c[1..].iter().any(|v| v.abs() > 10.0) {
+                FitError::Separated
+            } else {
+                FitError::NotConverged
+            });
         }
         // In standardised units a slope of 50 is a step over 1/50 of a standard deviation of
         // the covariate: the likelihood is climbing towards a separating hyperplane.
@@ -235,7 +241,11 @@ pub fn fit_probit<const P: usize>(
         }
     }
     if !converged {
-        return Err(FitError::NotConverged);
+        return Err(if c[1..].iter().any(|v| v.abs() > 10.0) {
+            FitError::Separated
+        } else {
+            FitError::NotConverged
+        });
     }
     let cov_z = invert_spd(&info).ok_or(FitError::NotConverged)?;
     // Back to the original covariates: c_orig = J c with c₀ = c₀z − Σ cᵢz mᵢ/sᵢ, cᵢ = cᵢz/sᵢ.
