@@ -10,7 +10,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::report::{im_slug, stripe_fractions};
-use crate::plot::ensure_font;
+use crate::plot::{ensure_font, short_number};
 use crate::study::plots::PlotError;
 use rockwatch_core::fragility::{
     cell_counts, wilson_interval, FragilityConfig, FragilityResult, ImFragility, Prepared,
@@ -105,6 +105,7 @@ where
     chart
         .configure_mesh()
         .x_desc(format!("{name} ({})", f.im.unit()))
+        .x_label_formatter(&|x| short_number(*x))
         .y_desc("probability of overturning")
         .label_style(("sans-serif", 13))
         .draw()?;
@@ -244,6 +245,8 @@ where
         .configure_mesh()
         .x_desc(format!("{} ({})", im1.name(), im1.unit()))
         .y_desc(format!("{} ({})", im2.name(), im2.unit()))
+        .x_label_formatter(&|x| short_number(*x))
+        .y_label_formatter(&|y| short_number(*y))
         .label_style(("sans-serif", 13))
         .draw()?;
     // Cells centred on the grid points, edges at the geometric midpoints.
