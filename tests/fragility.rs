@@ -556,3 +556,29 @@ fn runs_do_not_depend_on_the_thread_count() {
     assert_eq!(runs1, runs3);
     assert_eq!(res1, res3);
 }
+
+#[test]
+fn early_exit_runs_agree_with_the_full_simulation() {
+    // simulate_outcome stops once the block has fallen, or once the record has ended and the
+    // block is at rest; simulate runs the record and all of t_extra. Same status and extremes.
+    use rockwatch_core::simulate::{simulate, simulate_outcome, SimulationOptions};
+    let params = BlockParams::from_body(0.12, 0.2, 0.8, 0.35, 0.6, 0.5, None).unwrap();
+    let mut rec = bundled("Rinaldi228.AT2");
+    rec.vertical_mps2 = Some(bundled("RinaldiUP.AT2").horizontal_mps2);
+    for (h, v) in [(0.05, 0.05), (0.3, 0.3), (-0.3, 0.3), (0.8, 0.8)] {
+        let fast = simulate_outcome(params, &rec, h, v, 10.0, BlockOptions::default()).unwrap();
+        let mut scaled = rec.clone();
+        scaled.horizontal_mps2.iter_mut().for_each(|a| *a *= h);
+        if let Some(z) = &mut scaled.vertical_mps2 {
+            z.iter_mut().for_each(|a| *a *= v);
+        }
+        let full = simulate(params, &scaled, &SimulationOptions::default()).unwrap();
+        assert_eq!(fast.status, full.summary.status, "{h}");
+        assert_eq!(
+            fast.max_abs_theta_over_alpha, full.summary.max_abs_theta_over_alpha,
+            "{h}"
+        );
+        assert_eq!(fast.max_abs_slide_m, full.summary.max_abs_slide, "{h}");
+        assert!(fast.duration_s <= full.summary.duration + 1e-9);
+    }
+}
