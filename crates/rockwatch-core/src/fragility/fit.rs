@@ -142,6 +142,18 @@ fn invert_spd<const P: usize>(m: &[[f64; P]; P]) -> Option<[[f64; P]; P]> {
     Some(inv)
 }
 
+/// Why Newton's method stopped without a finite optimum, from where it stopped: a slope
+/// steeper than 5 standardised units (β below a fifth of the covariate's spread) means it
+/// was climbing towards a separating hyperplane ([`FitError::Separated`]); otherwise
+/// [`FitError::NotConverged`]. Only consulted on failure: a converged fit may be steeper.
+fn failure<const P: usize>(c: &[f64; P]) -> FitError {
+    if c[1..].iter().any(|v| v.abs() > 5.0) {
+        FitError::Separated
+    } else {
+        FitError::NotConverged
+    }
+}
+
 /// Fits `P(event) = Φ(c₀ + Σ cᵢ xᵢ)` to groups `(x, trials, events)` by maximum likelihood.
 /// `x[g]` holds the `P − 1` covariates of group g; groups with a non-finite covariate or no
 /// trials are ignored. Events must lie in `[0, trials]`.
@@ -202,7 +214,11 @@ pub fn fit_probit<const P: usize>(
     let (mut ll, mut g, mut info) = terms(&z, &n, &k, &c);
     let mut converged = false;
     for _ in 0..300 {
-        let step = solve_spd(&info, &g).ok_or(FitError::NotConverged)?;
+        let Some(step) = solve_spd(&info, &g) else {
+            // A singular information matrix: every group but a few is predicted with
+            // probability 0 or 1, the hallmark of (quasi-)separation when slopes are steep.
+            return Err(failure(&c));
+        };
         let mut t = 1.0;
         let mut accepted = false;
         for _ in 0..60 {
@@ -224,11 +240,7 @@ pub fn fit_probit<const P: usize>(
         if !accepted {
             // No ascent left in floating point: at a finite optimum the step would have been
             // tiny; a steep standardised slope means the climb was towards separation.
-            return Err(if c[1..].iter().any(|v| v.abs() > 10.0) {
-                FitError::Separated
-            } else {
-                FitError::NotConverged
-            });
+            return Err(failure(&c));
         }
         // In standardised units a slope of 50 is a step over 1/50 of a standard deviation of
         // the covariate: the likelihood is climbing towards a separating hyperplane.
@@ -241,11 +253,7 @@ pub fn fit_probit<const P: usize>(
         }
     }
     if !converged {
-        return Err(if c[1..].iter().any(|v| v.abs() > 10.0) {
-            FitError::Separated
-        } else {
-            FitError::NotConverged
-        });
+        return Err(failure(&c));
     }
     let cov_z = invert_spd(&info).ok_or(FitError::NotConverged)?;
     // Back to the original covariates: c_orig = J c with c₀ = c₀z − Σ cᵢz mᵢ/sᵢ, cᵢ = cᵢz/sᵢ.
@@ -408,6 +416,24 @@ mod tests {
             assert!((got[i] - x[i]).abs() < 1e-12);
         }
         assert!(solve_spd(&[[1.0, 2.0], [2.0, 1.0]], &[1.0, 1.0]).is_none());
+    }
+
+    #[test]
+    fn a_separated_surface_is_reported() {
+        // Events exactly where x1 + x2 > 0, one mixed group on the line: no finite MLE.
+        let (mut x, mut n, mut k) = (Vec::new(), Vec::new(), Vec::new());
+        for a in -3..=3 {
+            for b in -3..=3 {
+                x.push([f64::from(a) * 0.3, f64::from(b) * 0.2]);
+                n.push(2.0);
+                k.push(match (a + b).cmp(&0) {
+                    std::cmp::Ordering::Greater => 2.0,
+                    std::cmp::Ordering::Less => 0.0,
+                    std::cmp::Ordering::Equal => 1.0,
+                });
+            }
+        }
+        assert_eq!(fit_surface(&x, &n, &k), Err(FitError::Separated));
     }
 
     #[test]
