@@ -1,7 +1,8 @@
 //! Plots of a rock's fragility, as SVG and PNG: for every fitted IM the lognormal curve with
 //! its 95 % bootstrap band and the observed fractions with their 95 % Wilson intervals (per
 //! stripe for the stripe IM, per log-spaced IM bin otherwise); the two-IM surface as filled
-//! probability levels with the 10, 50 and 90 % contours (marching squares on the grid).
+//! probability levels with the 10, 50 and 90 % contours (marching squares on the grid) and the
+//! observed (record, level) cells coloured by their fraction overturned.
 
 use std::error::Error;
 use std::path::{Path, PathBuf};
@@ -210,6 +211,7 @@ fn draw_surface<DB: DrawingBackend>(
     title: &str,
     config: &FragilityConfig,
     s: &Surface,
+    cells: &[(f64, f64, f64)],
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
@@ -266,6 +268,23 @@ where
             )
         })
     }))?;
+    // The observed (record, level) cells: fraction overturned as the fill, on the same scale.
+    let inside = |c: &&(f64, f64, f64)| c.0 >= x0 && c.0 <= x1 && c.1 >= y0 && c.1 <= y1;
+    chart.draw_series(
+        cells
+            .iter()
+            .filter(inside)
+            .map(|c| Circle::new((c.0, c.1), 4, shade(c.2).filled())),
+    )?;
+    chart
+        .draw_series(
+            cells
+                .iter()
+                .filter(inside)
+                .map(|c| Circle::new((c.0, c.1), 4, BLACK.stroke_width(1))),
+        )?
+        .label("runs: fraction overturned per record and level")
+        .legend(|(x, y)| Circle::new((x + 10, y), 4, BLACK.stroke_width(1)));
     for (level, colour) in [
         (0.1, RGBColor(0, 158, 115)),
         (0.5, RGBColor(0, 0, 0)),
@@ -326,7 +345,20 @@ pub fn write_plots(
                 im_slug(&config.ims[s.ims.0].name()),
                 im_slug(&config.ims[s.ims.1].name())
             ));
-            written.extend(both_formats_surface(&stem, title, config, s)?);
+            let counts = cell_counts(config, prepared.ims.len(), runs);
+            let mut cells = Vec::new();
+            for (r, row) in counts.iter().enumerate() {
+                for (j, c) in row.iter().enumerate() {
+                    if c.trials > 0.0 {
+                        cells.push((
+                            prepared.scaled_im(config, r, j, s.ims.0),
+                            prepared.scaled_im(config, r, j, s.ims.1),
+                            c.events / c.trials,
+                        ));
+                    }
+                }
+            }
+            written.extend(both_formats_surface(&stem, title, config, s, &cells)?);
         }
     }
     Ok(written)
@@ -363,6 +395,7 @@ fn both_formats_surface(
     title: &str,
     config: &FragilityConfig,
     s: &Surface,
+    cells: &[(f64, f64, f64)],
 ) -> Result<Vec<PathBuf>, PlotError> {
     ensure_font();
     let size = (900, 700);
@@ -372,6 +405,7 @@ fn both_formats_surface(
         title,
         config,
         s,
+        cells,
     )
     .map_err(|e| plot_error(&svg_path, e.as_ref()))?;
     draw_surface(
@@ -379,6 +413,7 @@ fn both_formats_surface(
         title,
         config,
         s,
+        cells,
     )
     .map_err(|e| plot_error(&png_path, e.as_ref()))?;
     Ok(vec![svg_path, png_path])
