@@ -24,7 +24,8 @@ const CURVE: RGBColor = RGBColor(0, 114, 178);
 const POINTS: RGBColor = RGBColor(213, 94, 0);
 
 /// Observed fractions `(im, k, n, lo, hi)` of IM i: per stripe for the stripe IM, else in 10
-/// log-spaced bins of the (record, level) cells' IM values.
+/// log-spaced bins of the (record, level) cells' IM values; each record (per stripe) or cell
+/// (per bin) counts as one trial, weighted by its fraction overturned.
 fn fractions(
     config: &FragilityConfig,
     prepared: &Prepared,
@@ -41,7 +42,8 @@ fn fractions(
         for (j, c) in row.iter().enumerate() {
             let x = prepared.scaled_im(config, r, j, i);
             if x > 0.0 && x.is_finite() && c.trials > 0.0 {
-                cells.push((x, c.events, c.trials));
+                // Each (record, level) cell is one trial weighted by its fraction.
+                cells.push((x, c.events / c.trials, 1.0));
             }
         }
     }
@@ -151,9 +153,9 @@ where
                 .map(|p| Circle::new((p.0, p.1 / p.2), 4, POINTS.filled())),
         )?
         .label(if f.is_stripe_im {
-            "fraction per stripe, 95 % Wilson interval"
+            "fraction per stripe, 95 % Wilson interval (records as trials)"
         } else {
-            "fraction per IM bin, 95 % Wilson interval"
+            "fraction per IM bin, 95 % Wilson interval (record-levels as trials)"
         })
         .legend(|(x, y)| Circle::new((x + 10, y), 4, POINTS.filled()));
     chart

@@ -169,7 +169,10 @@ pub fn write_runs_csv(
     std::fs::write(path, text)
 }
 
-/// Stripe fractions of the stripe IM: `(level, overturned, usable, wilson lo, hi)`.
+/// Stripe fractions of the stripe IM: `(level, k, n, wilson lo, hi)` with each record one
+/// trial (the runs of one record, its members and incidences, are not independent: the two
+/// polarities of a record on a symmetric rock are the same trial): n records with usable runs
+/// at the stripe, k the sum of their fractions overturned.
 #[must_use]
 pub fn stripe_fractions(
     config: &FragilityConfig,
@@ -184,9 +187,12 @@ pub fn stripe_fractions(
         .iter()
         .enumerate()
         .map(|(j, &l)| {
-            let (n, k) = counts.iter().fold((0.0, 0.0), |(n, k), row| {
-                (n + row[j].trials, k + row[j].events)
-            });
+            let (n, k) = counts
+                .iter()
+                .filter(|row| row[j].trials > 0.0)
+                .fold((0.0, 0.0), |(n, k), row| {
+                    (n + 1.0, k + row[j].events / row[j].trials)
+                });
             let (lo, hi) = wilson_interval(k, n, Z_95);
             (l, k, n, lo, hi)
         })
