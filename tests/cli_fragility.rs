@@ -289,3 +289,58 @@ fn bad_input_gets_a_one_line_error() {
     .contains("2 files for 1 records"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn csv_and_at2_records_mix_and_give_the_same_ims() {
+    // The same accelerogram as an AT2 (g) and as a CSV `t,ax` (m/s²): same scaled IMs and the
+    // same outcome in every run.
+    let dir = temp_dir("csv");
+    let at2 = format!("{RECORDS}/Rinaldi228.AT2");
+    let rec = rockwatch_core::record::Record::read(std::path::Path::new(&at2)).unwrap();
+    let mut csv = String::from("t,ax\n");
+    for (i, a) in rec.horizontal_mps2.iter().enumerate() {
+        csv.push_str(&format!("{},{a:e}\n", i as f64 * rec.dt_s));
+    }
+    let csv_path = dir.join("rinaldi.csv");
+    std::fs::write(&csv_path, csv).unwrap();
+    let out = dir.join("out");
+    let records = format!("{},{at2}", csv_path.display());
+    let (_, _, stderr) = cli(&[
+        "fragility",
+        "--width",
+        "0.4",
+        "--height",
+        "1.6",
+        "--mu-s",
+        "0.7",
+        "--records",
+        &records,
+        "--im",
+        "PGA,SA(1.0)",
+        "--scales",
+        "0.5:3:5",
+        "--bootstrap",
+        "0",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let runs = std::fs::read_to_string(out.join("runs.csv")).unwrap_or_else(|_| panic!("{stderr}"));
+    let rows: Vec<Vec<String>> = runs
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    assert_eq!(rows.len(), 2 * 5 * 2);
+    let (from_csv, from_at2) = rows.split_at(10);
+    for (c, a) in from_csv.iter().zip(from_at2) {
+        assert_eq!(c[0], "rinaldi.csv");
+        assert_eq!(a[0], "Rinaldi228.AT2");
+        assert_eq!(c[6], a[6], "status {c:?} vs {a:?}");
+        for col in [10, 11] {
+            let (x, y): (f64, f64) = (c[col].parse().unwrap(), a[col].parse().unwrap());
+            assert!((x - y).abs() <= 1e-9 * y, "{x} vs {y}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
