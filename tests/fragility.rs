@@ -339,6 +339,8 @@ fn scaled_ims_equal_the_ims_of_scaled_records() {
         "IC",
         "PGV/PGA",
         "D5_95",
+        "T5",
+        "T95",
         "TP",
         "SA(1.0)",
         "SA(0.3)",

@@ -5,8 +5,8 @@
 //! Scaling a record by `s` (both components, every sample) multiplies an IM by `s^k`: k = 1
 //! for the IMs linear in the record (PGA, PGV, PGD, CAV, SMA, EDA, EPV, a_rms, SA(T), ASI, SI,
 //! VSI: peaks, integrals of |a|, linear filters and oscillators), k = 2 for Arias
-//! (∫a²), k = 1.5 for Ic (a_rms^1.5·√D), k = 0 for PGV/PGA, Tp and the significant durations
-//! (ratios and times). The analysis computes each record's IMs once, unscaled, and uses
+//! (∫a²), k = 1.5 for Ic (a_rms^1.5·√D), k = 0 for PGV/PGA, Tp, the Husid times and the
+//! significant durations (ratios and times). The analysis computes each record's IMs once, unscaled, and uses
 //! `s^k·IM` for every scaled copy (exact up to rounding; `tests/fragility.rs` checks it
 //! against `compute_ims` of scaled records).
 
@@ -29,6 +29,10 @@ pub enum FragilityIm {
     PgvPga,
     D5_75,
     D5_95,
+    /// Husid times (s from the record's start), as the `ims` command reports them.
+    T5,
+    T75,
+    T95,
     Tp,
     /// 5 %-damped pseudo-spectral acceleration at a period (s).
     Sa(f64),
@@ -42,7 +46,8 @@ pub enum FragilityIm {
 
 /// The IM names `parse` knows, for error messages.
 pub const KNOWN_IMS: &str = "PGA, PGV, PGD, CAV, ARIAS, SMA, EDA, EPV, A_RMS, IC, PGV/PGA, \
-                             D5_75, D5_95, TP, SA(T), ASI(T1-T2), SI(T1-T2), VSI(T1-T2)";
+                             D5_75, D5_95, T5, T75, T95, TP, SA(T), ASI(T1-T2), SI(T1-T2), \
+                             VSI(T1-T2)";
 
 impl FragilityIm {
     /// Parses a name, case-insensitively: `PGA`, `PGV`, `PGV/PGA`, `SA(1.0)`, `ASI(0.1-0.5)`, …
@@ -78,6 +83,9 @@ impl FragilityIm {
             "PGV/PGA" | "PGV_PGA" => FragilityIm::PgvPga,
             "D5_75" | "D5-75" => FragilityIm::D5_75,
             "D5_95" | "D5-95" => FragilityIm::D5_95,
+            "T5" => FragilityIm::T5,
+            "T75" => FragilityIm::T75,
+            "T95" => FragilityIm::T95,
             "TP" => FragilityIm::Tp,
             _ => {
                 if let Some(p) = inner("SA") {
@@ -119,6 +127,9 @@ impl FragilityIm {
             FragilityIm::PgvPga => "PGV/PGA".into(),
             FragilityIm::D5_75 => "D5_75".into(),
             FragilityIm::D5_95 => "D5_95".into(),
+            FragilityIm::T5 => "T5".into(),
+            FragilityIm::T75 => "T75".into(),
+            FragilityIm::T95 => "T95".into(),
             FragilityIm::Tp => "TP".into(),
             FragilityIm::Sa(t) => format!("SA({})", format_period_s(*t)),
             FragilityIm::Asi(r) => format!("ASI({})", r.label()),
@@ -143,7 +154,13 @@ impl FragilityIm {
             | FragilityIm::Asi(_) => "m/s",
             FragilityIm::Pgd | FragilityIm::Si(_) | FragilityIm::Vsi(_) => "m",
             FragilityIm::Ic => "m^1.5/s^2.5",
-            FragilityIm::PgvPga | FragilityIm::D5_75 | FragilityIm::D5_95 | FragilityIm::Tp => "s",
+            FragilityIm::PgvPga
+            | FragilityIm::D5_75
+            | FragilityIm::D5_95
+            | FragilityIm::T5
+            | FragilityIm::T75
+            | FragilityIm::T95
+            | FragilityIm::Tp => "s",
         }
     }
 
@@ -153,7 +170,13 @@ impl FragilityIm {
         match self {
             FragilityIm::Arias => 2.0,
             FragilityIm::Ic => 1.5,
-            FragilityIm::PgvPga | FragilityIm::D5_75 | FragilityIm::D5_95 | FragilityIm::Tp => 0.0,
+            FragilityIm::PgvPga
+            | FragilityIm::D5_75
+            | FragilityIm::D5_95
+            | FragilityIm::T5
+            | FragilityIm::T75
+            | FragilityIm::T95
+            | FragilityIm::Tp => 0.0,
             _ => 1.0,
         }
     }
@@ -185,6 +208,9 @@ impl FragilityIm {
             FragilityIm::PgvPga => set.pgv_pga_s,
             FragilityIm::D5_75 => set.d5_75_s,
             FragilityIm::D5_95 => set.d5_95_s,
+            FragilityIm::T5 => set.t5_s,
+            FragilityIm::T75 => set.t75_s,
+            FragilityIm::T95 => set.t95_s,
             FragilityIm::Tp => set.tp_s,
             FragilityIm::Sa(t) => set
                 .spectral

@@ -99,8 +99,9 @@ pub struct FragilityArgs {
     )]
     vertical_records: Vec<String>,
     /// IMs to fit, comma-separated: PGA, PGV, PGD, CAV, ARIAS, SMA, EDA, EPV, A_RMS, IC,
-    /// PGV/PGA, D5_75, D5_95, TP, SA(T), ASI(T1-T2), SI(T1-T2), VSI(T1-T2) (SI units: m/s2,
-    /// m/s, m, s). Scale-invariant IMs (PGV/PGA, TP, durations) only enter the surface.
+    /// PGV/PGA, D5_75, D5_95, T5, T75, T95, TP, SA(T), ASI(T1-T2), SI(T1-T2), VSI(T1-T2)
+    /// (SI units: m/s2, m/s, m, s). Scale-invariant IMs (PGV/PGA, TP, the Husid times and
+    /// durations) only enter the surface.
     #[arg(long, value_name = "IM,…", value_delimiter = ',', required = true)]
     im: Vec<String>,
     /// Stripes IM:LO:HI:N: N levels of IM from LO to HI, log-spaced (SI units of the IM; an
