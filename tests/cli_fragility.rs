@@ -274,6 +274,7 @@ fn bad_input_gets_a_one_line_error() {
     assert!(base(&["--im", "PGX", "--scales", "1:2:3"]).contains("unknown IM"));
     assert!(base(&["--im", "PGA", "--stripes", "PGV:0.1:1:5"]).contains("not among --im"));
     assert!(base(&["--im", "PGA", "--stripes", "PGA:1:0.1:5"]).contains("LO ≤ HI"));
+    assert!(base(&["--im", "PGA", "--stripes", "PGA:0.1g:200g:5"]).contains("beyond ±100 g"));
     assert!(
         base(&["--im", "PGA", "--scales", "1:2:3", "--ensemble", "4"])
             .contains("--ensemble needs a catalogue entry")

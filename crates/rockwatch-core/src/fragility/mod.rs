@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use crate::dynamics::{BlockOptions, BlockParams};
 use crate::ims::{compute_ims, ImError, ImOptions};
 use crate::lhs::{rng_from_seed, uniform_below};
-use crate::record::Record;
+use crate::record::{Record, MAX_ABS_ACCEL_MPS2};
 use crate::simulate::{simulate_outcome, SimulateError, Status};
 use crate::study::special::normal_cdf;
 use fit::{fit_lognormal_groups, fit_surface, FitError, LognormalFit, SurfaceFit};
@@ -281,6 +281,24 @@ pub fn prepare(
                 levels.iter().map(|l| (l / value).powf(1.0 / k)).collect()
             }
         };
+        // The bounds every record obeys (`Record::check_bounds`) hold for its scaled copies.
+        let peak = rec
+            .record
+            .horizontal_mps2
+            .iter()
+            .chain(rec.record.vertical_mps2.iter().flatten())
+            .fold(0.0_f64, |m, a| m.max(a.abs()));
+        let largest = row.iter().copied().fold(0.0_f64, f64::max);
+        if peak * largest > MAX_ABS_ACCEL_MPS2 {
+            return Err(FragilityError::Record {
+                record: rec.name.clone(),
+                problem: format!(
+                    "scaled by {largest:.4} its peak acceleration reaches {:.1} m/s², beyond \
+                     ±100 g: lower the highest stripe or scale factor",
+                    peak * largest
+                ),
+            });
+        }
         scales.push(row);
     }
     Ok(Prepared { ims, scales })
