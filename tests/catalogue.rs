@@ -1046,3 +1046,29 @@ fn geometry_forms_are_validated_with_the_field_named() {
          b_minus_m + h_m + rho_m"
     );
 }
+
+#[test]
+fn members_sized_draws_another_ensemble_size_from_the_same_entry() {
+    // `rockwatch fragility --ensemble K` (issue 14 §3): K members of the entry's Latin
+    // hypercube, whatever the entry's own `ensemble`; its own K gives exactly `members()`.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/catalogue.toml");
+    let catalogue = Catalogue::load(&path).unwrap();
+    let pinnacle = catalogue.get("rrs-pinnacle-ensemble").unwrap();
+    assert!(pinnacle.has_uncertainty());
+    assert_eq!(
+        pinnacle.members_sized(pinnacle.ensemble_size()).unwrap(),
+        pinnacle.members().unwrap()
+    );
+    let five = pinnacle.members_sized(5).unwrap();
+    assert_eq!(five.len(), 5);
+    // Latin hypercube: the 5 widths fall one in each fifth of the 0.60–0.80 m range.
+    let mut bins: Vec<usize> = five
+        .iter()
+        .map(|m| ((m.base_width_m() - 0.60) / 0.04).floor() as usize)
+        .collect();
+    bins.sort_unstable();
+    assert_eq!(bins, vec![0, 1, 2, 3, 4]);
+    assert_eq!(pinnacle.members_sized(1).unwrap(), vec![pinnacle.nominal()]);
+    let pillar = catalogue.get("rrs-slender-pillar").unwrap();
+    assert!(!pillar.has_uncertainty());
+}

@@ -153,3 +153,35 @@ fn a_quiet_station_with_resting_blocks_does_not_allocate() {
         );
     }
 }
+
+/// The fragility analysis's run (`simulate::simulate_outcome`, issue 14 §3): a scaled record
+/// through `advance` with early exits, without allocating, whether the block rests, rocks
+/// back or overturns.
+#[test]
+fn a_fragility_run_does_not_allocate() {
+    use rockwatch_core::record::Record;
+    use rockwatch_core::simulate::{simulate_outcome, Status};
+    let record = Record {
+        source: "sine".into(),
+        dt_s: 0.01,
+        horizontal_mps2: input(1.0).iter().map(|g| g.horizontal_mps2).collect(),
+        vertical_mps2: None,
+    };
+    let params = BlockParams::from_width_height(0.4, 2.0, 0.5, 0.45, None).unwrap();
+    let mut statuses = Vec::with_capacity(3);
+    let info = allocation_counter::measure(|| {
+        for scale in [0.01, 0.21, 0.6] {
+            let o = simulate_outcome(params, &record, scale, scale, 10.0, BlockOptions::default())
+                .unwrap();
+            statuses.push((o.status, o.max_abs_theta_over_alpha));
+        }
+    });
+    assert_eq!(info.count_total, 0, "allocated {} times", info.count_total);
+    assert_eq!(statuses[0].0, Status::Ok);
+    assert_eq!(statuses[0].1, 0.0, "at rest");
+    assert_eq!(statuses[2].0, Status::Overturned);
+    assert!(
+        statuses.iter().any(|s| s.0 == Status::Ok && s.1 > 0.0),
+        "{statuses:?}"
+    );
+}

@@ -651,6 +651,16 @@ fn cli_study_writes_parseable_files_and_json_summary() {
     assert!(md.contains("| Intensity measure | M6.5 R10 | M7 R10 | Overall R² |"));
     let png = std::fs::read(dir.path().join("scatter_sliding.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    // Issue 14 §5: the zero-response runs are drawn apart, in a strip under each of the five
+    // log–log panels, labelled with their number (the summary's count).
+    for name in ["sliding", "rocking"] {
+        let svg = std::fs::read_to_string(dir.path().join(format!("scatter_{name}.svg"))).unwrap();
+        let none = json["blocks"][name]["counts"]["no_response"]
+            .as_u64()
+            .unwrap();
+        let label = format!("no response ({none})");
+        assert_eq!(svg.matches(&label).count(), 5, "{name}: {label}");
+    }
     let fragility: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("fragility.json")).unwrap())
             .unwrap();

@@ -477,7 +477,22 @@ impl Pbr {
     /// module doc: column order, quantile maps, truncation, μk > μs handling). Reproducible:
     /// the same entry (same seed) always gives the same members.
     pub fn members(&self) -> Result<Vec<BlockParams>, EnsembleError> {
-        if self.ensemble <= 1 {
+        self.members_sized(self.ensemble)
+    }
+
+    /// True when some parameter of the entry is uncertain (a range or a normal), so that an
+    /// ensemble of more than one member differs from the nominal block.
+    #[must_use]
+    pub fn has_uncertainty(&self) -> bool {
+        self.sampled_parameters()
+            .iter()
+            .any(|p| p.is_some_and(|(d, _)| !d.is_fixed()))
+    }
+
+    /// [`Pbr::members`] with `ensemble` members instead of the entry's own K (the Latin
+    /// hypercube of the same seed; `rockwatch fragility --ensemble K`).
+    pub fn members_sized(&self, ensemble: usize) -> Result<Vec<BlockParams>, EnsembleError> {
+        if ensemble <= 1 {
             return Ok(vec![self.nominal]);
         }
         let parameters = self.sampled_parameters();
@@ -489,15 +504,15 @@ impl Pbr {
             .collect();
         if uncertain.is_empty() {
             // Validation rejects K > 1 without uncertainty; K identical blocks would be the answer.
-            return Ok(vec![self.nominal; self.ensemble]);
+            return Ok(vec![self.nominal; ensemble]);
         }
-        let lhs = latin_hypercube_seeded(self.ensemble, uncertain.len(), self.seed);
+        let lhs = latin_hypercube_seeded(ensemble, uncertain.len(), self.seed);
         let nominal_values: Vec<f64> = parameters
             .iter()
             .map(|p| p.map_or(f64::NAN, |(d, _)| d.nominal()))
             .collect();
         let n_geometry = self.geometry.fields().len();
-        let mut members = Vec::with_capacity(self.ensemble);
+        let mut members = Vec::with_capacity(ensemble);
         let mut values = nominal_values.clone();
         for (member, sample) in lhs.samples().enumerate() {
             values.copy_from_slice(&nominal_values);

@@ -11,6 +11,7 @@ pub mod azimuth;
 pub mod catalogue;
 pub mod dynamics;
 pub mod engine;
+pub mod fragility;
 pub mod hazard;
 pub mod ims;
 pub mod inventory;

@@ -215,3 +215,83 @@ pub fn simulate(
         events,
     })
 }
+
+/// The response of one block to one scaled record, as the fragility analysis needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Outcome {
+    /// Overturned, flight (stopped there) or standing (`Status::Ok`).
+    pub status: Status,
+    /// max |θ|/α_σ (see [`Summary::max_abs_theta_over_alpha`]).
+    pub max_abs_theta_over_alpha: f64,
+    /// max |u| (m) before any overturn.
+    pub max_abs_slide_m: f64,
+    /// Simulated time (s) when the run stopped.
+    pub duration_s: f64,
+}
+
+/// Simulates `params` under `record` with its horizontal component multiplied by
+/// `horizontal_factor` and its vertical one by `vertical_factor`, through exactly
+/// [`RigidBlock::advance`] (one call per input interval, as [`simulate`]), without
+/// allocating and with early exits: the run stops once the block has overturned or lifted
+/// off, or once the record has ended and the block is at rest (with zero ground motion it
+/// stays at rest for ever), and at most `t_extra_s` after the record's end. The bounds of
+/// [`simulate`] apply.
+pub fn simulate_outcome(
+    params: BlockParams,
+    record: &Record,
+    horizontal_factor: f64,
+    vertical_factor: f64,
+    t_extra_s: f64,
+    block_options: BlockOptions,
+) -> Result<Outcome, SimulateError> {
+    if record.len() < 2 {
+        return Err(SimulateError::TooShort);
+    }
+    if !(t_extra_s.is_finite() && t_extra_s >= 0.0) {
+        return Err(SimulateError::BadExtra(t_extra_s));
+    }
+    let dt = record.dt_s;
+    let steps = record.len() as f64 + (t_extra_s / dt).ceil();
+    if !(dt > 0.0 && steps <= MAX_SIMULATION_STEPS as f64) {
+        return Err(SimulateError::TooManySteps { steps, dt_s: dt });
+    }
+    let n = record.len();
+    let n_intervals = n - 1 + (t_extra_s / dt).ceil() as usize;
+    let vertical = record.vertical_mps2.as_deref();
+    let ground_at = |i: usize| -> GroundAccel {
+        if i < n {
+            GroundAccel {
+                horizontal_mps2: horizontal_factor * record.horizontal_mps2[i],
+                vertical_mps2: vertical.map_or(0.0, |v| vertical_factor * v[i]),
+            }
+        } else {
+            GroundAccel::default()
+        }
+    };
+    let mut block = RigidBlock::new(params, block_options);
+    for i in 0..n_intervals {
+        if i + 1 >= n && block.mode() == Mode::Rest {
+            break;
+        }
+        block
+            .advance(dt, ground_at(i), ground_at(i + 1), |_| {})
+            .map_err(|reason| SimulateError::Advance {
+                t_s: block.time_s(),
+                reason,
+            })?;
+        if matches!(block.mode(), Mode::Overturned | Mode::Flight) {
+            break;
+        }
+    }
+    let stats = block.stats();
+    Ok(Outcome {
+        status: match block.mode() {
+            Mode::Overturned => Status::Overturned,
+            Mode::Flight => Status::Flight,
+            _ => Status::Ok,
+        },
+        max_abs_theta_over_alpha: stats.max_abs_theta_over_alpha,
+        max_abs_slide_m: stats.max_abs_slide_m,
+        duration_s: block.time_s(),
+    })
+}

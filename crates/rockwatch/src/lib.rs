@@ -7,6 +7,7 @@
 
 pub mod acquire;
 pub mod alert_json;
+pub mod fragility;
 pub mod iox;
 pub mod journal;
 pub mod log_text;

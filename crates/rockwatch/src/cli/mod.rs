@@ -38,6 +38,7 @@ pub fn stdout_failed(error: std::io::Error) -> ! {
 mod acquire;
 mod alerts;
 mod demo;
+mod fragility;
 mod hazard;
 mod ims;
 mod monitor;
@@ -106,6 +107,9 @@ enum Command {
     /// Annual overturning rate, return period and survival probability of one rock from its
     /// fragility and its site's hazard curve (OpenQuake or two-column CSV).
     Hazard(hazard::HazardArgs),
+    /// Overturning fragility of one rock from a suite of records (multiple-stripe analysis,
+    /// maximum likelihood, bootstrap intervals, two-IM surface).
+    Fragility(fragility::FragilityArgs),
 }
 
 /// Output format for people (`text`) or programs (`json`).
@@ -171,6 +175,7 @@ pub fn run() -> ExitCode {
         Command::Stations(args) => stations::run(args),
         Command::Study(args) => study::run(args),
         Command::Hazard(args) => hazard::run(args),
+        Command::Fragility(args) => fragility::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,6 +1,7 @@
-//! Plots of the study, as SVG and PNG: DM against the five best IMs for each block (like the
-//! seed's Figures 4 and 5: responding, no response and overturned runs in different colours,
-//! best-fit line of the linear regression) and the fragility curve of overturning with its
+//! Plots of the study, as SVG and PNG: DM against the five best IMs for each block on log–log
+//! axes (like the seed's Figures 4 and 5 and the PSDA habit: responding and excluded runs in
+//! different colours, the log–log regression line; the zero-response runs, DM below the
+//! response floor, in a strip under each axis at their IM) and the fragility curve of overturning with its
 //! 95 % band and the observed fractions.
 //!
 //! PNG text uses the font bundled with the crate ([`crate::plot::ensure_font`]), so the
@@ -13,7 +14,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::report::display_name;
-use crate::plot::ensure_font;
+use crate::plot::{ensure_font, short_number};
 use rockwatch_core::study::fragility::Z_95;
 use rockwatch_core::study::{BlockAnalysis, Category, StudyAnalysis, StudyConfig, StudyData};
 
@@ -50,7 +51,7 @@ const FIT_COLOUR: RGBColor = RGBColor(0, 158, 115);
 fn legend_entries() -> [(Category, &'static str); 4] {
     [
         (Category::Responding, "response (used)"),
-        (Category::NoResponse, "no response (used)"),
+        (Category::NoResponse, "no response (strip below each axis)"),
         (Category::Overturned, "overturned (excluded)"),
         (Category::SlideAbove, "other exclusion"),
     ]
@@ -82,50 +83,64 @@ where
     )?;
     let cells = body.split_evenly((2, 3));
     let dm_of = |i: usize| block.dm.of(&data.responses[i][block.block_index]);
-    // y range from the used runs; excluded runs above it are drawn at the top edge.
+    // Log–log axes: y from the response floor (runs below it, "no response", go to the strip
+    // under the axis) to the largest used DM; excluded runs above it sit on the top edge.
+    let floor = config.floor(block.dm);
     let y_max = (0..data.cases.len())
         .filter(|&i| block.categories[i].is_used())
         .map(dm_of)
         .filter(|v| v.is_finite())
-        .fold(0.0_f64, f64::max)
-        .max(1e-3)
-        * 1.08;
+        .fold(floor, f64::max)
+        * 1.3;
     for (cell, score) in cells.iter().zip(block.ranking.iter().take(5)) {
         let j = score.im_index;
-        let x_max = data
+        let (x_min, x_max) = data
             .cases
             .iter()
             .map(|c| c.ims[j])
-            .filter(|v| v.is_finite())
-            .fold(0.0_f64, f64::max)
-            .max(1e-9)
-            * 1.05;
-        let mut chart = ChartBuilder::on(cell)
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+        if !(x_min.is_finite() && x_max > x_min) {
+            continue;
+        }
+        let (x_min, x_max) = (x_min / 1.1, x_max * 1.1);
+        let n_nonpositive = data.cases.iter().filter(|c| c.ims[j] <= 0.0).count();
+        // The strip of zero-response runs: 16 % of the cell, under the log–log chart.
+        let (_, ch) = cell.dim_in_pixel();
+        let (main, strip) = cell.split_vertically(ch * 84 / 100);
+        let mut chart = ChartBuilder::on(&main)
             .caption(
-                format!("{} — R² = {:.4}", display_name(score.name()), score.r2()),
+                format!(
+                    "{} — R² = {:.3}, R²(log) = {:.3}",
+                    display_name(score.name()),
+                    score.r2(),
+                    score.r2_log()
+                ),
                 ("sans-serif", 16),
             )
             .margin(10)
-            .x_label_area_size(40)
+            .margin_bottom(0)
+            .x_label_area_size(0)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
+            .build_cartesian_2d((x_min..x_max).log_scale(), (floor..y_max).log_scale())?;
         chart
             .configure_mesh()
-            .x_desc(format!("{} ({})", display_name(score.name()), score.unit()))
             .y_desc(block.dm.label())
+            .y_label_formatter(&|y| short_number(*y))
             .light_line_style(WHITE)
             .label_style(("sans-serif", 12))
             .draw()?;
-        // Draw order: exclusions, no response, responding (the data of interest on top).
+        // Draw order: exclusions, then responding (the data of interest on top).
         for pass in [false, true] {
             let points = (0..data.cases.len()).filter_map(|i| {
                 let c = block.categories[i];
-                let on_top = c == Category::Responding;
-                if on_top != pass {
+                if c == Category::NoResponse || (c == Category::Responding) != pass {
                     return None;
                 }
                 let (x, y) = (data.cases[i].ims[j], dm_of(i));
-                if !(x.is_finite() && y.is_finite()) {
+                if !(x.is_finite() && x > 0.0 && y.is_finite() && y >= floor) {
                     return None;
                 }
                 Some(Circle::new(
@@ -136,10 +151,64 @@ where
             });
             chart.draw_series(points)?;
         }
-        if let Some(fit) = score.linear {
-            let line = [0.0, x_max].map(|x| (x, fit.predict(x)));
+        if let Some(fit) = score.log {
+            // ln DM = intercept + slope·ln IM over the responding runs.
+            // Sampled along x and clipped to the axis (a straight line on log–log axes).
+            let line = (0..=100).filter_map(|k| {
+                let x = (x_min.ln() + (x_max.ln() - x_min.ln()) * f64::from(k) / 100.0).exp();
+                let y = (fit.intercept + fit.slope * x.ln()).exp();
+                (y >= floor && y <= y_max).then_some((x, y))
+            });
             chart.draw_series(LineSeries::new(line, FIT_COLOUR.stroke_width(2)))?;
         }
+        // The strip: runs with DM below the floor (no motion counted) at their IM, spread
+        // vertically by a deterministic jitter so that they do not hide each other.
+        let n_none = block
+            .categories
+            .iter()
+            .filter(|c| **c == Category::NoResponse)
+            .count();
+        let mut strip_chart = ChartBuilder::on(&strip)
+            .margin(10)
+            .margin_top(2)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d((x_min..x_max).log_scale(), 0.0..1.0)?;
+        strip_chart
+            .configure_mesh()
+            .x_labels(8)
+            .x_label_formatter(&|x| short_number(*x))
+            .disable_y_mesh()
+            .disable_y_axis()
+            .light_line_style(WHITE)
+            .x_desc(format!(
+                "{} ({}){}",
+                display_name(score.name()),
+                score.unit(),
+                if n_nonpositive > 0 {
+                    format!(" — {n_nonpositive} runs with IM ≤ 0 not shown")
+                } else {
+                    String::new()
+                }
+            ))
+            .label_style(("sans-serif", 12))
+            .draw()?;
+        strip_chart.draw_series(std::iter::once(Text::new(
+            format!("no response ({n_none})"),
+            (x_min, 0.95),
+            ("sans-serif", 11),
+        )))?;
+        strip_chart.draw_series((0..data.cases.len()).filter_map(|i| {
+            let x = data.cases[i].ims[j];
+            (block.categories[i] == Category::NoResponse && x > 0.0 && x.is_finite()).then(|| {
+                let jitter = 0.15 + 0.5 * ((i as f64) * 0.618_033_988_75).fract();
+                Circle::new(
+                    (x, jitter),
+                    2,
+                    category_colour(Category::NoResponse).mix(0.6).filled(),
+                )
+            })
+        }))?;
     }
     // Legend in the sixth cell.
     if let Some(cell) = cells.get(5) {
@@ -155,7 +224,7 @@ where
             FIT_COLOUR.stroke_width(2),
         ))?;
         cell.draw(&Text::new(
-            "linear fit (used runs)",
+            "log–log fit (responding runs)",
             (55, y - 8),
             ("sans-serif", 16),
         ))?;

@@ -1,0 +1,523 @@
+//! `rockwatch fragility`: the overturning fragility of one rock from a suite of records
+//! (multiple-stripe analysis, docs/fragility.md).
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rockwatch::fragility::plots::write_plots;
+use rockwatch::fragility::report::{fragility_json, text_summary, write_runs_csv};
+use rockwatch_core::catalogue::Catalogue;
+use rockwatch_core::dynamics::{BlockOptions, BlockParams};
+use rockwatch_core::fragility::{
+    analyse, log_spaced, prepare, run_simulations, FragilityConfig, FragilityIm, FragilityRecord,
+    Intensity, RockDirection, RockMember, DEFAULT_BOOTSTRAP, DEFAULT_SURFACE_GRID,
+    DEFAULT_T_EXTRA_S,
+};
+use rockwatch_core::record::Record;
+use rockwatch_core::STANDARD_GRAVITY_MPS2;
+use serde_json::json;
+
+use super::OutputFormat;
+
+/// Fit the overturning fragility of one rock from a suite of ground-motion records by
+/// multiple-stripe analysis: every record is scaled to each stripe of an IM (--stripes) or by
+/// each factor (--scales), the rock is simulated under every scaled record (for every ensemble
+/// member and incidence angle), and a lognormal fragility P(overturn | IM) = Φ(ln(IM/θ)/β) is
+/// fitted by maximum likelihood for every --im (binomial likelihood over the stripes for the
+/// stripe IM, over the (record, scale) groups for the others), with 95 % percentile bootstrap
+/// intervals from resampling the records. The IMs are ranked by β; a two-IM probit surface
+/// P = Φ(c0 + c1 ln IM1 + c2 ln IM2) is fitted too (--surface).
+///
+/// Records are single horizontal components (AT2 in g, CSV `t,ax` in m/s²). --azimuths gives
+/// the incidence angles φ of each record in the rock's frame: the rock's direction of azimuth
+/// ψ sees the record times cos(φ − ψ); the default 0,180 applies each record along +x and
+/// along −x (both pivots: an asymmetric rock topples more easily one way). A vertical record
+/// is applied as it is (scaled, not projected).
+///
+/// Files written to --out: fragility.json, runs.csv, fragility_<IM>.svg/png and
+/// surface_<IM1>_<IM2>.svg/png. Results are identical for a given --seed whatever --threads.
+#[derive(Debug, clap::Args)]
+pub struct FragilityArgs {
+    /// Catalogue entry to use (with --catalogue): its geometry, friction and uncertain ranges.
+    #[arg(long, value_name = "ID", requires = "catalogue", conflicts_with_all = ["width", "half_diagonal", "b_plus", "mu_s"])]
+    pbr: Option<String>,
+    /// Catalogue file (TOML or CSV) holding --pbr.
+    #[arg(long, value_name = "FILE", requires = "pbr")]
+    catalogue: Option<PathBuf>,
+    /// Base width B of a rectangular block (m); with --height.
+    #[arg(long, value_name = "B", requires = "height")]
+    width: Option<f64>,
+    /// Height H of a rectangular block (m).
+    #[arg(long, value_name = "H", requires = "width")]
+    height: Option<f64>,
+    /// Half-diagonal R of a rectangle (m); with --alpha.
+    #[arg(long = "half-diagonal", value_name = "R", requires = "alpha", conflicts_with_all = ["width", "height"])]
+    half_diagonal: Option<f64>,
+    /// Slenderness α of a rectangle (degrees); with --half-diagonal.
+    #[arg(long, value_name = "DEG", requires = "half_diagonal")]
+    alpha: Option<f64>,
+    /// General body: distance from the centre of mass to the +x pivot (m); with --b-minus,
+    /// --com-height and --rho (docs/general-body.md).
+    #[arg(long = "b-plus", value_name = "M", requires_all = ["b_minus", "com_height", "rho"], conflicts_with_all = ["width", "height", "half_diagonal", "alpha"])]
+    b_plus: Option<f64>,
+    /// General body: distance from the centre of mass to the −x pivot (m).
+    #[arg(long = "b-minus", value_name = "M", requires = "b_plus")]
+    b_minus: Option<f64>,
+    /// General body: height of the centre of mass above the base (m).
+    #[arg(long = "com-height", value_name = "M", requires = "b_plus")]
+    com_height: Option<f64>,
+    /// General body: radius of gyration about the centre of mass (m).
+    #[arg(long, value_name = "M", requires = "b_plus")]
+    rho: Option<f64>,
+    /// Static friction coefficient μs (block flags).
+    #[arg(long = "mu-s", value_name = "MS")]
+    mu_s: Option<f64>,
+    /// Kinetic friction coefficient μk (block flags; default μs).
+    #[arg(long = "mu-k", value_name = "MK")]
+    mu_k: Option<f64>,
+    /// Rocking impact restitution in [0, 1] (block flags; default Housner's).
+    #[arg(long, value_name = "E")]
+    restitution: Option<f64>,
+    /// The records: a directory (every .AT2 and .csv file in it, by name, except those given
+    /// as --vertical-records) or a comma-separated list of files.
+    #[arg(
+        long,
+        value_name = "DIR|FILE,…",
+        value_delimiter = ',',
+        required = true
+    )]
+    records: Vec<PathBuf>,
+    /// Vertical components: either one file per record, in the order of --records (sorted
+    /// by name for a directory), or NAME=FILE pairs naming the horizontal record's file name.
+    #[arg(
+        long = "vertical-records",
+        value_name = "FILE,…|NAME=FILE,…",
+        value_delimiter = ','
+    )]
+    vertical_records: Vec<String>,
+    /// IMs to fit, comma-separated: PGA, PGV, PGD, CAV, ARIAS, SMA, EDA, EPV, A_RMS, IC,
+    /// PGV/PGA, D5_75, D5_95, T5, T75, T95, TP, SA(T), ASI(T1-T2), SI(T1-T2), VSI(T1-T2)
+    /// (SI units: m/s2, m/s, m, s). Scale-invariant IMs (PGV/PGA, TP, the Husid times and
+    /// durations) only enter the surface.
+    #[arg(long, value_name = "IM,…", value_delimiter = ',', required = true)]
+    im: Vec<String>,
+    /// Stripes IM:LO:HI:N: N levels of IM from LO to HI, log-spaced (SI units of the IM; an
+    /// acceleration may be written in g with a suffix, e.g. PGA:0.05g:1.5g:20).
+    #[arg(
+        long,
+        value_name = "IM:LO:HI:N",
+        conflicts_with = "scales",
+        required_unless_present = "scales"
+    )]
+    stripes: Option<String>,
+    /// Scale factors A:B:N: N factors from A to B, log-spaced, applied to every record.
+    #[arg(long, value_name = "A:B:N")]
+    scales: Option<String>,
+    /// Ensemble members of the --pbr entry (Latin hypercube over its uncertain parameters,
+    /// the catalogue's seed); default: the entry's own `ensemble` (1 = nominal).
+    #[arg(long, value_name = "K")]
+    ensemble: Option<usize>,
+    /// Incidence angles φ (degrees) of the records in the rock's frame: a list, or
+    /// FROM:TO:STEP (TO excluded). The rock's direction ψ sees the record times cos(φ − ψ).
+    #[arg(long, value_name = "DEG,…|FROM:TO:STEP", default_value = "0,180")]
+    azimuths: String,
+    /// The two IMs of the surface, IM1,IM2 (of --im); default PGA,PGV/PGA when both are
+    /// listed, else the first two IMs.
+    #[arg(long, value_name = "IM1,IM2", value_delimiter = ',')]
+    surface: Option<Vec<String>>,
+    /// Bootstrap replicates (0: no confidence intervals).
+    #[arg(long, default_value_t = DEFAULT_BOOTSTRAP, value_name = "N")]
+    bootstrap: usize,
+    /// Seed of the bootstrap (u64).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads (0 = all cores). The results do not depend on it.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    threads: usize,
+    /// Most seconds of free vibration after each record (runs stop earlier once the block is
+    /// at rest or has fallen).
+    #[arg(long = "t-extra", default_value_t = DEFAULT_T_EXTRA_S, value_name = "S")]
+    t_extra: f64,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Skip the SVG/PNG plots.
+    #[arg(long = "no-plots")]
+    no_plots: bool,
+    /// Output on stdout: text (table) or json (the content of fragility.json).
+    #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
+    format: OutputFormat,
+}
+
+fn parse_number(text: &str, what: &str, unit_g: bool) -> anyhow::Result<f64> {
+    let t = text.trim();
+    let (body, factor) = match t.strip_suffix(['g', 'G']) {
+        Some(b) if unit_g => (b, STANDARD_GRAVITY_MPS2),
+        Some(_) => bail!("{what}: {t:?}: a g suffix needs an acceleration IM"),
+        None => (t, 1.0),
+    };
+    let v: f64 = body
+        .parse()
+        .with_context(|| format!("{what}: {t:?} is not a number"))?;
+    Ok(v * factor)
+}
+
+fn parse_count(text: &str, what: &str) -> anyhow::Result<usize> {
+    let n: usize = text
+        .trim()
+        .parse()
+        .with_context(|| format!("{what}: {text:?} is not a count"))?;
+    if !(1..=10_000).contains(&n) {
+        bail!("{what}: the count must be 1 to 10000, got {n}");
+    }
+    Ok(n)
+}
+
+fn range(lo: f64, hi: f64, n: usize, what: &str) -> anyhow::Result<Vec<f64>> {
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi >= lo) {
+        bail!("{what}: need 0 < LO ≤ HI, got {lo} and {hi}");
+    }
+    if n > 1 && hi == lo {
+        bail!("{what}: {n} levels need LO < HI");
+    }
+    Ok(log_spaced(lo, hi, n))
+}
+
+fn parse_azimuths(text: &str) -> anyhow::Result<Vec<f64>> {
+    let parts: Vec<&str> = text.split(':').collect();
+    if parts.len() == 3 {
+        let v: Vec<f64> = parts
+            .iter()
+            .map(|p| parse_number(p, "--azimuths", false))
+            .collect::<anyhow::Result<_>>()?;
+        if !(v[2] > 0.0 && v[1] > v[0] && (v[1] - v[0]) / v[2] <= 3600.0) {
+            bail!("--azimuths FROM:TO:STEP needs FROM < TO and 0 < STEP (at most 3600 angles)");
+        }
+        let mut out = Vec::new();
+        let mut k = 0.0;
+        while v[0] + k * v[2] < v[1] - 1e-9 {
+            out.push(v[0] + k * v[2]);
+            k += 1.0;
+        }
+        return Ok(out);
+    }
+    text.split(',')
+        .map(|p| parse_number(p, "--azimuths", false))
+        .collect()
+}
+
+fn block_from_flags(args: &FragilityArgs) -> anyhow::Result<(BlockParams, String)> {
+    let Some(mu_s) = args.mu_s else {
+        bail!("give --pbr ID --catalogue FILE, or the block flags with --mu-s");
+    };
+    let mu_k = args.mu_k.unwrap_or(mu_s);
+    let params = if let (Some(bp), Some(bm), Some(h), Some(rho)) =
+        (args.b_plus, args.b_minus, args.com_height, args.rho)
+    {
+        BlockParams::from_body(bp, bm, h, rho, mu_s, mu_k, args.restitution)
+    } else if let (Some(b), Some(h)) = (args.width, args.height) {
+        BlockParams::from_width_height(b, h, mu_s, mu_k, args.restitution)
+    } else if let (Some(r), Some(a)) = (args.half_diagonal, args.alpha) {
+        BlockParams::from_r_alpha(r, a.to_radians(), mu_s, mu_k, args.restitution)
+    } else {
+        bail!(
+            "give the geometry: --width and --height, --half-diagonal and --alpha, or \
+             --b-plus, --b-minus, --com-height and --rho"
+        );
+    }
+    .context("invalid block")?;
+    let label = format!(
+        "{}, μs = {}, μk = {}",
+        params.geometry_label(),
+        params.mu_s,
+        params.mu_k
+    );
+    Ok((params, label))
+}
+
+/// The rock's members: from the catalogue (ensemble) or the block flags.
+fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_json::Value)> {
+    let one = |p: BlockParams| RockMember {
+        directions: vec![RockDirection {
+            azimuth_deg: 0.0,
+            params: p,
+        }],
+    };
+    if let (Some(id), Some(path)) = (&args.pbr, &args.catalogue) {
+        let catalogue = Catalogue::load(path)?;
+        let pbr = catalogue
+            .get(id)
+            .with_context(|| format!("{}: no pbr {id:?}", path.display()))?;
+        let k = args.ensemble.unwrap_or(pbr.ensemble_size());
+        if k == 0 {
+            bail!("--ensemble must be at least 1");
+        }
+        if k > 1 && !pbr.has_uncertainty() {
+            bail!(
+                "pbr {id:?} has no uncertain parameter: an ensemble of {k} would repeat the \
+                 nominal rock (use --ensemble 1)"
+            );
+        }
+        let members = pbr.members_sized(k)?;
+        let label = format!(
+            "{id} ({}), {}, {} member{}",
+            pbr.name(),
+            pbr.nominal().geometry_label(),
+            k,
+            if k == 1 { "" } else { "s (Latin hypercube)" }
+        );
+        let info = json!({"pbr": id, "catalogue": path.display().to_string(), "ensemble": k, "seed": pbr.seed()});
+        return Ok((members.into_iter().map(one).collect(), label, info));
+    }
+    if args.ensemble.is_some_and(|k| k > 1) {
+        bail!("--ensemble needs a catalogue entry with uncertain parameters (--pbr, --catalogue)");
+    }
+    let (params, label) = block_from_flags(args)?;
+    let info = json!({
+        "b_plus_m": params.b_plus_m, "b_minus_m": params.b_minus_m,
+        "com_height_m": params.com_height_m, "rho_m": params.rho_m,
+        "mu_s": params.mu_s, "mu_k": params.mu_k, "restitution": params.restitution,
+    });
+    Ok((vec![one(params)], label, info))
+}
+
+fn is_record_file(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("at2") || e.eq_ignore_ascii_case("csv"))
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map_or_else(
+        || p.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// Reads the records and pairs the vertical components.
+fn read_records(args: &FragilityArgs) -> anyhow::Result<Vec<FragilityRecord>> {
+    let (named, ordered): (Vec<&String>, Vec<&String>) =
+        args.vertical_records.iter().partition(|v| v.contains('='));
+    if !named.is_empty() && !ordered.is_empty() {
+        bail!(
+            "--vertical-records: use either FILE,… (by order) or NAME=FILE,… (by name), not both"
+        );
+    }
+    let vertical_names: Vec<String> = args
+        .vertical_records
+        .iter()
+        .map(|v| file_name(Path::new(v.split_once('=').map_or(v.as_str(), |(_, f)| f))))
+        .collect();
+    let mut paths = Vec::new();
+    for p in &args.records {
+        if p.is_dir() {
+            let mut in_dir: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("cannot list {}", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| is_record_file(f) && !vertical_names.contains(&file_name(f)))
+                .collect();
+            in_dir.sort();
+            if in_dir.is_empty() {
+                bail!("{}: no .AT2 or .csv record", p.display());
+            }
+            paths.extend(in_dir);
+        } else {
+            paths.push(p.clone());
+        }
+    }
+    if !ordered.is_empty() && ordered.len() != paths.len() {
+        bail!(
+            "--vertical-records: {} files for {} records (give one per record, in order, or \
+             NAME=FILE pairs)",
+            ordered.len(),
+            paths.len()
+        );
+    }
+    let mut records = Vec::with_capacity(paths.len());
+    for (i, path) in paths.iter().enumerate() {
+        let name = file_name(path);
+        let mut record = Record::read(path)?;
+        let vertical = if !ordered.is_empty() {
+            Some(PathBuf::from(ordered[i]))
+        } else {
+            named
+                .iter()
+                .find(|v| v.split_once('=').is_some_and(|(n, _)| n == name))
+                .and_then(|v| v.split_once('=').map(|(_, f)| PathBuf::from(f)))
+        };
+        if let Some(v) = vertical {
+            record.attach_vertical(&v)?;
+        }
+        records.push(FragilityRecord { name, record });
+    }
+    for v in &named {
+        let n = v.split_once('=').map_or("", |(n, _)| n);
+        if !records.iter().any(|r| r.name == n) {
+            bail!("--vertical-records {v:?}: no record named {n:?}");
+        }
+    }
+    Ok(records)
+}
+
+fn build_config(args: &FragilityArgs, members: Vec<RockMember>) -> anyhow::Result<FragilityConfig> {
+    let ims: Vec<FragilityIm> = args
+        .im
+        .iter()
+        .map(|n| FragilityIm::parse(n).with_context(|| "--im".to_string()))
+        .collect::<anyhow::Result<_>>()?;
+    for (i, a) in ims.iter().enumerate() {
+        if ims[..i].contains(a) {
+            bail!("--im lists {} twice", a.name());
+        }
+    }
+    let index_of = |name: &str| -> anyhow::Result<usize> {
+        let im = FragilityIm::parse(name)?;
+        ims.iter()
+            .position(|x| *x == im)
+            .with_context(|| format!("{} is not among --im", im.name()))
+    };
+    let intensity = if let Some(s) = &args.stripes {
+        let parts: Vec<&str> = s.rsplitn(4, ':').collect();
+        let [n, hi, lo, im] = parts[..] else {
+            bail!("--stripes {s:?}: expected IM:LO:HI:N");
+        };
+        let im = index_of(im).context("--stripes")?;
+        let g = ims[im].unit() == "m/s2";
+        let levels = range(
+            parse_number(lo, "--stripes", g)?,
+            parse_number(hi, "--stripes", g)?,
+            parse_count(n, "--stripes")?,
+            "--stripes",
+        )?;
+        Intensity::Stripes { im, levels }
+    } else if let Some(s) = &args.scales {
+        let parts: Vec<&str> = s.split(':').collect();
+        let [a, b, n] = parts[..] else {
+            bail!("--scales {s:?}: expected A:B:N");
+        };
+        Intensity::Scales(range(
+            parse_number(a, "--scales", false)?,
+            parse_number(b, "--scales", false)?,
+            parse_count(n, "--scales")?,
+            "--scales",
+        )?)
+    } else {
+        bail!("give --stripes IM:LO:HI:N or --scales A:B:N");
+    };
+    let surface = match &args.surface {
+        Some(pair) => {
+            let [a, b] = &pair[..] else {
+                bail!("--surface needs two IMs, IM1,IM2");
+            };
+            Some((index_of(a)?, index_of(b)?))
+        }
+        None => {
+            let pga = ims.iter().position(|x| *x == FragilityIm::Pga);
+            let ratio = ims.iter().position(|x| *x == FragilityIm::PgvPga);
+            match (pga, ratio) {
+                (Some(a), Some(b)) => Some((a, b)),
+                _ if ims.len() >= 2 => Some((0, 1)),
+                _ => None,
+            }
+        }
+    };
+    let config = FragilityConfig {
+        ims,
+        intensity,
+        members,
+        incidences_deg: parse_azimuths(&args.azimuths)?,
+        t_extra_s: args.t_extra,
+        block: BlockOptions::default(),
+        bootstrap: args.bootstrap,
+        seed: args.seed,
+        surface,
+        surface_grid: DEFAULT_SURFACE_GRID,
+    };
+    config.validate()?;
+    Ok(config)
+}
+
+/// Runs the analysis, writes the files, prints the summary.
+pub fn run(args: FragilityArgs) -> anyhow::Result<()> {
+    let (members, rock_label, rock_info) = rock(&args)?;
+    let config = build_config(&args, members)?;
+    let records = read_records(&args)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .context("cannot start the worker threads")?;
+    let started = Instant::now();
+    let n_runs = config.n_runs(records.len());
+    let show_bar = args.format == OutputFormat::Text && std::io::stderr().is_terminal();
+    let bar = if show_bar {
+        let bar = ProgressBar::with_draw_target(Some(n_runs as u64), ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs ({per_sec}, eta {eta})",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let (prepared, runs, result) = pool.install(|| -> anyhow::Result<_> {
+        let prepared = prepare(&config, &records)?;
+        let runs = run_simulations(&config, &records, &prepared, &|| bar.inc(1));
+        bar.finish_and_clear();
+        let result = analyse(&config, &prepared, &runs);
+        Ok((prepared, runs, result))
+    })?;
+    for run in runs.iter().filter(|r| r.error.is_some()).take(5) {
+        eprintln!(
+            "rockwatch: warning: {} × {}: {}",
+            records[run.record].name,
+            run.scale,
+            run.error.as_deref().unwrap_or("")
+        );
+    }
+    if result.n_failed > 0 || result.n_flight > 0 {
+        eprintln!(
+            "rockwatch: warning: {} runs failed and {} lost contact (free flight); both are left \
+             out of the fits (runs.csv lists them)",
+            result.n_failed, result.n_flight
+        );
+    }
+    let doc = fragility_json(rock_info, &config, &records, &prepared, &result);
+    let json_path = args.out.join("fragility.json");
+    std::fs::write(&json_path, serde_json::to_string_pretty(&doc)? + "\n")
+        .with_context(|| format!("cannot write {}", json_path.display()))?;
+    let csv_path = args.out.join("runs.csv");
+    write_runs_csv(&csv_path, &config, &records, &prepared, &runs)
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let mut written = vec![json_path, csv_path];
+    if !args.no_plots {
+        let title = args.pbr.clone().unwrap_or_else(|| "rock".into());
+        written.extend(write_plots(
+            &args.out, &title, &config, &prepared, &runs, &result,
+        )?);
+    }
+    match args.format {
+        OutputFormat::Json => outln!("{}", serde_json::to_string_pretty(&doc)?),
+        OutputFormat::Text => {
+            out!(
+                "{}",
+                text_summary(&rock_label, &config, &records, &result, &written)
+            );
+            outln!(
+                "time        {:.1} s on {} threads",
+                started.elapsed().as_secs_f64(),
+                pool.current_num_threads()
+            );
+        }
+    }
+    if result.ranking.is_empty() {
+        bail!("no IM could be fitted (see not_fitted in fragility.json)");
+    }
+    Ok(())
+}

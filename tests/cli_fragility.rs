@@ -1,0 +1,347 @@
+//! `rockwatch fragility` end to end on the bundled records: the fragility.json schema that
+//! `rockwatch hazard` reads (the chain checked against Cornell's closed form with the fitted
+//! median and β), runs.csv and plots, results independent of the thread count, the catalogue
+//! ensemble, and one-line errors for bad input.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+const RECORDS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/records");
+
+fn cli(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir =
+        std::env::temp_dir().join(format!("rockwatch-fragility-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn vertical_pair() -> String {
+    format!("Rinaldi228.AT2={RECORDS}/RinaldiUP.AT2")
+}
+
+/// The slender block of the README over the bundled records (the vertical paired by name).
+fn run_block(out: &str, threads: &str, extra: &[&str]) -> (bool, String, String) {
+    let pair = vertical_pair();
+    let mut args = vec![
+        "fragility",
+        "--width",
+        "0.4",
+        "--height",
+        "1.6",
+        "--mu-s",
+        "0.7",
+        "--records",
+        RECORDS,
+        "--vertical-records",
+        &pair,
+        "--im",
+        "PGV,PGA,PGV/PGA,SA(1.0)",
+        "--stripes",
+        "PGV:0.1:2.0:10",
+        "--bootstrap",
+        "60",
+        "--threads",
+        threads,
+        "--out",
+        out,
+    ];
+    args.extend_from_slice(extra);
+    cli(&args)
+}
+
+#[test]
+fn fragility_json_feeds_rockwatch_hazard() {
+    let dir = temp_dir("chain");
+    let out = dir.join("out");
+    let (ok, stdout, stderr) = run_block(out.to_str().unwrap(), "0", &["--format", "json"]);
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+            .unwrap();
+    assert_eq!(json, file);
+    // The schema of issue 14 §3, per IM.
+    let pgv = &json["ims"]["PGV"];
+    let (median, beta) = (
+        pgv["median"].as_f64().unwrap(),
+        pgv["beta"].as_f64().unwrap(),
+    );
+    assert!(median > 0.0 && beta > 0.0);
+    for key in ["median", "beta"] {
+        let ci = pgv["ci95"][key].as_array().unwrap();
+        assert_eq!(ci.len(), 2);
+        assert!(ci[0].as_f64().unwrap() <= ci[1].as_f64().unwrap());
+    }
+    assert_eq!(pgv["unit"], "m/s");
+    assert_eq!(json["ims"]["SA(1.0)"]["unit"], "m/s2");
+    // 7 horizontal records (RinaldiUP is Rinaldi228's vertical) × 10 stripes × 2 incidences.
+    assert_eq!(json["runs"]["total"], 140);
+    let usable = json["runs"]["usable"].as_u64().unwrap();
+    assert_eq!(pgv["n_runs"].as_u64().unwrap(), usable);
+    let overturned = pgv["n_overturned"].as_u64().unwrap();
+    assert!(overturned > 0 && overturned < usable);
+    assert!(json["not_fitted"]["PGV/PGA"].is_string());
+    // Ranked by β.
+    let ranking = json["ranking"].as_array().unwrap();
+    let betas: Vec<f64> = ranking
+        .iter()
+        .map(|r| r["beta"].as_f64().unwrap())
+        .collect();
+    assert!(betas.windows(2).all(|w| w[0] <= w[1]), "{betas:?}");
+    // The surface PGA × PGV/PGA on its grid.
+    let surface = &json["surface"];
+    assert_eq!(surface["ims"], serde_json::json!(["PGA", "PGV/PGA"]));
+    let p = surface["grid"]["p"].as_array().unwrap();
+    assert_eq!(p.len(), 41);
+    // Every run in runs.csv (header + 140 rows), the plots written.
+    let csv = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 141);
+    assert!(csv.lines().next().unwrap().contains("PGV (m/s)"));
+    for f in [
+        "fragility_PGV.svg",
+        "fragility_PGV.png",
+        "fragility_SA_1p0.png",
+        "surface_PGA_PGV_PGA.png",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+
+    // rockwatch hazard reads fragility.json as it is. With a power-law hazard curve
+    // λ_H(x) = k0 x^−k (x in cm/s) the rate has the closed form k0 θ^−k exp(k²β²/2)
+    // (Cornell et al. 2002), θ in cm/s: the chain is right if the hazard step used this
+    // median, this β and the m/s → cm/s conversion.
+    let (k0, k) = (1e-4_f64, 2.5_f64);
+    let mut curve = String::from("pgv_cm_s,annual_rate\n");
+    for i in 0..40 {
+        let x = (0.5_f64.ln() + (2000.0_f64.ln() - 0.5_f64.ln()) * i as f64 / 39.0).exp();
+        curve.push_str(&format!("{x},{}\n", k0 * x.powf(-k)));
+    }
+    let curve_path = dir.join("pgv.csv");
+    std::fs::write(&curve_path, curve).unwrap();
+    let (ok, stdout, stderr) = cli(&[
+        "hazard",
+        "--fragility",
+        out.join("fragility.json").to_str().unwrap(),
+        "--im",
+        "PGV",
+        "--hazard-curve",
+        curve_path.to_str().unwrap(),
+        "--hazard-unit",
+        "cm/s",
+        "--age-years",
+        "10000",
+        "--format",
+        "json",
+    ]);
+    assert!(ok, "{stderr}");
+    let h: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let lambda = h["annual_overturn_rate"].as_f64().unwrap();
+    let exact = k0 * (median * 100.0).powf(-k) * (0.5 * k * k * beta * beta).exp();
+    assert!(
+        ((lambda - exact) / exact).abs() < 1e-6,
+        "{lambda} vs {exact}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let dir = temp_dir("threads");
+    let (a, b) = (dir.join("one"), dir.join("two"));
+    let (ok, _, stderr) = run_block(a.to_str().unwrap(), "1", &["--no-plots"]);
+    assert!(ok, "{stderr}");
+    let (ok, _, stderr) = run_block(b.to_str().unwrap(), "2", &["--no-plots"]);
+    assert!(ok, "{stderr}");
+    for f in ["fragility.json", "runs.csv"] {
+        assert_eq!(
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+            "{f} differs between 1 and 2 threads"
+        );
+    }
+    // And another seed gives other bootstrap intervals (the seed is used).
+    let c = dir.join("seed");
+    let (ok, _, stderr) = run_block(c.to_str().unwrap(), "2", &["--no-plots", "--seed", "7"]);
+    assert!(ok, "{stderr}");
+    let ci = |d: &PathBuf| {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("fragility.json")).unwrap())
+                .unwrap();
+        v["ims"]["PGV"]["ci95"].clone()
+    };
+    assert_ne!(ci(&a), ci(&c));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn catalogue_ensemble_members_multiply_the_runs() {
+    let dir = temp_dir("ensemble");
+    let catalogue = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml");
+    let records = format!("{RECORDS}/Rinaldi228.AT2,{RECORDS}/RSN1084_NORTHR_SCS142.AT2");
+    let out = dir.join("out");
+    let (ok, stdout, stderr) = cli(&[
+        "fragility",
+        "--pbr",
+        "rrs-pinnacle-ensemble",
+        "--catalogue",
+        catalogue,
+        "--ensemble",
+        "3",
+        "--records",
+        &records,
+        "--im",
+        "PGA",
+        "--scales",
+        "0.25:4:6",
+        "--azimuths",
+        "0:360:90",
+        "--bootstrap",
+        "0",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    // 2 records × 6 factors × 3 members × 4 incidences; the fit may or may not exist with
+    // two records, the runs must.
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap_or_default();
+    assert!(ok || stderr.contains("no IM could be fitted"), "{stderr}");
+    let text = std::fs::read_to_string(out.join("fragility.json")).unwrap();
+    let file: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(file["runs"]["total"], 144, "{json}");
+    assert_eq!(file["members"], 3);
+    assert_eq!(file["rock"]["ensemble"], 3);
+    assert_eq!(
+        file["incidences_deg"],
+        serde_json::json!([0.0, 90.0, 180.0, 270.0])
+    );
+    // At 90° and 270° a single component has no projection on the rock's x axis: those runs
+    // stand still.
+    let csv = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    for line in csv.lines().skip(1) {
+        let cols: Vec<&str> = line.split(',').collect();
+        if cols[5] == "90" || cols[5] == "270" {
+            assert_eq!(cols[6], "standing", "{line}");
+            assert_eq!(cols[8], "0", "{line}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_gets_a_one_line_error() {
+    let dir = temp_dir("errors");
+    let out = dir.join("out");
+    let out = out.to_str().unwrap();
+    let rec = format!("{RECORDS}/Rinaldi228.AT2");
+    let base = |extra: &[&str]| {
+        let mut args = vec![
+            "fragility",
+            "--width",
+            "0.4",
+            "--height",
+            "1.6",
+            "--mu-s",
+            "0.7",
+            "--records",
+            &rec,
+            "--out",
+            out,
+            "--no-plots",
+        ];
+        args.extend_from_slice(extra);
+        let (ok, _, stderr) = cli(&args);
+        assert!(!ok);
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        stderr
+    };
+    assert!(base(&["--im", "PGV/PGA", "--stripes", "PGV/PGA:0.1:1:5"])
+        .contains("does not change when a record is scaled"));
+    assert!(base(&["--im", "PGX", "--scales", "1:2:3"]).contains("unknown IM"));
+    assert!(base(&["--im", "PGA", "--stripes", "PGV:0.1:1:5"]).contains("not among --im"));
+    assert!(base(&["--im", "PGA", "--stripes", "PGA:1:0.1:5"]).contains("LO ≤ HI"));
+    assert!(base(&["--im", "PGA", "--stripes", "PGA:0.1g:200g:5"]).contains("beyond ±100 g"));
+    assert!(
+        base(&["--im", "PGA", "--scales", "1:2:3", "--ensemble", "4"])
+            .contains("--ensemble needs a catalogue entry")
+    );
+    assert!(base(&[
+        "--im",
+        "PGA",
+        "--scales",
+        "1:2:3",
+        "--vertical-records",
+        "a.AT2,b.AT2"
+    ])
+    .contains("2 files for 1 records"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn csv_and_at2_records_mix_and_give_the_same_ims() {
+    // The same accelerogram as an AT2 (g) and as a CSV `t,ax` (m/s²): same scaled IMs and the
+    // same outcome in every run.
+    let dir = temp_dir("csv");
+    let at2 = format!("{RECORDS}/Rinaldi228.AT2");
+    let rec = rockwatch_core::record::Record::read(std::path::Path::new(&at2)).unwrap();
+    let mut csv = String::from("t,ax\n");
+    for (i, a) in rec.horizontal_mps2.iter().enumerate() {
+        csv.push_str(&format!("{},{a:e}\n", i as f64 * rec.dt_s));
+    }
+    let csv_path = dir.join("rinaldi.csv");
+    std::fs::write(&csv_path, csv).unwrap();
+    let out = dir.join("out");
+    let records = format!("{},{at2}", csv_path.display());
+    let (_, _, stderr) = cli(&[
+        "fragility",
+        "--width",
+        "0.4",
+        "--height",
+        "1.6",
+        "--mu-s",
+        "0.7",
+        "--records",
+        &records,
+        "--im",
+        "PGA,SA(1.0)",
+        "--scales",
+        "0.5:3:5",
+        "--bootstrap",
+        "0",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let runs = std::fs::read_to_string(out.join("runs.csv")).unwrap_or_else(|_| panic!("{stderr}"));
+    let rows: Vec<Vec<String>> = runs
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    assert_eq!(rows.len(), 2 * 5 * 2);
+    let (from_csv, from_at2) = rows.split_at(10);
+    for (c, a) in from_csv.iter().zip(from_at2) {
+        assert_eq!(c[0], "rinaldi.csv");
+        assert_eq!(a[0], "Rinaldi228.AT2");
+        assert_eq!(c[6], a[6], "status {c:?} vs {a:?}");
+        for col in [10, 11] {
+            let (x, y): (f64, f64) = (c[col].parse().unwrap(), a[col].parse().unwrap());
+            assert!((x - y).abs() <= 1e-9 * y, "{x} vs {y}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
