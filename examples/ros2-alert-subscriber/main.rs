@@ -212,12 +212,12 @@ fn describe(plan: &NetworkPlan) -> String {
     format!("domain {}, {interfaces}", plan.domain_id)
 }
 
-/// The name of a `PbrAlert.level` code (`msg/PbrAlert.msg`).
+/// The name of a `PbrAlert.level` code (`msg/pbr_msgs/msg/PbrAlert.msg`).
 fn level_name(code: u8) -> &'static str {
     msg::level_of_code(code).map_or("unknown", AlertLevel::as_str)
 }
 
-/// The name of a `PbrAlert.mode` code (`msg/PbrAlert.msg`).
+/// The name of a `PbrAlert.mode` code (`msg/pbr_msgs/msg/PbrAlert.msg`).
 fn mode_name(code: u8) -> &'static str {
     match code {
         msg::MODE_REST => "rest",
