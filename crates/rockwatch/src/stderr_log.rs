@@ -84,15 +84,26 @@ impl Log for StderrLogger {
 /// Installs the logger (once; later calls do nothing). An unknown `ROCKWATCH_LOG` value is
 /// reported and the default levels are used.
 pub fn init() {
-    let all = std::env::var(LOG_ENV).ok().and_then(|v| {
+    init_with_level(None);
+}
+
+/// As [`init`]; `level` (from `--ros-args --log-level`), when given, is the level of every
+/// target, over `ROCKWATCH_LOG`.
+pub fn init_with_level(level: Option<LevelFilter>) {
+    let all = level.or_else(|| env_level());
+    let max = all.unwrap_or(LevelFilter::Warn);
+    if log::set_boxed_logger(Box::new(StderrLogger { all })).is_ok() {
+        log::set_max_level(max);
+    }
+}
+
+/// `ROCKWATCH_LOG`'s level, if set and valid.
+fn env_level() -> Option<LevelFilter> {
+    std::env::var(LOG_ENV).ok().and_then(|v| {
         let parsed = v.parse::<LevelFilter>().ok();
         if parsed.is_none() {
             eprintln!("rockwatch: warning: {LOG_ENV}={v:?} is not a log level (error, warn, info, debug, trace, off): using the defaults");
         }
         parsed
-    });
-    let max = all.unwrap_or(LevelFilter::Warn);
-    if log::set_boxed_logger(Box::new(StderrLogger { all })).is_ok() {
-        log::set_max_level(max);
-    }
+    })
 }

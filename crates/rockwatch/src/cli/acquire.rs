@@ -51,7 +51,8 @@ pub struct AcquireArgs {
 pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     // First, before any thread starts: the stop signals go to one thread, never to DDS's.
     let stop = stop_on_signals()?;
-    let config = AcquireConfig::load(&args.config).map_err(anyhow::Error::msg)?;
+    let mut config = AcquireConfig::load(&args.config).map_err(anyhow::Error::msg)?;
+    super::apply_ros_naming(&mut config.ros2);
     let state_dir = args.state_dir.clone().or_else(|| config.state_dir.clone());
     if let Some(dir) = &state_dir {
         std::fs::create_dir_all(dir)
@@ -73,7 +74,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         }
         Output::Ros2 => {
             let plan = network_plan_from_env(&config.ros2)?;
-            Box::new(Ros2PacketSink::open(&plan, &config.ros2.namespace)?)
+            Box::new(Ros2PacketSink::open(&plan, config.ros2.naming()?)?)
         }
     };
     eprintln!(

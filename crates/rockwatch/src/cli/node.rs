@@ -8,16 +8,19 @@ use rockwatch::journal::read_journal;
 use rockwatch::node::{serve, NodeOptions, NoticeLog};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::notify::{Notifier, STOP_GRACE};
-use rockwatch::ros2::network_plan_from_env;
+use rockwatch::ros2::{network_plan_from_env, ParamValues};
 use rockwatch::signals::stop_on_signals;
 
 /// Run the live node: subscribes `/pbr/accel` (and configured Imu topics) over ROS 2, runs
 /// the monitoring engine, publishes `/pbr/ims`, `/pbr/state` and `/pbr/alerts`.
 ///
-/// The node is `<namespace>/rockwatch`; DDS domain `ROS_DOMAIN_ID`;
-/// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` keeps it on loopback. Alert thresholds
-/// (`alerts.*`) and `state_interval_s` are ROS 2 parameters, settable at run time. The
-/// service `/pbr/reset` (`pbr_msgs/srv/ResetPbr`) resets a fallen block (`rockwatch reset
+/// The node is `<namespace>/rockwatch`, its topics and service relative (`pbr/alerts` is
+/// `/site_a/pbr/alerts` in the namespace `/site_a`); DDS domain `ROS_DOMAIN_ID`;
+/// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` keeps it on loopback. It takes `--ros-args` as
+/// every ROS 2 node does (`-r from:=to`, `-r __ns:=/x`, `-r __node:=n`, `-p name:=value`,
+/// `--params-file FILE`, `--log-level LEVEL`). Alert thresholds (`alerts.*`) and
+/// `state_interval_s` are ROS 2 parameters with descriptors (ranges), settable at run time.
+/// The service `pbr/reset` (`pbr_msgs/srv/ResetPbr`) resets a fallen block (`rockwatch reset
 /// --node`). Alerts also go to the configuration's `[[notify]]` receivers (a command, or a
 /// webhook), at least once, kept in the state directory until acknowledged. SIGINT, SIGTERM
 /// or SIGHUP (taken on one thread, never on DDS's): stop intake, publish what remains, flush
@@ -46,26 +49,45 @@ pub struct NodeArgs {
     shards: usize,
 }
 
+/// A path as a parameter's text (empty: none).
+fn path_text(path: Option<&PathBuf>) -> String {
+    path.map(|p| p.display().to_string()).unwrap_or_default()
+}
+
+/// A parameter's text as a path (empty: none).
+fn text_path(text: &str) -> Option<PathBuf> {
+    (!text.is_empty()).then(|| PathBuf::from(text))
+}
+
 pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     // First, before any thread starts: the stop signals go to one thread, never to DDS's.
     let stop = stop_on_signals()?;
-    let config = match &args.config {
+    let mut config = match &args.config {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
+    // --ros-args: the naming rules, then the parameters (files, then -p) over the file's.
+    super::apply_ros_naming(&mut config.ros2);
+    let naming = config.ros2.naming()?;
+    let mut params = ParamValues {
+        engine: config.engine,
+        catalogue: path_text(args.catalogue.as_ref().or(config.catalogue.as_ref())),
+        state_dir: path_text(args.state_dir.as_ref().or(config.state_dir.as_ref())),
+    };
+    params.apply_overrides(&super::ros_args().parameters_for(&naming.node_fqn())?)?;
+    config.engine = params.engine;
     let plan = network_plan_from_env(&config.ros2)?;
     let options = NodeOptions {
         config,
-        catalogue: args.catalogue,
-        state_dir: args.state_dir,
+        catalogue: text_path(&params.catalogue),
+        state_dir: text_path(&params.state_dir),
         shards: args.shards,
         notices: NoticeLog::RateLimited,
         reject_future: true,
     };
     eprintln!(
-        "rockwatch: node {}/{} on DDS domain {} ({})",
-        options.config.ros2.namespace.trim_end_matches('/'),
-        rockwatch::ros2::NODE_NAME,
+        "rockwatch: node {} on DDS domain {} ({})",
+        naming.node_fqn(),
         plan.domain_id,
         match &plan.only_networks {
             Some(n) => format!(

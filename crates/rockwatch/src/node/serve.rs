@@ -32,7 +32,9 @@ use super::{
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::ros2::msg::ResetPbrResponse;
-use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher, ALERTS_TOPIC};
+use crate::ros2::{
+    IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, ALERTS_TOPIC,
+};
 use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
@@ -69,10 +71,12 @@ const ROS2_CHUNK: usize = 64;
 
 const WAKE: Token = Token(0);
 const IOX: Token = Token(1);
-/// The ROS 2 service `/pbr/reset`.
+/// The ROS 2 service `pbr/reset`.
 const RESET: Token = Token(2);
+/// The six ROS 2 parameter services.
+const PARAMS: Token = Token(3);
 /// ROS 2 input `i` is `Token(ROS2_FIRST + i)`.
-const ROS2_FIRST: usize = 3;
+const ROS2_FIRST: usize = 4;
 
 /// What [`serve`] hands back at the end.
 #[derive(Debug, Clone)]
@@ -164,12 +168,24 @@ impl Reactor {
         let (control_sender, controls) = ControlSender::channel(wake);
         let config = &options.config;
 
+        let params = ParamValues {
+            engine: config.engine,
+            catalogue: options.catalogue_path()?.display().to_string(),
+            state_dir: options
+                .state_dir
+                .as_ref()
+                .or(config.state_dir.as_ref())
+                .map(|d| d.display().to_string())
+                .unwrap_or_default(),
+        };
         let (mut ros2, ros2_publisher) =
-            Ros2Node::start(&config.ros2, plan, &config.engine, control_sender)?;
+            Ros2Node::start(&config.ros2, plan, params, control_sender)?;
         ros2.register(poll.registry(), ROS2_FIRST)
             .context("cannot register the ROS 2 subscriptions with the event loop")?;
         ros2.register_reset(poll.registry(), RESET)
             .context("cannot register the ROS 2 reset service with the event loop")?;
+        ros2.register_parameters(poll.registry(), PARAMS)
+            .context("cannot register the ROS 2 parameter services with the event loop")?;
         let iox = match &config.iceoryx2.config_file {
             Some(_) => {
                 let mut input = IoxInput::open(&config.iceoryx2)?;
@@ -248,11 +264,14 @@ impl Reactor {
         // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
         let mut inboxes: Vec<Inbox> = (0..1 + ros2.inputs()).map(|_| Inbox::new()).collect();
         let mut events = Events::with_capacity(64);
-        // Requests of /pbr/reset may be waiting (edge-triggered, like the inputs).
+        // Requests of pbr/reset and of the parameter services may be waiting (edge-triggered,
+        // like the inputs).
         let mut resets_due = true;
+        let mut params_due = true;
         let mut watchdog = Watchdog::new();
         while !stop.load(Ordering::Relaxed) {
-            let pending = resets_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
+            let pending =
+                resets_due || params_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
             let timeout = if pending {
                 Duration::ZERO
             } else if ros2.pending_replies() > 0 {
@@ -269,12 +288,17 @@ impl Reactor {
                 // Idle tick: look at every source once (a safety net, cheap when empty).
                 inboxes.iter_mut().for_each(|i| i.due = true);
                 resets_due = true;
+                params_due = true;
             }
             for event in &events {
                 let source = match event.token() {
                     WAKE => continue,
                     RESET => {
                         resets_due = true;
+                        continue;
+                    }
+                    PARAMS => {
+                        params_due = true;
                         continue;
                     }
                     IOX => 0,
@@ -284,8 +308,11 @@ impl Reactor {
                     inbox.due = true;
                 }
             }
+            // Parameter changes, then operator resets, apply before the packets of this turn.
+            if params_due {
+                params_due = ros2.serve_parameters();
+            }
             apply_controls(&controls, &mut runtime);
-            // Operator resets apply before the packets of this turn.
             if resets_due {
                 resets_due = ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
             }
@@ -318,6 +345,7 @@ impl Reactor {
                     if watchdog.rebuild(&thread, &mut ros2, &mut out, poll.registry())? {
                         inboxes.iter_mut().for_each(|i| i.due = true);
                         resets_due = true;
+                        params_due = true;
                     }
                 }
             }
@@ -457,7 +485,9 @@ impl Watchdog {
             ros2.register(registry, ROS2_FIRST)
                 .context("cannot register the ROS 2 subscriptions with the event loop")?;
             ros2.register_reset(registry, RESET)
-                .context("cannot register the ROS 2 reset service with the event loop")
+                .context("cannot register the ROS 2 reset service with the event loop")?;
+            ros2.register_parameters(registry, PARAMS)
+                .context("cannot register the ROS 2 parameter services with the event loop")
         });
         match rebuilt {
             Ok(()) => {
