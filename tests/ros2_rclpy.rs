@@ -64,7 +64,16 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
     // skipped with a log line), then this node's own section, which wins.
     std::fs::write(
         dir.path().join("params.yaml"),
-        "/**:\n  ros__parameters:\n    alerts:\n      imminent_theta_ratio: 0.3\n             other_nodes_param: 1\n/site_a/rockwatch:\n  ros__parameters:\n             alerts.imminent_theta_ratio: 0.5\n",
+        concat!(
+            "/**:\n",
+            "  ros__parameters:\n",
+            "    alerts:\n",
+            "      imminent_theta_ratio: 0.3\n",
+            "    other_nodes_param: 1\n",
+            "/site_a/rockwatch:\n",
+            "  ros__parameters:\n",
+            "    alerts.imminent_theta_ratio: 0.5\n",
+        ),
     )
     .unwrap();
     let d = dir.path().display();
@@ -89,7 +98,8 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
     };
     let peer = format!("python3 '{py}' --wait-s 30 --node /site_a/rockwatch");
     let script = format!(
-        "{VETH_TX}
+        "trap \"cat '{d}/node.err' >&2\" EXIT
+         {VETH_TX}
          '{bin}' node --config '{d}/node.toml' --state-dir '{d}/state' \
              --ros-args -r __ns:=/site_a --params-file '{d}/params.yaml' -p alerts.quiet_s:=20.0 \
              2> '{d}/node.err' & NODE=$!
@@ -106,8 +116,7 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
          sleep 1
          kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
          {VETH_TX}
-         '{bin}' alerts --state-dir '{d}/state' --format json | tr -d '\\n' | sed 's/^/JOURNAL /'; echo
-         cat '{d}/node.err' >&2",
+         '{bin}' alerts --state-dir '{d}/state' --format json | tr -d '\\n' | sed 's/^/JOURNAL /'; echo",
         replay("XB.ONE.00"),
         wait_overturned("pillar-one"),
         replay("XB.TWO.00"),

@@ -5,11 +5,12 @@
 use std::path::PathBuf;
 
 use rockwatch::journal::read_journal;
-use rockwatch::node::{serve, NodeOptions, NoticeLog};
+use rockwatch::node::{serve_supervised, NodeOptions, NoticeLog, Reloaded, Supervision};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::notify::{Notifier, STOP_GRACE};
 use rockwatch::ros2::{network_plan_from_env, ParamValues};
-use rockwatch::signals::stop_on_signals;
+use rockwatch::sd_notify::SystemdNotifier;
+use rockwatch::signals::node_signals;
 
 /// Run the live node: subscribes `/pbr/accel` (and configured Imu topics) over ROS 2, runs
 /// the monitoring engine, publishes `/pbr/ims`, `/pbr/state` and `/pbr/alerts`.
@@ -22,9 +23,13 @@ use rockwatch::signals::stop_on_signals;
 /// `state_interval_s` are ROS 2 parameters with descriptors (ranges), settable at run time.
 /// The service `pbr/reset` (`pbr_msgs/srv/ResetPbr`) resets a fallen block (`rockwatch reset
 /// --node`). Alerts also go to the configuration's `[[notify]]` receivers (a command, or a
-/// webhook), at least once, kept in the state directory until acknowledged. SIGINT, SIGTERM
-/// or SIGHUP (taken on one thread, never on DDS's): stop intake, publish what remains, flush
-/// the state directory, give the receivers up to 5 s to deliver what is queued, exit 0. A DDS
+/// webhook), at least once, kept in the state directory until acknowledged. SIGINT or SIGTERM
+/// (taken on one thread, never on DDS's): stop intake, publish what remains, flush the state
+/// directory, give the receivers up to 5 s to deliver what is queued, exit 0. SIGHUP reloads
+/// the configuration and the catalogue between packets: blocks in both keep their state, new
+/// ones start at rest, removed ones are dropped; a bad new configuration is refused with a log
+/// line and the running one kept. Under systemd (`Type=notify`) it reports READY, pings the
+/// watchdog (`WatchdogSec=`) while its event loop runs, and RELOADING/STOPPING. A DDS
 /// participant found dead (its RustDDS threads ended, e.g. after SIGSTOP/SIGCONT) is reported
 /// and rebuilt, the engine's state kept; if it cannot be rebuilt within 30 s the node exits 1.
 /// ROCKWATCH_LOG sets the log level of the libraries (default: their errors).
@@ -59,14 +64,14 @@ fn text_path(text: &str) -> Option<PathBuf> {
     (!text.is_empty()).then(|| PathBuf::from(text))
 }
 
-pub fn run(args: NodeArgs) -> anyhow::Result<()> {
-    // First, before any thread starts: the stop signals go to one thread, never to DDS's.
-    let stop = stop_on_signals()?;
+/// The node's options from its files and flags: the configuration file, `--catalogue` and
+/// `--state-dir`, then the `--ros-args` naming rules and parameters (files, then `-p`) over
+/// them. At start and at every reload (SIGHUP), so a reload reads what a restart would.
+fn resolve_options(args: &NodeArgs) -> anyhow::Result<NodeOptions> {
     let mut config = match &args.config {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
-    // --ros-args: the naming rules, then the parameters (files, then -p) over the file's.
     super::apply_ros_naming(&mut config.ros2);
     let naming = config.ros2.naming()?;
     let mut params = ParamValues {
@@ -76,15 +81,24 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     };
     params.apply_overrides(&super::ros_args().parameters_for(&naming.node_fqn())?)?;
     config.engine = params.engine;
-    let plan = network_plan_from_env(&config.ros2)?;
-    let options = NodeOptions {
+    Ok(NodeOptions {
         config,
         catalogue: text_path(&params.catalogue),
         state_dir: text_path(&params.state_dir),
         shards: args.shards,
         notices: NoticeLog::RateLimited,
         reject_future: true,
-    };
+    })
+}
+
+pub fn run(args: NodeArgs) -> anyhow::Result<()> {
+    // First, before any thread starts: the signals go to one thread, never to DDS's.
+    let signals = node_signals()?;
+    let stop = signals.stop;
+    let systemd = SystemdNotifier::from_env()?;
+    let options = resolve_options(&args)?;
+    let naming = options.config.ros2.naming()?;
+    let plan = network_plan_from_env(&options.config.ros2)?;
     eprintln!(
         "rockwatch: node {} on DDS domain {} ({})",
         naming.node_fqn(),
@@ -109,7 +123,41 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     let mut notifier = Notifier::start(&options.config.notify, state_dir.as_deref(), &journal)?;
-    let report = serve(&options, &plan, &stop, &mut [&mut notifier])?;
+    // SIGHUP: the files again; what a reload cannot change is said, not silently ignored.
+    let mut reload = || -> anyhow::Result<Reloaded> {
+        let new = resolve_options(&args)?;
+        let (old, now) = (&options.config, &new.config);
+        let mut ignored = Vec::new();
+        if old.ros2 != now.ros2 {
+            ignored.push("[ros2]");
+        }
+        if old.iceoryx2 != now.iceoryx2 {
+            ignored.push("[iceoryx2]");
+        }
+        if old.notify != now.notify {
+            ignored.push("[[notify]]");
+        }
+        if options.state_dir != new.state_dir || old.state_dir != now.state_dir {
+            ignored.push("state_dir");
+        }
+        if !ignored.is_empty() {
+            eprintln!(
+                "rockwatch: reload: changes to {} take effect at the next restart",
+                ignored.join(", ")
+            );
+        }
+        Ok(Reloaded {
+            engine: now.engine,
+            stations: now.stations.clone(),
+            blocks: new.load_blocks()?,
+        })
+    };
+    let supervision = Supervision {
+        reload_requested: Some(&signals.reload),
+        reload: Some(&mut reload),
+        systemd,
+    };
+    let report = serve_supervised(&options, &plan, &stop, &mut [&mut notifier], supervision)?;
     for r in notifier.shutdown(STOP_GRACE) {
         eprintln!(
             "rockwatch: notify {}: {} delivered, {} failed attempts, {} queue overflows, {} spool errors, {} undelivered (kept for the next start)",

@@ -28,10 +28,11 @@ use mio::{Events, Poll, Token, Waker};
 
 use super::{
     Control, ControlSender, InputTotals, NodeOptions, NodeRuntime, Publication, Publisher,
-    RateLimitedLog, Wake,
+    RateLimitedLog, Reloaded, Wake, FAULT_STALL_ON_RELOAD_ENV,
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::ros2::msg::ResetPbrResponse;
+use crate::sd_notify::SystemdNotifier;
 use crate::ros2::{
     IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, ALERTS_TOPIC,
 };
@@ -136,8 +137,21 @@ pub struct Reactor {
     iox: Option<(IoxInput, IoxAlertPublisher)>,
 }
 
+/// What supervises a running node from outside: reload requests (SIGHUP) with the way to
+/// read the configuration again, and systemd's notifications.
+#[derive(Default)]
+pub struct Supervision<'a> {
+    /// Set by the signal thread on SIGHUP; the event loop clears it and reloads between
+    /// packets.
+    pub reload_requested: Option<&'a AtomicBool>,
+    /// Reads the configuration files again (the node's configuration and catalogue).
+    pub reload: Option<&'a mut dyn FnMut() -> anyhow::Result<Reloaded>>,
+    /// `$NOTIFY_SOCKET`: READY, WATCHDOG (while the loop is healthy), RELOADING, STOPPING.
+    pub systemd: Option<SystemdNotifier>,
+}
+
 /// Runs the node until `stop` is set: [`Reactor::start`], then [`Reactor::run`] with the
-/// `extra` publishers. This is what `rockwatch node` runs.
+/// `extra` publishers.
 pub fn serve(
     options: &NodeOptions,
     plan: &NetworkPlan,
@@ -145,6 +159,17 @@ pub fn serve(
     extra: &mut [&mut dyn Publisher],
 ) -> anyhow::Result<ServeReport> {
     Reactor::start(options, plan)?.run(stop, extra)
+}
+
+/// [`serve`] under `supervision` (reloads, systemd): what `rockwatch node` runs.
+pub fn serve_supervised(
+    options: &NodeOptions,
+    plan: &NetworkPlan,
+    stop: &AtomicBool,
+    extra: &mut [&mut dyn Publisher],
+    supervision: Supervision<'_>,
+) -> anyhow::Result<ServeReport> {
+    Reactor::start(options, plan)?.run_supervised(stop, extra, supervision)
 }
 
 impl Reactor {
@@ -232,6 +257,18 @@ impl Reactor {
         stop: &AtomicBool,
         extra: &mut [&mut dyn Publisher],
     ) -> anyhow::Result<ServeReport> {
+        self.run_supervised(stop, extra, Supervision::default())
+    }
+
+    /// [`Reactor::run`] under `supervision`: a reload request is taken between packets
+    /// (see [`apply_reload`]); systemd hears READY once the loop runs, WATCHDOG on the
+    /// loop's turns while the ROS 2 transport is up, and STOPPING at the end.
+    pub fn run_supervised(
+        self,
+        stop: &AtomicBool,
+        extra: &mut [&mut dyn Publisher],
+        mut supervision: Supervision<'_>,
+    ) -> anyhow::Result<ServeReport> {
         let Reactor {
             mut runtime,
             mut poll,
@@ -260,6 +297,12 @@ impl Reactor {
         };
 
         republish_journaled(&mut runtime, &mut out);
+        if let Some(systemd) = &mut supervision.systemd {
+            systemd.ready(&format!(
+                "monitoring {} blocks",
+                runtime.pbr_ids().len()
+            ));
+        }
 
         // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
         let mut inboxes: Vec<Inbox> = (0..1 + ros2.inputs()).map(|_| Inbox::new()).collect();
@@ -308,7 +351,14 @@ impl Reactor {
                     inbox.due = true;
                 }
             }
-            // Parameter changes, then operator resets, apply before the packets of this turn.
+            // A reload (SIGHUP), parameter changes, then operator resets apply before the
+            // packets of this turn.
+            if supervision
+                .reload_requested
+                .is_some_and(|r| r.swap(false, Ordering::Relaxed))
+            {
+                apply_reload(&mut runtime, &mut ros2, &mut supervision);
+            }
             if params_due {
                 params_due = ros2.serve_parameters();
             }
@@ -349,6 +399,15 @@ impl Reactor {
                     }
                 }
             }
+            // The loop has turned and the ROS 2 transport is up: tell systemd's watchdog.
+            if watchdog.down_since.is_none() {
+                if let Some(systemd) = &mut supervision.systemd {
+                    systemd.ping_if_due();
+                }
+            }
+        }
+        if let Some(systemd) = &mut supervision.systemd {
+            systemd.stopping();
         }
 
         // Stop: take what the inputs still hold (bounded) and process every packet taken,
@@ -414,6 +473,59 @@ fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
         eprintln!(
             "rockwatch: journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
         );
+    }
+}
+
+/// A reload request (SIGHUP), between packets: reads the configuration and catalogue again
+/// (`supervision.reload`) and hands them to [`NodeRuntime::reload`] — blocks in both keep
+/// their state, new ones start at rest, removed ones are dropped; the ROS 2 parameters show
+/// the new thresholds. A configuration that cannot be read or is invalid is refused with one
+/// log line, and the running one is kept. systemd hears RELOADING, then READY.
+fn apply_reload(runtime: &mut NodeRuntime, ros2: &mut Ros2Node, supervision: &mut Supervision<'_>) {
+    if let Some(systemd) = &mut supervision.systemd {
+        systemd.reloading();
+    }
+    if let Some(stall) = std::env::var(FAULT_STALL_ON_RELOAD_ENV)
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+    {
+        std::thread::sleep(Duration::from_secs_f64(stall));
+    }
+    let result = match &mut supervision.reload {
+        Some(load) => load().and_then(|reloaded| {
+            let engine = reloaded.engine;
+            runtime.reload(reloaded).map(|report| (report, engine))
+        }),
+        None => Err(anyhow::anyhow!("this node has no configuration to read again")),
+    };
+    match result {
+        Ok((report, engine)) => {
+            ros2.set_engine_parameters(&engine);
+            let list = |ids: &[String]| {
+                if ids.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", ids.join(", "))
+                }
+            };
+            eprintln!(
+                "rockwatch: reloaded: {} blocks kept with their state, {} new at rest{}, {} changed and at rest again{}, {} dropped{}",
+                report.kept.len(),
+                report.added.len(),
+                list(&report.added),
+                report.replaced.len(),
+                list(&report.replaced),
+                report.dropped.len(),
+                list(&report.dropped)
+            );
+        }
+        Err(e) => eprintln!(
+            "rockwatch: error: reload refused, the running configuration is kept: {e:#}"
+        ),
+    }
+    if let Some(systemd) = &mut supervision.systemd {
+        systemd.ready(&format!("monitoring {} blocks", runtime.pbr_ids().len()));
     }
 }
 
