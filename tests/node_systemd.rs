@@ -48,7 +48,16 @@ fn replay(config: &Path, station: &str) {
         .arg("--vertical")
         .arg(data.join("RinaldiUP.AT2"))
         .args(["--azimuth", "228", "--station", station])
-        .args(["--transport", "ros2", "--speed", "max", "--tail", "5", "--wait-s", "20"])
+        .args([
+            "--transport",
+            "ros2",
+            "--speed",
+            "max",
+            "--tail",
+            "5",
+            "--wait-s",
+            "20",
+        ])
         .output()
         .unwrap();
     let (stdout, stderr) = text(&out);
@@ -179,7 +188,10 @@ fn sighup_reloads_catalogue_and_thresholds_keeping_the_blocks_state() {
     let err = wait_for(&node, "a refused reload", |e| {
         e.matches("reload refused").count() == 1
     });
-    assert!(err.contains("imminent_theta_ratio") && err.contains("out of range"), "{err}");
+    assert!(
+        err.contains("imminent_theta_ratio") && err.contains("out of range"),
+        "{err}"
+    );
     node_toml(d, 0.5);
     std::fs::write(&catalogue, "[[pbr]\nid = \n").unwrap();
     hup(&node);
@@ -198,7 +210,9 @@ fn sighup_reloads_catalogue_and_thresholds_keeping_the_blocks_state() {
         err.contains("1 blocks kept with their state, 0 new at rest, 0 changed and at rest again, 1 dropped (pillar-one)"),
         "{err}"
     );
-    let status = node.signal_and_wait("TERM", Duration::from_secs(20)).unwrap();
+    let status = node
+        .signal_and_wait("TERM", Duration::from_secs(20))
+        .unwrap();
     let err = node.stderr();
     assert!(status.success(), "{err}");
     assert!(err.contains(", 1 blocks, 1 overturned"), "{err}");
@@ -235,8 +249,8 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
     // Every datagram with its arrival time, until `until` says stop or `limit` passes.
     let mut received: Vec<(Instant, String)> = Vec::new();
     let receive = |received: &mut Vec<(Instant, String)>,
-                       limit: Duration,
-                       until: &dyn Fn(&[(Instant, String)]) -> bool| {
+                   limit: Duration,
+                   until: &dyn Fn(&[(Instant, String)]) -> bool| {
         let deadline = Instant::now() + limit;
         let mut buf = [0u8; 512];
         while Instant::now() < deadline && !until(received) {
@@ -249,7 +263,9 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
         }
     };
     let has = |r: &[(Instant, String)], what: &str| r.iter().any(|(_, m)| m.contains(what));
-    receive(&mut received, Duration::from_secs(30), &|r| has(r, "READY=1"));
+    receive(&mut received, Duration::from_secs(30), &|r| {
+        has(r, "READY=1")
+    });
     let err = std::fs::read_to_string(d.join("node.err")).unwrap_or_default();
     assert!(has(&received, "READY=1"), "no READY=1 within 30 s\n{err}");
     assert!(
@@ -264,7 +280,11 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
         .filter(|(_, m)| m == "WATCHDOG=1")
         .map(|(t, _)| *t)
         .collect();
-    assert!(pings.len() >= 5, "{} pings in 2 s: {received:?}", pings.len());
+    assert!(
+        pings.len() >= 5,
+        "{} pings in 2 s: {received:?}",
+        pings.len()
+    );
     let mut gaps: Vec<f64> = pings
         .windows(2)
         .map(|w| (w[1] - w[0]).as_secs_f64())
@@ -298,7 +318,10 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
         .unwrap_or_else(|| panic!("no READY=1 after the reload: {after:?}"));
     assert!(reloading < ready, "{after:?}");
     let stalled = (after[ready].0 - after[reloading].0).as_secs_f64();
-    assert!(stalled >= 1.9, "the loop stalled only {stalled} s: {after:?}");
+    assert!(
+        stalled >= 1.9,
+        "the loop stalled only {stalled} s: {after:?}"
+    );
     assert!(
         after[reloading..ready]
             .iter()
@@ -313,7 +336,11 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
     let resumed = received.len();
     receive(&mut received, Duration::from_secs(2), &|_| false);
     assert!(
-        received[resumed..].iter().filter(|(_, m)| m == "WATCHDOG=1").count() >= 5,
+        received[resumed..]
+            .iter()
+            .filter(|(_, m)| m == "WATCHDOG=1")
+            .count()
+            >= 5,
         "{:?}",
         &received[resumed..]
     );
@@ -323,7 +350,9 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
         .args(["-TERM", &node.id().to_string()])
         .status();
     let status = node.wait().unwrap();
-    receive(&mut received, Duration::from_secs(2), &|r| has(r, "STOPPING=1"));
+    receive(&mut received, Duration::from_secs(2), &|r| {
+        has(r, "STOPPING=1")
+    });
     let err = std::fs::read_to_string(d.join("node.err")).unwrap_or_default();
     assert!(status.success(), "{err}");
     assert!(has(&received, "STOPPING=1"), "{received:?}");

@@ -128,20 +128,22 @@ fn two_sites_in_two_namespaces_stay_apart() {
     let out = replay(&config, &["-r", "__ns:=/site_a"]);
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
-    assert!(
-        wait_overturned(&state_a, "rrs-slender-pillar"),
-        "{stderr}"
-    );
+    assert!(wait_overturned(&state_a, "rrs-slender-pillar"), "{stderr}");
     let got_a = collect(&mut listen_a, Duration::from_secs(3));
     let got_b = collect(&mut listen_b, Duration::from_millis(500));
     let got_root = collect(&mut listen_root, Duration::from_millis(500));
     assert!(
-        got_a.iter().any(|a| a.pbr_id == "rrs-slender-pillar" && a.level == 3),
+        got_a
+            .iter()
+            .any(|a| a.pbr_id == "rrs-slender-pillar" && a.level == 3),
         "{got_a:?}"
     );
     assert!(got_b.is_empty(), "site B heard site A's alerts: {got_b:?}");
     assert!(got_root.is_empty(), "/pbr/alerts carried: {got_root:?}");
-    assert!(alert_history(&state_b).is_empty(), "site B's node took site A's packets");
+    assert!(
+        alert_history(&state_b).is_empty(),
+        "site B's node took site A's packets"
+    );
     let journal_a = alert_history(&state_a);
 
     // 2. A root-namespace replay remapped onto site B's topics: site B's node only.
@@ -156,17 +158,20 @@ fn two_sites_in_two_namespaces_stay_apart() {
     );
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
-    assert!(
-        wait_overturned(&state_b, "rrs-slender-pillar"),
-        "{stderr}"
-    );
+    assert!(wait_overturned(&state_b, "rrs-slender-pillar"), "{stderr}");
     let got_b = collect(&mut listen_b, Duration::from_secs(3));
     assert!(
-        got_b.iter().any(|a| a.pbr_id == "rrs-slender-pillar" && a.level == 3),
+        got_b
+            .iter()
+            .any(|a| a.pbr_id == "rrs-slender-pillar" && a.level == 3),
         "{got_b:?}"
     );
     assert!(collect(&mut listen_a, Duration::from_millis(500)).is_empty());
-    assert_eq!(alert_history(&state_a), journal_a, "site A took site B's packets");
+    assert_eq!(
+        alert_history(&state_a),
+        journal_a,
+        "site A took site B's packets"
+    );
 
     // 3. The reset service in /site_a: site A's block stands again, site B's stays fallen.
     let reset = Command::new(rockwatch())
@@ -186,13 +191,22 @@ fn two_sites_in_two_namespaces_stay_apart() {
         .unwrap();
     let (_, lost_err) = text(&lost);
     assert!(!lost.status.success(), "{lost_err}");
-    assert!(lost_err.contains("no node offered /pbr/reset"), "{lost_err}");
+    assert!(
+        lost_err.contains("no node offered /pbr/reset"),
+        "{lost_err}"
+    );
 
     drop((listen_a, listen_b, listen_root));
     let err_a_text = stop(node_a, &err_a);
     let err_b_text = stop(node_b, &err_b);
-    assert!(err_a_text.contains("node /site_a/rockwatch"), "{err_a_text}");
-    assert!(err_b_text.contains("node /site_b/rockwatch"), "{err_b_text}");
+    assert!(
+        err_a_text.contains("node /site_a/rockwatch"),
+        "{err_a_text}"
+    );
+    assert!(
+        err_b_text.contains("node /site_b/rockwatch"),
+        "{err_b_text}"
+    );
     let resets = |state: &Path| {
         rockwatch::journal::read_journal(state)
             .unwrap()
@@ -244,5 +258,8 @@ fn ros_args_errors_stop_the_node_with_one_line() {
         .unwrap();
     let (_, stderr) = text(&out);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("--ros-args is taken by the ROS 2 commands only"), "{stderr}");
+    assert!(
+        stderr.contains("--ros-args is taken by the ROS 2 commands only"),
+        "{stderr}"
+    );
 }

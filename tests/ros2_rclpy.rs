@@ -162,7 +162,10 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
         ratio["description"].as_str().unwrap().contains("|θ|/α"),
         "{ratio}"
     );
-    assert_eq!(ratio["floating_point_range"], serde_json::json!([[0.0, 1.0, 0.0]]));
+    assert_eq!(
+        ratio["floating_point_range"],
+        serde_json::json!([[0.0, 1.0, 0.0]])
+    );
     assert_eq!(ratio["additional_constraints"], "greater than 0");
     assert_eq!(ratio["read_only"], false);
     let catalogue_d = &before[4];

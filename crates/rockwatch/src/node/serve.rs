@@ -32,10 +32,10 @@ use super::{
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::ros2::msg::ResetPbrResponse;
-use crate::sd_notify::SystemdNotifier;
 use crate::ros2::{
     IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, ALERTS_TOPIC,
 };
+use crate::sd_notify::SystemdNotifier;
 use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
@@ -298,10 +298,7 @@ impl Reactor {
 
         republish_journaled(&mut runtime, &mut out);
         if let Some(systemd) = &mut supervision.systemd {
-            systemd.ready(&format!(
-                "monitoring {} blocks",
-                runtime.pbr_ids().len()
-            ));
+            systemd.ready(&format!("monitoring {} blocks", runtime.pbr_ids().len()));
         }
 
         // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
@@ -497,7 +494,9 @@ fn apply_reload(runtime: &mut NodeRuntime, ros2: &mut Ros2Node, supervision: &mu
             let engine = reloaded.engine;
             runtime.reload(reloaded).map(|report| (report, engine))
         }),
-        None => Err(anyhow::anyhow!("this node has no configuration to read again")),
+        None => Err(anyhow::anyhow!(
+            "this node has no configuration to read again"
+        )),
     };
     match result {
         Ok((report, engine)) => {
@@ -520,9 +519,9 @@ fn apply_reload(runtime: &mut NodeRuntime, ros2: &mut Ros2Node, supervision: &mu
                 list(&report.dropped)
             );
         }
-        Err(e) => eprintln!(
-            "rockwatch: error: reload refused, the running configuration is kept: {e:#}"
-        ),
+        Err(e) => {
+            eprintln!("rockwatch: error: reload refused, the running configuration is kept: {e:#}")
+        }
     }
     if let Some(systemd) = &mut supervision.systemd {
         systemd.ready(&format!("monitoring {} blocks", runtime.pbr_ids().len()));
