@@ -11,6 +11,7 @@
 //!   the command line launch_ros builds (`--ros-args -r __node:= -r __ns:= --params-file
 //!   -r from:=to`), are accepted by the node, which comes up as /site_a/rockwatch. launch_ros
 //!   itself is not on PyPI, so `ros2 launch` is not run.
+//!
 //! `systemd-analyze` and colcon missing: skipped locally, a failure under CI=true.
 
 mod ros2_util;

@@ -19,6 +19,9 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// A datagram received on the notify socket, with its arrival time.
+type Datagram = (Instant, String);
+
 fn block(id: &str, station: &str) -> String {
     format!(
         "[[pbr]]\nid = \"{id}\"\nname = \"{id}\"\nlat = 34.28\nlon = -118.48\n\
@@ -247,22 +250,21 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
         .unwrap();
     let start = Instant::now();
     // Every datagram with its arrival time, until `until` says stop or `limit` passes.
-    let mut received: Vec<(Instant, String)> = Vec::new();
-    let receive = |received: &mut Vec<(Instant, String)>,
-                   limit: Duration,
-                   until: &dyn Fn(&[(Instant, String)]) -> bool| {
-        let deadline = Instant::now() + limit;
-        let mut buf = [0u8; 512];
-        while Instant::now() < deadline && !until(received) {
-            if let Ok(n) = socket.recv(&mut buf) {
-                received.push((
-                    Instant::now(),
-                    String::from_utf8_lossy(&buf[..n]).into_owned(),
-                ));
+    let mut received: Vec<Datagram> = Vec::new();
+    let receive =
+        |received: &mut Vec<Datagram>, limit: Duration, until: &dyn Fn(&[Datagram]) -> bool| {
+            let deadline = Instant::now() + limit;
+            let mut buf = [0u8; 512];
+            while Instant::now() < deadline && !until(received) {
+                if let Ok(n) = socket.recv(&mut buf) {
+                    received.push((
+                        Instant::now(),
+                        String::from_utf8_lossy(&buf[..n]).into_owned(),
+                    ));
+                }
             }
-        }
-    };
-    let has = |r: &[(Instant, String)], what: &str| r.iter().any(|(_, m)| m.contains(what));
+        };
+    let has = |r: &[Datagram], what: &str| r.iter().any(|(_, m)| m.contains(what));
     receive(&mut received, Duration::from_secs(30), &|r| {
         has(r, "READY=1")
     });
@@ -307,7 +309,7 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
     receive(&mut received, Duration::from_secs(10), &|r| {
         r[before..].iter().any(|(_, m)| m.starts_with("READY=1"))
     });
-    let after: Vec<&(Instant, String)> = received[before..].iter().collect();
+    let after: Vec<&Datagram> = received[before..].iter().collect();
     let reloading = after
         .iter()
         .position(|(_, m)| m.starts_with("RELOADING=1"))

@@ -8,6 +8,7 @@
 //!   pbr/intake:=/site_b/pbr/intake`) reaches site B's node only;
 //! - `rockwatch reset --node --ros-args -r __ns:=/site_a` resets site A's fallen block through
 //!   `/site_a/pbr/reset` (site B's node answers nothing: its journal gets no reset).
+//!
 //! Also: `--ros-args` errors end the node at once with one line naming the problem (an unknown
 //! argument; a parameter out of its descriptor's range).
 

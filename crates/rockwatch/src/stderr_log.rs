@@ -90,7 +90,7 @@ pub fn init() {
 /// As [`init`]; `level` (from `--ros-args --log-level`), when given, is the level of every
 /// target, over `ROCKWATCH_LOG`.
 pub fn init_with_level(level: Option<LevelFilter>) {
-    let all = level.or_else(|| env_level());
+    let all = level.or_else(env_level);
     let max = all.unwrap_or(LevelFilter::Warn);
     if log::set_boxed_logger(Box::new(StderrLogger { all })).is_ok() {
         log::set_max_level(max);

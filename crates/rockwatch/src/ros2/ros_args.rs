@@ -353,10 +353,13 @@ fn yaml_value(y: &Yaml) -> anyhow::Result<ParameterValue> {
     })
 }
 
+/// The sections of a parameter file: (node pattern, its parameters in order).
+type ParamSections = Vec<(String, Vec<(String, ParameterValue)>)>;
+
 /// The sections of a ROS 2 parameter file: (node pattern, parameters) in file order. Keys
 /// above `ros__parameters` form the node's name (`/ns/node`, or nested mappings `ns: node:`);
 /// nested mappings below it form dotted parameter names.
-fn read_params_file(path: &Path) -> anyhow::Result<Vec<(String, Vec<(String, ParameterValue)>)>> {
+fn read_params_file(path: &Path) -> anyhow::Result<ParamSections> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("--params-file {}: cannot read it", path.display()))?;
     let docs = YamlLoader::load_from_str(&text)
@@ -375,11 +378,7 @@ fn read_params_file(path: &Path) -> anyhow::Result<Vec<(String, Vec<(String, Par
     Ok(sections)
 }
 
-fn walk_nodes(
-    y: &Yaml,
-    path: &str,
-    sections: &mut Vec<(String, Vec<(String, ParameterValue)>)>,
-) -> anyhow::Result<()> {
+fn walk_nodes(y: &Yaml, path: &str, sections: &mut ParamSections) -> anyhow::Result<()> {
     let Yaml::Hash(map) = y else {
         bail!(
             "{}: expected node names above a `ros__parameters` mapping (`node_name: {{ros__parameters: {{name: value}}}}`)",
@@ -395,7 +394,7 @@ fn walk_nodes(
                 bail!("ros__parameters at the top level: it goes under a node name");
             }
             let mut params = Vec::new();
-            walk_params(v, "", &mut params).with_context(|| format!("{path}"))?;
+            walk_params(v, "", &mut params).with_context(|| path.to_string())?;
             sections.push((path.to_string(), params));
         } else {
             let key = key.trim_matches('/');
