@@ -9,7 +9,8 @@
 //! change of a read-only parameter are refused with their reason and change nothing; a valid
 //! change (0.05) takes effect at once: of two identical slender blocks fed the same record,
 //! the one fed before the change raises `overturn_imminent` at |θ|/α ≈ 0.5 (the file's
-//! threshold), the one fed after it at |θ|/α ≈ 0.05.
+//! threshold), the one fed after it at |θ|/α ≈ 0.05; the change (only it) is announced on
+//! `/parameter_events`.
 //! Without rclpy the test is skipped locally and FAILS under CI=true.
 
 mod ros2_util;
@@ -108,7 +109,7 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
              | sed 's/^/BEFORE /'
          {}
          {}
-         {peer} --set alerts.imminent_theta_ratio=1.5 --get alerts.imminent_theta_ratio \
+         {peer} --events --set alerts.imminent_theta_ratio=1.5 --get alerts.imminent_theta_ratio \
              --set catalogue=/elsewhere.toml --set alerts.imminent_theta_ratio=0.05 \
              --get alerts.imminent_theta_ratio | sed 's/^/AFTER /'
          {}
@@ -175,7 +176,13 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
 
     // Out of range and read-only refused with the reason, nothing changed; a valid change.
     let after = json_lines(&stdout, "AFTER ");
-    assert_eq!(after.len(), 6, "{stdout}\n{stderr}");
+    assert_eq!(after.len(), 7, "{stdout}\n{stderr}");
+    // The accepted change, and only it, announced on /parameter_events.
+    assert_eq!(
+        after[6]["event"],
+        serde_json::json!({"node": "/site_a/rockwatch", "changed": [["alerts.imminent_theta_ratio", 0.05]]}),
+        "{stdout}"
+    );
     assert_eq!(after[1]["successful"], false, "{}", after[1]);
     assert!(
         after[1]["reason"]

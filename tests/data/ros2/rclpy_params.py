@@ -3,8 +3,8 @@
 node graph, then reads, describes and sets its parameters through the standard services
 (NODE/get_parameters, NODE/describe_parameters, NODE/set_parameters), as `ros2 param` does.
 
-Usage: rclpy_params.py --wait-s S [--node /ns/name] [--get NAME]... [--describe NAME]...
-                       [--set NAME=VALUE]...
+Usage: rclpy_params.py --wait-s S [--node /ns/name] [--events] [--get NAME]...
+                       [--describe NAME]... [--set NAME=VALUE]...
 VALUE is a double if it parses as one, else a string. Actions run in command-line order;
 prints one JSON object per line:
   {"graph": [[name, namespace], ...]}            the graph once NODE is in it
@@ -12,6 +12,8 @@ prints one JSON object per line:
   {"describe": NAME, "type": T, "description": D, "additional_constraints": C,
    "read_only": B, "floating_point_range": [[from, to, step], ...]}   after each --describe
   {"set": NAME, "value": V, "successful": B, "reason": R}   after each --set
+  {"event": {"node": N, "changed": [[NAME, DOUBLE], ...]}}   with --events: each
+      /parameter_events message of NODE received by 3 s after the last action
 Exit status 2 if NODE never appears or a service call times out.
 """
 import json
@@ -19,7 +21,8 @@ import sys
 import time
 
 import rclpy
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterType, ParameterValue
+from rclpy.qos import qos_profile_parameter_events
 from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 
 
@@ -60,6 +63,11 @@ def main():
             sys.exit(2)
         rclpy.spin_once(node, timeout_sec=0.1)
     print(json.dumps({"graph": sorted(names)}), flush=True)
+    events = []
+    if "--events" in args:
+        node.create_subscription(
+            ParameterEvent, "/parameter_events",
+            lambda m: events.append(m) if m.node == fqn else None, qos_profile_parameter_events)
     get = node.create_client(GetParameters, fqn + "/get_parameters")
     put = node.create_client(SetParameters, fqn + "/set_parameters")
     describe = node.create_client(DescribeParameters, fqn + "/describe_parameters")
@@ -93,6 +101,13 @@ def main():
             i += 2
         else:
             i += 1
+    if "--events" in args:
+        end = time.monotonic() + 3.0
+        while time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.1)
+        for m in events:
+            print(json.dumps({"event": {"node": m.node, "changed": [
+                [p.name, p.value.double_value] for p in m.changed_parameters]}}), flush=True)
     node.destroy_node()
     rclpy.shutdown()
 

@@ -9,8 +9,8 @@
 //! without range, so the node serves its own (ros2-client's are switched off). A change is
 //! validated by the descriptor's range and by the engine's own configuration check
 //! (`EngineConfig::validate`, the one policy for the configuration file and the parameters);
-//! a refused change says why, an accepted one is handed to the event loop and applies to the
-//! next packet.
+//! a refused change says why, an accepted one is handed to the event loop, applies to the
+//! next packet and is announced on `/parameter_events` (`rcl_interfaces/msg/ParameterEvent`).
 
 use ros2_client::dds::rustdds::mio1::{Registry, Token};
 use ros2_client::parameters::raw;
@@ -20,7 +20,7 @@ use ros2_client::rcl_interfaces::{
     ListParametersResponse, ListParametersResult, SetParametersAtomicallyResponse,
     SetParametersRequest, SetParametersResponse,
 };
-use ros2_client::{Message, ParameterValue, ServiceMapping};
+use ros2_client::{Message, ParameterValue, ROSTime, ServiceMapping, SystemTime};
 
 use super::held_server::HeldServer;
 use super::input::IntakeLog;
@@ -320,6 +320,10 @@ pub(super) struct ParamServer {
     describe: HeldServer<DescribeParametersRequest, DescribeParametersResponse>,
     pub(super) values: ParamValues,
     controls: ControlSender,
+    /// `/parameter_events`: each accepted change.
+    events: ros2_client::Publisher<raw::ParameterEvent>,
+    /// The node's fully qualified name (the events' `node`).
+    node_fqn: String,
 }
 
 /// The parameter services' mapping: as the reset service's.
@@ -357,6 +361,14 @@ impl ParamServer {
             describe: open(session, "describe_parameters", "DescribeParameters")?,
             values,
             controls,
+            events: {
+                let topic = session.context.get_parameter_events_topic();
+                session
+                    .node
+                    .create_publisher(&topic, None)
+                    .map_err(|e| anyhow::anyhow!("ROS 2 /parameter_events: {e:?}"))?
+            },
+            node_fqn: session.naming().node_fqn(),
         })
     }
 
@@ -410,6 +422,7 @@ impl ParamServer {
             values: r.names.iter().map(|n| values.describe(n)).collect(),
         });
         let controls = &self.controls;
+        let mut changed: Vec<raw::Parameter> = Vec::new();
         more |= serve_one(&mut self.set, log, |r| SetParametersResponse {
             results: r
                 .parameter
@@ -419,6 +432,7 @@ impl ParamServer {
                     let result = values.set(&p.name, &value, false);
                     if let Ok(change) = result {
                         hand_over(values, change, controls);
+                        changed.push(p.clone());
                     }
                     set_result(&p.name, result)
                 })
@@ -448,6 +462,7 @@ impl ParamServer {
                     for change in changes {
                         hand_over(values, change, controls);
                     }
+                    changed.extend(r.parameter.iter().cloned());
                     raw::SetParametersResult {
                         successful: true,
                         reason: String::new(),
@@ -456,8 +471,27 @@ impl ParamServer {
             };
             SetParametersAtomicallyResponse { result }
         });
+        self.announce(changed);
         self.send_due(session);
         more
+    }
+
+    /// Publishes the accepted changes on `/parameter_events` (one event; none if empty). A
+    /// failure is logged: the change itself stands.
+    fn announce(&mut self, changed: Vec<raw::Parameter>) {
+        if changed.is_empty() {
+            return;
+        }
+        let event = raw::ParameterEvent {
+            stamp: ROSTime::from(SystemTime::now()).into(),
+            node: self.node_fqn.clone(),
+            new_parameters: Vec::new(),
+            changed_parameters: changed,
+            deleted_parameters: Vec::new(),
+        };
+        if let Err(e) = self.events.publish(event) {
+            eprintln!("rockwatch: ROS 2 /parameter_events: not published: {e:?}");
+        }
     }
 
     /// Sends the responses that are due (see `HeldServer::send_due`).
