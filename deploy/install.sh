@@ -51,8 +51,9 @@ place "$repo/config/catalogue.toml" catalogue.toml
 place "$repo/config/iceoryx2.toml" iceoryx2.toml
 
 install -m 0644 "$repo/deploy/systemd/rockwatch-node.service" \
+  "$repo/deploy/systemd/rockwatch-node@.service" \
   "$repo/deploy/systemd/rockwatch-acquire.service" /etc/systemd/system/
-say "/etc/systemd/system/rockwatch-{node,acquire}.service"
+say "/etc/systemd/system/rockwatch-{node,node@,acquire}.service"
 if command -v systemctl >/dev/null && [ -d /run/systemd/system ]; then
   systemctl daemon-reload
   if [ "$enable" = 1 ]; then

@@ -29,24 +29,29 @@ fn available(program: &str, args: &[&str]) -> bool {
         .is_ok_and(|s| s.success())
 }
 
-/// The unit files with `/usr/local/bin/rockwatch` replaced by the binary under test.
+/// The unit files with `/usr/local/bin/rockwatch` replaced by the binary under test (the
+/// template as its instance `site_a`, which is what systemd verifies).
 fn units_for_test(dir: &Path) -> Vec<PathBuf> {
-    ["rockwatch-node.service", "rockwatch-acquire.service"]
-        .iter()
-        .map(|name| {
-            let text = std::fs::read_to_string(repo().join("deploy/systemd").join(name)).unwrap();
-            let path = dir.join(name);
-            std::fs::write(
-                &path,
-                text.replace(
-                    "/usr/local/bin/rockwatch",
-                    &rockwatch().display().to_string(),
-                ),
-            )
-            .unwrap();
-            path
-        })
-        .collect()
+    [
+        ("rockwatch-node.service", "rockwatch-node.service"),
+        ("rockwatch-acquire.service", "rockwatch-acquire.service"),
+        ("rockwatch-node@.service", "rockwatch-node@site_a.service"),
+    ]
+    .iter()
+    .map(|(name, instance)| {
+        let text = std::fs::read_to_string(repo().join("deploy/systemd").join(name)).unwrap();
+        let path = dir.join(instance);
+        std::fs::write(
+            &path,
+            text.replace(
+                "/usr/local/bin/rockwatch",
+                &rockwatch().display().to_string(),
+            ),
+        )
+        .unwrap();
+        path
+    })
+    .collect()
 }
 
 /// `systemd-analyze verify` of `units`: its exit status and everything it printed.
@@ -113,6 +118,15 @@ fn systemd_units_pass_systemd_analyze_verify_and_ask_for_notify_watchdog_restart
         "{node}"
     );
     assert!(node.contains("--config /etc/rockwatch/node.toml"), "{node}");
+    let site = std::fs::read_to_string(&units[2]).unwrap();
+    assert!(
+        site.contains("ExecReload=/bin/kill -HUP $MAINPID"),
+        "{site}"
+    );
+    assert!(
+        site.contains("--config /etc/rockwatch/%i/node.toml --state-dir /var/lib/rockwatch/%i --ros-args -r __ns:=/%i"),
+        "{site}"
+    );
     let acquire = std::fs::read_to_string(&units[1]).unwrap();
     assert!(
         acquire.contains("--config /etc/rockwatch/acquire.toml"),
