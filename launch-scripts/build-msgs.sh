@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds msg/ (the ROS 2 interface package pbr_msgs) for C, C++ and Python with colcon, without a
+# Builds msg/pbr_msgs (the ROS 2 interface package pbr_msgs) for C, C++ and Python with colcon, without a
 # ROS 2 installation: the toolchain is ROS 2 Kilted as PyPI wheels (the distribution of
 # ros-rclpy 9.1.2, the rclpy the tests use) plus Debian's cmake and g++. With a normal ROS 2
 # installation, build msg/ with colcon instead (README, "Using pbr_msgs from ROS 2").
@@ -115,7 +115,7 @@ if [ -n "${ROS_DISTRO:-}" ]; then
   say "note: ROS_DISTRO=$ROS_DISTRO is set; this script builds against the PyPI wheels in $py_prefix only"
 fi
 
-# The stamp: msg/ (every file, msg/srv/ too), this script, and the Python whose wheels are the
+# The stamp: msg/ (every file of the package msg/pbr_msgs), this script, and the Python whose wheels are the
 # underlay.
 stamp=$( (cd "$repo" && find msg -type f | LC_ALL=C sort | xargs sha256sum &&
   sha256sum launch-scripts/build-msgs.sh && echo "$py_prefix") | sha256sum | cut -d' ' -f1)
@@ -133,7 +133,7 @@ source_install() {
 
 check() {
   # Python: the generated classes, their constants, and the C type support extension; the
-  # service ResetPbr (msg/srv/ResetPbr.srv) with its request and response fields.
+  # service ResetPbr (msg/pbr_msgs/srv/ResetPbr.srv) with its request and response fields.
   (
     source_install
     python3 - <<'EOF'

@@ -1,5 +1,5 @@
 //! replay → `rockwatch node` → an independent Cyclone DDS subscriber (Python `cyclonedds`,
-//! PbrAlert type parsed from msg/), in a private network namespace. Also: a subscriber that
+//! PbrAlert type parsed from msg/pbr_msgs/msg/), in a private network namespace. Also: a subscriber that
 //! joins after the alerts gets them (transient local), and SIGTERM ends the node with 0.
 
 mod ros2_util;
@@ -35,7 +35,7 @@ fn cyclone_dds_subscriber_receives_the_slender_pillar_overturned_and_a_late_one_
     let bin = rockwatch().display().to_string();
     let py = repo().join("tests/data/ros2/cyclone_alerts.py");
     let py = py.display();
-    let msg = repo().join("msg");
+    let msg = repo().join("msg/pbr_msgs/msg");
     let msg = msg.display();
     let rec = repo().join("tests/data/records");
     let rec = rec.display();
@@ -65,7 +65,7 @@ fn cyclone_dds_subscriber_receives_the_slender_pillar_overturned_and_a_late_one_
     assert!(stdout.contains("replayed "), "{stdout}\n{stderr}");
     for (who, prefix) in [("early", "EARLY "), ("late", "LATE ")] {
         let got = alerts(&stdout, prefix);
-        // Level 3 = PbrAlert.OVERTURNED (msg/PbrAlert.msg).
+        // Level 3 = PbrAlert.OVERTURNED (msg/pbr_msgs/msg/PbrAlert.msg).
         assert!(
             got.iter()
                 .any(|a| a["pbr_id"] == "rrs-slender-pillar" && a["level"] == 3),

@@ -93,8 +93,7 @@ fn node_survives_counts_and_rejects_hostile_input_then_still_raises_overturned()
     // Raw bytes on /pbr/accel under the AccelPacket type name, from another participant.
     let mut hostile = Ros2Session::open(
         &plan,
-        "/",
-        "hostile",
+        &rockwatch::ros2::Naming::new("/", "hostile", Vec::new()).unwrap(),
         ros2_client::NodeOptions::new().enable_rosout(false),
     )
     .unwrap();

@@ -1,5 +1,5 @@
-//! One source of truth for the wire format: the `.msg` files of `msg/` and the `.srv` files of
-//! `msg/srv/` are parsed here and the Rust structs of `rockwatch::ros2::msg` must have the same
+//! One source of truth for the wire format: the `.msg` files of `msg/pbr_msgs/msg/` and the `.srv`
+//! files of `msg/pbr_msgs/srv/` are parsed here and the Rust structs of `rockwatch::ros2::msg` must have the same
 //! fields, in the same order, with the same types (CDR is positional), and the same constants;
 //! the iceoryx2 alerts carry the same level and mode codes.
 
@@ -24,15 +24,15 @@ struct MsgFile {
 /// `type NAME=value`, `#` comments.
 fn parse_msg(name: &str) -> MsgFile {
     let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-        .join("msg")
+        .join("msg/pbr_msgs/msg")
         .join(format!("{name}.msg"));
     parse_fields(name, &std::fs::read_to_string(&path).unwrap())
 }
 
-/// A `.srv` file of `msg/srv/`: the request's fields, a line `---`, the response's.
+/// A `.srv` file of `msg/pbr_msgs/srv/`: the request's fields, a line `---`, the response's.
 fn parse_srv(name: &str) -> (MsgFile, MsgFile) {
     let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-        .join("msg/srv")
+        .join("msg/pbr_msgs/srv")
         .join(format!("{name}.srv"));
     let text = std::fs::read_to_string(&path).unwrap();
     let parts: Vec<&str> = text.split("\n---\n").collect();

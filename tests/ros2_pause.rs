@@ -3,7 +3,7 @@
 //! `epoll_wait` (EINTR, signal(7)) and RustDDS 0.15.1 ends the participant's threads. Each
 //! process must say so, rebuild its participant (the node keeping the engine's state, the
 //! replay sending again what the node had not taken), and the run must end as an
-//! uninterrupted one: every packet counted, the same alerts. Also: SIGHUP stops the node
+//! uninterrupted one: every packet counted, the same alerts. Also: SIGINT stops the node
 //! cleanly (signals are taken on one thread). In a private network namespace, loopback only.
 
 mod ros2_util;
@@ -80,12 +80,12 @@ fn node_and_replay_paused_mid_stream_rebuild_their_participants_and_lose_nothing
     );
 
     // 25 s of data at 1.5 × real time (≈ 17 s): node and replay each paused 0.5 s, 1 s and
-    // 3 s, in turn; the node stopped by SIGHUP.
+    // 3 s, in turn; the node stopped by SIGINT (SIGHUP reloads it: tests/node_systemd.rs).
     let pauses: String = [0.5, 1.0, 3.0]
         .iter()
         .flat_map(|&s| [pause("NODE", s), pause("REPLAY", s)])
         .collect();
-    let (out_b, err_replay, err_b) = run(&b, "1.5", &pauses, "HUP");
+    let (out_b, err_replay, err_b) = run(&b, "1.5", &pauses, "INT");
     // Each pause ends the participant's threads (EINTR): said loudly, and rebuilt.
     assert!(
         err_b.contains("ROS 2 transport dead") && err_b.contains("has ended"),
@@ -97,7 +97,7 @@ fn node_and_replay_paused_mid_stream_rebuild_their_participants_and_lose_nothing
     );
     let rebuilds = count_before(&err_b, "participant rebuilds");
     assert!((1..=6).contains(&rebuilds), "{rebuilds} rebuilds\n{err_b}");
-    assert!(err_b.contains("rockwatch: SIGHUP: stopping"), "{err_b}");
+    assert!(err_b.contains("rockwatch: SIGINT: stopping"), "{err_b}");
     // RustDDS's own error line is visible (the logger is installed).
     assert!(err_b.contains("Interrupted"), "{err_b}");
     assert_eq!(replayed(&out_b), sent, "{out_b}");

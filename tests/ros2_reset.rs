@@ -6,7 +6,7 @@
 //!   stays fallen); after the reset the record again overturns it in a second episode. Unknown
 //!   ids fail, a standing block has nothing to reset, every reset is journaled, and a restarted
 //!   node keeps the block reset.
-//! - Interop: rclpy (Fast DDS) with the Python type GENERATED from `msg/srv/ResetPbr.srv`
+//! - Interop: rclpy (Fast DDS) with the Python type GENERATED from `msg/pbr_msgs/srv/ResetPbr.srv`
 //!   calls `/pbr/reset` on the node (skipped locally without the colcon build, FAILS under
 //!   CI=true).
 
@@ -320,7 +320,7 @@ fn rclpy_client_with_the_generated_service_type_resets_a_fallen_block() {
     assert!(stdout.contains("NODE_RC=0"), "{all}");
 
     let peer = json_lines(&stdout, "PEER ");
-    // The generated type has the fields of msg/srv/ResetPbr.srv (rosidl's type names).
+    // The generated type has the fields of msg/pbr_msgs/srv/ResetPbr.srv (rosidl's type names).
     assert_eq!(
         peer[0]["fields"],
         serde_json::json!({

@@ -15,7 +15,8 @@ use anyhow::{anyhow, Context};
 use clap::Parser;
 use nix::sys::signal::{SigSet, Signal};
 use rockwatch::ros2::{
-    alerts_qos, msg, network_plan_from_env, NetworkPlan, Ros2Config, Ros2Session, ALERTS_TOPIC,
+    alerts_qos, msg, network_plan_from_env, Naming, NetworkPlan, Ros2Config, Ros2Session,
+    ALERTS_TOPIC,
 };
 use rockwatch_core::engine::AlertLevel;
 use rockwatch_core::record::mseed::format_time_ns;
@@ -72,12 +73,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // The participant's threads must never take SIGINT/SIGTERM: open it with them blocked.
     let (_session, mut subscription) = with_termination_signals_blocked(|| {
-        let mut session = Ros2Session::open(
-            &plan,
-            "/",
-            "rockwatch_alert_subscriber",
-            NodeOptions::new().enable_rosout(false),
-        )?;
+        // In the root namespace: ALERTS_TOPIC (`pbr/alerts`) resolves to /pbr/alerts.
+        let naming = Naming::new("/", "rockwatch_alert_subscriber", Vec::new())?;
+        let mut session =
+            Ros2Session::open(&plan, &naming, NodeOptions::new().enable_rosout(false))?;
         // The node's QoS for /pbr/alerts: reliable, transient local, keep last 1000.
         let subscription = session.subscription::<msg::PbrAlert>(
             ALERTS_TOPIC,
@@ -214,12 +213,12 @@ fn describe(plan: &NetworkPlan) -> String {
     format!("domain {}, {interfaces}", plan.domain_id)
 }
 
-/// The name of a `PbrAlert.level` code (`msg/PbrAlert.msg`).
+/// The name of a `PbrAlert.level` code (`msg/pbr_msgs/msg/PbrAlert.msg`).
 fn level_name(code: u8) -> &'static str {
     msg::level_of_code(code).map_or("unknown", AlertLevel::as_str)
 }
 
-/// The name of a `PbrAlert.mode` code (`msg/PbrAlert.msg`).
+/// The name of a `PbrAlert.mode` code (`msg/pbr_msgs/msg/PbrAlert.msg`).
 fn mode_name(code: u8) -> &'static str {
     match code {
         msg::MODE_REST => "rest",

@@ -20,6 +20,7 @@ pub mod plot;
 pub mod ports;
 pub mod replay;
 pub mod ros2;
+pub mod sd_notify;
 pub mod seedlink;
 pub mod signals;
 pub mod status;

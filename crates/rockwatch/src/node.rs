@@ -32,7 +32,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
-pub use serve::{serve, Probe, Reactor, ServeReport};
+pub use serve::{serve, serve_supervised, Probe, Reactor, ServeReport, Supervision};
 
 use crate::ports::{Control, ControlSender, Publication, Publisher, Wake};
 
@@ -57,6 +57,19 @@ pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
 /// aborts right after the N-th alert has been journaled (and synced), before it is handed to
 /// any publisher — the worst moment for a crash.
 pub const FAULT_ABORT_AFTER_JOURNAL_ENV: &str = "ROCKWATCH_FAULT_ABORT_AFTER_JOURNAL";
+
+/// Fault injection for tests: the event loop stalls this many seconds when it takes a
+/// reload request (a stuck loop, as the systemd watchdog must notice).
+pub const FAULT_STALL_ON_RELOAD_ENV: &str = "ROCKWATCH_FAULT_STALL_ON_RELOAD_S";
+
+/// A configuration read again for a reload (SIGHUP): the engine's settings, the stations and
+/// the catalogue's blocks.
+#[derive(Debug, Clone)]
+pub struct Reloaded {
+    pub engine: rockwatch_core::engine::EngineConfig,
+    pub stations: Vec<rockwatch_core::engine::StationConfig>,
+    pub blocks: Vec<PbrSpec>,
+}
 
 /// Most engine shards (worker threads) a runtime starts.
 pub const MAX_SHARDS: usize = 256;
@@ -839,6 +852,33 @@ impl NodeRuntime {
             }
             (_, None) => {}
         }
+    }
+
+    /// Applies a reloaded configuration between packets ([`Engine::reload`]: blocks in both
+    /// keep their state, new ones start at rest, removed ones are dropped; thresholds and
+    /// stations as the files now say). On error (an invalid configuration, or several engine
+    /// shards) nothing changes.
+    pub fn reload(
+        &mut self,
+        reloaded: Reloaded,
+    ) -> anyhow::Result<rockwatch_core::engine::ReloadReport> {
+        let Reloaded {
+            engine: config,
+            stations,
+            blocks,
+        } = reloaded;
+        let report = match &mut self.engine {
+            Some(EngineMode::Inline(engine)) => engine.reload(config, stations, &blocks)?,
+            Some(EngineMode::Sharded(_)) => anyhow::bail!(
+                "a reload needs one engine shard (--shards 1); restart the node to apply the new configuration"
+            ),
+            None => anyhow::bail!("the engine has stopped"),
+        };
+        self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
+        if self.max_ahead_ns.is_some() {
+            self.max_ahead_ns = Some((config.plausibility.max_ahead_s * 1e9) as i64);
+        }
+        Ok(report)
     }
 
     /// Whether block `pbr_id` has overturned and not been reset since (None: no such block).

@@ -2,8 +2,8 @@
 //! ROS 2 (`pbr_msgs/PbrState.mode`, `pbr_msgs/PbrAlert.level` and `.mode`) and iceoryx2
 //! (`PbrAlertIox::level` and `::mode`).
 //!
-//! The numbering is an interface contract, fixed by the constants of `msg/PbrState.msg` and
-//! `msg/PbrAlert.msg` (which docs/iceoryx2.md repeats for the C, C++ and Python clients), not a
+//! The numbering is an interface contract, fixed by the constants of `msg/pbr_msgs/msg/PbrState.msg` and
+//! `msg/pbr_msgs/msg/PbrAlert.msg` (which docs/iceoryx2.md repeats for the C, C++ and Python clients), not a
 //! property of the physics: it lives here in the shell, next to the transports, and the core's
 //! [`Mode`] and [`AlertLevel`] stay free of wire concerns. `tests/ros2_msgs.rs` checks this
 //! table against the `.msg` files and that both transports send the same codes.

@@ -1,5 +1,5 @@
 """An independent ROS 2 peer: Eclipse Cyclone DDS (PyPI `cyclonedds`) subscribing to
-rt/pbr/alerts with the pbr_msgs/PbrAlert type built from msg/PbrAlert.msg (the one source
+rt/pbr/alerts with the pbr_msgs/PbrAlert type built from msg/pbr_msgs/msg/PbrAlert.msg (the one source
 of truth), reliable + transient local + keep last 1000 like the node's writer.
 
 Prints one JSON object per alert received, then exits after --seconds.

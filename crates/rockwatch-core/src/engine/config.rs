@@ -132,11 +132,13 @@ impl StationConfig {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AlertConfig {
-    /// `overturn_imminent` when |θ|/α reaches this ratio.
+    /// `overturn_imminent` when |θ|/α reaches this ratio, in (0, 1] (at 1 the block has tipped
+    /// past its static balance angle α).
     pub imminent_theta_ratio: f64,
     /// `overturn_imminent` when the ensemble overturn probability reaches this value.
     pub imminent_probability: f64,
-    /// A station is quiet while every horizontal and vertical |a| stays below this (m/s²).
+    /// A station is quiet while every horizontal and vertical |a| stays below this (m/s², at
+    /// most 100).
     pub quiet_threshold_mps2: f64,
     /// An episode ends when the block is at rest and its station has been quiet this long (s).
     pub quiet_s: f64,
@@ -257,7 +259,7 @@ impl EngineConfig {
             (
                 "engine.alerts.imminent_theta_ratio",
                 a.imminent_theta_ratio,
-                a.imminent_theta_ratio > 0.0 && a.imminent_theta_ratio.is_finite(),
+                a.imminent_theta_ratio > 0.0 && a.imminent_theta_ratio <= 1.0,
             ),
             (
                 "engine.alerts.imminent_probability",
@@ -267,7 +269,7 @@ impl EngineConfig {
             (
                 "engine.alerts.quiet_threshold_mps2",
                 a.quiet_threshold_mps2,
-                a.quiet_threshold_mps2 >= 0.0 && a.quiet_threshold_mps2.is_finite(),
+                (0.0..=100.0).contains(&a.quiet_threshold_mps2),
             ),
             (
                 "engine.alerts.quiet_s",
@@ -285,6 +287,10 @@ impl EngineConfig {
                     "engine.plausibility.max_abs_accel_g" => "(0, 1000] g",
                     "engine.plausibility.max_ahead_s" => "[0, 86400] s",
                     "engine.alerts.imminent_probability" => "(0, 1]",
+                    "engine.alerts.imminent_theta_ratio" => {
+                        "(0, 1] (1: tipped past static balance)"
+                    }
+                    "engine.alerts.quiet_threshold_mps2" => "[0, 100] m/s²",
                     "engine.alerts.quiet_s" | "engine.stale_after_s" => "(0, 86400] s",
                     _ => "a finite positive number",
                 };

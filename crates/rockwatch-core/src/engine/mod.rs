@@ -71,6 +71,19 @@ pub enum EngineError {
     Worker(std::io::Error),
 }
 
+/// What [`Engine::reload`] did with the blocks (ids, catalogue order within each station).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReloadReport {
+    /// In both catalogues, the same block on the same station: state kept.
+    pub kept: Vec<String>,
+    /// New ids: at rest.
+    pub added: Vec<String>,
+    /// Ids in both whose body, axis, members or station changed: at rest again.
+    pub replaced: Vec<String>,
+    /// Gone from the catalogue: dropped.
+    pub dropped: Vec<String>,
+}
+
 /// The monitoring engine.
 #[derive(Debug)]
 pub struct Engine {
@@ -132,6 +145,63 @@ impl Engine {
             scratch: Vec::new(),
             health_since_ns: None,
         })
+    }
+
+    /// Replaces the configuration, the stations and the blocks (a reload of the node's files)
+    /// without losing state: a block present before and after, the same block on the same
+    /// station, keeps its motion, episode and raised alerts; a new block starts at rest; a
+    /// block gone is dropped; a station present before and after keeps its stream and running
+    /// measures. Everything is checked first (as [`Engine::new`] does): on error nothing
+    /// changes. Call it between packets.
+    pub fn reload(
+        &mut self,
+        config: EngineConfig,
+        stations: Vec<StationConfig>,
+        pbrs: &[PbrSpec],
+    ) -> Result<ReloadReport, EngineError> {
+        let mut fresh = Engine::new(config, stations, pbrs)?;
+        let old_ids: Vec<String> = self
+            .stations
+            .values()
+            .flat_map(|s| s.pbrs.iter().map(|p| p.id().to_string()))
+            .collect();
+        let mut previous: HashMap<String, station::PbrRuntime> = self
+            .stations
+            .values_mut()
+            .flat_map(StationRuntime::take_blocks)
+            .map(|p| (p.id().to_string(), p))
+            .collect();
+        let mut report = ReloadReport::default();
+        for (id, station) in &mut fresh.stations {
+            let kept = station.continue_from(self.stations.remove(id), &mut previous);
+            for pbr in &mut station.pbrs {
+                let pid = pbr.id().to_string();
+                if kept.contains(&pid) {
+                    report.kept.push(pid);
+                } else if old_ids.contains(&pid) {
+                    report.replaced.push(pid);
+                } else {
+                    // Its journaled alerts (a block back in the catalogue) are not reused.
+                    let last = self
+                        .journaled
+                        .iter()
+                        .filter(|(id, _, _)| *id == pid)
+                        .map(|(_, episode, _)| *episode)
+                        .max()
+                        .unwrap_or(0);
+                    pbr.continue_episodes_after(last);
+                    report.added.push(pid);
+                }
+            }
+        }
+        report.dropped = old_ids
+            .into_iter()
+            .filter(|o| !pbrs.iter().any(|p| &p.id == o))
+            .collect();
+        fresh.counters = self.counters;
+        fresh.journaled = std::mem::take(&mut self.journaled);
+        *self = fresh;
+        Ok(report)
     }
 
     /// The configuration in force.

@@ -17,7 +17,7 @@ impl OutputSink for Vec<Output> {
     }
 }
 
-/// Alert levels, in increasing severity (numbering as in `msg/PbrAlert.msg`).
+/// Alert levels, in increasing severity (numbering as in `msg/pbr_msgs/msg/PbrAlert.msg`).
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
 )]

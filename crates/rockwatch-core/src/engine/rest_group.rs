@@ -105,6 +105,16 @@ impl RestGroup {
         }
     }
 
+    /// A group for `limits` continuing `old`'s clock and switch (none parked): after the
+    /// station's blocks changed (a reload), blocks kept from `old` may park again.
+    pub(crate) fn continuing(old: &RestGroup, limits: Vec<RestLimit>) -> Self {
+        RestGroup {
+            enabled: old.enabled,
+            clock_s: old.clock_s,
+            ..RestGroup::new(limits)
+        }
+    }
+
     pub(crate) fn set_enabled(&mut self, enabled: bool) {
         self.enabled = enabled;
     }

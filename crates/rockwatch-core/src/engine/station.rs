@@ -134,6 +134,29 @@ impl PbrRuntime {
             && self.members.iter().all(resting)
     }
 
+    /// The same block: id, axis, nominal body and ensemble members (a reload keeps its state).
+    fn same_block(&self, other: &PbrRuntime) -> bool {
+        self.id == other.id
+            && self.axis == other.axis
+            && self.nominal.params() == other.nominal.params()
+            && self.members.len() == other.members.len()
+            && self
+                .members
+                .iter()
+                .zip(&other.members)
+                .all(|(a, b)| a.params() == b.params())
+    }
+
+    pub(crate) fn id(&self) -> &str {
+        &self.id
+    }
+
+    /// Episodes of this block before (a block new to a reload, back in the catalogue: its
+    /// next episode comes after its journaled ones).
+    pub(crate) fn continue_episodes_after(&mut self, episode: u32) {
+        self.episode = self.episode.max(episode);
+    }
+
     /// Leaves the rest group: the blocks' clocks are set to the group's.
     fn leave_rest_group(&mut self, clock_s: f64) {
         self.nominal.stay_at_rest_until(clock_s);
@@ -541,6 +564,53 @@ impl StationRuntime {
                 };
             }
         }
+    }
+
+    /// The station's blocks, out of the rest group (their clocks set), for a reload.
+    pub(crate) fn take_blocks(&mut self) -> Vec<PbrRuntime> {
+        self.leave_rest_group();
+        std::mem::take(&mut self.pbrs)
+    }
+
+    /// After a reload: this station, new from the new configuration, continues `old` (the
+    /// same station before; its blocks already taken): the stream state, the running
+    /// intensity measures, the quiet clock and the counters go on (the configuration is the
+    /// new one; stream settings changed by the reload apply to stations new to it). Each of
+    /// this station's blocks found in `previous` as the same block (id, axis, body, members)
+    /// keeps its state — motion, episode, alerts raised; the others start at rest. Returns the
+    /// ids of the blocks kept.
+    pub(crate) fn continue_from(
+        &mut self,
+        old: Option<StationRuntime>,
+        previous: &mut std::collections::HashMap<String, PbrRuntime>,
+    ) -> Vec<String> {
+        let mut kept = Vec::new();
+        for pbr in &mut self.pbrs {
+            if let Some(prev) = previous.remove(&pbr.id) {
+                if prev.same_block(pbr) {
+                    kept.push(pbr.id.clone());
+                    *pbr = prev;
+                } else {
+                    // Same id, another body or station: the old state means nothing here,
+                    // but episode numbers go on (an alert's identity includes its episode).
+                    pbr.episode = prev.episode;
+                    previous.insert(pbr.id.clone(), prev);
+                }
+            }
+        }
+        let limits = self.pbrs.iter().map(PbrRuntime::rest_limit).collect();
+        if let Some(old) = old {
+            self.rest = RestGroup::continuing(&old.rest, limits);
+            self.sequencer = old.sequencer;
+            self.ims = old.ims;
+            self.last = old.last;
+            self.quiet_since_ns = old.quiet_since_ns;
+            self.last_intensity_ns = old.last_intensity_ns;
+            self.counters = old.counters;
+        } else {
+            self.rest = RestGroup::new(limits);
+        }
+        kept
     }
 
     /// An operator reset: the block stands again at rest, its episode closed.

@@ -9,7 +9,8 @@ use rockwatch::acquire::{AcquireConfig, PacketPublisher};
 use rockwatch::iox::IoxPacketSink;
 use rockwatch::ports::PacketSink;
 use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
-use rockwatch::seedlink::SeedLinkClient;
+use rockwatch::sd_notify::SystemdNotifier;
+use rockwatch::seedlink::{RecordSink, SeedLinkClient};
 use rockwatch::signals::stop_on_signals;
 use rockwatch_core::inventory::Inventory;
 
@@ -31,7 +32,8 @@ pub enum Output {
 /// failures; resumes each station after the last record published, from the state directory
 /// (nothing lost or published twice across restarts, within the server's ring). Waits for the
 /// node's subscription before connecting. SIGINT/SIGTERM stop it cleanly; counters are printed
-/// on exit. Configuration: config/acquire.toml documents every key; docs/seedlink.md the
+/// on exit. Under systemd (`Type=notify`) it reports READY once the node has subscribed and
+/// pings the watchdog (`WatchdogSec=`) from its receive loop while connected to the server. Configuration: config/acquire.toml documents every key; docs/seedlink.md the
 /// protocol and resume semantics.
 #[derive(Debug, clap::Args)]
 pub struct AcquireArgs {
@@ -48,10 +50,36 @@ pub struct AcquireArgs {
     to: Output,
 }
 
+/// The publisher, pinging systemd's watchdog on the receive loop's ticks (about every
+/// 100 ms while connected): a loop that stops turning stops the pings.
+struct Watched<'a, 's> {
+    inner: PacketPublisher<'s>,
+    systemd: Option<&'a mut SystemdNotifier>,
+}
+
+impl RecordSink for Watched<'_, '_> {
+    fn record(&mut self, record: &rockwatch_core::record::mseed::Channel) -> bool {
+        self.inner.record(record)
+    }
+
+    fn published_until_ns(&self, station: &str) -> Option<i64> {
+        self.inner.published_until_ns(station)
+    }
+
+    fn tick(&mut self) {
+        self.inner.tick();
+        if let Some(systemd) = &mut self.systemd {
+            systemd.ping_if_due();
+        }
+    }
+}
+
 pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     // First, before any thread starts: the stop signals go to one thread, never to DDS's.
     let stop = stop_on_signals()?;
-    let config = AcquireConfig::load(&args.config).map_err(anyhow::Error::msg)?;
+    let mut systemd = SystemdNotifier::from_env()?;
+    let mut config = AcquireConfig::load(&args.config).map_err(anyhow::Error::msg)?;
+    super::apply_ros_naming(&mut config.ros2);
     let state_dir = args.state_dir.clone().or_else(|| config.state_dir.clone());
     if let Some(dir) = &state_dir {
         std::fs::create_dir_all(dir)
@@ -73,7 +101,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         }
         Output::Ros2 => {
             let plan = network_plan_from_env(&config.ros2)?;
-            Box::new(Ros2PacketSink::open(&plan, &config.ros2.namespace)?)
+            Box::new(Ros2PacketSink::open(&plan, config.ros2.naming()?)?)
         }
     };
     tracing::info!(
@@ -86,9 +114,22 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
             return Ok(());
         }
     }
-    let mut publisher = PacketPublisher::new(inventory, config.assembly_config(), sink.as_mut());
+    if let Some(systemd) = &mut systemd {
+        systemd.ready(&format!(
+            "{} streams from {}",
+            config.seedlink.streams.len(),
+            config.seedlink.server
+        ));
+    }
+    let mut publisher = Watched {
+        inner: PacketPublisher::new(inventory, config.assembly_config(), sink.as_mut()),
+        systemd: systemd.as_mut(),
+    };
     let result = client.run(&stop, &mut publisher);
-    let (published, assembled) = publisher.counters();
+    if let Some(systemd) = publisher.systemd.take() {
+        systemd.stopping();
+    }
+    let (published, assembled) = publisher.inner.counters();
     let link = client.counters();
     tracing::info!(
         "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",

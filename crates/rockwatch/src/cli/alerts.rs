@@ -163,17 +163,23 @@ fn reset_live(args: &ResetArgs) -> anyhow::Result<()> {
         bail!("--wait-s must be ≥ 0, got {}", args.wait_s);
     }
     let wait = Duration::from_secs_f64(args.wait_s);
-    let config = match &args.config {
+    let mut config = match &args.config {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
+    super::apply_ros_naming(&mut config.ros2);
     let plan = network_plan_from_env(&config.ros2)?;
-    let mut client = Ros2ResetClient::open(&plan, &config.ros2.namespace)
-        .context("cannot join the ROS 2 graph")?;
+    let naming = config.ros2.naming()?;
+    let mut client =
+        Ros2ResetClient::open(&plan, &naming).context("cannot join the ROS 2 graph")?;
     if !client.wait_for_service(wait) {
         bail!(
-            "no node offered {RESET_SERVICE} within {} s (is `rockwatch node` running on the \
-             same domain and network?)",
+            "no node offered {} within {} s (is `rockwatch node` running on the same domain and \
+             network, in this namespace? give it with --ros-args -r __ns:=/NS or [ros2] namespace)",
+            naming
+                .for_node("rockwatch_reset")
+                .resolve(RESET_SERVICE)
+                .unwrap_or_else(|_| RESET_SERVICE.to_string()),
             args.wait_s
         );
     }

@@ -136,6 +136,8 @@ fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
     let mut config = NodeConfig::load(&dir.join("node.toml"))?;
     // Loopback only, whatever ROS_AUTOMATIC_DISCOVERY_RANGE says; ROS_DOMAIN_ID is honoured.
     config.ros2 = Ros2Config::loopback_only();
+    // --ros-args -r __ns:=/x runs the demo's node, replay and listener in that namespace.
+    super::apply_ros_naming(&mut config.ros2);
     // ROS 2 only: the bundled node.toml names an iceoryx2 config file beside it, which the
     // demo does not ship, and the default iceoryx2 services could clash with a real node's.
     config.iceoryx2.config_file = None;
@@ -190,7 +192,8 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
         speed,
         ..
     } = plan;
-    let mut listener = Ros2AlertListener::open(&network, &options.config.ros2.namespace)?;
+    let naming = options.config.ros2.naming()?;
+    let mut listener = Ros2AlertListener::open(&network, &naming)?;
     let stop = Arc::new(AtomicBool::new(false));
     let latencies = Arc::new(Mutex::new(BTreeMap::new()));
     let node = {
@@ -213,7 +216,7 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
         std::thread::Builder::new()
             .name("demo-replay".into())
             .spawn(move || -> anyhow::Result<()> {
-                let mut sink = Ros2PacketSink::open(&network, "/")?;
+                let mut sink = Ros2PacketSink::open(&network, &naming)?;
                 if !sink.wait_for_subscriber(Duration::from_secs(30))? {
                     stop.store(true, Ordering::Relaxed);
                     anyhow::bail!("the node did not subscribe to /pbr/accel within 30 s");

@@ -112,6 +112,26 @@ enum Command {
     Fragility(fragility::FragilityArgs),
 }
 
+/// The level of `--ros-args --log-level LEVEL` (or `--log-level rockwatch:=LEVEL`, the
+/// node's logger, also under its `__node` name); another logger's name is an error.
+fn ros_log_level() -> anyhow::Result<Option<log::LevelFilter>> {
+    let ros = ros_args();
+    let node = ros
+        .node_names
+        .last()
+        .map_or(rockwatch::ros2::NODE_NAME, |(_, n)| n.as_str());
+    let mut level = ros.log_level.map(|l| l.filter());
+    for (logger, l) in &ros.logger_levels {
+        if logger != rockwatch::ros2::NODE_NAME && logger != node {
+            anyhow::bail!(
+                "--ros-args --log-level {logger}:=…: rockwatch has no logger {logger:?} (its logger is {node:?}; or give the level alone)"
+            );
+        }
+        level = Some(l.filter());
+    }
+    Ok(level)
+}
+
 /// Output format for people (`text`) or programs (`json`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum OutputFormat {
@@ -121,12 +141,59 @@ pub enum OutputFormat {
     Json,
 }
 
+/// The process's `--ros-args` (empty without them), parsed once before the subcommand runs.
+static ROS_ARGS: std::sync::OnceLock<rockwatch::ros2::RosArgs> = std::sync::OnceLock::new();
+
+/// The `--ros-args` of the command line (the ROS 2 commands read them).
+pub fn ros_args() -> &'static rockwatch::ros2::RosArgs {
+    ROS_ARGS.get_or_init(rockwatch::ros2::RosArgs::default)
+}
+
+/// Applies the `--ros-args` naming rules (`__ns`, `__node`, remaps) to a `[ros2]` section:
+/// what the node and every client (replay, reset, acquire, the demo) use.
+pub fn apply_ros_naming(config: &mut rockwatch::ros2::Ros2Config) {
+    ros_args().apply_naming(config);
+}
+
+/// The subcommands that take `--ros-args` (they join the ROS 2 graph).
+const ROS_COMMANDS: [&str; 5] = ["node", "replay", "reset", "acquire", "demo"];
+
 /// Parses the command line, runs the subcommand, and maps errors to a one-line message.
 pub fn run() -> ExitCode {
+    // `--ros-args … [--]` sections are ROS 2's (rcl's rules), the rest is ours.
+    let argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let (own, ros, ros_seen) = rockwatch::ros2::split_ros_args(&argv);
+    if ros_seen {
+        let ros: Vec<String> = ros
+            .iter()
+            .map(|a| a.to_string_lossy().into_owned())
+            .collect();
+        let command = own.get(1).map(|c| c.to_string_lossy().into_owned());
+        if !command
+            .as_deref()
+            .is_some_and(|c| ROS_COMMANDS.contains(&c))
+        {
+            eprintln!(
+                "rockwatch: error: --ros-args is taken by the ROS 2 commands only ({}), not by {}",
+                ROS_COMMANDS.join(", "),
+                command.as_deref().unwrap_or("rockwatch without a command")
+            );
+            return ExitCode::FAILURE;
+        }
+        match rockwatch::ros2::RosArgs::parse(&ros) {
+            Ok(parsed) => {
+                let _ = ROS_ARGS.set(parsed);
+            }
+            Err(e) => {
+                eprintln!("rockwatch: error: {e:#}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
     // Negative numbers are values, not flags, in every subcommand (`--scale -1`).
     let command = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
     let parsed = command
-        .try_get_matches()
+        .try_get_matches_from(own)
         .and_then(|matches| Cli::from_arg_matches(&matches));
     let cli = match parsed {
         Ok(cli) => cli,
@@ -152,9 +219,19 @@ pub fn run() -> ExitCode {
         }
     };
     // rockwatch's records and the libraries' (RustDDS and iceoryx2 through `log`, ros2-client
-    // through `tracing`) on stderr.
+    // through `tracing`) on stderr. `--log-level` wins over `--ros-args --log-level`.
+    let ros_level = match ros_log_level() {
+        Ok(level) => level,
+        Err(e) => {
+            eprintln!("rockwatch: error: {e:#}");
+            return ExitCode::FAILURE;
+        }
+    };
     let log = rockwatch::logging::LogOptions {
-        level: cli.log_level.clone(),
+        level: cli
+            .log_level
+            .clone()
+            .or_else(|| ros_level.map(|l| l.as_str().to_ascii_lowercase())),
         format: cli.log_format,
     };
     if let Err(e) = rockwatch::logging::init(&log) {

@@ -5,23 +5,31 @@
 use std::path::PathBuf;
 
 use rockwatch::journal::read_journal;
-use rockwatch::node::{serve, NodeOptions, NoticeLog};
+use rockwatch::node::{serve_supervised, NodeOptions, NoticeLog, Reloaded, Supervision};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::notify::{Notifier, STOP_GRACE};
-use rockwatch::ros2::network_plan_from_env;
-use rockwatch::signals::stop_on_signals;
+use rockwatch::ros2::{network_plan_from_env, ParamValues};
+use rockwatch::sd_notify::SystemdNotifier;
+use rockwatch::signals::node_signals;
 
 /// Run the live node: subscribes `/pbr/accel` (and configured Imu topics) over ROS 2, runs
 /// the monitoring engine, publishes `/pbr/ims`, `/pbr/state` and `/pbr/alerts`.
 ///
-/// The node is `<namespace>/rockwatch`; DDS domain `ROS_DOMAIN_ID`;
-/// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` keeps it on loopback. Alert thresholds
-/// (`alerts.*`) and `state_interval_s` are ROS 2 parameters, settable at run time. The
-/// service `/pbr/reset` (`pbr_msgs/srv/ResetPbr`) resets a fallen block (`rockwatch reset
+/// The node is `<namespace>/rockwatch`, its topics and service relative (`pbr/alerts` is
+/// `/site_a/pbr/alerts` in the namespace `/site_a`); DDS domain `ROS_DOMAIN_ID`;
+/// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` keeps it on loopback. It takes `--ros-args` as
+/// every ROS 2 node does (`-r from:=to`, `-r __ns:=/x`, `-r __node:=n`, `-p name:=value`,
+/// `--params-file FILE`, `--log-level LEVEL`). Alert thresholds (`alerts.*`) and
+/// `state_interval_s` are ROS 2 parameters with descriptors (ranges), settable at run time.
+/// The service `pbr/reset` (`pbr_msgs/srv/ResetPbr`) resets a fallen block (`rockwatch reset
 /// --node`). Alerts also go to the configuration's `[[notify]]` receivers (a command, or a
-/// webhook), at least once, kept in the state directory until acknowledged. SIGINT, SIGTERM
-/// or SIGHUP (taken on one thread, never on DDS's): stop intake, publish what remains, flush
-/// the state directory, give the receivers up to 5 s to deliver what is queued, exit 0. A DDS
+/// webhook), at least once, kept in the state directory until acknowledged. SIGINT or SIGTERM
+/// (taken on one thread, never on DDS's): stop intake, publish what remains, flush the state
+/// directory, give the receivers up to 5 s to deliver what is queued, exit 0. SIGHUP reloads
+/// the configuration and the catalogue between packets: blocks in both keep their state, new
+/// ones start at rest, removed ones are dropped; a bad new configuration is refused with a log
+/// line and the running one kept. Under systemd (`Type=notify`) it reports READY, pings the
+/// watchdog (`WatchdogSec=`) while its event loop runs, and RELOADING/STOPPING. A DDS
 /// participant found dead (its RustDDS threads ended, e.g. after SIGSTOP/SIGCONT) is reported
 /// and rebuilt, the engine's state kept; if it cannot be rebuilt within 30 s the node exits 1.
 /// Logs (--log-level, --log-format text|json, RUST_LOG) log every alert and station health
@@ -49,26 +57,54 @@ pub struct NodeArgs {
     shards: usize,
 }
 
-pub fn run(args: NodeArgs) -> anyhow::Result<()> {
-    // First, before any thread starts: the stop signals go to one thread, never to DDS's.
-    let stop = stop_on_signals()?;
-    let config = match &args.config {
+/// A path as a parameter's text (empty: none).
+fn path_text(path: Option<&PathBuf>) -> String {
+    path.map(|p| p.display().to_string()).unwrap_or_default()
+}
+
+/// A parameter's text as a path (empty: none).
+fn text_path(text: &str) -> Option<PathBuf> {
+    (!text.is_empty()).then(|| PathBuf::from(text))
+}
+
+/// The node's options from its files and flags: the configuration file, `--catalogue` and
+/// `--state-dir`, then the `--ros-args` naming rules and parameters (files, then `-p`) over
+/// them. At start and at every reload (SIGHUP), so a reload reads what a restart would.
+fn resolve_options(args: &NodeArgs) -> anyhow::Result<NodeOptions> {
+    let mut config = match &args.config {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
-    let plan = network_plan_from_env(&config.ros2)?;
-    let options = NodeOptions {
+    super::apply_ros_naming(&mut config.ros2);
+    let naming = config.ros2.naming()?;
+    let mut params = ParamValues {
+        engine: config.engine,
+        catalogue: path_text(args.catalogue.as_ref().or(config.catalogue.as_ref())),
+        state_dir: path_text(args.state_dir.as_ref().or(config.state_dir.as_ref())),
+    };
+    params.apply_overrides(&super::ros_args().parameters_for(&naming.node_fqn())?)?;
+    config.engine = params.engine;
+    Ok(NodeOptions {
         config,
-        catalogue: args.catalogue,
-        state_dir: args.state_dir,
+        catalogue: text_path(&params.catalogue),
+        state_dir: text_path(&params.state_dir),
         shards: args.shards,
         notices: NoticeLog::RateLimited,
         reject_future: true,
-    };
+    })
+}
+
+pub fn run(args: NodeArgs) -> anyhow::Result<()> {
+    // First, before any thread starts: the signals go to one thread, never to DDS's.
+    let signals = node_signals()?;
+    let stop = signals.stop;
+    let systemd = SystemdNotifier::from_env()?;
+    let options = resolve_options(&args)?;
+    let naming = options.config.ros2.naming()?;
+    let plan = network_plan_from_env(&options.config.ros2)?;
     tracing::info!(
-        "node {}/{} on DDS domain {} ({})",
-        options.config.ros2.namespace.trim_end_matches('/'),
-        rockwatch::ros2::NODE_NAME,
+        "node {} on DDS domain {} ({})",
+        naming.node_fqn(),
         plan.domain_id,
         match &plan.only_networks {
             Some(n) => format!(
@@ -90,7 +126,41 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     let mut notifier = Notifier::start(&options.config.notify, state_dir.as_deref(), &journal)?;
-    let report = serve(&options, &plan, &stop, &mut [&mut notifier])?;
+    // SIGHUP: the files again; what a reload cannot change is said, not silently ignored.
+    let mut reload = || -> anyhow::Result<Reloaded> {
+        let new = resolve_options(&args)?;
+        let (old, now) = (&options.config, &new.config);
+        let mut ignored = Vec::new();
+        if old.ros2 != now.ros2 {
+            ignored.push("[ros2]");
+        }
+        if old.iceoryx2 != now.iceoryx2 {
+            ignored.push("[iceoryx2]");
+        }
+        if old.notify != now.notify {
+            ignored.push("[[notify]]");
+        }
+        if options.state_dir != new.state_dir || old.state_dir != now.state_dir {
+            ignored.push("state_dir");
+        }
+        if !ignored.is_empty() {
+            tracing::warn!(
+                "reload: changes to {} take effect at the next restart",
+                ignored.join(", ")
+            );
+        }
+        Ok(Reloaded {
+            engine: now.engine,
+            stations: now.stations.clone(),
+            blocks: new.load_blocks()?,
+        })
+    };
+    let supervision = Supervision {
+        reload_requested: Some(&signals.reload),
+        reload: Some(&mut reload),
+        systemd,
+    };
+    let report = serve_supervised(&options, &plan, &stop, &mut [&mut notifier], supervision)?;
     for r in notifier.shutdown(STOP_GRACE) {
         tracing::info!(
             "notify {}: {} delivered, {} failed attempts, {} queue overflows, {} spool errors, {} undelivered (kept for the next start)",

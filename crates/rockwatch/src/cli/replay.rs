@@ -207,14 +207,15 @@ pub fn replay_through(
 pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     // Refused before any transport is opened.
     rockwatch::replay::check_packet_flags(args.packet_ms, args.tail).map_err(anyhow::Error::msg)?;
-    let config = match &args.config {
+    let mut config = match &args.config {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
+    super::apply_ros_naming(&mut config.ros2);
     match args.transport {
         Transport::Ros2 => {
             let plan = network_plan_from_env(&config.ros2)?;
-            let mut sink = Ros2PacketSink::open(&plan, &config.ros2.namespace)?;
+            let mut sink = Ros2PacketSink::open(&plan, config.ros2.naming()?)?;
             if args.wait_s.is_finite() && args.wait_s >= 0.0 {
                 sink.set_wait(Duration::from_secs_f64(args.wait_s));
             }

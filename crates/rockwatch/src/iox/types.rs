@@ -70,7 +70,7 @@ pub const ALERT_FLAG_ID_TRUNCATED: u32 = 1;
 pub const ALERT_FLAG_JOURNAL_PENDING: u32 = 2;
 
 /// One alert on `pbr/alerts` (160 bytes, alignment 8). Levels and modes are numbered as in
-/// `msg/PbrAlert.msg` ([`crate::wire_codes`]).
+/// `msg/pbr_msgs/msg/PbrAlert.msg` ([`crate::wire_codes`]).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
 #[type_name("rockwatch::PbrAlert")]

@@ -28,13 +28,16 @@ use mio::{Events, Poll, Token, Waker};
 
 use super::{
     Control, ControlSender, InputTotals, NodeOptions, NodeRuntime, Publication, Publisher,
-    RateLimitedLog, TransportStatus, Wake,
+    RateLimitedLog, Reloaded, TransportStatus, Wake, FAULT_STALL_ON_RELOAD_ENV,
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::logging::{take_rosout, RosoutRecord};
 use crate::metrics::MetricsServer;
 use crate::ros2::msg::ResetPbrResponse;
-use crate::ros2::{IntakeCounters, NetworkPlan, Ros2Node, Ros2Publisher, ALERTS_TOPIC};
+use crate::ros2::{
+    IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, ALERTS_TOPIC,
+};
+use crate::sd_notify::SystemdNotifier;
 use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
@@ -71,10 +74,12 @@ const ROS2_CHUNK: usize = 64;
 
 const WAKE: Token = Token(0);
 const IOX: Token = Token(1);
-/// The ROS 2 service `/pbr/reset`.
+/// The ROS 2 service `pbr/reset`.
 const RESET: Token = Token(2);
+/// The six ROS 2 parameter services.
+const PARAMS: Token = Token(3);
 /// ROS 2 input `i` is `Token(ROS2_FIRST + i)`.
-const ROS2_FIRST: usize = 3;
+const ROS2_FIRST: usize = 4;
 
 /// What [`serve`] hands back at the end.
 #[derive(Debug, Clone)]
@@ -137,8 +142,21 @@ pub struct Reactor {
     metrics: Option<MetricsServer>,
 }
 
+/// What supervises a running node from outside: reload requests (SIGHUP) with the way to
+/// read the configuration again, and systemd's notifications.
+#[derive(Default)]
+pub struct Supervision<'a> {
+    /// Set by the signal thread on SIGHUP; the event loop clears it and reloads between
+    /// packets.
+    pub reload_requested: Option<&'a AtomicBool>,
+    /// Reads the configuration files again (the node's configuration and catalogue).
+    pub reload: Option<&'a mut dyn FnMut() -> anyhow::Result<Reloaded>>,
+    /// `$NOTIFY_SOCKET`: READY, WATCHDOG (while the loop is healthy), RELOADING, STOPPING.
+    pub systemd: Option<SystemdNotifier>,
+}
+
 /// Runs the node until `stop` is set: [`Reactor::start`], then [`Reactor::run`] with the
-/// `extra` publishers. This is what `rockwatch node` runs.
+/// `extra` publishers.
 pub fn serve(
     options: &NodeOptions,
     plan: &NetworkPlan,
@@ -146,6 +164,17 @@ pub fn serve(
     extra: &mut [&mut dyn Publisher],
 ) -> anyhow::Result<ServeReport> {
     Reactor::start(options, plan)?.run(stop, extra)
+}
+
+/// [`serve`] under `supervision` (reloads, systemd): what `rockwatch node` runs.
+pub fn serve_supervised(
+    options: &NodeOptions,
+    plan: &NetworkPlan,
+    stop: &AtomicBool,
+    extra: &mut [&mut dyn Publisher],
+    supervision: Supervision<'_>,
+) -> anyhow::Result<ServeReport> {
+    Reactor::start(options, plan)?.run_supervised(stop, extra, supervision)
 }
 
 impl Reactor {
@@ -169,12 +198,24 @@ impl Reactor {
         let (control_sender, controls) = ControlSender::channel(wake);
         let config = &options.config;
 
+        let params = ParamValues {
+            engine: config.engine,
+            catalogue: options.catalogue_path()?.display().to_string(),
+            state_dir: options
+                .state_dir
+                .as_ref()
+                .or(config.state_dir.as_ref())
+                .map(|d| d.display().to_string())
+                .unwrap_or_default(),
+        };
         let (mut ros2, ros2_publisher) =
-            Ros2Node::start(&config.ros2, plan, &config.engine, control_sender)?;
+            Ros2Node::start(&config.ros2, plan, params, control_sender)?;
         ros2.register(poll.registry(), ROS2_FIRST)
             .context("cannot register the ROS 2 subscriptions with the event loop")?;
         ros2.register_reset(poll.registry(), RESET)
             .context("cannot register the ROS 2 reset service with the event loop")?;
+        ros2.register_parameters(poll.registry(), PARAMS)
+            .context("cannot register the ROS 2 parameter services with the event loop")?;
         let iox = match &config.iceoryx2.config_file {
             Some(_) => {
                 let mut input = IoxInput::open(&config.iceoryx2)?;
@@ -237,6 +278,18 @@ impl Reactor {
         stop: &AtomicBool,
         extra: &mut [&mut dyn Publisher],
     ) -> anyhow::Result<ServeReport> {
+        self.run_supervised(stop, extra, Supervision::default())
+    }
+
+    /// [`Reactor::run`] under `supervision`: a reload request is taken between packets
+    /// (see [`apply_reload`]); systemd hears READY once the loop runs, WATCHDOG on the
+    /// loop's turns while the ROS 2 transport is up, and STOPPING at the end.
+    pub fn run_supervised(
+        self,
+        stop: &AtomicBool,
+        extra: &mut [&mut dyn Publisher],
+        mut supervision: Supervision<'_>,
+    ) -> anyhow::Result<ServeReport> {
         let Reactor {
             mut runtime,
             mut poll,
@@ -267,18 +320,24 @@ impl Reactor {
         };
 
         republish_journaled(&mut runtime, &mut out);
+        if let Some(systemd) = &mut supervision.systemd {
+            systemd.ready(&format!("monitoring {} blocks", runtime.pbr_ids().len()));
+        }
 
         // One inbox per source: index 0 is iceoryx2, 1 + i ROS 2 input i.
         let mut inboxes: Vec<Inbox> = (0..1 + ros2.inputs()).map(|_| Inbox::new()).collect();
         let mut events = Events::with_capacity(64);
-        // Requests of /pbr/reset may be waiting (edge-triggered, like the inputs).
+        // Requests of pbr/reset and of the parameter services may be waiting (edge-triggered,
+        // like the inputs).
         let mut resets_due = true;
+        let mut params_due = true;
         let mut watchdog = Watchdog::new();
         // Station health is judged every TICK, the status published every status period.
         let (mut last_health, mut last_status) = (None::<Instant>, Instant::now());
         let mut rosout: Vec<RosoutRecord> = Vec::new();
         while !stop.load(Ordering::Relaxed) {
-            let pending = resets_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
+            let pending =
+                resets_due || params_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
             let timeout = if pending {
                 Duration::ZERO
             } else if ros2.pending_replies() > 0 {
@@ -295,12 +354,17 @@ impl Reactor {
                 // Idle tick: look at every source once (a safety net, cheap when empty).
                 inboxes.iter_mut().for_each(|i| i.due = true);
                 resets_due = true;
+                params_due = true;
             }
             for event in &events {
                 let source = match event.token() {
                     WAKE => continue,
                     RESET => {
                         resets_due = true;
+                        continue;
+                    }
+                    PARAMS => {
+                        params_due = true;
                         continue;
                     }
                     IOX => 0,
@@ -310,8 +374,18 @@ impl Reactor {
                     inbox.due = true;
                 }
             }
+            // A reload (SIGHUP), parameter changes, then operator resets apply before the
+            // packets of this turn.
+            if supervision
+                .reload_requested
+                .is_some_and(|r| r.swap(false, Ordering::Relaxed))
+            {
+                apply_reload(&mut runtime, &mut ros2, &mut supervision);
+            }
+            if params_due {
+                params_due = ros2.serve_parameters();
+            }
             apply_controls(&controls, &mut runtime);
-            // Operator resets apply before the packets of this turn.
             if resets_due {
                 resets_due = ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
             }
@@ -364,9 +438,19 @@ impl Reactor {
                     if watchdog.rebuild(&thread, &mut ros2, &mut out, poll.registry())? {
                         inboxes.iter_mut().for_each(|i| i.due = true);
                         resets_due = true;
+                        params_due = true;
                     }
                 }
             }
+            // The loop has turned and the ROS 2 transport is up: tell systemd's watchdog.
+            if watchdog.down_since.is_none() {
+                if let Some(systemd) = &mut supervision.systemd {
+                    systemd.ping_if_due();
+                }
+            }
+        }
+        if let Some(systemd) = &mut supervision.systemd {
+            systemd.stopping();
         }
 
         // Stop: take what the inputs still hold (bounded) and process every packet taken,
@@ -434,6 +518,61 @@ fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
         tracing::info!(
             "journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
         );
+    }
+}
+
+/// A reload request (SIGHUP), between packets: reads the configuration and catalogue again
+/// (`supervision.reload`) and hands them to [`NodeRuntime::reload`] — blocks in both keep
+/// their state, new ones start at rest, removed ones are dropped; the ROS 2 parameters show
+/// the new thresholds. A configuration that cannot be read or is invalid is refused with one
+/// log line, and the running one is kept. systemd hears RELOADING, then READY.
+fn apply_reload(runtime: &mut NodeRuntime, ros2: &mut Ros2Node, supervision: &mut Supervision<'_>) {
+    if let Some(systemd) = &mut supervision.systemd {
+        systemd.reloading();
+    }
+    if let Some(stall) = std::env::var(FAULT_STALL_ON_RELOAD_ENV)
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+    {
+        std::thread::sleep(Duration::from_secs_f64(stall));
+    }
+    let result = match &mut supervision.reload {
+        Some(load) => load().and_then(|reloaded| {
+            let engine = reloaded.engine;
+            runtime.reload(reloaded).map(|report| (report, engine))
+        }),
+        None => Err(anyhow::anyhow!(
+            "this node has no configuration to read again"
+        )),
+    };
+    match result {
+        Ok((report, engine)) => {
+            ros2.set_engine_parameters(&engine);
+            let list = |ids: &[String]| {
+                if ids.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", ids.join(", "))
+                }
+            };
+            tracing::info!(
+                "reloaded: {} blocks kept with their state, {} new at rest{}, {} changed and at rest again{}, {} dropped{}",
+                report.kept.len(),
+                report.added.len(),
+                list(&report.added),
+                report.replaced.len(),
+                list(&report.replaced),
+                report.dropped.len(),
+                list(&report.dropped)
+            );
+        }
+        Err(e) => {
+            tracing::error!("reload refused, the running configuration is kept: {e:#}")
+        }
+    }
+    if let Some(systemd) = &mut supervision.systemd {
+        systemd.ready(&format!("monitoring {} blocks", runtime.pbr_ids().len()));
     }
 }
 
@@ -505,7 +644,9 @@ impl Watchdog {
             ros2.register(registry, ROS2_FIRST)
                 .context("cannot register the ROS 2 subscriptions with the event loop")?;
             ros2.register_reset(registry, RESET)
-                .context("cannot register the ROS 2 reset service with the event loop")
+                .context("cannot register the ROS 2 reset service with the event loop")?;
+            ros2.register_parameters(registry, PARAMS)
+                .context("cannot register the ROS 2 parameter services with the event loop")
         });
         match rebuilt {
             Ok(()) => {

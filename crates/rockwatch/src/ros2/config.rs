@@ -3,6 +3,8 @@
 
 use std::net::IpAddr;
 
+use super::names::{Naming, Remap, NODE_NAME};
+
 /// `ROS_AUTOMATIC_DISCOVERY_RANGE` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "SCREAMING_SNAKE_CASE")]
@@ -85,7 +87,9 @@ fn sensor_data() -> InputQos {
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Ros2Config {
-    /// Node namespace (`/` by default); topics are absolute (`/pbr/...`).
+    /// Node namespace (`/` by default). The node's topics and service are relative
+    /// (`pbr/alerts`), so they resolve in it (`/site_a/pbr/alerts`); so do relative Imu
+    /// topics. `--ros-args -r __ns:=/x` overrides it.
     pub namespace: String,
     /// DDS domain id; default `ROS_DOMAIN_ID`, else 0.
     pub domain_id: Option<u16>,
@@ -100,6 +104,12 @@ pub struct Ros2Config {
     pub input_depth: usize,
     /// `sensor_msgs/msg/Imu` inputs.
     pub imu: Vec<ImuInput>,
+    /// The node's name (`rockwatch`; `--ros-args -r __node:=NAME`): command line only.
+    #[serde(skip)]
+    pub node_name: Option<String>,
+    /// Remap rules (`--ros-args -r from:=to`): command line only.
+    #[serde(skip)]
+    pub remaps: Vec<Remap>,
 }
 
 impl Default for Ros2Config {
@@ -112,11 +122,23 @@ impl Default for Ros2Config {
             input_qos: InputQos::Reliable,
             input_depth: 1000,
             imu: Vec::new(),
+            node_name: None,
+            remaps: Vec::new(),
         }
     }
 }
 
 impl Ros2Config {
+    /// How the node's names resolve: namespace, node name and remaps, checked.
+    pub fn naming(&self) -> anyhow::Result<Naming> {
+        Naming::new(
+            &self.namespace,
+            self.node_name.as_deref().unwrap_or(NODE_NAME),
+            self.remaps.clone(),
+        )
+        .map_err(|e| e.context("[ros2]"))
+    }
+
     /// Loopback only, whatever the environment says (the demo and tests).
     #[must_use]
     pub fn loopback_only() -> Ros2Config {

@@ -8,7 +8,8 @@
 //! section of the node configuration may override both and name the interfaces to use.
 //!
 //! - [`msg`]: the `pbr_msgs` messages and service on the wire;
-//! - `names.rs`: the node, topic and service names;
+//! - `names.rs`: the node, topic and service names and their resolution ([`Naming`]);
+//! - `ros_args.rs`: `--ros-args` ([`RosArgs`]);
 //! - [`diagnostics`]: the node's status on `/diagnostics`, its log records on `/rosout`;
 //! - `config.rs`: the `[ros2]` configuration section;
 //! - `network.rs`: the DDS domain and interfaces ([`NetworkPlan`]);
@@ -17,13 +18,15 @@
 //! - `intake_report.rs`: `/pbr/intake`, what the node took of each sender ([`WriterCounts`],
 //!   [`IntakeWatch`]);
 //! - `liveness.rs`: whether a participant's RustDDS threads still run ([`DdsThreads`]);
-//! - `node.rs`: the node's ROS 2 side ([`Ros2Node`]), made of `parameters.rs`, `input.rs` (with
-//!   `imu.rs`), `publish.rs` and `reset.rs`;
+//! - `node.rs`: the node's ROS 2 side ([`Ros2Node`]), made of `parameters.rs` (descriptors and
+//!   the parameter services), `input.rs` (with `imu.rs`), `publish.rs` and `reset.rs` (both
+//!   services on `held_server.rs`);
 //! - clients: `replay_sink.rs`, `reset_client.rs`, `alert_listener.rs`.
 
 mod alert_listener;
 mod config;
 pub mod diagnostics;
+mod held_server;
 mod imu;
 mod input;
 mod intake_report;
@@ -38,6 +41,7 @@ mod qos;
 mod replay_sink;
 mod reset;
 mod reset_client;
+pub mod ros_args;
 mod session;
 
 pub use alert_listener::Ros2AlertListener;
@@ -47,14 +51,15 @@ pub use input::IntakeCounters;
 pub use intake_report::{IntakeWatch, WriterCounts, MAX_WRITERS, REPORT_EVERY, REPORT_PERIOD};
 pub use liveness::DdsThreads;
 pub use names::{
-    ACCEL_TOPIC, ALERTS_TOPIC, DIAGNOSTICS_TOPIC, IMS_TOPIC, INTAKE_TOPIC, NODE_NAME,
-    RESET_SERVICE, RESET_SERVICE_MAPPING, STATE_TOPIC,
+    Naming, Remap, ACCEL_TOPIC, ALERTS_TOPIC, DIAGNOSTICS_TOPIC, IMS_TOPIC, INTAKE_TOPIC,
+    NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING, STATE_TOPIC,
 };
 pub use network::{network_plan, network_plan_from_env, NetworkPlan, NetworkPlanError};
 pub use node::Ros2Node;
 pub use parameters::{
-    PARAM_IMMINENT_PROBABILITY, PARAM_IMMINENT_THETA_RATIO, PARAM_QUIET_S,
-    PARAM_QUIET_THRESHOLD_MPS2, PARAM_STATE_INTERVAL_S,
+    param_spec, ParamSpec, ParamValues, PARAMETERS, PARAM_CATALOGUE, PARAM_IMMINENT_PROBABILITY,
+    PARAM_IMMINENT_THETA_RATIO, PARAM_QUIET_S, PARAM_QUIET_THRESHOLD_MPS2, PARAM_STATE_DIR,
+    PARAM_STATE_INTERVAL_S,
 };
 pub use publish::Ros2Publisher;
 pub use qos::{
@@ -64,4 +69,5 @@ pub use qos::{
 pub use replay_sink::{Ros2PacketSink, CREDIT_WINDOW, DEFAULT_INTAKE_WAIT};
 pub use reset::{RESET_MATCH_GRACE, RESET_REPLIES_HELD, RESET_REPLY_WAIT, RESET_REQUESTS_PER_TURN};
 pub use reset_client::Ros2ResetClient;
+pub use ros_args::{split_ros_args, RosArgs};
 pub use session::Ros2Session;

@@ -1,8 +1,8 @@
-//! The `pbr_msgs` interfaces (`msg/*.msg`, `msg/srv/*.srv`) as Rust structs for the CDR wire
+//! The `pbr_msgs` interfaces (`msg/pbr_msgs/msg/*.msg`, `msg/pbr_msgs/srv/*.srv`) as Rust structs for the CDR wire
 //! format.
 //!
 //! CDR is positional: the fields below are declared in exactly the order and with exactly the
-//! types of the `.msg` and `.srv` files (checked by `tests/ros2_msgs.rs`, which parses `msg/`).
+//! types of the `.msg` and `.srv` files (checked by `tests/ros2_msgs.rs`, which parses `msg/pbr_msgs/`).
 //! Field names are those of the files, so they carry no unit suffix; the units are in each doc
 //! comment (SI: m/s², m/s, m, s, rad).
 
@@ -147,7 +147,7 @@ pub struct IntakeReport {
     pub taken: u64,
 }
 
-/// `pbr_msgs/srv/ResetPbr` request (`msg/srv/ResetPbr.srv`): the operator reset of a block.
+/// `pbr_msgs/srv/ResetPbr` request (`msg/pbr_msgs/srv/ResetPbr.srv`): the operator reset of a block.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ResetPbrRequest {
     /// Catalogue id of the block.

@@ -1,5 +1,5 @@
-//! The node's ROS 2 side ([`Ros2Node`]): its session, parameters, input subscriptions and
-//! reset service, driven by the node's event loop; [`Ros2Node::start`] also returns the
+//! The node's ROS 2 side ([`Ros2Node`]): its session, parameter services, input subscriptions
+//! and reset service, driven by the node's event loop; [`Ros2Node::start`] also returns the
 //! output publishers.
 
 use std::sync::Arc;
@@ -11,9 +11,9 @@ use super::config::Ros2Config;
 use super::diagnostics::StatusPublisher;
 use super::input::{Inputs, IntakeCounters, IntakeLog};
 use super::msg;
-use super::names::{INTAKE_TOPIC, NODE_NAME};
+use super::names::INTAKE_TOPIC;
 use super::network::NetworkPlan;
-use super::parameters::with_parameters;
+use super::parameters::{ParamServer, ParamValues};
 use super::publish::Ros2Publisher;
 use super::qos::intake_qos;
 use super::reset::ResetServer;
@@ -33,6 +33,7 @@ pub struct Ros2Node {
     pub counters: Arc<IntakeCounters>,
     log: IntakeLog,
     reset: ResetServer,
+    params: ParamServer,
     /// `/pbr/intake`: what the node took of each writer of `/pbr/accel`.
     intake: ros2_client::Publisher<msg::IntakeReport>,
     /// Reports that could not be published.
@@ -47,25 +48,25 @@ pub struct Ros2Node {
 struct Started {
     config: Ros2Config,
     plan: NetworkPlan,
-    engine: EngineConfig,
+    params: ParamValues,
     controls: ControlSender,
 }
 
 impl Ros2Node {
-    /// Joins the ROS 2 graph as `<namespace>/rockwatch`, declares the parameters (initial
-    /// values from `engine`; changes go to `controls`, i.e. the node's event loop), subscribes
-    /// the inputs, creates the output publishers and the server of
-    /// [`RESET_SERVICE`](super::RESET_SERVICE).
+    /// Joins the ROS 2 graph as `<namespace>/<name>` (`config.naming()`), offers the
+    /// parameter services (initial values `params`; changes go to `controls`, i.e. the node's
+    /// event loop), subscribes the inputs, creates the output publishers and the server of
+    /// [`RESET_SERVICE`](super::RESET_SERVICE), every name resolved in the namespace.
     pub fn start(
         config: &Ros2Config,
         plan: &NetworkPlan,
-        engine: &EngineConfig,
+        params: ParamValues,
         controls: ControlSender,
     ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
         let started = Started {
             config: config.clone(),
             plan: plan.clone(),
-            engine: *engine,
+            params,
             controls,
         };
         Self::open(started, Arc::new(IntakeCounters::default()))
@@ -78,18 +79,18 @@ impl Ros2Node {
         let Started {
             config,
             plan,
-            engine,
+            params,
             controls,
         } = &started;
-        let options = with_parameters(
-            NodeOptions::new().enable_rosout(true),
-            engine,
-            controls.clone(),
-        );
-        let mut session = Ros2Session::open(plan, &config.namespace, NODE_NAME, options)?;
+        // The node serves its own parameter services (with descriptors): ros2-client's off.
+        let options = NodeOptions::new()
+            .enable_rosout(true)
+            .start_parameter_services(false);
+        let mut session = Ros2Session::open(plan, &config.naming()?, options)?;
         let publisher = Ros2Publisher::open(&mut session)?;
         let inputs = Inputs::subscribe(&mut session, config)?;
-        let reset = ResetServer::open(&mut session, &config.namespace)?;
+        let reset = ResetServer::open(&mut session)?;
+        let params = ParamServer::open(&mut session, params.clone(), controls.clone())?;
         let intake = session.publisher(INTAKE_TOPIC, "IntakeReport", intake_qos())?;
         let status = StatusPublisher::open(&mut session, &config.namespace)?;
         Ok((
@@ -100,6 +101,7 @@ impl Ros2Node {
                 log: IntakeLog::new(Arc::clone(&counters)),
                 counters,
                 reset,
+                params,
                 intake,
                 intake_errors: 0,
                 status,
@@ -116,17 +118,17 @@ impl Ros2Node {
     }
 
     /// Replaces the participant and everything on it (subscriptions, publishers, reset
-    /// service, parameters) by new ones, as [`Ros2Node::start`] made them: call it once
-    /// [`Ros2Node::ended_thread`] reports a dead participant, after taking what the old
-    /// subscriptions still hold. The intake counters carry on; reset responses not yet sent
-    /// are lost (the client times out and may ask again); parameters start again from the
-    /// configuration's values. Register the new inputs and service with the event loop again.
-    /// On error `self` is left as it was.
+    /// service, parameter services) by new ones, as [`Ros2Node::start`] made them: call it
+    /// once [`Ros2Node::ended_thread`] reports a dead participant, after taking what the old
+    /// subscriptions still hold. The intake counters and the parameters' current values carry
+    /// on; responses not yet sent are lost (the client times out and may ask again). Register
+    /// the new inputs and services with the event loop again. On error `self` is left as it
+    /// was.
     pub fn rebuild(&mut self) -> anyhow::Result<Ros2Publisher> {
         let started = Started {
             config: self.started.config.clone(),
             plan: self.started.plan.clone(),
-            engine: self.started.engine,
+            params: self.params.values.clone(),
             controls: self.started.controls.clone(),
         };
         let (mut node, publisher) = Self::open(started, Arc::clone(&self.counters))?;
@@ -180,10 +182,38 @@ impl Ros2Node {
         self.reset.serve(&self.session, &mut self.log, handle)
     }
 
-    /// Reset responses not sent yet.
+    /// Registers the six parameter services with `registry`, all as `token` (edge-triggered:
+    /// serve them once reported, see [`Ros2Node::serve_parameters`]).
+    pub fn register_parameters(
+        &mut self,
+        registry: &Registry,
+        token: Token,
+    ) -> std::io::Result<()> {
+        self.params.register(registry, token)
+    }
+
+    /// Serves the parameter services' requests (a bounded number per service): reads answer
+    /// at once, accepted changes are handed to the event loop (as controls, applied before
+    /// the next packet), refused ones answer why. Returns true if a bound was reached.
+    pub fn serve_parameters(&mut self) -> bool {
+        self.params.serve(&self.session, &mut self.log)
+    }
+
+    /// The parameters' values now.
+    #[must_use]
+    pub fn parameters(&self) -> &ParamValues {
+        &self.params.values
+    }
+
+    /// The run-time settings changed by other means (a reload): the parameters show `engine`'s.
+    pub fn set_engine_parameters(&mut self, engine: &EngineConfig) {
+        self.params.values.engine = *engine;
+    }
+
+    /// Service responses (reset, parameters) not sent yet.
     #[must_use]
     pub fn pending_replies(&self) -> usize {
-        self.reset.pending()
+        self.reset.pending() + self.params.pending()
     }
 
     /// Sends each waiting reset response whose client's response reader has been discovered
@@ -196,11 +226,13 @@ impl Ros2Node {
     /// is two-sided). Fast DDS servers wait in the same way. Costs nothing when none waits.
     pub fn send_due_replies(&mut self) {
         self.reset.send_due(&self.session);
+        self.params.send_due(&self.session);
     }
 
-    /// Sends every waiting reset response now (at shutdown).
+    /// Sends every waiting service response now (at shutdown).
     pub fn flush_replies(&mut self) {
         self.reset.flush();
+        self.params.flush();
     }
 
     /// Number of input subscriptions: `/pbr/accel` (input 0), then the Imu topics.

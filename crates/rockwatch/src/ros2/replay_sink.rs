@@ -11,7 +11,7 @@ use ros2_client::Gid;
 
 use super::intake_report::IntakeWatch;
 use super::msg;
-use super::names::{ACCEL_TOPIC, INTAKE_TOPIC};
+use super::names::{Naming, ACCEL_TOPIC, INTAKE_TOPIC};
 use super::network::NetworkPlan;
 use super::qos::{intake_qos, replay_qos, REPLAY_HISTORY};
 use super::session::Ros2Session;
@@ -64,7 +64,7 @@ pub struct Ros2PacketSink {
     recent: VecDeque<msg::AccelPacket>,
     /// Where and as what the participant was built (for a rebuild).
     plan: NetworkPlan,
-    namespace: String,
+    naming: Naming,
     last_liveness: Instant,
     /// Times the participant was found dead and rebuilt.
     pub rebuilds: u64,
@@ -79,8 +79,11 @@ pub struct Ros2PacketSink {
 }
 
 impl Ros2PacketSink {
-    pub fn open(plan: &NetworkPlan, namespace: &str) -> anyhow::Result<Ros2PacketSink> {
-        let (session, writer, reports) = Self::open_parts(plan, namespace)?;
+    /// Publishes on `pbr/accel` as the node `rockwatch_replay` in `naming`'s namespace (the
+    /// node's: the topics resolve there, then its remaps).
+    pub fn open(plan: &NetworkPlan, naming: impl Into<Naming>) -> anyhow::Result<Ros2PacketSink> {
+        let naming = naming.into();
+        let (session, writer, reports) = Self::open_parts(plan, &naming)?;
         let intake = IntakeWatch::new(reports, Gid::from(writer.guid()));
         Ok(Ros2PacketSink {
             _session: session,
@@ -90,7 +93,7 @@ impl Ros2PacketSink {
             base: 0,
             recent: VecDeque::with_capacity(CREDIT_WINDOW as usize),
             plan: plan.clone(),
-            namespace: namespace.to_string(),
+            naming,
             last_liveness: Instant::now(),
             rebuilds: 0,
             wait: DEFAULT_INTAKE_WAIT,
@@ -103,13 +106,13 @@ impl Ros2PacketSink {
     #[allow(clippy::type_complexity)]
     fn open_parts(
         plan: &NetworkPlan,
-        namespace: &str,
+        naming: &Naming,
     ) -> anyhow::Result<(
         Ros2Session,
         no_key::DataWriterCdr<msg::AccelPacket>,
         ros2_client::Subscription<msg::IntakeReport>,
     )> {
-        let mut session = Ros2Session::open_client(plan, namespace, "rockwatch_replay")?;
+        let mut session = Ros2Session::open_client(plan, naming, "rockwatch_replay")?;
         let qos = replay_qos();
         let topic = session.topic(ACCEL_TOPIC, msg::PACKAGE, "AccelPacket", &qos)?;
         let dds_qos = ros2_client::dds::rustdds::QosPolicies::from(qos);
@@ -150,7 +153,7 @@ impl Ros2PacketSink {
              has ended (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT); \
              rebuilding it and sending again what the node has not taken"
         );
-        let (session, writer, reports) = Self::open_parts(&self.plan, &self.namespace)?;
+        let (session, writer, reports) = Self::open_parts(&self.plan, &self.naming)?;
         {
             // The dead participant's teardown: RustDDS logs each endpoint it cannot remove.
             let _quiet = MuteLibraries::new();

@@ -8,7 +8,7 @@ use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::{Client, Name, ServiceTypeName};
 
 use super::msg;
-use super::names::{RESET_SERVICE, RESET_SERVICE_MAPPING};
+use super::names::{Naming, RESET_SERVICE, RESET_SERVICE_MAPPING};
 use super::network::NetworkPlan;
 use super::qos::service_qos;
 use super::session::Ros2Session;
@@ -43,14 +43,17 @@ pub struct Ros2ResetClient {
     events: Events,
     /// Last: the endpoints above are dropped before their participant.
     session: Ros2Session,
+    /// The service's resolved name.
+    service: String,
 }
 
 impl Ros2ResetClient {
-    /// Joins the graph following `plan` (the node's namespace: the service name is absolute).
-    pub fn open(plan: &NetworkPlan, namespace: &str) -> anyhow::Result<Ros2ResetClient> {
-        let mut session = Ros2Session::open_client(plan, namespace, "rockwatch_reset")?;
-        let name =
-            Name::parse(RESET_SERVICE).map_err(|e| anyhow!("service {RESET_SERVICE}: {e:?}"))?;
+    /// Joins the graph following `plan`, as the node `rockwatch_reset` in `naming`'s
+    /// namespace (the node's: the service name `pbr/reset` resolves there, then its remaps).
+    pub fn open(plan: &NetworkPlan, naming: impl Into<Naming>) -> anyhow::Result<Ros2ResetClient> {
+        let mut session = Ros2Session::open_client(plan, &naming.into(), "rockwatch_reset")?;
+        let service = session.resolve(RESET_SERVICE)?;
+        let name = Name::parse(&service).map_err(|e| anyhow!("service {service}: {e:?}"))?;
         let mut client = session
             .node
             .create_client(
@@ -60,13 +63,14 @@ impl Ros2ResetClient {
                 service_qos(),
                 service_qos(),
             )
-            .map_err(|e| anyhow!("ROS 2 client of {RESET_SERVICE}: {e:?}"))?;
+            .map_err(|e| anyhow!("ROS 2 client of {service}: {e:?}"))?;
         let poll = Poll::new().context("reset client poller")?;
         poll.registry()
             .register(&mut client, Token(0), Interest::READABLE)
             .context("reset client registration")?;
         Ok(Ros2ResetClient {
             session,
+            service,
             client,
             poll,
             events: Events::with_capacity(4),
@@ -91,13 +95,13 @@ impl Ros2ResetClient {
             .send_request(msg::ResetPbrRequest {
                 pbr_id: pbr_id.to_string(),
             })
-            .map_err(|e| anyhow!("ROS 2 {RESET_SERVICE}: request not sent: {e:?}"))?;
+            .map_err(|e| anyhow!("ROS 2 {}: request not sent: {e:?}", self.service))?;
         loop {
             // Responses to other clients' requests share the topic: keep only ours.
             while let Some((rid, response)) = self
                 .client
                 .receive_response()
-                .map_err(|e| anyhow!("ROS 2 {RESET_SERVICE}: bad response: {e:?}"))?
+                .map_err(|e| anyhow!("ROS 2 {}: bad response: {e:?}", self.service))?
             {
                 if rid == id {
                     return Ok(response);
@@ -106,8 +110,9 @@ impl Ros2ResetClient {
             let now = Instant::now();
             if now >= deadline {
                 return Err(anyhow!(
-                    "no response from {RESET_SERVICE} within {} s (the node may be overloaded or gone; \
+                    "no response from {} within {} s (the node may be overloaded or gone; \
                      the reset may or may not have been applied: see `rockwatch alerts`)",
+                    self.service,
                     timeout.as_secs_f64()
                 ));
             }

@@ -12,6 +12,7 @@ use ros2_client::{
 
 use super::liveness::DdsThreads;
 use super::msg;
+use super::names::Naming;
 use super::network::NetworkPlan;
 use crate::logging::MuteLibraries;
 
@@ -24,6 +25,8 @@ pub struct Ros2Session {
     pub(super) node: Node,
     pub(super) context: Context,
     plan: NetworkPlan,
+    /// How the node's topic and service names resolve (namespace, name, remaps).
+    naming: Naming,
     spinner: Option<JoinHandle<()>>,
     /// The participant's RustDDS threads (see [`Ros2Session::ended_thread`]).
     threads: DdsThreads,
@@ -33,13 +36,14 @@ pub struct Ros2Session {
 }
 
 impl Ros2Session {
-    /// Creates the participant following `plan` and the node `namespace`/`name`.
+    /// Creates the participant following `plan` and the node `naming` names (its namespace
+    /// and name; every topic and service name of the session resolves through it).
     pub fn open(
         plan: &NetworkPlan,
-        namespace: &str,
-        name: &str,
+        naming: &Naming,
         options: NodeOptions,
     ) -> anyhow::Result<Ros2Session> {
+        let (namespace, name) = (naming.namespace(), naming.node());
         let mut builder = DomainParticipantBuilder::new(plan.domain_id);
         if let Some(networks) = &plan.only_networks {
             builder = builder.with_only_networks(networks.iter().copied());
@@ -65,6 +69,7 @@ impl Ros2Session {
             node,
             context,
             plan: plan.clone(),
+            naming: naming.clone(),
             spinner: Some(spinner),
             threads,
             _teardown: None,
@@ -79,19 +84,31 @@ impl Ros2Session {
         self.threads.ended()
     }
 
-    /// A session for the client node `name` of a tool (replay, listener, reset client):
-    /// without `/rosout`.
+    /// A session for the client node `name` of a tool (replay, listener, reset client) in
+    /// `naming`'s namespace, with its remaps: without `/rosout` and parameter services.
     pub fn open_client(
         plan: &NetworkPlan,
-        namespace: &str,
+        naming: &Naming,
         name: &str,
     ) -> anyhow::Result<Ros2Session> {
         Ros2Session::open(
             plan,
-            namespace,
-            name,
-            NodeOptions::new().enable_rosout(false),
+            &naming.for_node(name),
+            NodeOptions::new()
+                .enable_rosout(false)
+                .start_parameter_services(false),
         )
+    }
+
+    /// How the session's names resolve.
+    #[must_use]
+    pub fn naming(&self) -> &Naming {
+        &self.naming
+    }
+
+    /// The absolute name `name` (relative, absolute or `~`) resolves to on this node.
+    pub fn resolve(&self, name: &str) -> anyhow::Result<String> {
+        self.naming.resolve(name)
     }
 
     /// The network plan the participant was built with.
@@ -105,7 +122,7 @@ impl Ros2Session {
         &mut self.node
     }
 
-    /// The topic `<package>/<type_name>` on `name`.
+    /// The topic `<package>/<type_name>` on `name`, resolved ([`Ros2Session::resolve`]).
     pub(super) fn topic(
         &mut self,
         name: &str,
@@ -113,6 +130,7 @@ impl Ros2Session {
         type_name: &str,
         qos: &QosProfile,
     ) -> anyhow::Result<ros2_client::dds::rustdds::Topic> {
+        let name = &self.resolve(name)?;
         let topic_name = Name::parse(name).map_err(|e| anyhow!("topic {name:?}: {e:?}"))?;
         self.node
             .create_topic(&topic_name, MessageTypeName::new(package, type_name), qos)
