@@ -16,13 +16,19 @@
 //! - A component that lags: after `max_wait_ns` (caller's clock: wall time in `acquire`,
 //!   anything in tests) what is there is emitted with zeros for the missing samples, counted.
 //!
+//! - Velocity channels (only with `differentiate_velocity`): their counts are differentiated
+//!   on the grid ([`crate::differentiate`]: central differences, one-sided at the ends of a
+//!   contiguous run), continuously across records; a component's latest sample waits for its
+//!   successor, or for `max_wait_ns` like a missing component (then a backward difference).
+//!
 //! Work per record is bounded by the record; memory per station by `max_buffer_s`.
 
 use std::collections::{HashMap, VecDeque};
 
 use crate::azimuth::ChannelsToEnu;
+use crate::differentiate::Differentiator;
 use crate::engine::{AccelPacket, StationId};
-use crate::inventory::{Calibration, ChannelEpoch, Inventory, LookupError};
+use crate::inventory::{Calibration, ChannelEpoch, Inventory, LookupError, SensorInput};
 use crate::record::mseed::{Channel, MAX_ALIGNMENT_OFFSET_SAMPLES, NS_PER_S};
 
 /// Assembly settings.
@@ -36,6 +42,8 @@ pub struct AssemblyConfig {
     /// Most data held per component waiting for the others (s of data); beyond, the oldest
     /// is emitted as if the wait had run out.
     pub max_buffer_s: f64,
+    /// Velocity channels are differentiated to acceleration (else refused).
+    pub differentiate_velocity: bool,
 }
 
 impl Default for AssemblyConfig {
@@ -44,6 +52,7 @@ impl Default for AssemblyConfig {
             max_wait_ns: 2 * NS_PER_S,
             max_packet_samples: 1000,
             max_buffer_s: 600.0,
+            differentiate_velocity: false,
         }
     }
 }
@@ -88,8 +97,11 @@ struct Component {
     calibration: Calibration,
     /// The cached epoch `[from, to)` (ns); outside it, look up again.
     valid: EpochBounds,
-    /// Counts from grid index `emitted` on; NaN where nothing arrived.
+    /// Counts (velocity channels: counts per second, differentiated) from grid index
+    /// `emitted` on; NaN where nothing arrived.
     buffer: VecDeque<f64>,
+    /// The differentiator of a velocity channel.
+    diff: Option<Differentiator>,
 }
 
 #[derive(Debug)]
@@ -116,6 +128,8 @@ pub struct Assembler {
     config: AssemblyConfig,
     stations: HashMap<String, StationAssembly>,
     counters: AssemblyCounters,
+    /// (grid index, value) of the record being placed (reused).
+    scratch: Vec<(i64, f64)>,
 }
 
 impl Assembler {
@@ -132,6 +146,7 @@ impl Assembler {
             config,
             stations: HashMap::new(),
             counters: AssemblyCounters::default(),
+            scratch: Vec::new(),
         }
     }
 
@@ -164,6 +179,9 @@ impl Assembler {
     /// Emits what has waited longer than `max_wait_ns` at `now_ns` (call regularly).
     pub fn tick(&mut self, now_ns: i64, out: &mut dyn FnMut(AccelPacket)) {
         for station in self.stations.values_mut() {
+            if station.timed_out(&self.config, now_ns) {
+                flush_derivatives(station, &mut self.counters);
+            }
             emit_ready(station, &self.config, &mut self.counters, now_ns, out);
         }
     }
@@ -171,6 +189,7 @@ impl Assembler {
     /// Emits everything held, missing components as zeros (at shutdown).
     pub fn flush(&mut self, out: &mut dyn FnMut(AccelPacket)) {
         for station in self.stations.values_mut() {
+            flush_derivatives(station, &mut self.counters);
             emit_ready(station, &self.config, &mut self.counters, i64::MAX, out);
         }
     }
@@ -212,9 +231,22 @@ impl Assembler {
         let (from, to) = station.components[slot].valid;
         if from.is_some_and(|f| t_ns < f) || to.is_some_and(|e| t_ns >= e) {
             let inventory = self.inventory.get(&key).unwrap_or(&self.empty);
-            let (calibration, valid) = lookup(inventory, &id, t_ns, record.sample_rate_hz)?;
-            station.components[slot].calibration = calibration;
-            station.components[slot].valid = valid;
+            let (calibration, valid) = lookup(
+                inventory,
+                &id,
+                t_ns,
+                record.sample_rate_hz,
+                self.config.differentiate_velocity,
+            )?;
+            let c = &mut station.components[slot];
+            c.calibration = calibration;
+            c.valid = valid;
+            match calibration.input {
+                SensorInput::Velocity => {
+                    c.diff.get_or_insert_with(Differentiator::new);
+                }
+                SensorInput::Acceleration => c.diff = None,
+            }
             let axes: Vec<_> = station
                 .components
                 .iter()
@@ -250,35 +282,43 @@ impl Assembler {
                     for _ in 0..-k {
                         c.buffer.push_front(f64::NAN);
                     }
+                    if let Some(d) = &mut c.diff {
+                        d.shift(-k);
+                    }
                 }
                 k = 0;
             }
-            if k < station.emitted {
-                let skip = ((station.emitted - k) as usize).min(samples.len());
-                self.counters.overlap_samples += skip as u64;
-                samples = &samples[skip..];
-                k = station.emitted;
-            }
-            if samples.is_empty() {
-                continue;
-            }
-            let offset = (k - station.emitted) as usize;
-            if (offset + samples.len()) as i64 > limit.max(1) {
-                // Too far ahead of a lagging component: give up waiting for the old data.
-                station.waiting_since = Some(i64::MIN);
-            }
-            let buffer = &mut station.components[slot].buffer;
-            if buffer.len() < offset + samples.len() {
-                buffer.resize(offset + samples.len(), f64::NAN);
-            }
-            for (i, &x) in samples.iter().enumerate() {
-                let cell = &mut buffer[offset + i];
-                if cell.is_nan() {
-                    *cell = x;
-                } else {
-                    self.counters.overlap_samples += 1;
+            let rate_hz = station.rate_hz;
+            let scratch = &mut self.scratch;
+            scratch.clear();
+            match &mut station.components[slot].diff {
+                Some(diff) => {
+                    for (i, &x) in samples.iter().enumerate() {
+                        let taken = diff.push(k + i as i64, x, &mut |j, d| {
+                            scratch.push((j, d * rate_hz));
+                        });
+                        if !taken {
+                            self.counters.overlap_samples += 1;
+                        }
+                    }
+                }
+                None => {
+                    if k < station.emitted {
+                        let skip = ((station.emitted - k) as usize).min(samples.len());
+                        self.counters.overlap_samples += skip as u64;
+                        samples = &samples[skip..];
+                        k = station.emitted;
+                    }
+                    scratch.extend(samples.iter().enumerate().map(|(i, &x)| (k + i as i64, x)));
                 }
             }
+            if let Some(&(last, _)) = scratch.last() {
+                if last - station.emitted + 1 > limit.max(1) {
+                    // Too far ahead of a lagging component: give up waiting for the old data.
+                    station.waiting_since = Some(i64::MIN);
+                }
+            }
+            put(station, slot, scratch, &mut self.counters);
         }
         if station.waiting_since.is_none() {
             station.waiting_since = Some(now_ns);
@@ -298,6 +338,7 @@ impl Assembler {
         let id = StationId::parse(key).map_err(|e| RecordIssue::Grid(format!("{key}: {e}")))?;
         // The components: the inventory's channels of this band at this time, by code.
         let prefix = format!("{key}.{band}");
+        let differentiate = self.config.differentiate_velocity;
         let mut codes: Vec<String> = inventory
             .channels
             .iter()
@@ -309,16 +350,24 @@ impl Assembler {
         codes.dedup();
         if codes.is_empty() || !codes.contains(&record.id()) {
             // Names the channel: not in the inventory at all, or no epoch at this time.
-            lookup(inventory, &record.id(), t_ns, record.sample_rate_hz)?;
+            lookup(
+                inventory,
+                &record.id(),
+                t_ns,
+                record.sample_rate_hz,
+                differentiate,
+            )?;
         }
         let mut components = Vec::with_capacity(codes.len());
         for code in &codes {
-            let (calibration, valid) = lookup(inventory, code, t_ns, record.sample_rate_hz)?;
+            let (calibration, valid) =
+                lookup(inventory, code, t_ns, record.sample_rate_hz, differentiate)?;
             components.push(Component {
                 id: code.clone(),
                 calibration,
                 valid,
                 buffer: VecDeque::new(),
+                diff: (calibration.input == SensorInput::Velocity).then(Differentiator::new),
             });
         }
         let axes: Vec<_> = components
@@ -351,8 +400,9 @@ fn lookup(
     id: &str,
     t_ns: i128,
     rate_hz: f64,
+    differentiate_velocity: bool,
 ) -> Result<(Calibration, EpochBounds), LookupError> {
-    let calibration = inventory.calibration_at(id, t_ns, rate_hz)?;
+    let calibration = inventory.calibration_at_with(id, t_ns, rate_hz, differentiate_velocity)?;
     let valid = inventory
         .epoch_at(id, t_ns)
         .map_or((None, None), |e| (e.start_ns, e.end_ns));
@@ -362,6 +412,61 @@ fn lookup(
 impl StationAssembly {
     fn time_ns(&self, index: i64) -> i64 {
         self.t0_ns + (index as f64 * 1e9 / self.rate_hz).round() as i64
+    }
+
+    /// Whether what waits has waited `max_wait_ns` at `now_ns`.
+    fn timed_out(&self, config: &AssemblyConfig, now_ns: i64) -> bool {
+        self.waiting_since
+            .is_some_and(|since| now_ns.saturating_sub(since) >= config.max_wait_ns)
+    }
+
+    /// Whether a velocity component holds a sample for its successor.
+    fn holds_derivative(&self) -> bool {
+        self.components
+            .iter()
+            .any(|c| c.diff.is_some_and(|d| d.held_index().is_some()))
+    }
+}
+
+/// Puts (grid index, value) samples into component `slot`'s buffer: before `emitted` or
+/// where a value is already, counted as overlap.
+fn put(
+    station: &mut StationAssembly,
+    slot: usize,
+    samples: &[(i64, f64)],
+    counters: &mut AssemblyCounters,
+) {
+    let emitted = station.emitted;
+    let buffer = &mut station.components[slot].buffer;
+    for &(j, x) in samples {
+        if j < emitted {
+            counters.overlap_samples += 1;
+            continue;
+        }
+        let offset = (j - emitted) as usize;
+        if buffer.len() <= offset {
+            buffer.resize(offset + 1, f64::NAN);
+        }
+        let cell = &mut buffer[offset];
+        if cell.is_nan() {
+            *cell = x;
+        } else {
+            counters.overlap_samples += 1;
+        }
+    }
+}
+
+/// The wait is over: the velocity components' held samples get their backward difference.
+fn flush_derivatives(station: &mut StationAssembly, counters: &mut AssemblyCounters) {
+    let rate_hz = station.rate_hz;
+    for slot in 0..station.components.len() {
+        let mut flushed = None;
+        if let Some(d) = &mut station.components[slot].diff {
+            d.flush(&mut |j, v| flushed = Some((j, v * rate_hz)));
+        }
+        if let Some(sample) = flushed {
+            put(station, slot, &[sample], counters);
+        }
     }
 }
 
@@ -383,12 +488,12 @@ fn emit_ready(
             .max()
             .unwrap_or(0);
         if longest == 0 {
-            station.waiting_since = None;
+            if !station.holds_derivative() {
+                station.waiting_since = None;
+            }
             return;
         }
-        let timed_out = station
-            .waiting_since
-            .is_some_and(|since| now_ns.saturating_sub(since) >= config.max_wait_ns);
+        let timed_out = station.timed_out(config, now_ns);
         // A gap in every component: skip it once each has data after it (or the wait is over).
         let empty = (0..longest)
             .take_while(|&i| station.components.iter().all(|c| !has(c, i)))

@@ -43,6 +43,10 @@ pub struct AcquireConfig {
 pub struct InventorySection {
     /// StationXML files (relative to the configuration file).
     pub stationxml: Vec<PathBuf>,
+    /// Velocity channels (input units M/S) are differentiated to acceleration in the core
+    /// (`rockwatch_core::differentiate`); without it they are refused.
+    #[serde(default)]
+    pub differentiate_velocity: bool,
 }
 
 /// `[assembly]`.
@@ -110,6 +114,7 @@ impl AcquireConfig {
             max_wait_ns: (self.assembly.max_wait_s * 1e9) as i64,
             max_packet_samples: self.assembly.max_packet_samples,
             max_buffer_s: self.assembly.max_buffer_s,
+            differentiate_velocity: self.inventory.differentiate_velocity,
         }
     }
 }

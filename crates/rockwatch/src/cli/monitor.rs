@@ -12,7 +12,7 @@ use rockwatch::log_text::{printable, STATION_CHARS};
 use rockwatch::node::{NodeOptions, NodeRuntime, NoticeLog};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::Publication;
-use rockwatch::replay::{MseedCalibration, Traces};
+use rockwatch::replay::{ChannelChoice, MseedCalibration, Traces};
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{
     Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StreamCounters,
@@ -55,6 +55,16 @@ pub struct MonitorArgs {
     /// east/north/up, whatever the channels are called. See docs/stationxml.md.
     #[arg(long, value_name = "FILE", num_args = 1.., requires = "mseed")]
     stationxml: Vec<PathBuf>,
+    /// Which of the station's --mseed channels to use: a channel-code pattern (`?` one
+    /// character, `*` any run), e.g. `HN?`. Default: the station's one sensor, or among several
+    /// its accelerometer (instrument code N: HN?, BN?, …); several sensors and no single
+    /// accelerometer is an error listing them.
+    #[arg(long, value_name = "PATTERN", requires = "mseed")]
+    channels: Option<String>,
+    /// Velocity channels of --stationxml (input units M/S) are differentiated to acceleration
+    /// (central differences on the sample grid, docs/stationxml.md) instead of refused.
+    #[arg(long = "differentiate-velocity", requires = "stationxml")]
+    differentiate_velocity: bool,
     /// Station the data belong to (NET.STA.LOC).
     #[arg(long, value_name = "ID")]
     station: String,
@@ -109,6 +119,7 @@ enum MonitorInput {
     Mseed {
         path: PathBuf,
         inventory: Option<Inventory>,
+        choice: ChannelChoice,
     },
 }
 
@@ -211,6 +222,10 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
                 [] => None,
                 files => Some(Inventory::read_all(files)?),
             },
+            choice: ChannelChoice {
+                channels: args.channels,
+                differentiate_velocity: args.differentiate_velocity,
+            },
         },
         (None, None) => bail!("give --record FILE or --mseed FILE"),
     };
@@ -243,10 +258,14 @@ fn read_traces(
             }
             Traces::from_record(&record, *azimuth)
         }
-        MonitorInput::Mseed { path, inventory } => {
+        MonitorInput::Mseed {
+            path,
+            inventory,
+            choice,
+        } => {
             let calibration = MseedCalibration::for_station(inventory.as_ref(), config, station)
                 .map_err(anyhow::Error::msg)?;
-            Traces::from_mseed(path, station, calibration)?
+            Traces::from_mseed_with(path, station, calibration, choice)?
         }
     })
 }

@@ -8,7 +8,7 @@ use anyhow::{bail, Context};
 use rockwatch::iox::IoxPacketSink;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::PacketSink;
-use rockwatch::replay::{replay, MseedCalibration, Restamp, Speed, Traces};
+use rockwatch::replay::{replay, ChannelChoice, MseedCalibration, Restamp, Speed, Traces};
 use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::StationId;
@@ -60,6 +60,16 @@ pub struct ReplayArgs {
     /// are sent in m/s² on east/north/up. See docs/stationxml.md.
     #[arg(long, value_name = "FILE", num_args = 1.., requires = "mseed")]
     stationxml: Vec<PathBuf>,
+    /// Which of the station's --mseed channels to use: a channel-code pattern (`?` one
+    /// character, `*` any run), e.g. `HN?`. Default: the station's one sensor, or among several
+    /// its accelerometer (instrument code N: HN?, BN?, …); several sensors and no single
+    /// accelerometer is an error listing them.
+    #[arg(long, value_name = "PATTERN", requires = "mseed")]
+    channels: Option<String>,
+    /// Velocity channels of --stationxml (input units M/S) are differentiated to acceleration
+    /// (central differences on the sample grid, docs/stationxml.md) instead of refused.
+    #[arg(long = "differentiate-velocity", requires = "stationxml")]
+    differentiate_velocity: bool,
     /// A synthetic Mavroeidis–Papageorgiou pulse drawn for --mw and --r-km with --seed.
     #[arg(long, requires_all = ["mw", "r_km"])]
     synthetic: bool,
@@ -125,7 +135,11 @@ fn traces(args: &ReplayArgs, config: &NodeConfig, station: &StationId) -> anyhow
         };
         let calibration = MseedCalibration::for_station(inventory.as_ref(), config, station)
             .map_err(anyhow::Error::msg)?;
-        Traces::from_mseed(path, station, calibration)?
+        let choice = ChannelChoice {
+            channels: args.channels.clone(),
+            differentiate_velocity: args.differentiate_velocity,
+        };
+        Traces::from_mseed_with(path, station, calibration, &choice)?
     } else {
         let (Some(mw), Some(r_km)) = (args.mw, args.r_km) else {
             bail!("--synthetic needs --mw and --r-km");
