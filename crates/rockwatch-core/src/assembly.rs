@@ -35,7 +35,10 @@ use crate::record::mseed::{Channel, MAX_ALIGNMENT_OFFSET_SAMPLES, NS_PER_S};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AssemblyConfig {
     /// How long a span waits for a missing component before it is emitted without it (ns,
-    /// on the caller's clock).
+    /// on the caller's clock; `acquire` counts only time the link is up). Components arrive
+    /// record by record, each record when its digitizer filled it: this must exceed the
+    /// duration of one record of the slowest-filling component (a 512-byte Steim-2 record
+    /// holds up to ~8 s at 100 Hz), or live data would be zero-filled at record boundaries.
     pub max_wait_ns: i64,
     /// Most samples per packet (longer spans are cut).
     pub max_packet_samples: usize,
@@ -49,7 +52,7 @@ pub struct AssemblyConfig {
 impl Default for AssemblyConfig {
     fn default() -> Self {
         AssemblyConfig {
-            max_wait_ns: 2 * NS_PER_S,
+            max_wait_ns: 30 * NS_PER_S,
             max_packet_samples: 1000,
             max_buffer_s: 600.0,
             differentiate_velocity: false,

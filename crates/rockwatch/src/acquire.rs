@@ -130,7 +130,12 @@ pub struct PublishCounters {
 pub struct PacketPublisher<'a> {
     assembler: Assembler,
     sink: &'a mut dyn PacketSink,
+    /// The assembler's clock: time the SeedLink link was up (a component is not missing
+    /// while nothing can be fetched).
     clock: Instant,
+    /// Time the link was down before the current state, and since when it is down now.
+    offline: std::time::Duration,
+    offline_since: Option<Instant>,
     counters: PublishCounters,
     /// (stream, problem) already logged.
     logged: BTreeSet<(String, String)>,
@@ -143,6 +148,8 @@ impl<'a> PacketPublisher<'a> {
             assembler: Assembler::new(inventory, config),
             sink,
             clock: Instant::now(),
+            offline: std::time::Duration::ZERO,
+            offline_since: Some(Instant::now()),
             counters: PublishCounters::default(),
             logged: BTreeSet::new(),
         }
@@ -153,8 +160,14 @@ impl<'a> PacketPublisher<'a> {
         (self.counters, self.assembler.counters())
     }
 
+    /// Nanoseconds the link has been up since the publisher started.
     fn now_ns(&self) -> i64 {
-        i64::try_from(self.clock.elapsed().as_nanos()).unwrap_or(i64::MAX)
+        let down = self.offline
+            + self
+                .offline_since
+                .map_or_else(Default::default, |t| t.elapsed());
+        let up = self.clock.elapsed().saturating_sub(down);
+        i64::try_from(up.as_nanos()).unwrap_or(i64::MAX)
     }
 }
 
@@ -203,6 +216,17 @@ impl RecordSink for PacketPublisher<'_> {
 
     fn published_until_ns(&self, station: &str) -> Option<i64> {
         self.assembler.emitted_until_ns(station)
+    }
+
+    fn link(&mut self, up: bool) {
+        match (up, self.offline_since) {
+            (true, Some(since)) => {
+                self.offline += since.elapsed();
+                self.offline_since = None;
+            }
+            (false, None) => self.offline_since = Some(Instant::now()),
+            _ => {}
+        }
     }
 
     fn tick(&mut self) {

@@ -15,7 +15,8 @@ use rockwatch::ports::Publication;
 use rockwatch::replay::{ChannelChoice, MseedCalibration, Traces};
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{
-    Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StreamCounters,
+    Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StationIntensity,
+    StreamCounters,
 };
 use rockwatch_core::inventory::Inventory;
 use rockwatch_core::record::Record;
@@ -77,7 +78,9 @@ pub struct MonitorArgs {
     /// State directory: alerts are journaled there (and restored from it on the next run).
     #[arg(long = "state-dir", value_name = "DIR")]
     state_dir: Option<PathBuf>,
-    /// Output: a readable log and table, or JSON lines (one per alert, a summary last).
+    /// Output: a readable log and table, or JSON lines (one per alert, a summary last; the
+    /// summary's `intensity` is the station's last intensity output, as the node publishes it
+    /// on /pbr/ims: data_time_ns, pga_mps2, pgv_mps, pgd_m, cav_mps, arias_mps, …).
     #[arg(long, value_enum, default_value_t = MonitorFormat::Text)]
     format: MonitorFormat,
 }
@@ -134,6 +137,8 @@ struct MonitorOutcome {
     stations: Vec<(String, StationCounters, StreamCounters)>,
     /// Notices per (station, kind).
     notice_counts: BTreeMap<(String, &'static str), u64>,
+    /// The monitored station's last intensity output (what the node publishes on /pbr/ims).
+    intensity: Option<StationIntensity>,
 }
 
 /// An alert line of `--format jsonl`: the shared alert schema (`rockwatch::alert_json`) plus
@@ -288,13 +293,13 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
         .check_packets(packet_ms, tail_s)
         .map_err(anyhow::Error::msg)?;
     let mut runtime = NodeRuntime::start_with_blocks(&options, blocks, Arc::new(|| {}))?;
-    let mut report = |publication: Publication| {
-        if let Publication::Alert {
+    let mut intensity = None;
+    let mut report = |publication: Publication| match publication {
+        Publication::Alert {
             alert, latency_ns, ..
-        } = publication
-        {
-            print_alert(format, &alert, traces.start_ns, latency_ns);
-        }
+        } => print_alert(format, &alert, traces.start_ns, latency_ns),
+        Publication::Intensity(i) if i.station == station.as_str() => intensity = Some(i),
+        _ => {}
     };
     for packet in traces.packets(&station, packet_ms, tail_s) {
         runtime.submit(packet, &mut report)?;
@@ -322,6 +327,7 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
             .map(|(id, own, stream)| (id.to_string(), own, stream))
             .collect(),
         notice_counts: stopped.notice_counts,
+        intensity,
     })
 }
 
@@ -376,6 +382,7 @@ fn print_summary(outcome: &MonitorOutcome, format: MonitorFormat) {
                 serde_json::json!({
                     "type": "summary", "pbrs": pbrs,
                     "counters": {"engine": outcome.engine, "stations": stations},
+                    "intensity": outcome.intensity,
                 })
             );
         }

@@ -175,8 +175,14 @@ pub trait RecordSink {
         let _ = station;
         None
     }
-    /// Called about every 100 ms (bounded waits, housekeeping).
+    /// Called about every 100 ms while connected (bounded waits, housekeeping).
     fn tick(&mut self) {}
+    /// The link came up (`true`: streams requested, data may flow) or went down. A sink that
+    /// waits for data (a missing component) should not count the time the link is down:
+    /// the data is not missing, it has not been fetched yet.
+    fn link(&mut self, up: bool) {
+        let _ = up;
+    }
 }
 
 /// A sink that takes every record at once (nothing held).
@@ -272,6 +278,7 @@ impl SeedLinkClient {
         while !stop.load(Ordering::Relaxed) {
             let delivered_before = self.counters.delivered;
             let result = self.session(stop, sink);
+            sink.link(false);
             let _ = self.commit(sink);
             self.save(true)?;
             match result {
@@ -382,7 +389,9 @@ impl SeedLinkClient {
                 .min();
             since.map_or(Resume::Next, Resume::Since)
         };
-        for refused in conn.request(&self.patterns, &resume, timeout)? {
+        let refused = conn.request(&self.patterns, &resume, timeout)?;
+        sink.link(true);
+        for refused in refused {
             eprintln!(
                 "rockwatch: seedlink {}: station refused: {}",
                 self.config.server,
