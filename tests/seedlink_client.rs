@@ -234,3 +234,38 @@ fn a_silent_server_is_dropped_after_the_idle_timeout_and_reconnected() {
         "{counters:?}"
     );
 }
+
+#[test]
+fn malformed_and_unselected_records_are_counted_and_the_stream_goes_on() {
+    let records = records_in_time_order();
+    let server = Server::start("127.0.0.1:0");
+    server.push(&records[..5]);
+    // Not MiniSEED at all (512 bytes of text), then a valid record of a channel no pattern
+    // selects (HN1 renamed BHZ in its fixed header, bytes 15..18), then a truncated header.
+    let mut garbage = b"this is not a miniSEED record ".repeat(20);
+    garbage.resize(512, b' ');
+    let mut unselected = records[5].clone();
+    unselected[15..18].copy_from_slice(b"BHZ");
+    let mut truncated = records[6].clone();
+    truncated[20..].fill(0xFF);
+    server.push(&[garbage, unselected, truncated]);
+    server.push(&records[5..12]);
+    let state = tempfile::tempdir().unwrap();
+    let out: Received = Arc::default();
+    // `*` for the location cannot be said in a v3 SELECT: the whole station is requested, so
+    // the server sends all three, and the client's own checks must sort them out.
+    let c = start_client(
+        server.addr,
+        ProtocolChoice::V3,
+        "XX.STN.*.HN?",
+        state.path(),
+        &out,
+    );
+    wait_for(&out, 12);
+    let counters = c.stop();
+    server.stop();
+    println!("{counters:?}");
+    assert_eq!(counters.delivered, 12, "{counters:?}");
+    assert_eq!(counters.malformed, 2, "{counters:?}");
+    assert_eq!(counters.unselected, 1, "{counters:?}");
+}

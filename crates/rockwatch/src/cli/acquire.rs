@@ -86,20 +86,28 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
             return Ok(());
         }
     }
-    let mut publisher = PacketPublisher::new(inventory, config.assembly_config(), sink.as_mut());
+    let mut publisher = PacketPublisher::new(
+        inventory,
+        config.assembly_config(),
+        config.clipping.clone(),
+        sink.as_mut(),
+    );
     let result = client.run(&stop, &mut publisher);
     let (published, assembled) = publisher.counters();
     let link = client.counters();
     eprintln!(
-        "rockwatch: acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
+        "rockwatch: acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid, {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
         link.packets,
         link.delivered,
         link.duplicates,
         link.malformed,
+        link.unselected,
         link.server_resets,
         link.server_restarts,
         link.disconnects,
         assembled.refused_records,
+        published.clipped_samples,
+        published.clipped_records,
         assembled.overlap_samples,
         assembled.missing_component_samples,
         published.packets_sent,
