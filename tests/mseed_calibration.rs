@@ -345,13 +345,19 @@ fn mseed_input_prefers_the_accelerometer_and_channels_chooses() {
     };
     // Default: HN? (instrument code N, the accelerometer), not the first channels (HH?).
     let t = pick(None).unwrap();
-    assert_eq!((t.east[0], t.north[0], t.up.as_ref().unwrap()[0]), (10.0, 20.0, 30.0));
+    assert_eq!(
+        (t.east[0], t.north[0], t.up.as_ref().unwrap()[0]),
+        (10.0, 20.0, 30.0)
+    );
     // --channels HH? takes the seismometer.
     let t = pick(Some("HH?")).unwrap();
     assert_eq!((t.east[0], t.north[0]), (1.0, 2.0));
     // A pattern matching both sensors, or none, is an error saying what to do.
     let e = pick(Some("H??")).unwrap_err().to_string();
-    assert!(e.contains("several sensors") && e.contains("--channels"), "{e}");
+    assert!(
+        e.contains("several sensors") && e.contains("--channels"),
+        "{e}"
+    );
     let e = pick(Some("BN?")).unwrap_err().to_string();
     assert!(e.contains("matches no channel") && e.contains("HNZ"), "{e}");
     // Through the CLI: monitor --channels is accepted and reaches the same choice.
@@ -447,9 +453,16 @@ fn velocity_channels_are_refused_or_differentiated_with_the_flag() {
     };
     let refused = ims(&[]);
     let err = String::from_utf8_lossy(&refused.stderr);
-    assert!(!refused.status.success() && err.contains("--differentiate-velocity"), "{err}");
+    assert!(
+        !refused.status.success() && err.contains("--differentiate-velocity"),
+        "{err}"
+    );
     let ok = ims(&["--differentiate-velocity"]);
-    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
     // PGA = v0·ω (within the central difference's sinc(ωh) and the one-sided ends);
     // PGV of the differentiated record's integral ≈ v0.
@@ -484,10 +497,45 @@ fn velocity_channels_are_refused_or_differentiated_with_the_flag() {
         "--format",
         "jsonl",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     let summary: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
     let monitor_pga = summary["intensity"]["pga_mps2"].as_f64().unwrap();
     // f32 packets.
-    assert!((monitor_pga - pga).abs() <= 1e-6 * pga, "{monitor_pga} vs {pga}");
+    assert!(
+        (monitor_pga - pga).abs() <= 1e-6 * pga,
+        "{monitor_pga} vs {pga}"
+    );
+}
+
+#[test]
+fn replay_of_a_station_the_node_does_not_know_is_refused_before_sending() {
+    // config/node.toml's catalogue binds blocks to CI.RRS.00 and others, not XX.STN.: the
+    // node would count all the packets as unknown_station and ignore them.
+    let node_toml = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml");
+    let out = rockwatch(&[
+        "replay",
+        "--mseed",
+        data("mseed/k2_STNA_HN123_counts.mseed").to_str().unwrap(),
+        "--stationxml",
+        data("stationxml/obspy_XX.STN_k2.xml").to_str().unwrap(),
+        "--station",
+        "XX.STN.",
+        "--transport",
+        "iceoryx2",
+        "--config",
+        node_toml,
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with("rockwatch: error: station XX.STN. is neither in the [[stations]]")
+            && err.contains("unknown station")
+            && err.lines().count() == 1,
+        "{err}"
+    );
 }

@@ -218,6 +218,29 @@ pub fn replay_through(
     Ok(())
 }
 
+/// With the node's configuration (`--config`) naming a catalogue, a station the node does not
+/// know — neither in its `[[stations]]` nor bound to a block of its catalogue — is refused
+/// before anything is sent: the node would ignore every packet (`unknown_station`). Without
+/// a catalogue nothing can be checked here.
+fn check_station_known(args: &ReplayArgs, config: &NodeConfig) -> anyhow::Result<()> {
+    let (Some(config_path), Some(catalogue)) = (&args.config, &config.catalogue) else {
+        return Ok(());
+    };
+    let station = StationId::parse(&args.station)?;
+    if config.stations.iter().any(|s| s.id == station) {
+        return Ok(());
+    }
+    let pbrs = rockwatch_core::catalogue::Catalogue::load(catalogue)?;
+    if pbrs.pbrs_for_station(station.as_str()).next().is_some() {
+        return Ok(());
+    }
+    bail!(
+        "station {station} is neither in the [[stations]] of {} nor bound to a block of its catalogue {}: the node would ignore every packet (unknown station); give a station of its blocks with --station (or, if the node runs with another --catalogue, that catalogue's)",
+        config_path.display(),
+        catalogue.display()
+    )
+}
+
 pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     // Refused before any transport is opened.
     rockwatch::replay::check_packet_flags(args.packet_ms, args.tail).map_err(anyhow::Error::msg)?;
@@ -225,6 +248,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
+    check_station_known(&args, &config)?;
     match args.transport {
         Transport::Ros2 => {
             let plan = network_plan_from_env(&config.ros2)?;
