@@ -44,16 +44,15 @@ fn a_sampled_sine_is_differentiated_by_exactly_the_central_scheme() {
         let interior_bound = a * w * (w * H).powi(2) / 6.0;
         let edge_bound = a * w * w * H / 2.0;
         let mut worst: f64 = 0.0;
-        for k in 1..n - 1 {
+        for (k, &dk) in d.iter().enumerate().take(n - 1).skip(1) {
             let exact = a * w * (w * t(k) + phase).cos();
             // The scheme's own closed form: to round-off (v's rounding / 2h).
             let scheme = exact * sinc(w * H);
             assert!(
-                (d[k] - scheme).abs() <= 1e-12 * a * RATE,
-                "f {f}: k {k}: {} vs {scheme}",
-                d[k]
+                (dk - scheme).abs() <= 1e-12 * a * RATE,
+                "f {f}: k {k}: {dk} vs {scheme}"
             );
-            let err = (d[k] - exact).abs();
+            let err = (dk - exact).abs();
             assert!(
                 err <= interior_bound * (1.0 + 1e-6) + 1e-12 * a * RATE,
                 "f {f} k {k}"
@@ -109,8 +108,8 @@ fn a_chirp_is_within_the_schemes_error_bound_and_records_cut_anywhere_agree() {
             break;
         }
         let end = (start + len).min(n);
-        for k in start..end {
-            diff.push(k as i64, v[k], &mut |j, x| streamed[j as usize] = x * RATE);
+        for (k, &x) in v.iter().enumerate().take(end).skip(start) {
+            diff.push(k as i64, x, &mut |j, d| streamed[j as usize] = d * RATE);
         }
         start = end;
     }
