@@ -73,6 +73,11 @@ pub struct AssemblyCounters {
     pub overlap_samples: u64,
     /// Samples emitted as zero because their component had not arrived in time.
     pub missing_component_samples: u64,
+    /// Records refused for starting more than `max_buffer_s` after what the station holds
+    /// (included in `refused_records`), and station grids restarted because its components
+    /// all moved there (an outage longer than `max_buffer_s`).
+    pub far_ahead_records: u64,
+    pub grid_restarts: u64,
 }
 
 /// Why a record was refused (the caller logs it once per stream).
@@ -88,6 +93,8 @@ pub enum RecordIssue {
     },
     #[error("{0}")]
     Grid(String),
+    #[error("{channel}: record starts {ahead_s:.0} s after the station's data, more than max_buffer_s; refused (the station's grid restarts there once its components all move on)")]
+    FarAhead { channel: String, ahead_s: f64 },
     #[error("{0}")]
     Orientation(String),
 }
@@ -120,6 +127,8 @@ struct StationAssembly {
     /// Caller time since which data beyond `emitted` has waited for a lagging component.
     waiting_since: Option<i64>,
     sequence: u64,
+    /// Records in a row refused as far ahead (kept, to be placed if the grid restarts).
+    far_ahead: Vec<Channel>,
 }
 
 /// The assembler of every station.
@@ -168,11 +177,44 @@ impl Assembler {
         out: &mut dyn FnMut(AccelPacket),
     ) -> Result<(), RecordIssue> {
         self.counters.records += 1;
-        let result = self.place(record, now_ns);
+        let key = format!("{}.{}.{}", record.net, record.sta, record.loc);
+        let mut result = self.place(record, now_ns);
+        if matches!(result, Err(RecordIssue::FarAhead { .. })) {
+            self.counters.far_ahead_records += 1;
+            // Every component (as many records in a row) has moved on: an outage longer than
+            // max_buffer_s, not one bad time stamp. What is held goes out (missing parts as
+            // zeros), and the station starts again on a grid at this record (a gap for the
+            // engine) — no buffer spanning the outage is ever allocated.
+            let restart = self
+                .stations
+                .get(&key)
+                .is_some_and(|s| s.far_ahead.len() >= s.components.len().max(2));
+            if restart {
+                let mut earlier = Vec::new();
+                if let Some(mut station) = self.stations.remove(&key) {
+                    flush_derivatives(&mut station, &mut self.counters);
+                    emit_ready(
+                        &mut station,
+                        &self.config,
+                        &mut self.counters,
+                        i64::MAX,
+                        out,
+                    );
+                    earlier = std::mem::take(&mut station.far_ahead);
+                }
+                self.counters.grid_restarts += 1;
+                // The records refused on the way are placed after all, in arrival order.
+                if let Some((_current, before)) = earlier.split_last() {
+                    for r in before {
+                        let _ = self.place(r, now_ns);
+                    }
+                }
+                result = self.place(record, now_ns);
+            }
+        }
         if result.is_err() {
             self.counters.refused_records += 1;
         }
-        let key = format!("{}.{}.{}", record.net, record.sta, record.loc);
         if let Some(station) = self.stations.get_mut(&key) {
             emit_ready(station, &self.config, &mut self.counters, now_ns, out);
         }
@@ -264,6 +306,23 @@ impl Assembler {
                 record.sample_rate_hz, station.rate_hz
             )));
         }
+        let limit = (self.config.max_buffer_s * station.rate_hz) as i64;
+        let ahead = record
+            .segments
+            .iter()
+            .map(|s| ((s.start_time_ns - station.t0_ns) as f64 * station.rate_hz * 1e-9).round())
+            .fold(f64::MIN, f64::max);
+        if ahead - station.emitted as f64 > limit.max(1) as f64 {
+            // Bounded: at most one record per component is kept.
+            if station.far_ahead.len() <= station.components.len() {
+                station.far_ahead.push(record.clone());
+            }
+            return Err(RecordIssue::FarAhead {
+                channel: id,
+                ahead_s: (ahead - station.emitted as f64) / station.rate_hz,
+            });
+        }
+        station.far_ahead.clear();
         for segment in &record.segments {
             let exact = (segment.start_time_ns - station.t0_ns) as f64 * station.rate_hz * 1e-9;
             let k = exact.round();
@@ -276,7 +335,6 @@ impl Assembler {
             }
             let mut k = k as i64;
             let mut samples = &segment.samples[..];
-            let limit = (self.config.max_buffer_s * station.rate_hz) as i64;
             if k < 0 && station.sequence == 0 && -k <= limit {
                 // Nothing emitted yet: the grid starts at the earliest record (records of
                 // the components arrive in any order after a (re)start).
@@ -390,6 +448,7 @@ impl Assembler {
             to_enu,
             waiting_since: None,
             sequence: 0,
+            far_ahead: Vec::new(),
         })
     }
 }
@@ -763,6 +822,49 @@ mod tests {
         assert_eq!(out.len(), 1);
         assert_eq!((out[0].start_time_ns, out[0].len()), (60_000_000, 8));
         assert_eq!(asm.counters().overlap_samples, 0);
+    }
+
+    #[test]
+    fn a_record_far_ahead_is_refused_and_an_outage_restarts_the_grid_without_a_huge_buffer() {
+        let mut asm = Assembler::new(inventory(), AssemblyConfig::default());
+        let x = [1.0; 4];
+        let all = |k| {
+            [
+                record("HN1", k, &x),
+                record("HN2", k, &x),
+                record("HN3", k, &x),
+            ]
+        };
+        let mut out = run(&mut asm, &all(0), 0);
+        // One record stamped a year ahead (a bad time stamp): refused, the stream goes on.
+        let year = 365 * 86_400 * 100;
+        let mut sink = |p: AccelPacket| out.push(p);
+        let e = asm
+            .push(&record("HN1", year, &x), 0, &mut sink)
+            .unwrap_err();
+        assert!(matches!(e, RecordIssue::FarAhead { .. }), "{e}");
+        for r in all(4) {
+            asm.push(&r, 0, &mut sink).unwrap();
+        }
+        assert_eq!(asm.emitted_until_ns("XX.S."), Some(80_000_000));
+        // An outage of a year: every component moves on; the third record restarts the grid
+        // there (the first two are refused, counted, kept and placed then), no year-long
+        // buffer is allocated.
+        let later = all(year);
+        assert!(asm.push(&later[0], 0, &mut sink).is_err());
+        assert!(asm.push(&later[1], 0, &mut sink).is_err());
+        asm.push(&later[2], 0, &mut sink).unwrap();
+        for r in all(year + 4) {
+            asm.push(&r, 0, &mut sink).unwrap();
+        }
+        let c = asm.counters();
+        // The two records refused on the way were kept and placed after the restart.
+        assert_eq!(c.missing_component_samples, 0);
+        assert_eq!((c.far_ahead_records, c.grid_restarts), (4, 1));
+        assert_eq!(
+            out.last().map(|p| p.start_time_ns),
+            Some((year + 4) * 10_000_000)
+        );
     }
 
     #[test]

@@ -511,6 +511,29 @@ mod tests {
     }
 
     #[test]
+    fn velocity_differentiation_and_clipping_are_configured_by_their_keys() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.toml");
+        std::fs::write(
+            &path,
+            "[seedlink]\nserver = \"h:1\"\nstreams = [\"XX.S..HH?\"]\n[inventory]\nstationxml = [\"x.xml\"]\ndifferentiate_velocity = true\n[clipping]\nfull_scale_counts = 32767.0\n[clipping.streams]\n\"XX.S..HHZ\" = 1000.0\n",
+        )
+        .unwrap();
+        let config = AcquireConfig::load(&path).unwrap();
+        assert!(config.assembly_config().differentiate_velocity);
+        assert_eq!(config.clipping.full_scale("XX.S..HHZ"), 1000.0);
+        assert_eq!(config.clipping.full_scale("XX.S..HHN"), 32767.0);
+        // Off by default.
+        let d = AcquireConfig::load(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/acquire.toml"
+        )))
+        .unwrap();
+        assert!(!d.assembly_config().differentiate_velocity);
+        assert_eq!(d.clipping, ClippingSection::default());
+    }
+
+    #[test]
     fn bad_values_are_refused_naming_the_file() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.toml");

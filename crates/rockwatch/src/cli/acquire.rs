@@ -96,7 +96,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     let (published, assembled) = publisher.counters();
     let link = client.counters();
     eprintln!(
-        "rockwatch: acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid, {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
+        "rockwatch: acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid ({} far ahead of their station's data, {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
         link.packets,
         link.delivered,
         link.duplicates,
@@ -106,6 +106,8 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         link.server_restarts,
         link.disconnects,
         assembled.refused_records,
+        assembled.far_ahead_records,
+        assembled.grid_restarts,
         published.clipped_samples,
         published.clipped_records,
         assembled.overlap_samples,
