@@ -6,10 +6,13 @@
 //! written by ObsPy), pushed in time order as a live server would receive them. Every record
 //! must arrive exactly once, with the samples ObsPy-written file holds.
 //!
+//! Each test runs in its own network namespace (re-executed there; loopback only).
+//!
 //! Quirks of this server minded here: it answers v4 SELECT patterns with OK but matches
 //! nothing (the v4 test selects whole stations, `XX.STN..*`, which sends no SELECT); commands
 //! end with CR LF; it refuses `DATA ALL start` (the client falls back to `DATA`, everything).
 
+mod ros2_util;
 mod seedlink_server;
 
 use std::collections::BTreeMap;
@@ -24,6 +27,7 @@ use rockwatch::seedlink::{
     EachRecord, LinkCounters, ProtocolChoice, SeedLinkClient, SeedLinkConfig,
 };
 use rockwatch_core::record::mseed::{read_mseed, Channel};
+use ros2_util::reexec_in_netns;
 use seedlink_server::{records_in_time_order, Server, K2};
 
 type Received = Arc<Mutex<Vec<(String, i64, Vec<f64>)>>>;
@@ -171,16 +175,34 @@ fn restart_scenario(protocol: ProtocolChoice, streams: &str) {
 
 #[test]
 fn v3_every_record_once_across_client_and_server_restarts() {
+    // A network test: in its own network namespace (loopback only).
+    if !reexec_in_netns(
+        "v3_every_record_once_across_client_and_server_restarts",
+        120,
+    ) {
+        return;
+    }
     restart_scenario(ProtocolChoice::V3, "XX.STN..HN?");
 }
 
 #[test]
 fn v4_every_record_once_across_client_and_server_restarts() {
+    // A network test: in its own network namespace (loopback only).
+    if !reexec_in_netns(
+        "v4_every_record_once_across_client_and_server_restarts",
+        120,
+    ) {
+        return;
+    }
     restart_scenario(ProtocolChoice::V4, "XX.STN..*");
 }
 
 #[test]
 fn auto_negotiates_v4_with_a_server_that_offers_it() {
+    // A network test: in its own network namespace (loopback only).
+    if !reexec_in_netns("auto_negotiates_v4_with_a_server_that_offers_it", 120) {
+        return;
+    }
     let records = records_in_time_order();
     let server = Server::start("127.0.0.1:0");
     server.push(&records[..10]);
@@ -206,6 +228,13 @@ fn auto_negotiates_v4_with_a_server_that_offers_it() {
 
 #[test]
 fn a_silent_server_is_dropped_after_the_idle_timeout_and_reconnected() {
+    // A network test: in its own network namespace (loopback only).
+    if !reexec_in_netns(
+        "a_silent_server_is_dropped_after_the_idle_timeout_and_reconnected",
+        120,
+    ) {
+        return;
+    }
     let server = Server::start("127.0.0.1:0");
     let state = tempfile::tempdir().unwrap();
     let config = SeedLinkConfig {
@@ -239,6 +268,13 @@ fn a_silent_server_is_dropped_after_the_idle_timeout_and_reconnected() {
 
 #[test]
 fn malformed_and_unselected_records_are_counted_and_the_stream_goes_on() {
+    // A network test: in its own network namespace (loopback only).
+    if !reexec_in_netns(
+        "malformed_and_unselected_records_are_counted_and_the_stream_goes_on",
+        120,
+    ) {
+        return;
+    }
     let records = records_in_time_order();
     let server = Server::start("127.0.0.1:0");
     server.push(&records[..5]);
@@ -337,16 +373,28 @@ fn wildcard_resume(protocol: ProtocolChoice, streams: &str) {
 
 #[test]
 fn v3_wildcard_stations_resume_by_sequence_number() {
+    // A network test: in its own network namespace (loopback only).
+    if !reexec_in_netns("v3_wildcard_stations_resume_by_sequence_number", 120) {
+        return;
+    }
     wildcard_resume(ProtocolChoice::V3, "XX.*..HN?");
 }
 
 #[test]
 fn v4_wildcard_stations_resume_by_sequence_number() {
+    // A network test: in its own network namespace (loopback only).
+    if !reexec_in_netns("v4_wildcard_stations_resume_by_sequence_number", 120) {
+        return;
+    }
     wildcard_resume(ProtocolChoice::V4, "XX.*..*");
 }
 
 #[test]
 fn a_station_appearing_later_is_found_and_requested() {
+    // A network test: in its own network namespace (loopback only).
+    if !reexec_in_netns("a_station_appearing_later_is_found_and_requested", 120) {
+        return;
+    }
     let records = records_in_time_order();
     let server = Server::start("127.0.0.1:0");
     server.push_as("STN", &records[..20]);
