@@ -4,7 +4,7 @@
 //! [`AccelPacket`](rockwatch_core::engine::AccelPacket)s published to the node through a
 //! [`PacketSink`] (iceoryx2 or ROS 2). Configuration: `config/acquire.toml` (every key).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -14,9 +14,10 @@ use rockwatch_core::record::mseed::{Channel, NS_PER_S};
 
 use crate::iox::IoxConfig;
 use crate::log_text::{printable, STATION_CHARS};
+use crate::node::RateLimitedLog;
 use crate::ports::PacketSink;
 use crate::ros2::Ros2Config;
-use crate::seedlink::{RecordSink, SeedLinkConfig};
+use crate::seedlink::{RecordSink, SeedLinkConfig, LOG_INTERVAL};
 
 /// The acquisition configuration file.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
@@ -192,60 +193,6 @@ pub struct PublishCounters {
     pub clipped_records: u64,
 }
 
-/// Log lines per (stream, problem): the first at once, then at most one per
-/// [`LOG_INTERVAL`] saying how many more there were.
-#[derive(Debug, Default)]
-pub struct RateLimitedLog {
-    /// (stream, problem) → (last line, occurrences not logged since).
-    seen: HashMap<(String, String), (Instant, u64)>,
-}
-
-/// Shortest time between two log lines of one stream and problem.
-pub const LOG_INTERVAL: Duration = Duration::from_secs(60);
-
-/// Most (stream, problem) pairs remembered (beyond, new ones are only counted).
-const LOG_KEYS: usize = 10_000;
-
-impl RateLimitedLog {
-    /// Logs `problem` of `stream` (both printed escaped and bounded) unless one was logged
-    /// within [`LOG_INTERVAL`]; true if a line was written.
-    pub fn log(&mut self, stream: &str, problem: &str, consequence: &str) -> bool {
-        let now = Instant::now();
-        let key = (stream.to_string(), problem.to_string());
-        let line = |more: u64| {
-            let again = if more > 0 {
-                format!(" ({more} more since the last line)")
-            } else {
-                String::new()
-            };
-            eprintln!(
-                "rockwatch: acquire: {}: {}: {consequence}{again} (logged at most once a minute per stream; counted)",
-                printable(stream, STATION_CHARS),
-                printable(problem, 300)
-            );
-        };
-        let room = self.seen.len() < LOG_KEYS;
-        match self.seen.get_mut(&key) {
-            Some((last, more)) if now.duration_since(*last) < LOG_INTERVAL => {
-                *more += 1;
-                false
-            }
-            Some((last, more)) => {
-                line(*more);
-                *last = now;
-                *more = 0;
-                true
-            }
-            None if room => {
-                line(0);
-                self.seen.insert(key, (now, 0));
-                true
-            }
-            None => false,
-        }
-    }
-}
-
 /// The record sink of `acquire`: assembles records into packets and sends them.
 pub struct PacketPublisher<'a> {
     assembler: Assembler,
@@ -254,10 +201,11 @@ pub struct PacketPublisher<'a> {
     /// while nothing can be fetched).
     clock: Instant,
     /// Time the link was down before the current state, and since when it is down now.
-    offline: std::time::Duration,
+    offline: Duration,
     offline_since: Option<Instant>,
     counters: PublishCounters,
     clipping: ClippingSection,
+    /// Per stream and kind (`clipped`, `refused`): at most one line per [`LOG_INTERVAL`].
     log: RateLimitedLog,
 }
 
@@ -273,11 +221,11 @@ impl<'a> PacketPublisher<'a> {
             assembler: Assembler::new(inventory, config),
             sink,
             clock: Instant::now(),
-            offline: std::time::Duration::ZERO,
+            offline: Duration::ZERO,
             offline_since: Some(Instant::now()),
             counters: PublishCounters::default(),
             clipping,
-            log: RateLimitedLog::default(),
+            log: RateLimitedLog::with_interval(LOG_INTERVAL),
         }
     }
 
@@ -327,8 +275,10 @@ impl RecordSink for PacketPublisher<'_> {
             self.counters.clipped_records += 1;
             self.log.log(
                 &record.id(),
-                &format!("{clipped} samples at or beyond the full scale ±{full_scale} counts"),
-                "clipped: the data are used, but the shaking was larger",
+                "clipped",
+                &format!(
+                    "acquire: {clipped} samples at or beyond the full scale ±{full_scale} counts (used; the shaking was larger; counted, logged at most once a minute)"
+                ),
             );
         }
         let now = self.now_ns();
@@ -336,8 +286,13 @@ impl RecordSink for PacketPublisher<'_> {
         let result = self.assembler.push(record, now, &mut send);
         drop(send);
         if let Err(issue) = result {
-            self.log
-                .log(&record.id(), &issue.to_string(), "record dropped");
+            self.log.log(
+                &record.id(),
+                "refused",
+                &format!(
+                    "acquire: {issue} (record dropped; counted, logged at most once a minute)"
+                ),
+            );
             return false;
         }
         let station = format!("{}.{}.{}", record.net, record.sta, record.loc);
@@ -455,23 +410,6 @@ mod tests {
         drop(publisher);
         let samples: usize = sink.0.iter().map(AccelPacket::len).sum();
         assert_eq!(samples, 8250, "every XX.STN. sample published");
-    }
-
-    #[test]
-    fn the_log_is_rate_limited_per_stream_and_problem() {
-        let mut log = RateLimitedLog::default();
-        assert!(log.log("XX.S..HN1", "clipped", "used"));
-        assert!(!log.log("XX.S..HN1", "clipped", "used"));
-        assert!(log.log("XX.S..HN2", "clipped", "used"));
-        assert!(log.log("XX.S..HN1", "other problem", "used"));
-        // A minute later the same problem is logged again with the count in between.
-        if let Some((last, _)) = log
-            .seen
-            .get_mut(&("XX.S..HN1".to_string(), "clipped".to_string()))
-        {
-            *last -= LOG_INTERVAL;
-        }
-        assert!(log.log("XX.S..HN1", "clipped", "used"));
     }
 
     #[test]

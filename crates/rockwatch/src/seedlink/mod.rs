@@ -26,6 +26,10 @@ use rockwatch_core::seedlink::sequence::{judge, DeliveredStarts, Verdict};
 use rockwatch_core::seedlink::Protocol;
 
 use crate::log_text::{printable, STATION_CHARS};
+use crate::node::RateLimitedLog;
+
+/// Shortest time between two log lines of one stream and kind of problem.
+pub const LOG_INTERVAL: Duration = Duration::from_secs(60);
 use connection::{Connection, Resume};
 use state::{ResumeState, StateFile, StationResume};
 
@@ -242,8 +246,8 @@ pub struct SeedLinkClient {
     /// Delivered records, in order, whose samples the sink still holds.
     pending: std::collections::VecDeque<Pending>,
     counters: LinkCounters,
-    /// (kind, key) already logged: each problem is logged once per stream, then counted.
-    logged: BTreeSet<(&'static str, String)>,
+    /// Problems per (stream, kind): at most one line a minute each, then counted.
+    log: RateLimitedLog,
     /// `NET_STA` of stations that appeared on the server while the client ran: with nothing
     /// saved, they start from the oldest data the server holds for them (nothing is lost
     /// between their appearance and the next look at the station list).
@@ -270,7 +274,7 @@ impl SeedLinkClient {
             delivered: HashMap::new(),
             pending: std::collections::VecDeque::new(),
             counters: LinkCounters::default(),
-            logged: BTreeSet::new(),
+            log: RateLimitedLog::with_interval(LOG_INTERVAL),
             late_stations: BTreeSet::new(),
         })
     }
@@ -643,12 +647,10 @@ impl SeedLinkClient {
     }
 
     fn log_once(&mut self, kind: &'static str, key: String, message: &str) {
-        if self.logged.len() < 10_000 && self.logged.insert((kind, key.clone())) {
-            eprintln!(
-                "rockwatch: seedlink {}: {}: {message} (logged once; counted)",
-                self.config.server,
-                printable(&key, STATION_CHARS)
-            );
-        }
+        let line = format!(
+            "seedlink {}: {message} (counted; logged at most once a minute)",
+            self.config.server
+        );
+        self.log.log(&key, kind, &line);
     }
 }
