@@ -13,7 +13,7 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use rockwatch::acquire::PacketPublisher;
+use rockwatch::acquire::{ClippingSection, PacketPublisher};
 use rockwatch::iox::{IoxConfig, IoxPacketSink};
 use rockwatch::ports::PacketSink;
 use rockwatch::seedlink::RecordSink;
@@ -125,7 +125,12 @@ impl PacketSink for Counting {
 
 /// Runs every record through decode + publisher; returns (wall time, per-record times).
 fn run(records: &[Vec<u8>], sink: &mut dyn PacketSink) -> (Duration, Vec<Duration>) {
-    let mut publisher = PacketPublisher::new(inventory(), AssemblyConfig::default(), sink);
+    let mut publisher = PacketPublisher::new(
+        inventory(),
+        AssemblyConfig::default(),
+        ClippingSection::default(),
+        sink,
+    );
     let mut per_record = Vec::with_capacity(records.len());
     let start = Instant::now();
     for r in records {

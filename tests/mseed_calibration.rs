@@ -294,3 +294,248 @@ fn missing_or_wrong_inventory_entries_name_the_channel() {
         "{e}"
     );
 }
+
+/// A station with two sensors, velocity HH? (values 1, 2, 3) and acceleration HN? (values
+/// 10, 20, 30), as floats in one file.
+fn two_sensor_file(dir: &Path) -> PathBuf {
+    use rockwatch_core::record::mseed::{write_mseed, ChannelData, Samples, WriteOptions};
+    let n = 500;
+    let values: Vec<Vec<f64>> = [1.0, 2.0, 3.0, 10.0, 20.0, 30.0]
+        .iter()
+        .map(|&v| vec![v; n])
+        .collect();
+    let ids = [
+        "XX.TWO..HHE",
+        "XX.TWO..HHN",
+        "XX.TWO..HHZ",
+        "XX.TWO..HNE",
+        "XX.TWO..HNN",
+        "XX.TWO..HNZ",
+    ];
+    let channels: Vec<ChannelData<'_>> = ids
+        .iter()
+        .zip(&values)
+        .map(|(id, v)| ChannelData {
+            id: (*id).to_string(),
+            start_time_ns: 1_600_000_000_000_000_000,
+            sample_rate_hz: 100.0,
+            samples: Samples::Float(v),
+        })
+        .collect();
+    let path = dir.join("two_sensors.mseed");
+    write_mseed(&path, &channels, WriteOptions::default()).unwrap();
+    path
+}
+
+#[test]
+fn mseed_input_prefers_the_accelerometer_and_channels_chooses() {
+    use rockwatch::replay::ChannelChoice;
+    let dir = tempfile::tempdir().unwrap();
+    let path = two_sensor_file(dir.path());
+    let station = StationId::parse("XX.TWO.").unwrap();
+    let as_stored = MseedCalibration::AsStored {
+        counts_have_gain: false,
+    };
+    let pick = |channels: Option<&str>| {
+        let choice = ChannelChoice {
+            channels: channels.map(str::to_string),
+            differentiate_velocity: false,
+        };
+        Traces::from_mseed_with(&path, &station, as_stored, &choice)
+    };
+    // Default: HN? (instrument code N, the accelerometer), not the first channels (HH?).
+    let t = pick(None).unwrap();
+    assert_eq!(
+        (t.east[0], t.north[0], t.up.as_ref().unwrap()[0]),
+        (10.0, 20.0, 30.0)
+    );
+    // --channels HH? takes the seismometer.
+    let t = pick(Some("HH?")).unwrap();
+    assert_eq!((t.east[0], t.north[0]), (1.0, 2.0));
+    // A pattern matching both sensors, or none, is an error saying what to do.
+    let e = pick(Some("H??")).unwrap_err().to_string();
+    assert!(
+        e.contains("several sensors") && e.contains("--channels"),
+        "{e}"
+    );
+    let e = pick(Some("BN?")).unwrap_err().to_string();
+    assert!(e.contains("matches no channel") && e.contains("HNZ"), "{e}");
+    // Through the CLI: monitor --channels is accepted and reaches the same choice.
+    let catalogue = dir.path().join("c.toml");
+    std::fs::write(
+        &catalogue,
+        "[[pbr]]\nid = \"b\"\nname = \"b\"\nlat = 0.0\nlon = 0.0\nstation = \"XX.TWO.\"\n\
+         azimuth_deg = 90.0\nwidth_m = 1.0\nheight_m = 2.0\nmu_s = 0.7\nmu_k = 0.55\nsource = \"t\"\n",
+    )
+    .unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "monitor",
+            "--catalogue",
+            catalogue.to_str().unwrap(),
+            "--mseed",
+            path.to_str().unwrap(),
+            "--station",
+            "XX.TWO.",
+            "--tail",
+            "0",
+            "--format",
+            "jsonl",
+        ];
+        args.extend_from_slice(extra);
+        rockwatch(&args)
+    };
+    let summary = |o: &Output| -> serde_json::Value {
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        serde_json::from_str(text.lines().last().unwrap()).unwrap()
+    };
+    let hn = run(&[]);
+    let hh = run(&["--channels", "HH?"]);
+    assert!(hn.status.success() && hh.status.success());
+    // Constant 10/20 m/s² vs 1/2 m/s²: the larger horizontal PGA says which was used.
+    assert_eq!(summary(&hn)["intensity"]["pga_mps2"].as_f64(), Some(20.0));
+    assert_eq!(summary(&hh)["intensity"]["pga_mps2"].as_f64(), Some(2.0));
+}
+
+#[test]
+fn velocity_channels_are_refused_or_differentiated_with_the_flag() {
+    use rockwatch_core::record::mseed::{write_mseed, ChannelData, Samples, WriteOptions};
+    // A 2 Hz ground velocity of 0.01 m/s east, counts at 1e6 counts per m/s (floats).
+    let dir = tempfile::tempdir().unwrap();
+    let (n, rate, f, v0, s) = (1000, 100.0, 2.0, 0.01, 1.0e6);
+    let w = 2.0 * std::f64::consts::PI * f;
+    let counts: Vec<f64> = (0..n)
+        .map(|k| s * v0 * (w * k as f64 / rate).sin())
+        .collect();
+    let zeros = vec![0.0; n];
+    let mseed = dir.path().join("vel.mseed");
+    let channels: Vec<ChannelData<'_>> = [("HHE", &counts), ("HHN", &zeros)]
+        .iter()
+        .map(|(cha, v)| ChannelData {
+            id: format!("XX.VEL..{cha}"),
+            start_time_ns: 1_600_000_000_000_000_000,
+            sample_rate_hz: rate,
+            samples: Samples::Float(v),
+        })
+        .collect();
+    write_mseed(&mseed, &channels, WriteOptions::default()).unwrap();
+    let channel = |cha: &str, az: f64| {
+        format!(
+            "<Channel code=\"{cha}\" locationCode=\"\" startDate=\"2000-01-01T00:00:00\"><Latitude>0</Latitude><Longitude>0</Longitude><Elevation>0</Elevation><Depth>0</Depth><Azimuth>{az}</Azimuth><Dip>0</Dip><SampleRate>{rate}</SampleRate><Response><InstrumentSensitivity><Value>{s}</Value><Frequency>1</Frequency><InputUnits><Name>M/S</Name></InputUnits><OutputUnits><Name>COUNTS</Name></OutputUnits></InstrumentSensitivity></Response></Channel>"
+        )
+    };
+    let xml = dir.path().join("vel.xml");
+    std::fs::write(
+        &xml,
+        format!(
+            "<?xml version=\"1.0\"?><FDSNStationXML xmlns=\"http://www.fdsn.org/xml/station/1\" schemaVersion=\"1.1\"><Source>test</Source><Created>2020-01-01T00:00:00</Created><Network code=\"XX\"><Station code=\"VEL\" startDate=\"2000-01-01T00:00:00\"><Latitude>0</Latitude><Longitude>0</Longitude><Elevation>0</Elevation>{}{}</Station></Network></FDSNStationXML>",
+            channel("HHE", 90.0),
+            channel("HHN", 0.0)
+        ),
+    )
+    .unwrap();
+    let ims = |extra: &[&str]| {
+        let dir = dir.path();
+        let e = dir.join("e.mseed");
+        // ims takes one channel per file: HHE alone.
+        write_mseed(&e, &channels[..1], WriteOptions::default()).unwrap();
+        let mut args = vec![
+            "ims",
+            "--record",
+            e.to_str().unwrap(),
+            "--stationxml",
+            xml.to_str().unwrap(),
+            "--format",
+            "json",
+        ];
+        args.extend_from_slice(extra);
+        rockwatch(&args)
+    };
+    let refused = ims(&[]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && err.contains("--differentiate-velocity"),
+        "{err}"
+    );
+    let ok = ims(&["--differentiate-velocity"]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
+    // PGA = v0·ω (within the central difference's sinc(ωh) and the one-sided ends);
+    // PGV of the differentiated record's integral ≈ v0.
+    let pga = v["pga"].as_f64().unwrap();
+    let exact = v0 * w;
+    let sinc = (w / rate).sin() / (w / rate);
+    assert!(
+        (pga - exact).abs() <= exact * (1.0 - sinc) + exact * 1e-9 + exact * (w / rate) / 2.0,
+        "{pga} vs {exact}"
+    );
+    // monitor: the same flag, east = the differentiated HHE.
+    let catalogue = dir.path().join("c.toml");
+    std::fs::write(
+        &catalogue,
+        "[[pbr]]\nid = \"b\"\nname = \"b\"\nlat = 0.0\nlon = 0.0\nstation = \"XX.VEL.\"\n\
+         azimuth_deg = 90.0\nwidth_m = 1.0\nheight_m = 2.0\nmu_s = 0.7\nmu_k = 0.55\nsource = \"t\"\n",
+    )
+    .unwrap();
+    let out = rockwatch(&[
+        "monitor",
+        "--catalogue",
+        catalogue.to_str().unwrap(),
+        "--mseed",
+        mseed.to_str().unwrap(),
+        "--stationxml",
+        xml.to_str().unwrap(),
+        "--differentiate-velocity",
+        "--station",
+        "XX.VEL.",
+        "--tail",
+        "0",
+        "--format",
+        "jsonl",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    let summary: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+    let monitor_pga = summary["intensity"]["pga_mps2"].as_f64().unwrap();
+    // f32 packets.
+    assert!(
+        (monitor_pga - pga).abs() <= 1e-6 * pga,
+        "{monitor_pga} vs {pga}"
+    );
+}
+
+#[test]
+fn replay_of_a_station_the_node_does_not_know_is_refused_before_sending() {
+    // config/node.toml's catalogue binds blocks to CI.RRS.00 and others, not XX.STN.: the
+    // node would count all the packets as unknown_station and ignore them.
+    let node_toml = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml");
+    let out = rockwatch(&[
+        "replay",
+        "--mseed",
+        data("mseed/k2_STNA_HN123_counts.mseed").to_str().unwrap(),
+        "--stationxml",
+        data("stationxml/obspy_XX.STN_k2.xml").to_str().unwrap(),
+        "--station",
+        "XX.STN.",
+        "--transport",
+        "iceoryx2",
+        "--config",
+        node_toml,
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with("rockwatch: error: station XX.STN. is neither in the [[stations]]")
+            && err.contains("unknown station")
+            && err.lines().count() == 1,
+        "{err}"
+    );
+}

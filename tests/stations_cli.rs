@@ -54,6 +54,7 @@ fn json_has_exactly_the_documented_keys_and_the_documents_values() {
         "gain_mps2_per_count",
         "usable",
         "reason",
+        "usable_with_differentiation",
     ];
     expected.sort_unstable();
     assert_eq!(keys, expected);
@@ -90,6 +91,15 @@ fn json_has_exactly_the_documented_keys_and_the_documents_values() {
         .as_str()
         .unwrap()
         .starts_with("velocity channel (M/S)"));
+    // ... and usable once differentiation is asked for; the accelerometer either way.
+    assert_eq!(hhz["usable_with_differentiation"], true);
+    assert_eq!(hne["usable_with_differentiation"], true);
+    let text = String::from_utf8(rockwatch(&["stations", "--stationxml", AND3]).stdout).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("IX.AND3.02.HHZ"))
+        .unwrap();
+    assert!(line.contains("with differentiation only"), "{line}");
 }
 
 #[test]

@@ -51,6 +51,17 @@ impl Server {
         }
     }
 
+    /// Adds records as station XX.`sta` (their MiniSEED 2 header's station code rewritten,
+    /// bytes 8..13, so they decode as that station).
+    pub fn push_as(&self, sta: &str, records: &[Vec<u8>]) {
+        for r in records {
+            let mut r = r.clone();
+            let code = format!("{sta:<5}");
+            r[8..13].copy_from_slice(&code.as_bytes()[..5]);
+            self.store.push("XX", sta, &r).unwrap();
+        }
+    }
+
     pub fn stop(self) {
         self.shutdown.shutdown();
         self.runtime.shutdown_timeout(Duration::from_secs(2));

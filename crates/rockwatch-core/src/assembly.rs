@@ -16,34 +16,46 @@
 //! - A component that lags: after `max_wait_ns` (caller's clock: wall time in `acquire`,
 //!   anything in tests) what is there is emitted with zeros for the missing samples, counted.
 //!
+//! - Velocity channels (only with `differentiate_velocity`): their counts are differentiated
+//!   on the grid ([`crate::differentiate`]: central differences, one-sided at the ends of a
+//!   contiguous run), continuously across records; a component's latest sample waits for its
+//!   successor, or for `max_wait_ns` like a missing component (then a backward difference).
+//!
 //! Work per record is bounded by the record; memory per station by `max_buffer_s`.
 
 use std::collections::{HashMap, VecDeque};
 
 use crate::azimuth::ChannelsToEnu;
+use crate::differentiate::Differentiator;
 use crate::engine::{AccelPacket, StationId};
-use crate::inventory::{Calibration, ChannelEpoch, Inventory, LookupError};
+use crate::inventory::{Calibration, ChannelEpoch, Inventory, LookupError, SensorInput};
 use crate::record::mseed::{Channel, MAX_ALIGNMENT_OFFSET_SAMPLES, NS_PER_S};
 
 /// Assembly settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AssemblyConfig {
     /// How long a span waits for a missing component before it is emitted without it (ns,
-    /// on the caller's clock).
+    /// on the caller's clock; `acquire` counts only time the link is up). Components arrive
+    /// record by record, each record when its digitizer filled it: this must exceed the
+    /// duration of one record of the slowest-filling component (a 512-byte Steim-2 record
+    /// holds up to ~8 s at 100 Hz), or live data would be zero-filled at record boundaries.
     pub max_wait_ns: i64,
     /// Most samples per packet (longer spans are cut).
     pub max_packet_samples: usize,
     /// Most data held per component waiting for the others (s of data); beyond, the oldest
     /// is emitted as if the wait had run out.
     pub max_buffer_s: f64,
+    /// Velocity channels are differentiated to acceleration (else refused).
+    pub differentiate_velocity: bool,
 }
 
 impl Default for AssemblyConfig {
     fn default() -> Self {
         AssemblyConfig {
-            max_wait_ns: 2 * NS_PER_S,
+            max_wait_ns: 30 * NS_PER_S,
             max_packet_samples: 1000,
             max_buffer_s: 600.0,
+            differentiate_velocity: false,
         }
     }
 }
@@ -61,6 +73,11 @@ pub struct AssemblyCounters {
     pub overlap_samples: u64,
     /// Samples emitted as zero because their component had not arrived in time.
     pub missing_component_samples: u64,
+    /// Records refused for starting more than `max_buffer_s` after what the station holds
+    /// (included in `refused_records`), and station grids restarted because its components
+    /// all moved there (an outage longer than `max_buffer_s`).
+    pub far_ahead_records: u64,
+    pub grid_restarts: u64,
 }
 
 /// Why a record was refused (the caller logs it once per stream).
@@ -76,6 +93,8 @@ pub enum RecordIssue {
     },
     #[error("{0}")]
     Grid(String),
+    #[error("{channel}: record starts {ahead_s:.0} s after the station's data, more than max_buffer_s; refused (the station's grid restarts there once its components all move on)")]
+    FarAhead { channel: String, ahead_s: f64 },
     #[error("{0}")]
     Orientation(String),
 }
@@ -88,8 +107,11 @@ struct Component {
     calibration: Calibration,
     /// The cached epoch `[from, to)` (ns); outside it, look up again.
     valid: EpochBounds,
-    /// Counts from grid index `emitted` on; NaN where nothing arrived.
+    /// Counts (velocity channels: counts per second, differentiated) from grid index
+    /// `emitted` on; NaN where nothing arrived.
     buffer: VecDeque<f64>,
+    /// The differentiator of a velocity channel.
+    diff: Option<Differentiator>,
 }
 
 #[derive(Debug)]
@@ -105,6 +127,8 @@ struct StationAssembly {
     /// Caller time since which data beyond `emitted` has waited for a lagging component.
     waiting_since: Option<i64>,
     sequence: u64,
+    /// Records in a row refused as far ahead (kept, to be placed if the grid restarts).
+    far_ahead: Vec<Channel>,
 }
 
 /// The assembler of every station.
@@ -116,6 +140,8 @@ pub struct Assembler {
     config: AssemblyConfig,
     stations: HashMap<String, StationAssembly>,
     counters: AssemblyCounters,
+    /// (grid index, value) of the record being placed (reused).
+    scratch: Vec<(i64, f64)>,
 }
 
 impl Assembler {
@@ -132,6 +158,7 @@ impl Assembler {
             config,
             stations: HashMap::new(),
             counters: AssemblyCounters::default(),
+            scratch: Vec::new(),
         }
     }
 
@@ -150,11 +177,44 @@ impl Assembler {
         out: &mut dyn FnMut(AccelPacket),
     ) -> Result<(), RecordIssue> {
         self.counters.records += 1;
-        let result = self.place(record, now_ns);
+        let key = format!("{}.{}.{}", record.net, record.sta, record.loc);
+        let mut result = self.place(record, now_ns);
+        if matches!(result, Err(RecordIssue::FarAhead { .. })) {
+            self.counters.far_ahead_records += 1;
+            // Every component (as many records in a row) has moved on: an outage longer than
+            // max_buffer_s, not one bad time stamp. What is held goes out (missing parts as
+            // zeros), and the station starts again on a grid at this record (a gap for the
+            // engine) — no buffer spanning the outage is ever allocated.
+            let restart = self
+                .stations
+                .get(&key)
+                .is_some_and(|s| s.far_ahead.len() >= s.components.len().max(2));
+            if restart {
+                let mut earlier = Vec::new();
+                if let Some(mut station) = self.stations.remove(&key) {
+                    flush_derivatives(&mut station, &mut self.counters);
+                    emit_ready(
+                        &mut station,
+                        &self.config,
+                        &mut self.counters,
+                        i64::MAX,
+                        out,
+                    );
+                    earlier = std::mem::take(&mut station.far_ahead);
+                }
+                self.counters.grid_restarts += 1;
+                // The records refused on the way are placed after all, in arrival order.
+                if let Some((_current, before)) = earlier.split_last() {
+                    for r in before {
+                        let _ = self.place(r, now_ns);
+                    }
+                }
+                result = self.place(record, now_ns);
+            }
+        }
         if result.is_err() {
             self.counters.refused_records += 1;
         }
-        let key = format!("{}.{}.{}", record.net, record.sta, record.loc);
         if let Some(station) = self.stations.get_mut(&key) {
             emit_ready(station, &self.config, &mut self.counters, now_ns, out);
         }
@@ -164,6 +224,9 @@ impl Assembler {
     /// Emits what has waited longer than `max_wait_ns` at `now_ns` (call regularly).
     pub fn tick(&mut self, now_ns: i64, out: &mut dyn FnMut(AccelPacket)) {
         for station in self.stations.values_mut() {
+            if station.timed_out(&self.config, now_ns) {
+                flush_derivatives(station, &mut self.counters);
+            }
             emit_ready(station, &self.config, &mut self.counters, now_ns, out);
         }
     }
@@ -171,6 +234,7 @@ impl Assembler {
     /// Emits everything held, missing components as zeros (at shutdown).
     pub fn flush(&mut self, out: &mut dyn FnMut(AccelPacket)) {
         for station in self.stations.values_mut() {
+            flush_derivatives(station, &mut self.counters);
             emit_ready(station, &self.config, &mut self.counters, i64::MAX, out);
         }
     }
@@ -212,9 +276,22 @@ impl Assembler {
         let (from, to) = station.components[slot].valid;
         if from.is_some_and(|f| t_ns < f) || to.is_some_and(|e| t_ns >= e) {
             let inventory = self.inventory.get(&key).unwrap_or(&self.empty);
-            let (calibration, valid) = lookup(inventory, &id, t_ns, record.sample_rate_hz)?;
-            station.components[slot].calibration = calibration;
-            station.components[slot].valid = valid;
+            let (calibration, valid) = lookup(
+                inventory,
+                &id,
+                t_ns,
+                record.sample_rate_hz,
+                self.config.differentiate_velocity,
+            )?;
+            let c = &mut station.components[slot];
+            c.calibration = calibration;
+            c.valid = valid;
+            match calibration.input {
+                SensorInput::Velocity => {
+                    c.diff.get_or_insert_with(Differentiator::new);
+                }
+                SensorInput::Acceleration => c.diff = None,
+            }
             let axes: Vec<_> = station
                 .components
                 .iter()
@@ -229,6 +306,23 @@ impl Assembler {
                 record.sample_rate_hz, station.rate_hz
             )));
         }
+        let limit = (self.config.max_buffer_s * station.rate_hz) as i64;
+        let ahead = record
+            .segments
+            .iter()
+            .map(|s| ((s.start_time_ns - station.t0_ns) as f64 * station.rate_hz * 1e-9).round())
+            .fold(f64::MIN, f64::max);
+        if ahead - station.emitted as f64 > limit.max(1) as f64 {
+            // Bounded: at most one record per component is kept.
+            if station.far_ahead.len() <= station.components.len() {
+                station.far_ahead.push(record.clone());
+            }
+            return Err(RecordIssue::FarAhead {
+                channel: id,
+                ahead_s: (ahead - station.emitted as f64) / station.rate_hz,
+            });
+        }
+        station.far_ahead.clear();
         for segment in &record.segments {
             let exact = (segment.start_time_ns - station.t0_ns) as f64 * station.rate_hz * 1e-9;
             let k = exact.round();
@@ -241,7 +335,6 @@ impl Assembler {
             }
             let mut k = k as i64;
             let mut samples = &segment.samples[..];
-            let limit = (self.config.max_buffer_s * station.rate_hz) as i64;
             if k < 0 && station.sequence == 0 && -k <= limit {
                 // Nothing emitted yet: the grid starts at the earliest record (records of
                 // the components arrive in any order after a (re)start).
@@ -250,35 +343,43 @@ impl Assembler {
                     for _ in 0..-k {
                         c.buffer.push_front(f64::NAN);
                     }
+                    if let Some(d) = &mut c.diff {
+                        d.shift(-k);
+                    }
                 }
                 k = 0;
             }
-            if k < station.emitted {
-                let skip = ((station.emitted - k) as usize).min(samples.len());
-                self.counters.overlap_samples += skip as u64;
-                samples = &samples[skip..];
-                k = station.emitted;
-            }
-            if samples.is_empty() {
-                continue;
-            }
-            let offset = (k - station.emitted) as usize;
-            if (offset + samples.len()) as i64 > limit.max(1) {
-                // Too far ahead of a lagging component: give up waiting for the old data.
-                station.waiting_since = Some(i64::MIN);
-            }
-            let buffer = &mut station.components[slot].buffer;
-            if buffer.len() < offset + samples.len() {
-                buffer.resize(offset + samples.len(), f64::NAN);
-            }
-            for (i, &x) in samples.iter().enumerate() {
-                let cell = &mut buffer[offset + i];
-                if cell.is_nan() {
-                    *cell = x;
-                } else {
-                    self.counters.overlap_samples += 1;
+            let rate_hz = station.rate_hz;
+            let scratch = &mut self.scratch;
+            scratch.clear();
+            match &mut station.components[slot].diff {
+                Some(diff) => {
+                    for (i, &x) in samples.iter().enumerate() {
+                        let taken = diff.push(k + i as i64, x, &mut |j, d| {
+                            scratch.push((j, d * rate_hz));
+                        });
+                        if !taken {
+                            self.counters.overlap_samples += 1;
+                        }
+                    }
+                }
+                None => {
+                    if k < station.emitted {
+                        let skip = ((station.emitted - k) as usize).min(samples.len());
+                        self.counters.overlap_samples += skip as u64;
+                        samples = &samples[skip..];
+                        k = station.emitted;
+                    }
+                    scratch.extend(samples.iter().enumerate().map(|(i, &x)| (k + i as i64, x)));
                 }
             }
+            if let Some(&(last, _)) = scratch.last() {
+                if last - station.emitted + 1 > limit.max(1) {
+                    // Too far ahead of a lagging component: give up waiting for the old data.
+                    station.waiting_since = Some(i64::MIN);
+                }
+            }
+            put(station, slot, scratch, &mut self.counters);
         }
         if station.waiting_since.is_none() {
             station.waiting_since = Some(now_ns);
@@ -298,6 +399,7 @@ impl Assembler {
         let id = StationId::parse(key).map_err(|e| RecordIssue::Grid(format!("{key}: {e}")))?;
         // The components: the inventory's channels of this band at this time, by code.
         let prefix = format!("{key}.{band}");
+        let differentiate = self.config.differentiate_velocity;
         let mut codes: Vec<String> = inventory
             .channels
             .iter()
@@ -309,16 +411,24 @@ impl Assembler {
         codes.dedup();
         if codes.is_empty() || !codes.contains(&record.id()) {
             // Names the channel: not in the inventory at all, or no epoch at this time.
-            lookup(inventory, &record.id(), t_ns, record.sample_rate_hz)?;
+            lookup(
+                inventory,
+                &record.id(),
+                t_ns,
+                record.sample_rate_hz,
+                differentiate,
+            )?;
         }
         let mut components = Vec::with_capacity(codes.len());
         for code in &codes {
-            let (calibration, valid) = lookup(inventory, code, t_ns, record.sample_rate_hz)?;
+            let (calibration, valid) =
+                lookup(inventory, code, t_ns, record.sample_rate_hz, differentiate)?;
             components.push(Component {
                 id: code.clone(),
                 calibration,
                 valid,
                 buffer: VecDeque::new(),
+                diff: (calibration.input == SensorInput::Velocity).then(Differentiator::new),
             });
         }
         let axes: Vec<_> = components
@@ -338,6 +448,7 @@ impl Assembler {
             to_enu,
             waiting_since: None,
             sequence: 0,
+            far_ahead: Vec::new(),
         })
     }
 }
@@ -351,8 +462,9 @@ fn lookup(
     id: &str,
     t_ns: i128,
     rate_hz: f64,
+    differentiate_velocity: bool,
 ) -> Result<(Calibration, EpochBounds), LookupError> {
-    let calibration = inventory.calibration_at(id, t_ns, rate_hz)?;
+    let calibration = inventory.calibration_at_with(id, t_ns, rate_hz, differentiate_velocity)?;
     let valid = inventory
         .epoch_at(id, t_ns)
         .map_or((None, None), |e| (e.start_ns, e.end_ns));
@@ -362,6 +474,61 @@ fn lookup(
 impl StationAssembly {
     fn time_ns(&self, index: i64) -> i64 {
         self.t0_ns + (index as f64 * 1e9 / self.rate_hz).round() as i64
+    }
+
+    /// Whether what waits has waited `max_wait_ns` at `now_ns`.
+    fn timed_out(&self, config: &AssemblyConfig, now_ns: i64) -> bool {
+        self.waiting_since
+            .is_some_and(|since| now_ns.saturating_sub(since) >= config.max_wait_ns)
+    }
+
+    /// Whether a velocity component holds a sample for its successor.
+    fn holds_derivative(&self) -> bool {
+        self.components
+            .iter()
+            .any(|c| c.diff.is_some_and(|d| d.held_index().is_some()))
+    }
+}
+
+/// Puts (grid index, value) samples into component `slot`'s buffer: before `emitted` or
+/// where a value is already, counted as overlap.
+fn put(
+    station: &mut StationAssembly,
+    slot: usize,
+    samples: &[(i64, f64)],
+    counters: &mut AssemblyCounters,
+) {
+    let emitted = station.emitted;
+    let buffer = &mut station.components[slot].buffer;
+    for &(j, x) in samples {
+        if j < emitted {
+            counters.overlap_samples += 1;
+            continue;
+        }
+        let offset = (j - emitted) as usize;
+        if buffer.len() <= offset {
+            buffer.resize(offset + 1, f64::NAN);
+        }
+        let cell = &mut buffer[offset];
+        if cell.is_nan() {
+            *cell = x;
+        } else {
+            counters.overlap_samples += 1;
+        }
+    }
+}
+
+/// The wait is over: the velocity components' held samples get their backward difference.
+fn flush_derivatives(station: &mut StationAssembly, counters: &mut AssemblyCounters) {
+    let rate_hz = station.rate_hz;
+    for slot in 0..station.components.len() {
+        let mut flushed = None;
+        if let Some(d) = &mut station.components[slot].diff {
+            d.flush(&mut |j, v| flushed = Some((j, v * rate_hz)));
+        }
+        if let Some(sample) = flushed {
+            put(station, slot, &[sample], counters);
+        }
     }
 }
 
@@ -383,12 +550,12 @@ fn emit_ready(
             .max()
             .unwrap_or(0);
         if longest == 0 {
-            station.waiting_since = None;
+            if !station.holds_derivative() {
+                station.waiting_since = None;
+            }
             return;
         }
-        let timed_out = station
-            .waiting_since
-            .is_some_and(|since| now_ns.saturating_sub(since) >= config.max_wait_ns);
+        let timed_out = station.timed_out(config, now_ns);
         // A gap in every component: skip it once each has data after it (or the wait is over).
         let empty = (0..longest)
             .take_while(|&i| station.components.iter().all(|c| !has(c, i)))
@@ -655,6 +822,49 @@ mod tests {
         assert_eq!(out.len(), 1);
         assert_eq!((out[0].start_time_ns, out[0].len()), (60_000_000, 8));
         assert_eq!(asm.counters().overlap_samples, 0);
+    }
+
+    #[test]
+    fn a_record_far_ahead_is_refused_and_an_outage_restarts_the_grid_without_a_huge_buffer() {
+        let mut asm = Assembler::new(inventory(), AssemblyConfig::default());
+        let x = [1.0; 4];
+        let all = |k| {
+            [
+                record("HN1", k, &x),
+                record("HN2", k, &x),
+                record("HN3", k, &x),
+            ]
+        };
+        let mut out = run(&mut asm, &all(0), 0);
+        // One record stamped a year ahead (a bad time stamp): refused, the stream goes on.
+        let year = 365 * 86_400 * 100;
+        let mut sink = |p: AccelPacket| out.push(p);
+        let e = asm
+            .push(&record("HN1", year, &x), 0, &mut sink)
+            .unwrap_err();
+        assert!(matches!(e, RecordIssue::FarAhead { .. }), "{e}");
+        for r in all(4) {
+            asm.push(&r, 0, &mut sink).unwrap();
+        }
+        assert_eq!(asm.emitted_until_ns("XX.S."), Some(80_000_000));
+        // An outage of a year: every component moves on; the third record restarts the grid
+        // there (the first two are refused, counted, kept and placed then), no year-long
+        // buffer is allocated.
+        let later = all(year);
+        assert!(asm.push(&later[0], 0, &mut sink).is_err());
+        assert!(asm.push(&later[1], 0, &mut sink).is_err());
+        asm.push(&later[2], 0, &mut sink).unwrap();
+        for r in all(year + 4) {
+            asm.push(&r, 0, &mut sink).unwrap();
+        }
+        let c = asm.counters();
+        // The two records refused on the way were kept and placed after the restart.
+        assert_eq!(c.missing_component_samples, 0);
+        assert_eq!((c.far_ahead_records, c.grid_restarts), (4, 1));
+        assert_eq!(
+            out.last().map(|p| p.start_time_ns),
+            Some((year + 4) * 10_000_000)
+        );
     }
 
     #[test]

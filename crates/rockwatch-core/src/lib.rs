@@ -9,6 +9,7 @@
 pub mod assembly;
 pub mod azimuth;
 pub mod catalogue;
+pub mod differentiate;
 pub mod dynamics;
 pub mod engine;
 pub mod fragility;

@@ -4,9 +4,9 @@
 //! [`AccelPacket`](rockwatch_core::engine::AccelPacket)s published to the node through a
 //! [`PacketSink`] (iceoryx2 or ROS 2). Configuration: `config/acquire.toml` (every key).
 
-use std::collections::BTreeSet;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use rockwatch_core::assembly::{Assembler, AssemblyConfig, AssemblyCounters};
 use rockwatch_core::inventory::Inventory;
@@ -14,9 +14,10 @@ use rockwatch_core::record::mseed::{Channel, NS_PER_S};
 
 use crate::iox::IoxConfig;
 use crate::log_text::{printable, STATION_CHARS};
+use crate::node::RateLimitedLog;
 use crate::ports::PacketSink;
 use crate::ros2::Ros2Config;
-use crate::seedlink::{RecordSink, SeedLinkConfig};
+use crate::seedlink::{RecordSink, SeedLinkConfig, LOG_INTERVAL};
 
 /// The acquisition configuration file.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
@@ -26,6 +27,8 @@ pub struct AcquireConfig {
     pub inventory: InventorySection,
     #[serde(default)]
     pub assembly: AssemblySection,
+    #[serde(default)]
+    pub clipping: ClippingSection,
     /// Where the SeedLink resume state is kept (overridden by `--state-dir`).
     #[serde(default)]
     pub state_dir: Option<PathBuf>,
@@ -43,6 +46,69 @@ pub struct AcquireConfig {
 pub struct InventorySection {
     /// StationXML files (relative to the configuration file).
     pub stationxml: Vec<PathBuf>,
+    /// Velocity channels (input units M/S) are differentiated to acceleration in the core
+    /// (`rockwatch_core::differentiate`); without it they are refused.
+    #[serde(default)]
+    pub differentiate_velocity: bool,
+}
+
+/// `[clipping]`: the digitizer's full scale in raw counts, for flagging clipped samples.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ClippingSection {
+    /// Full scale (counts) of every stream not listed in `streams`: 8388607 = 2^23 − 1, the
+    /// largest count of a 24-bit digitizer.
+    pub full_scale_counts: f64,
+    /// Per `NET.STA.LOC.CHA` (a stream) or `NET.STA.LOC` (every stream of a station): its
+    /// full scale in counts.
+    pub streams: BTreeMap<String, f64>,
+}
+
+impl Default for ClippingSection {
+    fn default() -> Self {
+        ClippingSection {
+            full_scale_counts: DEFAULT_FULL_SCALE_COUNTS,
+            streams: BTreeMap::new(),
+        }
+    }
+}
+
+/// 2^23 − 1: the largest count of a 24-bit digitizer.
+pub const DEFAULT_FULL_SCALE_COUNTS: f64 = 8_388_607.0;
+
+impl ClippingSection {
+    /// The full scale of stream `id` (`NET.STA.LOC.CHA`): its own, its station's, or the
+    /// default.
+    #[must_use]
+    pub fn full_scale(&self, id: &str) -> f64 {
+        if let Some(&fs) = self.streams.get(id) {
+            return fs;
+        }
+        let station = id.rsplit_once('.').map_or(id, |(s, _)| s);
+        self.streams
+            .get(station)
+            .copied()
+            .unwrap_or(self.full_scale_counts)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        let ok = |v: f64| v.is_finite() && v > 0.0;
+        if !ok(self.full_scale_counts) {
+            return Err(format!(
+                "[clipping] full_scale_counts must be > 0, got {}",
+                self.full_scale_counts
+            ));
+        }
+        for (id, &v) in &self.streams {
+            let parts = id.split('.').count();
+            if !(parts == 3 || parts == 4) || !ok(v) {
+                return Err(format!(
+                    "[clipping.streams] {id:?} = {v}: keys are NET.STA.LOC or NET.STA.LOC.CHA, values counts > 0"
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// `[assembly]`.
@@ -83,6 +149,7 @@ impl AcquireConfig {
         config.state_dir = config.state_dir.map(|d| base.join(d));
         config.iceoryx2.config_file = config.iceoryx2.config_file.map(|f| base.join(f));
         config.seedlink.patterns().map_err(fail)?;
+        config.clipping.check().map_err(fail)?;
         if config.inventory.stationxml.is_empty() {
             return Err(fail(
                 "inventory.stationxml is empty: list the StationXML files".into(),
@@ -110,6 +177,7 @@ impl AcquireConfig {
             max_wait_ns: (self.assembly.max_wait_s * 1e9) as i64,
             max_packet_samples: self.assembly.max_packet_samples,
             max_buffer_s: self.assembly.max_buffer_s,
+            differentiate_velocity: self.inventory.differentiate_velocity,
         }
     }
 }
@@ -119,27 +187,45 @@ impl AcquireConfig {
 pub struct PublishCounters {
     pub packets_sent: u64,
     pub send_errors: u64,
+    /// Raw samples at or beyond their stream's full scale (`[clipping]`): used, flagged here.
+    pub clipped_samples: u64,
+    /// Records holding at least one clipped sample.
+    pub clipped_records: u64,
 }
 
 /// The record sink of `acquire`: assembles records into packets and sends them.
 pub struct PacketPublisher<'a> {
     assembler: Assembler,
     sink: &'a mut dyn PacketSink,
+    /// The assembler's clock: time the SeedLink link was up (a component is not missing
+    /// while nothing can be fetched).
     clock: Instant,
+    /// Time the link was down before the current state, and since when it is down now.
+    offline: Duration,
+    offline_since: Option<Instant>,
     counters: PublishCounters,
-    /// (stream, problem) already logged.
-    logged: BTreeSet<(String, String)>,
+    clipping: ClippingSection,
+    /// Per stream and kind (`clipped`, `refused`): at most one line per [`LOG_INTERVAL`].
+    log: RateLimitedLog,
 }
 
 impl<'a> PacketPublisher<'a> {
     #[must_use]
-    pub fn new(inventory: Inventory, config: AssemblyConfig, sink: &'a mut dyn PacketSink) -> Self {
+    pub fn new(
+        inventory: Inventory,
+        config: AssemblyConfig,
+        clipping: ClippingSection,
+        sink: &'a mut dyn PacketSink,
+    ) -> Self {
         PacketPublisher {
             assembler: Assembler::new(inventory, config),
             sink,
             clock: Instant::now(),
+            offline: Duration::ZERO,
+            offline_since: Some(Instant::now()),
             counters: PublishCounters::default(),
-            logged: BTreeSet::new(),
+            clipping,
+            log: RateLimitedLog::with_interval(LOG_INTERVAL),
         }
     }
 
@@ -148,8 +234,14 @@ impl<'a> PacketPublisher<'a> {
         (self.counters, self.assembler.counters())
     }
 
+    /// Nanoseconds the link has been up since the publisher started.
     fn now_ns(&self) -> i64 {
-        i64::try_from(self.clock.elapsed().as_nanos()).unwrap_or(i64::MAX)
+        let down = self.offline
+            + self
+                .offline_since
+                .map_or_else(Default::default, |t| t.elapsed());
+        let up = self.clock.elapsed().saturating_sub(down);
+        i64::try_from(up.as_nanos()).unwrap_or(i64::MAX)
     }
 }
 
@@ -174,20 +266,36 @@ fn send_all<'s>(
 
 impl RecordSink for PacketPublisher<'_> {
     fn record(&mut self, record: &Channel) -> bool {
+        let full_scale = self.clipping.full_scale(&record.id());
+        let clipped = record
+            .segments
+            .iter()
+            .flat_map(|s| &s.samples)
+            .filter(|x| x.abs() >= full_scale)
+            .count();
+        if clipped > 0 {
+            self.counters.clipped_samples += clipped as u64;
+            self.counters.clipped_records += 1;
+            self.log.log(
+                &record.id(),
+                "clipped",
+                &format!(
+                    "acquire: {clipped} samples at or beyond the full scale ±{full_scale} counts (used; the shaking was larger; counted, logged at most once a minute)"
+                ),
+            );
+        }
         let now = self.now_ns();
         let mut send = send_all(&mut *self.sink, &mut self.counters);
         let result = self.assembler.push(record, now, &mut send);
         drop(send);
         if let Err(issue) = result {
-            let id = record.id();
-            let problem = issue.to_string();
-            if self.logged.len() < 10_000 && self.logged.insert((id.clone(), problem.clone())) {
-                tracing::warn!(
-                    "acquire: {}: {} (record dropped; logged once, counted)",
-                    printable(&id, STATION_CHARS),
-                    printable(&problem, 300)
-                );
-            }
+            self.log.log(
+                &record.id(),
+                "refused",
+                &format!(
+                    "acquire: {issue} (record dropped; counted, logged at most once a minute)"
+                ),
+            );
             return false;
         }
         let station = format!("{}.{}.{}", record.net, record.sta, record.loc);
@@ -203,6 +311,17 @@ impl RecordSink for PacketPublisher<'_> {
         self.assembler.emitted_until_ns(station)
     }
 
+    fn link(&mut self, up: bool) {
+        match (up, self.offline_since) {
+            (true, Some(since)) => {
+                self.offline += since.elapsed();
+                self.offline_since = None;
+            }
+            (false, None) => self.offline_since = Some(Instant::now()),
+            _ => {}
+        }
+    }
+
     fn tick(&mut self) {
         let now = self.now_ns();
         let mut send = send_all(&mut *self.sink, &mut self.counters);
@@ -213,6 +332,105 @@ impl RecordSink for PacketPublisher<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::seedlink::RecordSink;
+    use rockwatch_core::engine::AccelPacket;
+    use rockwatch_core::record::mseed::read_mseed;
+
+    /// Collects what is published.
+    #[derive(Default)]
+    struct Collect(Vec<AccelPacket>);
+
+    impl PacketSink for Collect {
+        fn wait_for_subscriber(&mut self, _: Duration) -> anyhow::Result<bool> {
+            Ok(true)
+        }
+        fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()> {
+            self.0.push(packet.clone());
+            Ok(())
+        }
+    }
+
+    fn k2() -> (Inventory, Vec<Channel>) {
+        let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data"));
+        let inventory = Inventory::read(&root.join("stationxml/obspy_XX.STN_k2.xml")).unwrap();
+        let file = read_mseed(&root.join("mseed/k2_STNA_HN123_counts.mseed")).unwrap();
+        (inventory, file.channels)
+    }
+
+    #[test]
+    fn clipped_unknown_and_uncalibrated_streams_are_counted_and_the_others_go_on() {
+        let (mut inventory, channels) = k2();
+        // An absurd gain on a second station's channel (1 count = 1e6 m/s²).
+        let mut absurd = inventory.channels[0].clone();
+        absurd.station = "ABS".into();
+        if let Some(s) = &mut absurd.sensitivity {
+            s.value = 1e-6;
+        }
+        inventory.channels.push(absurd);
+        let mut sink = Collect::default();
+        let clipping = ClippingSection {
+            full_scale_counts: DEFAULT_FULL_SCALE_COUNTS,
+            // HN2 of XX.STN. has a (made-up) 16-bit full scale; the rest the 24-bit default.
+            streams: BTreeMap::from([("XX.STN..HN2".to_string(), 1000.0)]),
+        };
+        let mut publisher =
+            PacketPublisher::new(inventory, AssemblyConfig::default(), clipping, &mut sink);
+        publisher.link(true);
+        let mut expected_clipped = 0;
+        for original in &channels {
+            let mut c = original.clone();
+            if c.cha == "HN1" {
+                // Two samples at and beyond the 24-bit full scale.
+                c.segments[0].samples[10] = DEFAULT_FULL_SCALE_COUNTS;
+                c.segments[0].samples[11] = -DEFAULT_FULL_SCALE_COUNTS - 1.0;
+                expected_clipped += 2;
+            }
+            if c.cha == "HN2" {
+                expected_clipped += c.segments[0]
+                    .samples
+                    .iter()
+                    .filter(|x| x.abs() >= 1000.0)
+                    .count();
+            }
+            publisher.record(&c);
+            // Records of a channel missing from the inventory, an unknown station and the
+            // absurd gain: refused, counted; XX.STN. goes on.
+            for (sta, cha) in [("STN", "HNX"), ("UNK", "HN1"), ("ABS", c.cha.as_str())] {
+                let mut other = original.clone();
+                other.sta = sta.into();
+                other.cha = cha.into();
+                assert!(!publisher.record(&other));
+            }
+        }
+        assert!(
+            expected_clipped > 2,
+            "the test needs HN2 samples beyond 1000 counts"
+        );
+        let (published, assembled) = publisher.counters();
+        assert_eq!(published.clipped_samples, expected_clipped as u64);
+        assert_eq!(published.clipped_records, 2);
+        assert_eq!(assembled.refused_records, 9);
+        drop(publisher);
+        let samples: usize = sink.0.iter().map(AccelPacket::len).sum();
+        assert_eq!(samples, 8250, "every XX.STN. sample published");
+    }
+
+    #[test]
+    fn full_scale_is_the_streams_the_stations_or_the_default() {
+        let c = ClippingSection {
+            full_scale_counts: 100.0,
+            streams: BTreeMap::from([("XX.S..HN1".to_string(), 1.0), ("XX.S.".to_string(), 2.0)]),
+        };
+        assert_eq!(c.full_scale("XX.S..HN1"), 1.0);
+        assert_eq!(c.full_scale("XX.S..HN2"), 2.0);
+        assert_eq!(c.full_scale("XX.T..HN2"), 100.0);
+        assert!(ClippingSection {
+            streams: BTreeMap::from([("XX".to_string(), 1.0)]),
+            ..ClippingSection::default()
+        }
+        .check()
+        .is_err());
+    }
 
     #[test]
     fn the_documented_configuration_loads_with_paths_relative_to_it() {
@@ -231,6 +449,29 @@ mod tests {
             .config_file
             .unwrap()
             .ends_with("config/iceoryx2.toml"));
+    }
+
+    #[test]
+    fn velocity_differentiation_and_clipping_are_configured_by_their_keys() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.toml");
+        std::fs::write(
+            &path,
+            "[seedlink]\nserver = \"h:1\"\nstreams = [\"XX.S..HH?\"]\n[inventory]\nstationxml = [\"x.xml\"]\ndifferentiate_velocity = true\n[clipping]\nfull_scale_counts = 32767.0\n[clipping.streams]\n\"XX.S..HHZ\" = 1000.0\n",
+        )
+        .unwrap();
+        let config = AcquireConfig::load(&path).unwrap();
+        assert!(config.assembly_config().differentiate_velocity);
+        assert_eq!(config.clipping.full_scale("XX.S..HHZ"), 1000.0);
+        assert_eq!(config.clipping.full_scale("XX.S..HHN"), 32767.0);
+        // Off by default.
+        let d = AcquireConfig::load(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/acquire.toml"
+        )))
+        .unwrap();
+        assert!(!d.assembly_config().differentiate_velocity);
+        assert_eq!(d.clipping, ClippingSection::default());
     }
 
     #[test]

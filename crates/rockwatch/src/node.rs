@@ -256,8 +256,9 @@ impl InputTotals {
 }
 
 /// Logs at most one line per (station, kind) every `interval`, with the count suppressed.
+/// The one rate-limited log of the shell (the node's notices, `acquire`'s per-stream problems).
 #[derive(Debug)]
-struct RateLimitedLog {
+pub(crate) struct RateLimitedLog {
     interval: Duration,
     last: HashMap<(String, &'static str), (Instant, u64)>,
 }
@@ -268,14 +269,21 @@ const LOG_MAX_KEYS: usize = 4096;
 
 impl RateLimitedLog {
     /// At most one line per (station, kind) every 10 s.
-    fn new() -> RateLimitedLog {
+    pub(crate) fn new() -> RateLimitedLog {
+        Self::with_interval(Duration::from_secs(10))
+    }
+
+    /// At most one line per (station, kind) every `interval`.
+    pub(crate) fn with_interval(interval: Duration) -> RateLimitedLog {
         RateLimitedLog {
-            interval: Duration::from_secs(10),
+            interval,
             last: HashMap::new(),
         }
     }
 
-    fn log(&mut self, station: &str, kind: &'static str, message: &str) {
+    /// Logs `message` unless a line of this (station, kind) was written within the
+    /// interval (then it is counted, and the next line says how many).
+    pub(crate) fn log(&mut self, station: &str, kind: &'static str, message: &str) {
         let now = Instant::now();
         let mut key = (printable(station, STATION_CHARS), kind);
         if self.last.len() >= LOG_MAX_KEYS && !self.last.contains_key(&key) {

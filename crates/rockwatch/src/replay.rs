@@ -7,9 +7,10 @@ use std::path::Path;
 use crate::node_config::NodeConfig;
 use crate::ports::PacketSink;
 use rockwatch_core::azimuth::{Azimuth, ChannelsToEnu};
+use rockwatch_core::differentiate::differentiate;
 use rockwatch_core::engine::packet::MAX_SAMPLES_PER_PACKET;
 use rockwatch_core::engine::{AccelPacket, Orientation, StationId};
-use rockwatch_core::inventory::Inventory;
+use rockwatch_core::inventory::{Inventory, SensorInput};
 use rockwatch_core::record::mseed::{
     align_channels, read_mseed, AlignedChannels, Channel, GapFill, SampleKind,
 };
@@ -72,6 +73,92 @@ impl<'a> MseedCalibration<'a> {
     }
 }
 
+/// Which of a station's MiniSEED channels are used, and what is done with velocity channels.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ChannelChoice {
+    /// A channel-code pattern (`?` one character, `*` any run), e.g. `HN?` from
+    /// `--channels`. `None`: the station's one sensor, or among several the
+    /// one accelerometer (instrument code `N`).
+    pub channels: Option<String>,
+    /// With an inventory, velocity channels (input units M/S) are differentiated to
+    /// acceleration (`rockwatch_core::differentiate`) instead of refused.
+    pub differentiate_velocity: bool,
+}
+
+/// The band + instrument code of a channel (`HN` of `HNZ`).
+fn sensor_code(c: &Channel) -> String {
+    c.cha.chars().take(2).collect()
+}
+
+/// The channels of one sensor among `mine` (a station's): those matching `choice.channels`,
+/// which must all share one band + instrument code; else, when the station has several
+/// sensors, the one accelerometer (instrument code `N`, as in `HN?`; SEED: N = accelerometer).
+/// Several sensors and no single accelerometer: an error naming them and `--channels`.
+fn choose_channels<'c>(
+    mine: &[&'c Channel],
+    station: &StationId,
+    choice: &ChannelChoice,
+) -> Result<Vec<&'c Channel>, String> {
+    let codes = |cs: &[&Channel]| {
+        let mut v: Vec<String> = cs.iter().map(|c| format!("{}?", sensor_code(c))).collect();
+        v.sort();
+        v.dedup();
+        v
+    };
+    let all: Vec<String> = mine.iter().map(|c| c.cha.clone()).collect();
+    let candidates: Vec<&Channel> = match &choice.channels {
+        Some(pattern) => {
+            let p = rockwatch_core::seedlink::select::StreamPattern::parse(&format!(
+                "{station}.{pattern}"
+            ))
+            .map_err(|e| format!("--channels {pattern:?}: {e}"))?;
+            let matching: Vec<&Channel> = mine
+                .iter()
+                .copied()
+                .filter(|c| p.matches(&c.net, &c.sta, &c.loc, &c.cha))
+                .collect();
+            if matching.is_empty() {
+                return Err(format!(
+                    "--channels {pattern:?} matches no channel of station {station} (channels: {})",
+                    all.join(", ")
+                ));
+            }
+            matching
+        }
+        None => mine.to_vec(),
+    };
+    let sensors = codes(&candidates);
+    if sensors.len() <= 1 {
+        return Ok(candidates);
+    }
+    if choice.channels.is_some() {
+        return Err(format!(
+            "--channels matches channels of several sensors of station {station} ({}): give one band and instrument code, e.g. --channels {}",
+            sensors.join(", "),
+            sensors[0]
+        ));
+    }
+    let accelerometers: Vec<&String> = sensors
+        .iter()
+        .filter(|c| c.chars().nth(1) == Some('N'))
+        .collect();
+    match accelerometers.as_slice() {
+        [one] => {
+            let code = &one[..2];
+            Ok(candidates
+                .into_iter()
+                .filter(|c| sensor_code(c) == code)
+                .collect())
+        }
+        _ => Err(format!(
+            "station {station} has channels of several sensors ({}) and {} accelerometer (instrument code N): choose one with --channels, e.g. --channels {}",
+            sensors.join(", "),
+            if accelerometers.is_empty() { "no" } else { "more than one" },
+            sensors[0]
+        )),
+    }
+}
+
 /// Three aligned components (m/s², or counts for integer MiniSEED) with their timing.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Traces {
@@ -103,8 +190,18 @@ impl Traces {
         }
     }
 
-    /// The channels of `station` in a MiniSEED file: …E or …1 first, …N or …2 second, …Z or
-    /// …3 third (a missing horizontal is zero). Gaps inside the file are filled linearly; the
+    /// [`Traces::from_mseed_with`] with the default [`ChannelChoice`].
+    pub fn from_mseed(
+        path: &Path,
+        station: &StationId,
+        calibration: MseedCalibration<'_>,
+    ) -> Result<Traces, RecordError> {
+        Self::from_mseed_with(path, station, calibration, &ChannelChoice::default())
+    }
+
+    /// The channels of `station` in a MiniSEED file, of one sensor ([`ChannelChoice`]: a
+    /// `--channels` pattern, else the station's accelerometer when it has several sensors):
+    /// …E or …1 first, …N or …2 second, …Z or …3 third (a missing horizontal is zero). Gaps inside the file are filled linearly; the
     /// channels are aligned and cut to their common time window by [`align_channels`] (same
     /// rate, sample instants within
     /// [`MAX_ALIGNMENT_OFFSET_SAMPLES`](rockwatch_core::record::mseed::MAX_ALIGNMENT_OFFSET_SAMPLES)
@@ -115,11 +212,13 @@ impl Traces {
     /// - [`MseedCalibration::Inventory`]: each channel's gain, azimuth and dip come from the
     ///   inventory epoch containing the first common sample (its rate must match); the counts
     ///   are calibrated and rotated to m/s² on east/north/up ([`ChannelsToEnu`]), whatever the
-    ///   channels are called.
-    pub fn from_mseed(
+    ///   channels are called. Velocity channels are differentiated first when
+    ///   `choice.differentiate_velocity`, else refused.
+    pub fn from_mseed_with(
         path: &Path,
         station: &StationId,
         calibration: MseedCalibration<'_>,
+        choice: &ChannelChoice,
     ) -> Result<Traces, RecordError> {
         let err = |problem: String| RecordError::new(path, None, problem);
         let file = read_mseed(path)?;
@@ -135,6 +234,7 @@ impl Traces {
                 ids.join(", ")
             )));
         }
+        let mine = choose_channels(&mine, station, choice).map_err(err)?;
         let pick = |codes: [char; 2]| mine.iter().find(|c| c.cha.ends_with(codes)).copied();
         let picked = [pick(['E', '1']), pick(['N', '2']), pick(['Z', '3'])];
         if picked[0].is_none() && picked[1].is_none() {
@@ -163,7 +263,8 @@ impl Traces {
         let aligned = align_channels(&present, GapFill::Linear)?;
         let len = aligned.samples[0].len();
         if let MseedCalibration::Inventory(inventory) = calibration {
-            return Self::calibrated(aligned, &present, inventory).map_err(err);
+            return Self::calibrated(aligned, &present, inventory, choice.differentiate_velocity)
+                .map_err(err);
         }
         let mut series = aligned.samples.into_iter();
         let [east, north, up] = picked.map(|c| c.and_then(|_| series.next()));
@@ -178,19 +279,33 @@ impl Traces {
 
     /// Aligned raw channels calibrated and rotated to east/north/up with the inventory.
     fn calibrated(
-        aligned: AlignedChannels,
+        mut aligned: AlignedChannels,
         channels: &[(&Channel, f64)],
         inventory: &Inventory,
+        differentiate_velocity: bool,
     ) -> Result<Traces, String> {
         let mut axes = Vec::with_capacity(channels.len());
-        for (channel, _) in channels {
+        for (i, (channel, _)) in channels.iter().enumerate() {
             let cal = inventory
-                .calibration_at(
+                .calibration_at_with(
                     &channel.id(),
                     i128::from(aligned.start_time_ns),
                     aligned.sample_rate_hz,
+                    differentiate_velocity,
                 )
                 .map_err(|e| e.to_string())?;
+            if cal.input == SensorInput::Velocity {
+                // Counts → counts per second on the grid (the core's scheme); the gain in
+                // (m/s)/count then gives m/s².
+                let d = differentiate(&aligned.samples[i], aligned.sample_rate_hz);
+                if d.is_empty() {
+                    return Err(format!(
+                        "channel {}: one sample cannot be differentiated",
+                        channel.id()
+                    ));
+                }
+                aligned.samples[i] = d;
+            }
             axes.push((cal.axis, cal.gain_mps2_per_count));
         }
         let ids: Vec<String> = channels.iter().map(|(c, _)| c.id()).collect();

@@ -13,8 +13,11 @@
 //! - Epochs are half-open, `[start, end)`, `end = None` open-ended: when one epoch ends where
 //!   the next begins, the later one is chosen.
 //!
-//! Only acceleration input units are usable directly; velocity channels are refused with a
-//! reason (rockwatch does not differentiate), and so is anything else.
+//! Only acceleration input units are usable directly. Velocity channels are refused with a
+//! reason unless the caller asks for differentiation
+//! ([`ChannelEpoch::calibration_with`] with `differentiate_velocity`): their [`Calibration`]
+//! then says [`SensorInput::Velocity`] and the samples are differentiated on the sample grid
+//! ([`crate::differentiate`]) before the gain is applied. Anything else is refused.
 
 mod stationxml;
 pub mod units;
@@ -70,11 +73,25 @@ pub struct Sensitivity {
     pub output_units: Option<String>,
 }
 
+/// What a channel's samples measure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorInput {
+    /// Acceleration: `a = counts × gain`.
+    Acceleration,
+    /// Velocity, to be differentiated on the sample grid: `a = d(counts)/dt × gain`, the gain
+    /// then being (m/s) per count, i.e. m/s² per (count/s).
+    Velocity,
+}
+
 /// What a usable channel epoch gives: counts to m/s² along a known axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Calibration {
-    /// m/s² per count (sign included: a negative sensitivity reverses polarity).
+    /// m/s² per count (sign included: a negative sensitivity reverses polarity); for a
+    /// [`SensorInput::Velocity`] channel, m/s² per (count/s) — (m/s) per count — applied to
+    /// the counts' time derivative.
     pub gain_mps2_per_count: f64,
+    /// Acceleration, or velocity to differentiate.
+    pub input: SensorInput,
     /// The sensor's sensitive axis.
     pub axis: ChannelAxis,
     /// Sampling rate (Hz).
@@ -94,7 +111,7 @@ pub const MAX_RATE_MISMATCH: f64 = 1e-4;
 pub enum Unusable {
     #[error("no InstrumentSensitivity")]
     NoSensitivity,
-    #[error("velocity channel ({units}): rockwatch needs acceleration and does not differentiate")]
+    #[error("velocity channel ({units}): usable only differentiated to acceleration (acquire: [inventory] differentiate_velocity = true; monitor, replay, ims: --differentiate-velocity)")]
     Velocity { units: String },
     #[error("input units {units:?} are not an acceleration")]
     NotAcceleration { units: String },
@@ -191,6 +208,18 @@ impl Inventory {
         t_ns: i128,
         record_rate_hz: f64,
     ) -> Result<Calibration, LookupError> {
+        self.calibration_at_with(id, t_ns, record_rate_hz, false)
+    }
+
+    /// [`Inventory::calibration_at`], velocity channels usable (to be differentiated) when
+    /// `differentiate_velocity`.
+    pub fn calibration_at_with(
+        &self,
+        id: &str,
+        t_ns: i128,
+        record_rate_hz: f64,
+        differentiate_velocity: bool,
+    ) -> Result<Calibration, LookupError> {
         let epoch = self.epoch_at(id, t_ns).ok_or_else(|| {
             if self.channels.iter().any(|c| c.id() == id) {
                 LookupError::NoEpoch {
@@ -202,7 +231,7 @@ impl Inventory {
             }
         })?;
         let calibration = epoch
-            .calibration()
+            .calibration_with(differentiate_velocity)
             .map_err(|reason| LookupError::Unusable {
                 id: id.to_string(),
                 document: epoch.source.clone(),
@@ -242,9 +271,19 @@ impl ChannelEpoch {
     /// acceleration to counts, and the gain be finite, non-zero and at most
     /// [`MAX_ABS_GAIN_MPS2_PER_COUNT`] in magnitude.
     pub fn gain_mps2_per_count(&self) -> Result<f64, Unusable> {
+        self.gain_with(false).map(|(gain, _)| gain)
+    }
+
+    /// The gain and what it applies to: acceleration channels as
+    /// [`ChannelEpoch::gain_mps2_per_count`]; velocity channels too when
+    /// `differentiate_velocity` (gain in (m/s)/count, [`SensorInput::Velocity`]), else refused.
+    pub fn gain_with(&self, differentiate_velocity: bool) -> Result<(f64, SensorInput), Unusable> {
         let s = self.sensitivity.as_ref().ok_or(Unusable::NoSensitivity)?;
-        let to_mps2 = match classify_unit(&s.input_units) {
-            UnitKind::Acceleration { to_mps2 } => to_mps2,
+        let (to_mps2, input) = match classify_unit(&s.input_units) {
+            UnitKind::Acceleration { to_mps2 } => (to_mps2, SensorInput::Acceleration),
+            UnitKind::Velocity { to_mps } if differentiate_velocity => {
+                (to_mps, SensorInput::Velocity)
+            }
             UnitKind::Velocity { .. } => {
                 return Err(Unusable::Velocity {
                     units: s.input_units.clone(),
@@ -268,14 +307,20 @@ impl ChannelEpoch {
                 gain,
             });
         }
-        Ok(gain)
+        Ok((gain, input))
     }
 
     /// Everything needed to calibrate and orient this channel's data, or the first reason
     /// it cannot be: the gain ([`ChannelEpoch::gain_mps2_per_count`]), an azimuth, a dip in
     /// [−90°, 90°] and a positive sampling rate.
     pub fn calibration(&self) -> Result<Calibration, Unusable> {
-        let gain_mps2_per_count = self.gain_mps2_per_count()?;
+        self.calibration_with(false)
+    }
+
+    /// [`ChannelEpoch::calibration`], velocity channels accepted (to be differentiated) when
+    /// `differentiate_velocity`.
+    pub fn calibration_with(&self, differentiate_velocity: bool) -> Result<Calibration, Unusable> {
+        let (gain_mps2_per_count, input) = self.gain_with(differentiate_velocity)?;
         let azimuth_deg = self
             .azimuth_deg
             .ok_or(Unusable::Missing { field: "Azimuth" })?;
@@ -302,6 +347,7 @@ impl ChannelEpoch {
         })?;
         Ok(Calibration {
             gain_mps2_per_count,
+            input,
             axis,
             sample_rate_hz,
         })

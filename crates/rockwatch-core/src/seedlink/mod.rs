@@ -1,7 +1,8 @@
 //! SeedLink, the pure part: stream selections and the commands that request them
 //! ([`select`]), the packets on the wire ([`frame`]), and what a packet's sequence number and
 //! record start time say about it — next, gap, repeat, server restart, already delivered
-//! ([`sequence`]). No I/O: the shell (`rockwatch::seedlink`) owns the socket, the reconnecting
+//! ([`sequence`]); the server's station list and wildcard patterns expanded over it
+//! ([`info`]). No I/O: the shell (`rockwatch::seedlink`) owns the socket, the reconnecting
 //! supervisor and the state file.
 //!
 //! Protocols: SeedLink 3 (`SL` + 6 hex digits + a 512-byte MiniSEED record; 24-bit sequence
@@ -10,6 +11,7 @@
 //! `HELLO` lists `SLPROTO:4.0`. See docs/seedlink.md.
 
 pub mod frame;
+pub mod info;
 pub mod select;
 pub mod sequence;
 

@@ -60,6 +60,12 @@ impl StreamPattern {
             && glob(&self.channel, cha)
     }
 
+    /// Whether station `NET.STA` matches the pattern's network and station parts.
+    #[must_use]
+    pub fn matches_station(&self, net: &str, sta: &str) -> bool {
+        glob(&self.network, net) && glob(&self.station, sta)
+    }
+
     /// The `STATION` command for this pattern's station (CRLF-terminated).
     #[must_use]
     pub fn station_command(&self, protocol: Protocol) -> String {

@@ -122,7 +122,12 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         ));
     }
     let mut publisher = Watched {
-        inner: PacketPublisher::new(inventory, config.assembly_config(), sink.as_mut()),
+        inner: PacketPublisher::new(
+            inventory,
+            config.assembly_config(),
+            config.clipping.clone(),
+            sink.as_mut(),
+        ),
         systemd: systemd.as_mut(),
     };
     let result = client.run(&stop, &mut publisher);
@@ -132,15 +137,20 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     let (published, assembled) = publisher.inner.counters();
     let link = client.counters();
     tracing::info!(
-        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
+        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid ({} far ahead of their station's data, {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
         link.packets,
         link.delivered,
         link.duplicates,
         link.malformed,
+        link.unselected,
         link.server_resets,
         link.server_restarts,
         link.disconnects,
         assembled.refused_records,
+        assembled.far_ahead_records,
+        assembled.grid_restarts,
+        published.clipped_samples,
+        published.clipped_records,
         assembled.overlap_samples,
         assembled.missing_component_samples,
         published.packets_sent,

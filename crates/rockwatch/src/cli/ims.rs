@@ -1,10 +1,11 @@
 //! `rockwatch ims`: intensity measures of a record, as a table or as JSON.
 
 use anyhow::{bail, Context};
+use rockwatch_core::differentiate::differentiate;
 use rockwatch_core::ims::baseline::{pre_event, remove_offset};
 use rockwatch_core::ims::spectrum::format_period_s;
 use rockwatch_core::ims::{compute_ims, ImOptions, ImSet, DEFAULT_SA_PERIODS_S};
-use rockwatch_core::inventory::Inventory;
+use rockwatch_core::inventory::{Inventory, SensorInput};
 use rockwatch_core::record::mseed::{read_mseed, Channel, GapFill};
 use rockwatch_core::record::{Record, STANDARD_GRAVITY_MPS2};
 use serde::ser::{Serialize, SerializeMap, Serializer};
@@ -41,6 +42,11 @@ pub struct ImsArgs {
     #[arg(long, value_name = "FILE", num_args = 1..)]
     pub stationxml: Vec<PathBuf>,
 
+    /// A velocity channel of --stationxml (input units M/S) is differentiated to acceleration
+    /// (central differences on the sample grid, docs/stationxml.md) instead of refused.
+    #[arg(long = "differentiate-velocity", requires = "stationxml")]
+    pub differentiate_velocity: bool,
+
     /// Comma-separated periods (s) at which SA is reported
     /// [default: 0.1,0.2,0.3,0.5,1.0,1.5,2.0,2.5,3.0].
     #[arg(
@@ -75,11 +81,12 @@ pub fn run(args: ImsArgs) -> anyhow::Result<()> {
         [] => None,
         files => Some(Inventory::read_all(files)?),
     };
-    let mut record =
-        read_record(&args.record, inventory.as_ref()).context("cannot read the record")?;
+    let differentiate = args.differentiate_velocity;
+    let mut record = read_record(&args.record, inventory.as_ref(), differentiate)
+        .context("cannot read the record")?;
     if let Some(path) = &args.vertical {
-        let vertical =
-            read_record(path, inventory.as_ref()).context("cannot read the vertical record")?;
+        let vertical = read_record(path, inventory.as_ref(), differentiate)
+            .context("cannot read the vertical record")?;
         record
             .attach_vertical_record(vertical, path)
             .context("cannot use the vertical record")?;
@@ -154,8 +161,13 @@ fn check_baseline(source: &str, component: &str, a: &mut [f64], dt_s: f64, demea
 }
 
 /// Reads a record; with an inventory, a MiniSEED file must hold one channel, calibrated to
-/// m/s² with its gain from the inventory (integer counts or floats alike).
-fn read_record(path: &Path, inventory: Option<&Inventory>) -> anyhow::Result<Record> {
+/// m/s² with its gain from the inventory (integer counts or floats alike); a velocity channel
+/// is differentiated first when `differentiate_velocity`, else refused.
+fn read_record(
+    path: &Path,
+    inventory: Option<&Inventory>,
+    differentiate_velocity: bool,
+) -> anyhow::Result<Record> {
     let is_mseed = matches!(
         path.extension()
             .and_then(|e| e.to_str())
@@ -177,12 +189,24 @@ fn read_record(path: &Path, inventory: Option<&Inventory>) -> anyhow::Result<Rec
         );
     };
     let start_ns = channel.segments.first().map_or(0, |s| s.start_time_ns);
-    let gain = inventory
-        .calibration_at(&channel.id(), i128::from(start_ns), channel.sample_rate_hz)
-        .with_context(|| path.display().to_string())?
-        .gain_mps2_per_count;
+    let calibration = inventory
+        .calibration_at_with(
+            &channel.id(),
+            i128::from(start_ns),
+            channel.sample_rate_hz,
+            differentiate_velocity,
+        )
+        .with_context(|| path.display().to_string())?;
+    let gain = calibration.gain_mps2_per_count;
     // The gain's magnitude through the reader's conversion, then its sign (reversed polarity).
     let mut record = channel.to_record(gain.abs(), GapFill::Reject)?;
+    if calibration.input == SensorInput::Velocity {
+        // m/s → m/s² on the sample grid (the core's scheme, docs/stationxml.md).
+        record.horizontal_mps2 = differentiate(&record.horizontal_mps2, 1.0 / record.dt_s);
+        if record.horizontal_mps2.is_empty() {
+            bail!("{}: one sample cannot be differentiated", path.display());
+        }
+    }
     if gain < 0.0 {
         record.horizontal_mps2.iter_mut().for_each(|a| *a = -*a);
     }

@@ -12,10 +12,11 @@ use rockwatch::log_text::{printable, STATION_CHARS};
 use rockwatch::node::{NodeOptions, NodeRuntime, NoticeLog};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::Publication;
-use rockwatch::replay::{MseedCalibration, Traces};
+use rockwatch::replay::{ChannelChoice, MseedCalibration, Traces};
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{
-    Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StreamCounters,
+    Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StationIntensity,
+    StreamCounters,
 };
 use rockwatch_core::inventory::Inventory;
 use rockwatch_core::record::Record;
@@ -55,6 +56,16 @@ pub struct MonitorArgs {
     /// east/north/up, whatever the channels are called. See docs/stationxml.md.
     #[arg(long, value_name = "FILE", num_args = 1.., requires = "mseed")]
     stationxml: Vec<PathBuf>,
+    /// Which of the station's --mseed channels to use: a channel-code pattern (`?` one
+    /// character, `*` any run), e.g. `HN?`. Default: the station's one sensor, or among several
+    /// its accelerometer (instrument code N: HN?, BN?, …); several sensors and no single
+    /// accelerometer is an error listing them.
+    #[arg(long, value_name = "PATTERN", requires = "mseed")]
+    channels: Option<String>,
+    /// Velocity channels of --stationxml (input units M/S) are differentiated to acceleration
+    /// (central differences on the sample grid, docs/stationxml.md) instead of refused.
+    #[arg(long = "differentiate-velocity", requires = "stationxml")]
+    differentiate_velocity: bool,
     /// Station the data belong to (NET.STA.LOC).
     #[arg(long, value_name = "ID")]
     station: String,
@@ -67,7 +78,9 @@ pub struct MonitorArgs {
     /// State directory: alerts are journaled there (and restored from it on the next run).
     #[arg(long = "state-dir", value_name = "DIR")]
     state_dir: Option<PathBuf>,
-    /// Output: a readable log and table, or JSON lines (one per alert, a summary last).
+    /// Output: a readable log and table, or JSON lines (one per alert, a summary last; the
+    /// summary's `intensity` is the station's last intensity output, as the node publishes it
+    /// on /pbr/ims: data_time_ns, pga_mps2, pgv_mps, pgd_m, cav_mps, arias_mps, …).
     #[arg(long, value_enum, default_value_t = MonitorFormat::Text)]
     format: MonitorFormat,
 }
@@ -109,6 +122,7 @@ enum MonitorInput {
     Mseed {
         path: PathBuf,
         inventory: Option<Inventory>,
+        choice: ChannelChoice,
     },
 }
 
@@ -123,6 +137,8 @@ struct MonitorOutcome {
     stations: Vec<(String, StationCounters, StreamCounters)>,
     /// Notices per (station, kind).
     notice_counts: BTreeMap<(String, &'static str), u64>,
+    /// The monitored station's last intensity output (what the node publishes on /pbr/ims).
+    intensity: Option<StationIntensity>,
 }
 
 /// An alert line of `--format jsonl`: the shared alert schema (`rockwatch::alert_json`) plus
@@ -211,6 +227,10 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
                 [] => None,
                 files => Some(Inventory::read_all(files)?),
             },
+            choice: ChannelChoice {
+                channels: args.channels,
+                differentiate_velocity: args.differentiate_velocity,
+            },
         },
         (None, None) => bail!("give --record FILE or --mseed FILE"),
     };
@@ -243,10 +263,14 @@ fn read_traces(
             }
             Traces::from_record(&record, *azimuth)
         }
-        MonitorInput::Mseed { path, inventory } => {
+        MonitorInput::Mseed {
+            path,
+            inventory,
+            choice,
+        } => {
             let calibration = MseedCalibration::for_station(inventory.as_ref(), config, station)
                 .map_err(anyhow::Error::msg)?;
-            Traces::from_mseed(path, station, calibration)?
+            Traces::from_mseed_with(path, station, calibration, choice)?
         }
     })
 }
@@ -269,13 +293,13 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
         .check_packets(packet_ms, tail_s)
         .map_err(anyhow::Error::msg)?;
     let mut runtime = NodeRuntime::start_with_blocks(&options, blocks, Arc::new(|| {}))?;
-    let mut report = |publication: Publication| {
-        if let Publication::Alert {
+    let mut intensity = None;
+    let mut report = |publication: Publication| match publication {
+        Publication::Alert {
             alert, latency_ns, ..
-        } = publication
-        {
-            print_alert(format, &alert, traces.start_ns, latency_ns);
-        }
+        } => print_alert(format, &alert, traces.start_ns, latency_ns),
+        Publication::Intensity(i) if i.station == station.as_str() => intensity = Some(i),
+        _ => {}
     };
     for packet in traces.packets(&station, packet_ms, tail_s) {
         runtime.submit(packet, &mut report)?;
@@ -303,6 +327,7 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
             .map(|(id, own, stream)| (id.to_string(), own, stream))
             .collect(),
         notice_counts: stopped.notice_counts,
+        intensity,
     })
 }
 
@@ -357,6 +382,7 @@ fn print_summary(outcome: &MonitorOutcome, format: MonitorFormat) {
                 serde_json::json!({
                     "type": "summary", "pbrs": pbrs,
                     "counters": {"engine": outcome.engine, "stations": stations},
+                    "intensity": outcome.intensity,
                 })
             );
         }

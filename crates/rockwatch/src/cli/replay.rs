@@ -8,7 +8,7 @@ use anyhow::{bail, Context};
 use rockwatch::iox::IoxPacketSink;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::PacketSink;
-use rockwatch::replay::{replay, MseedCalibration, Restamp, Speed, Traces};
+use rockwatch::replay::{replay, ChannelChoice, MseedCalibration, Restamp, Speed, Traces};
 use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::StationId;
@@ -60,6 +60,16 @@ pub struct ReplayArgs {
     /// are sent in m/s² on east/north/up. See docs/stationxml.md.
     #[arg(long, value_name = "FILE", num_args = 1.., requires = "mseed")]
     stationxml: Vec<PathBuf>,
+    /// Which of the station's --mseed channels to use: a channel-code pattern (`?` one
+    /// character, `*` any run), e.g. `HN?`. Default: the station's one sensor, or among several
+    /// its accelerometer (instrument code N: HN?, BN?, …); several sensors and no single
+    /// accelerometer is an error listing them.
+    #[arg(long, value_name = "PATTERN", requires = "mseed")]
+    channels: Option<String>,
+    /// Velocity channels of --stationxml (input units M/S) are differentiated to acceleration
+    /// (central differences on the sample grid, docs/stationxml.md) instead of refused.
+    #[arg(long = "differentiate-velocity", requires = "stationxml")]
+    differentiate_velocity: bool,
     /// A synthetic Mavroeidis–Papageorgiou pulse drawn for --mw and --r-km with --seed.
     #[arg(long, requires_all = ["mw", "r_km"])]
     synthetic: bool,
@@ -125,7 +135,11 @@ fn traces(args: &ReplayArgs, config: &NodeConfig, station: &StationId) -> anyhow
         };
         let calibration = MseedCalibration::for_station(inventory.as_ref(), config, station)
             .map_err(anyhow::Error::msg)?;
-        Traces::from_mseed(path, station, calibration)?
+        let choice = ChannelChoice {
+            channels: args.channels.clone(),
+            differentiate_velocity: args.differentiate_velocity,
+        };
+        Traces::from_mseed_with(path, station, calibration, &choice)?
     } else {
         let (Some(mw), Some(r_km)) = (args.mw, args.r_km) else {
             bail!("--synthetic needs --mw and --r-km");
@@ -204,6 +218,29 @@ pub fn replay_through(
     Ok(())
 }
 
+/// With the node's configuration (`--config`) naming a catalogue, a station the node does not
+/// know — neither in its `[[stations]]` nor bound to a block of its catalogue — is refused
+/// before anything is sent: the node would ignore every packet (`unknown_station`). Without
+/// a catalogue nothing can be checked here.
+fn check_station_known(args: &ReplayArgs, config: &NodeConfig) -> anyhow::Result<()> {
+    let (Some(config_path), Some(catalogue)) = (&args.config, &config.catalogue) else {
+        return Ok(());
+    };
+    let station = StationId::parse(&args.station)?;
+    if config.stations.iter().any(|s| s.id == station) {
+        return Ok(());
+    }
+    let pbrs = rockwatch_core::catalogue::Catalogue::load(catalogue)?;
+    if pbrs.pbrs_for_station(station.as_str()).next().is_some() {
+        return Ok(());
+    }
+    bail!(
+        "station {station} is neither in the [[stations]] of {} nor bound to a block of its catalogue {}: the node would ignore every packet (unknown station); give a station of its blocks with --station (or, if the node runs with another --catalogue, that catalogue's)",
+        config_path.display(),
+        catalogue.display()
+    )
+}
+
 pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     // Refused before any transport is opened.
     rockwatch::replay::check_packet_flags(args.packet_ms, args.tail).map_err(anyhow::Error::msg)?;
@@ -212,6 +249,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
         None => NodeConfig::default(),
     };
     super::apply_ros_naming(&mut config.ros2);
+    check_station_known(&args, &config)?;
     match args.transport {
         Transport::Ros2 => {
             let plan = network_plan_from_env(&config.ros2)?;

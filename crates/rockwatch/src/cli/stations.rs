@@ -13,13 +13,18 @@ use super::OutputFormat;
 ///
 /// A channel is usable when its InstrumentSensitivity takes an acceleration (M/S**2, nm/s**2,
 /// …) to counts and it has an azimuth, a dip and a sampling rate; the gain applied to its
-/// counts is then `to_mps2(input units) / sensitivity` in (m/s²)/count. Velocity channels and
-/// other units are listed as unusable with the reason (see docs/stationxml.md).
+/// counts is then `to_mps2(input units) / sensitivity` in (m/s²)/count. Velocity channels
+/// (M/S, …) are usable only differentiated to acceleration (`[inventory]
+/// differentiate_velocity = true` of acquire, `--differentiate-velocity` of monitor, replay,
+/// ims): listed as "with differentiation", `"usable": false` and
+/// `"usable_with_differentiation": true`. Other units are unusable with the reason (see
+/// docs/stationxml.md).
 ///
 /// JSON: `{"channels": [{"id": "NET.STA.LOC.CHA", "start": ISO|null, "end": ISO|null,
 /// "sample_rate_hz", "azimuth_deg", "dip_deg", "sensitivity", "sensitivity_frequency_hz",
 /// "input_units", "gain_mps2_per_count": number|null, "usable": bool, "reason":
-/// string|null}]}`; values missing from the document are null, times are ISO 8601 UTC.
+/// string|null, "usable_with_differentiation": bool}]}`; values missing from the document are
+/// null, times are ISO 8601 UTC.
 #[derive(Debug, clap::Args)]
 pub struct StationsArgs {
     /// FDSN StationXML documents (1.0–1.2), read in order.
@@ -73,6 +78,7 @@ fn epoch_json(c: &ChannelEpoch) -> serde_json::Value {
         "gain_mps2_per_count": c.gain_mps2_per_count().ok(),
         "usable": usable.is_ok(),
         "reason": usable.err().map(|e| e.to_string()),
+        "usable_with_differentiation": c.calibration_with(true).is_ok(),
     })
 }
 
@@ -94,9 +100,12 @@ fn print_table(epochs: &[&ChannelEpoch]) {
     );
     for c in epochs {
         let s = c.sensitivity.as_ref();
-        let usable = match c.calibration() {
-            Ok(_) => "yes".to_string(),
-            Err(reason) => format!("no: {reason}"),
+        let usable = match (c.calibration(), c.calibration_with(true)) {
+            (Ok(_), _) => "yes".to_string(),
+            (Err(_), Ok(_)) => {
+                "with differentiation only: velocity channel (differentiate_velocity / --differentiate-velocity)".to_string()
+            }
+            (Err(reason), Err(_)) => format!("no: {reason}"),
         };
         outln!(
             "{:<20} {:<19} {:<19} {:>8} {:>7} {:>6} {:>13} {:<8} {:>12}  {usable}",

@@ -7,6 +7,7 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
 use rockwatch_core::seedlink::frame::{parse_frame, Frame, MAX_V4_PAYLOAD};
+use rockwatch_core::seedlink::info::parse_stations;
 use rockwatch_core::seedlink::select::StreamPattern;
 use rockwatch_core::seedlink::sequence::V3_MODULUS;
 use rockwatch_core::seedlink::Protocol;
@@ -16,6 +17,9 @@ use super::{LinkError, ProtocolChoice};
 
 /// Longest response line accepted (bytes).
 const MAX_LINE: usize = 4096;
+
+/// Longest INFO answer accepted (bytes): 64 MiB (a station list of 100 000 stations).
+const MAX_INFO_BYTES: usize = 64 << 20;
 
 /// An open, negotiated connection.
 pub struct Connection {
@@ -109,10 +113,38 @@ impl Connection {
     }
 
     /// `INFO ID`: the server's start time (the `started` attribute), or `None` when the
-    /// server refuses INFO or does not say. The answer is INFO packets (v3 `SLINFO`, the last
-    /// one without `*`; v4 one packet), which some servers follow with `END`.
+    /// server refuses INFO or does not say.
     fn query_started(&mut self, deadline: Instant) -> Result<Option<String>, LinkError> {
-        self.send("INFO ID\r\n")?;
+        let Some(text) = self.info("ID", deadline)? else {
+            return Ok(None);
+        };
+        Ok(text
+            .split("started=\"")
+            .nth(1)
+            .and_then(|rest| rest.split('"').next())
+            .map(|s| s.chars().filter(|c| !c.is_control()).take(64).collect()))
+    }
+
+    /// `INFO STATIONS`: the server's stations (network, station), or `None` when the server
+    /// refuses INFO STATIONS. An answer that cannot be read is an error.
+    pub fn query_stations(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<Option<Vec<(String, String)>>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        match self.info("STATIONS", deadline)? {
+            None => Ok(None),
+            Some(text) => parse_stations(&text)
+                .map(Some)
+                .map_err(|e| LinkError::Protocol(e.to_string())),
+        }
+    }
+
+    /// `INFO level`: the text of the answer, or `None` when the server answers ERROR. The
+    /// answer is INFO packets (v3 `SLINFO`, the last one without `*`; v4 one packet; some
+    /// servers send numbered packets), which some servers follow with `END`.
+    fn info(&mut self, level: &str, deadline: Instant) -> Result<Option<String>, LinkError> {
+        self.send(&format!("INFO {level}\r\n"))?;
         let mut text = Vec::new();
         loop {
             let pending = &self.buf[self.start..self.end];
@@ -148,21 +180,21 @@ impl Connection {
                         continue;
                     }
                     Ok(None) => {}
-                    Err(e) => return Err(LinkError::Protocol(format!("INFO ID answer: {e}"))),
+                    Err(e) => return Err(LinkError::Protocol(format!("INFO {level} answer: {e}"))),
                 }
+            }
+            if text.len() > MAX_INFO_BYTES {
+                return Err(LinkError::Protocol(format!(
+                    "INFO {level} answer longer than {MAX_INFO_BYTES} bytes"
+                )));
             }
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
-                return Err(LinkError::Timeout("no answer to INFO ID".into()));
+                return Err(LinkError::Timeout(format!("no answer to INFO {level}")));
             }
             self.fill(left)?;
         }
-        let text = String::from_utf8_lossy(&text);
-        Ok(text
-            .split("started=\"")
-            .nth(1)
-            .and_then(|rest| rest.split('"').next())
-            .map(|s| s.chars().filter(|c| !c.is_control()).take(64).collect()))
+        Ok(Some(String::from_utf8_lossy(&text).into_owned()))
     }
 
     /// Requests the streams: per station, STATION, the SELECTs its patterns can express, and

@@ -20,11 +20,16 @@ use std::time::{Duration, Instant};
 
 use rockwatch_core::record::mseed::{parse_mseed, Channel};
 use rockwatch_core::seedlink::frame::Frame;
+use rockwatch_core::seedlink::info::expand;
 use rockwatch_core::seedlink::select::StreamPattern;
 use rockwatch_core::seedlink::sequence::{judge, DeliveredStarts, Verdict};
 use rockwatch_core::seedlink::Protocol;
 
 use crate::log_text::{printable, STATION_CHARS};
+use crate::node::RateLimitedLog;
+
+/// Shortest time between two log lines of one stream and kind of problem.
+pub const LOG_INTERVAL: Duration = Duration::from_secs(60);
 use connection::{Connection, Resume};
 use state::{ResumeState, StateFile, StationResume};
 
@@ -82,6 +87,11 @@ pub struct SeedLinkConfig {
     pub reconnect_initial_s: f64,
     #[serde(default = "default_reconnect_max_s")]
     pub reconnect_max_s: f64,
+    /// With wildcard stations (`BK.*..HN?`): seconds between two looks at the server's
+    /// station list (`INFO STATIONS`, on a second short connection) for new matching
+    /// stations; one appearing makes the client reconnect to request it.
+    #[serde(default = "default_station_refresh_s")]
+    pub station_refresh_s: f64,
 }
 
 fn default_connect_timeout_s() -> f64 {
@@ -96,6 +106,9 @@ fn default_reconnect_initial_s() -> f64 {
 fn default_reconnect_max_s() -> f64 {
     30.0
 }
+fn default_station_refresh_s() -> f64 {
+    300.0
+}
 
 impl SeedLinkConfig {
     /// The stream patterns, checked; and the durations in range.
@@ -108,6 +121,7 @@ impl SeedLinkConfig {
             ("idle_timeout_s", self.idle_timeout_s, 86_400.0),
             ("reconnect_initial_s", self.reconnect_initial_s, 3600.0),
             ("reconnect_max_s", self.reconnect_max_s, 86_400.0),
+            ("station_refresh_s", self.station_refresh_s, 86_400.0),
         ] {
             if !(v.is_finite() && v > 0.0 && v <= max) {
                 return Err(format!("seedlink.{key} = {v} is out of range (0, {max}] s"));
@@ -133,6 +147,9 @@ pub enum LinkError {
     Refused(String),
     #[error("protocol error: {0}")]
     Protocol(String),
+    /// The selection changed (new stations match a wildcard pattern).
+    #[error("{0}")]
+    Resubscribe(String),
 }
 
 /// What the client did (monotonic counters).
@@ -175,8 +192,14 @@ pub trait RecordSink {
         let _ = station;
         None
     }
-    /// Called about every 100 ms (bounded waits, housekeeping).
+    /// Called about every 100 ms while connected (bounded waits, housekeeping).
     fn tick(&mut self) {}
+    /// The link came up (`true`: streams requested, data may flow) or went down. A sink that
+    /// waits for data (a missing component) should not count the time the link is down:
+    /// the data is not missing, it has not been fetched yet.
+    fn link(&mut self, up: bool) {
+        let _ = up;
+    }
 }
 
 /// A sink that takes every record at once (nothing held).
@@ -223,8 +246,12 @@ pub struct SeedLinkClient {
     /// Delivered records, in order, whose samples the sink still holds.
     pending: std::collections::VecDeque<Pending>,
     counters: LinkCounters,
-    /// (kind, key) already logged: each problem is logged once per stream, then counted.
-    logged: BTreeSet<(&'static str, String)>,
+    /// Problems per (stream, kind): at most one line a minute each, then counted.
+    log: RateLimitedLog,
+    /// `NET_STA` of stations that appeared on the server while the client ran: with nothing
+    /// saved, they start from the oldest data the server holds for them (nothing is lost
+    /// between their appearance and the next look at the station list).
+    late_stations: BTreeSet<String>,
 }
 
 impl SeedLinkClient {
@@ -247,7 +274,8 @@ impl SeedLinkClient {
             delivered: HashMap::new(),
             pending: std::collections::VecDeque::new(),
             counters: LinkCounters::default(),
-            logged: BTreeSet::new(),
+            log: RateLimitedLog::with_interval(LOG_INTERVAL),
+            late_stations: BTreeSet::new(),
         })
     }
 
@@ -272,6 +300,7 @@ impl SeedLinkClient {
         while !stop.load(Ordering::Relaxed) {
             let delivered_before = self.counters.delivered;
             let result = self.session(stop, sink);
+            sink.link(false);
             let _ = self.commit(sink);
             self.save(true)?;
             match result {
@@ -361,7 +390,9 @@ impl SeedLinkClient {
         if conn.server_started.is_some() {
             self.state.server_started.clone_from(&conn.server_started);
         }
+        let patterns = self.concrete_patterns(&mut conn, timeout)?;
         let state = &self.state;
+        let late = &self.late_stations;
         let resume = |p: &StreamPattern| {
             let by_sequence = p
                 .exact_station()
@@ -380,9 +411,16 @@ impl SeedLinkClient {
                 .filter(|(id, _)| id.starts_with(&prefix))
                 .map(|(_, &t)| t)
                 .min();
-            since.map_or(Resume::Next, Resume::Since)
+            match (since, p.exact_station()) {
+                (Some(t), _) => Resume::Since(t),
+                // Appeared while we ran: all the server holds of it.
+                (None, Some(key)) if late.contains(&key) => Resume::Since(0),
+                (None, _) => Resume::Next,
+            }
         };
-        for refused in conn.request(&self.patterns, &resume, timeout)? {
+        let refused = conn.request(&patterns, &resume, timeout)?;
+        sink.link(true);
+        for refused in refused {
             tracing::warn!(
                 "seedlink {}: station refused: {}",
                 self.config.server,
@@ -390,12 +428,24 @@ impl SeedLinkClient {
             );
         }
         let idle = Duration::from_secs_f64(self.config.idle_timeout_s);
+        let refresh = Duration::from_secs_f64(self.config.station_refresh_s);
+        let wildcards = self.patterns.iter().any(|p| p.exact_station().is_none());
+        let mut last_refresh = Instant::now();
         let mut last_packet = Instant::now();
         let mut last_durable = Instant::now();
         loop {
             if stop.load(Ordering::Relaxed) {
                 conn.close();
                 return Ok(());
+            }
+            if wildcards && last_refresh.elapsed() >= refresh {
+                last_refresh = Instant::now();
+                if let Some(new) = self.new_stations(&patterns, timeout) {
+                    conn.close();
+                    return Err(LinkError::Resubscribe(format!(
+                        "new stations match the streams ({new}): reconnecting to request them"
+                    )));
+                }
             }
             let before = self.counters.packets;
             let got = conn.poll_frames(TICK, &mut |frame| self.on_frame(protocol, frame, sink))?;
@@ -417,6 +467,86 @@ impl SeedLinkClient {
                 }
             }
         }
+    }
+
+    /// The configured patterns with wildcard stations expanded over the server's station
+    /// list (`INFO STATIONS`), so every station is requested on its own and resumes from its
+    /// own sequence number. A server that refuses INFO STATIONS gets the wildcard patterns
+    /// (those stations then start from what the server sends next; logged once).
+    fn concrete_patterns(
+        &mut self,
+        conn: &mut Connection,
+        timeout: Duration,
+    ) -> Result<Vec<StreamPattern>, LinkError> {
+        if self.patterns.iter().all(|p| p.exact_station().is_some()) {
+            return Ok(self.patterns.clone());
+        }
+        let Some(stations) = conn.query_stations(timeout)? else {
+            self.log_once(
+                "info",
+                "INFO STATIONS".into(),
+                "the server refuses INFO STATIONS: wildcard stations are requested as patterns and cannot resume by sequence number",
+            );
+            return Ok(self.patterns.clone());
+        };
+        let expanded = expand(&self.patterns, &stations);
+        let unmatched: Vec<String> = self
+            .patterns
+            .iter()
+            .filter(|p| {
+                p.exact_station().is_none()
+                    && !stations.iter().any(|(n, s)| p.matches_station(n, s))
+            })
+            .map(|p| format!("{}.{}", p.network, p.station))
+            .collect();
+        for key in unmatched {
+            self.log_once(
+                "no station",
+                key,
+                "no station of the server matches this pattern (yet)",
+            );
+        }
+        if expanded.is_empty() {
+            return Err(LinkError::Refused(
+                "no station of the server matches the streams".into(),
+            ));
+        }
+        Ok(expanded)
+    }
+
+    /// Stations matching a wildcard pattern that `current` does not request, from a second
+    /// short connection; `None` when there are none or the server cannot say (logged).
+    fn new_stations(&mut self, current: &[StreamPattern], timeout: Duration) -> Option<String> {
+        let result = Connection::open(&self.config.server, self.config.protocol, timeout).and_then(
+            |mut c| {
+                let stations = c.query_stations(timeout);
+                c.close();
+                stations
+            },
+        );
+        let stations = match result {
+            Ok(Some(s)) => s,
+            Ok(None) => return None,
+            Err(e) => {
+                tracing::warn!(
+                    "seedlink {}: cannot look for new stations: {}",
+                    self.config.server,
+                    printable(&e.to_string(), SERVER_TEXT_CHARS)
+                );
+                return None;
+            }
+        };
+        let new: Vec<String> = expand(&self.patterns, &stations)
+            .into_iter()
+            .filter(|p| !current.contains(p))
+            .map(|p| {
+                if let Some(key) = p.exact_station() {
+                    self.late_stations.insert(key);
+                }
+                format!("{}.{}", p.network, p.station)
+            })
+            .collect();
+        (!new.is_empty()).then(|| printable(&new.join(", "), SERVER_TEXT_CHARS))
     }
 
     /// Judges and delivers one packet.
@@ -517,12 +647,10 @@ impl SeedLinkClient {
     }
 
     fn log_once(&mut self, kind: &'static str, key: String, message: &str) {
-        if self.logged.len() < 10_000 && self.logged.insert((kind, key.clone())) {
-            tracing::warn!(
-                "seedlink {}: {}: {message} (logged once; counted)",
-                self.config.server,
-                printable(&key, STATION_CHARS)
-            );
-        }
+        let line = format!(
+            "seedlink {}: {message} (counted; logged at most once a minute)",
+            self.config.server
+        );
+        self.log.log(&key, kind, &line);
     }
 }
