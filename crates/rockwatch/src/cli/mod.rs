@@ -38,6 +38,7 @@ pub fn stdout_failed(error: std::io::Error) -> ! {
 mod acquire;
 mod alerts;
 mod demo;
+mod geometry;
 mod hazard;
 mod ims;
 mod monitor;
@@ -97,6 +98,9 @@ enum Command {
     /// Annual overturning rate, return period and survival probability of one rock from its
     /// fragility and its site's hazard curve (OpenQuake or two-column CSV).
     Hazard(hazard::HazardArgs),
+    /// A rock's volume, centre of mass, resting contact and planar body (b₊, b₋, h, ρ, α±)
+    /// per toppling direction from its closed mesh (OBJ, PLY, STL).
+    Geometry(geometry::GeometryArgs),
 }
 
 /// Output format for people (`text`) or programs (`json`).
@@ -154,6 +158,7 @@ pub fn run() -> ExitCode {
         Command::Stations(args) => stations::run(args),
         Command::Study(args) => study::run(args),
         Command::Hazard(args) => hazard::run(args),
+        Command::Geometry(args) => geometry::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
