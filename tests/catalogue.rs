@@ -426,9 +426,9 @@ fn csv_header_problems_are_reported() {
     assert_eq!(
         csv_error(&format!("{CSV_HEADER},colour\n{CSV_ROW},red\n")),
         "test.csv:1: unknown column \"colour\" in the CSV header (known: id, name, lat, lon, \
-         station, azimuth_deg, source, ensemble, seed, and for P in width_m, height_m, \
-         half_diagonal_m, alpha_deg, b_plus_m, b_minus_m, h_m, rho_m, mu_s, mu_k, restitution: \
-         P, P_min + P_max, or P_mean + P_sd)"
+         station, source, azimuth_deg, ensemble, seed, mesh, up, azimuths, and for P in width_m, \
+         height_m, half_diagonal_m, alpha_deg, b_plus_m, b_minus_m, h_m, rho_m, heading_deg, \
+         contact_tolerance_m, mu_s, mu_k, restitution: P, P_min + P_max, or P_mean + P_sd)"
     );
     assert_eq!(
         csv_error(&format!("{CSV_HEADER},lat\n{CSV_ROW},1\n")),
@@ -982,8 +982,8 @@ fn geometry_forms_are_validated_with_the_field_named() {
         changes.extend_from_slice(extra);
         changes
     };
-    let forms = "width_m + height_m, half_diagonal_m + alpha_deg, or b_plus_m + b_minus_m + h_m \
-                 + rho_m";
+    let forms = "width_m + height_m, half_diagonal_m + alpha_deg, b_plus_m + b_minus_m + h_m \
+                 + rho_m, or mesh";
     let cases: Vec<(Vec<Change>, String)> =
         vec![
         (

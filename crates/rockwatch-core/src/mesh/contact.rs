@@ -138,6 +138,8 @@ pub struct RestingContact {
     pub patch_en_m: Vec<(f64, f64)>,
     /// Unit-density mass properties of the rock.
     pub mass: MassProperties,
+    /// The resting facet's plane: points x with −up·x = `plane_offset_m` (outward normal −up).
+    pub plane_offset_m: f64,
 }
 
 /// The planar body of one direction (module doc).
@@ -232,15 +234,7 @@ impl RockGeometry {
         let north = normalize(n_proj);
         let east = cross(north, u);
         let h_m = facet.offset - dot(facet.normal, c);
-        let patch_en_m = self
-            .vertices
-            .iter()
-            .filter(|v| facet.offset - dot(facet.normal, **v) <= tolerance_m + margin)
-            .map(|v| {
-                let r = sub(*v, c);
-                (dot(r, east), dot(r, north))
-            })
-            .collect();
+        let patch_en_m = self.patch(facet.normal, facet.offset, east, north, tolerance_m);
         Ok(RestingContact {
             up: u,
             east,
@@ -251,7 +245,48 @@ impl RockGeometry {
             facet_vertices: facet.polygon.len(),
             patch_en_m,
             mass: self.mass,
+            plane_offset_m: facet.offset,
         })
+    }
+
+    /// The same resting facet and frame as `rest` (from [`RockGeometry::rest`] of this rock)
+    /// with the contact patch for another tolerance (m, finite, ≥ 0; a negative or non-finite
+    /// value is taken as 0). Cannot fail: the facet does not depend on the tolerance.
+    #[must_use]
+    pub fn with_tolerance(&self, rest: &RestingContact, tolerance_m: f64) -> RestingContact {
+        let tolerance_m = if tolerance_m.is_finite() {
+            tolerance_m.max(0.0)
+        } else {
+            0.0
+        };
+        let normal = scale3(rest.up, -1.0);
+        RestingContact {
+            patch_en_m: self.patch(normal, rest.plane_offset_m, rest.east, rest.north, tolerance_m),
+            tolerance_m,
+            ..rest.clone()
+        }
+    }
+
+    /// The vertices within `tolerance_m` of the plane n·x = offset, relative to the centre of
+    /// mass, as (east, north).
+    fn patch(
+        &self,
+        normal: [f64; 3],
+        offset: f64,
+        east: [f64; 3],
+        north: [f64; 3],
+        tolerance_m: f64,
+    ) -> Vec<(f64, f64)> {
+        let c = self.mass.com_m;
+        let margin = 1e-9 * self.scale_m;
+        self.vertices
+            .iter()
+            .filter(|v| offset - dot(normal, **v) <= tolerance_m + margin)
+            .map(|v| {
+                let r = sub(*v, c);
+                (dot(r, east), dot(r, north))
+            })
+            .collect()
     }
 
     /// Whether c, projected along the facet's normal, is inside its polygon by more than
