@@ -107,11 +107,11 @@ use serde::Deserialize;
 
 use crate::azimuth::Azimuth;
 use crate::dynamics::{BlockParams, ParamError};
+use crate::lhs::{latin_hypercube_seeded, standard_normal_quantile};
 use crate::mesh::contact::{
     azimuth_steps, parse_azimuths, RestingContact, RockGeometry, UpAxis,
     DEFAULT_CONTACT_TOLERANCE_M,
 };
-use crate::lhs::{latin_hypercube_seeded, standard_normal_quantile};
 
 /// Largest ensemble size K accepted in a catalogue.
 pub const MAX_ENSEMBLE: usize = 10_000;
@@ -646,9 +646,7 @@ impl Pbr {
                 .member_values()
                 .iter()
                 .enumerate()
-                .map(|(member, values)| {
-                    Ok(self.mesh_blocks(mesh, values, member)?[0])
-                })
+                .map(|(member, values)| Ok(self.mesh_blocks(mesh, values, member)?[0]))
                 .collect();
         }
         let n_geometry = self.geometry.fields().len();
@@ -1331,7 +1329,10 @@ fn validate(raw: RawPbr, sep: char, base_dir: Option<&Path>) -> Result<Pbr, (Str
         }
         (Some(_), None, Some(written)) => directions(written)?,
         (None, _, Some(_)) => {
-            return fail("azimuths", "azimuths needs mesh (a planar block has azimuth_deg)".to_owned())
+            return fail(
+                "azimuths",
+                "azimuths needs mesh (a planar block has azimuth_deg)".to_owned(),
+            )
         }
         (None, None, None) => return fail("azimuth_deg", "azimuth_deg is missing".to_owned()),
         (None, Some(degrees), None) => match Azimuth::from_degrees(degrees) {

@@ -21,6 +21,9 @@
 //!   static overturning angle); `slide_m`: slip of the contact point (m);
 //!   `overturn_probability`: ensemble probability (0–1); `pga_mps2`, `pgv_mps`: the station's
 //!   running peaks, larger horizontal component (m/s², m/s). A non-finite value is `null`.
+//! - `direction_deg`: the direction that raised the alert, the azimuth of the block's +x axis
+//!   in degrees clockwise from north (a planar block's own azimuth; for a rock from a mesh,
+//!   the direction that overturned or rocks most).
 //!
 //! The other records of a state directory's journal: `{"type": "episode_end", "pbr_id",
 //! "episode"}` (the block is back at rest on a quiet station) and `{"type": "reset",
@@ -55,6 +58,10 @@ pub struct AlertJson {
     pub pga_mps2: f64,
     /// Station's running PGV, larger horizontal component (m/s).
     pub pgv_mps: f64,
+    /// The direction that raised the alert: azimuth of the block's +x axis, degrees
+    /// clockwise from north (absent in records written before it existed: 0).
+    #[serde(default)]
+    pub direction_deg: f64,
 }
 
 impl AlertJson {
@@ -80,6 +87,7 @@ impl From<&Alert> for AlertJson {
             overturn_probability: a.overturn_probability,
             pga_mps2: a.pga_mps2,
             pgv_mps: a.pgv_mps,
+            direction_deg: a.direction_deg,
         }
     }
 }
@@ -158,6 +166,7 @@ mod tests {
             // + 45055 s = 758 809 855 s since the epoch.
             data_time_ns: 758_809_855_500_000_000,
             arrival_ns: 42,
+            direction_deg: 0.0,
         }
     }
 

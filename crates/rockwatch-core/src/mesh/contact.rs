@@ -261,7 +261,13 @@ impl RockGeometry {
         };
         let normal = scale3(rest.up, -1.0);
         RestingContact {
-            patch_en_m: self.patch(normal, rest.plane_offset_m, rest.east, rest.north, tolerance_m),
+            patch_en_m: self.patch(
+                normal,
+                rest.plane_offset_m,
+                rest.east,
+                rest.north,
+                tolerance_m,
+            ),
             tolerance_m,
             ..rest.clone()
         }

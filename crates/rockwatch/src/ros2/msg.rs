@@ -108,6 +108,8 @@ pub struct PbrState {
     pub data_gap: bool,
     /// Fraction of the ensemble that overturned (0..1).
     pub overturn_probability: f64,
+    /// The direction described: azimuth of the +x axis, degrees clockwise from north.
+    pub direction_deg: f64,
 }
 
 /// `pbr_msgs/PbrAlert`: an alert about one block.
@@ -131,6 +133,9 @@ pub struct PbrAlert {
     pub pga: f64,
     pub pgv: f64,
     pub message: String,
+    /// The direction that raised the alert: azimuth of the +x axis, degrees clockwise from
+    /// north.
+    pub direction_deg: f64,
 }
 
 /// `pbr_msgs/IntakeReport`: what the node has taken from one writer of `/pbr/accel`
@@ -230,6 +235,7 @@ impl From<&engine::PbrState> for PbrState {
             slide: s.slide_m,
             data_gap: s.data_gap,
             overturn_probability: s.overturn_probability,
+            direction_deg: s.direction_deg,
         }
     }
 }
@@ -257,6 +263,7 @@ impl From<&engine::Alert> for PbrAlert {
                 a.slide_m,
                 a.pga_mps2
             ),
+            direction_deg: a.direction_deg,
         }
     }
 }
