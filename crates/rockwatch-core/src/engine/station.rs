@@ -51,6 +51,19 @@ pub struct PbrSummary {
     pub overturn_probability: f64,
     pub data_gap: bool,
     pub episodes: u32,
+    /// Each direction's nominal response (one for a planar block; a rock from a mesh has
+    /// one per azimuth, in catalogue order). The fields above are the largest over them.
+    pub directions: Vec<DirectionSummary>,
+}
+
+/// One direction's nominal response in a [`PbrSummary`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DirectionSummary {
+    /// Azimuth of the direction's +x axis, degrees clockwise from north.
+    pub direction_deg: f64,
+    pub max_theta_over_alpha: f64,
+    pub max_slide_m: f64,
+    pub overturned: bool,
 }
 
 /// One toppling direction of a catalogued rock: its blocks under the ground motion projected
@@ -412,6 +425,16 @@ impl PbrRuntime {
             max_theta_over_alpha,
             max_slide_m,
             overturned: self.any_nominal_overturned(),
+            directions: self
+                .directions
+                .iter()
+                .map(|d| DirectionSummary {
+                    direction_deg: d.axis.degrees(),
+                    max_theta_over_alpha: d.nominal.stats().max_abs_theta_over_alpha,
+                    max_slide_m: d.nominal.stats().max_abs_slide_m,
+                    overturned: d.nominal.mode() == Mode::Overturned,
+                })
+                .collect(),
             overturn_probability: self.overturn_probability(),
             data_gap: self.data_gap,
             episodes: self.episode,
