@@ -654,3 +654,95 @@ fn azimuth_lists_and_steps_parse() {
     assert!(parse_azimuths("0:720:10").is_err());
     assert!(parse_azimuths("a,b").is_err());
 }
+
+/// Volume enclosed by convex facets: Σ area·offset/3 (the divergence theorem on the hull).
+fn hull_volume(points: &[P], facets: &[rockwatch_core::mesh::hull::Facet]) -> f64 {
+    facets
+        .iter()
+        .map(|f| {
+            let p0 = points[f.polygon[0]];
+            let mut twice_area = 0.0;
+            for k in 1..f.polygon.len() - 1 {
+                let (a, b) = (points[f.polygon[k]], points[f.polygon[k + 1]]);
+                let u = [a[0] - p0[0], a[1] - p0[1], a[2] - p0[2]];
+                let v = [b[0] - p0[0], b[1] - p0[1], b[2] - p0[2]];
+                let c = [
+                    u[1] * v[2] - u[2] * v[1],
+                    u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0],
+                ];
+                twice_area += c[0] * f.normal[0] + c[1] * f.normal[1] + c[2] * f.normal[2];
+            }
+            twice_area / 2.0 * f.offset / 3.0
+        })
+        .sum()
+}
+
+#[test]
+fn hull_of_a_lattice_is_its_cube_with_six_square_facets() {
+    use rockwatch_core::mesh::hull::convex_hull;
+    let mut points = Vec::new();
+    for i in 0..5 {
+        for j in 0..5 {
+            for k in 0..5 {
+                points.push([
+                    i as f64 * 0.25 - 0.5,
+                    j as f64 * 0.25 - 0.5,
+                    k as f64 * 0.25 - 0.5,
+                ]);
+            }
+        }
+    }
+    let facets = convex_hull(&points).unwrap();
+    assert_eq!(facets.len(), 6);
+    assert!(
+        facets.iter().all(|f| f.polygon.len() == 4),
+        "collinear edge points dropped"
+    );
+    close(hull_volume(&points, &facets), 1.0, 1e-14, "cube volume");
+}
+
+#[test]
+fn hull_of_a_point_cloud_contains_every_point_and_converges_to_the_sphere() {
+    use rockwatch_core::mesh::hull::convex_hull;
+    // Fibonacci points on the unit sphere, plus interior points from a fixed LCG.
+    let n = 4000;
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut points: Vec<P> = (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let t = golden * i as f64;
+            [r * t.cos(), r * t.sin(), z]
+        })
+        .collect();
+    let mut state = 12345u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 1.1 - 0.55
+    };
+    for _ in 0..1000 {
+        points.push([next(), next(), next()]);
+    }
+    let facets = convex_hull(&points).unwrap();
+    for f in &facets {
+        for p in &points {
+            let d = f.normal[0] * p[0] + f.normal[1] * p[1] + f.normal[2] * p[2] - f.offset;
+            assert!(d <= 1e-9, "a point lies {d} outside a facet");
+        }
+    }
+    // Every sphere point is a hull vertex (they are in convex position).
+    let mut on_hull = vec![false; points.len()];
+    for f in &facets {
+        for &v in &f.polygon {
+            on_hull[v] = true;
+        }
+    }
+    assert!(on_hull[..n].iter().all(|&b| b) && !on_hull[n..].iter().any(|&b| b));
+    // Volume of an inscribed polytope of 4000 well-spread points: just below 4π/3.
+    let v = hull_volume(&points, &facets);
+    let sphere = 4.0 / 3.0 * std::f64::consts::PI;
+    assert!(v < sphere && v > sphere * (1.0 - 2e-3), "{v} vs {sphere}");
+}

@@ -45,6 +45,17 @@
 //!   `rho_m` (m, > 0: a general body, horizontal distances from the centre of mass to the +x
 //!   and −x pivots, height of the centre of mass, radius of gyration). A missing field of a
 //!   form, or fields of two forms, are rejected naming the field.
+//! - or a rock from its closed mesh (docs/meshes.md): `mesh = "rocks/r1.obj"` (.obj, .ply,
+//!   .stl, metres; a relative path is relative to the catalogue file's directory when loaded
+//!   by [`Catalogue::load`]), `azimuths` instead of `azimuth_deg` — a list `[0, 90, 200]` or
+//!   `{ from = 0, to = 360, step = 15 }` (TO excluded; in CSV the text `0:360:15` or `"0,90"`),
+//!   true azimuths clockwise from north, distinct, at most [`MAX_DIRECTIONS`] — optional
+//!   `up` (the mesh axis pointing up, default `"z"`), `heading_deg` (true azimuth of the mesh's
+//!   north axis, in [−360, 360], default 0) and `contact_tolerance_m` (in [0, 1] m, default
+//!   0.005). `heading_deg` and `contact_tolerance_m` are [`Distribution`]s like the other
+//!   parameters (the mesh's uncertain fields, in that LHS column order). The rock has one
+//!   planar body per direction ([`Pbr::directions`]; direction az is the mesh's azimuth
+//!   az − heading); [`Pbr::nominal`] and [`Pbr::members`] are those of its first direction.
 //! - `mu_s` (> 0), `mu_k` (in [0, 4/3): μk ≥ 4/3 makes slide-rocking ill-posed, the Painlevé
 //!   paradox; a general body's own bound 2√(c(1 + c)), c = ρ²/R², is checked on the nominal
 //!   block), optional `restitution` (in [0, 1]). Every geometry field and these are each

@@ -166,7 +166,7 @@ mod tests {
             // + 45055 s = 758 809 855 s since the epoch.
             data_time_ns: 758_809_855_500_000_000,
             arrival_ns: 42,
-            direction_deg: 0.0,
+            direction_deg: 228.0,
         }
     }
 
@@ -179,11 +179,22 @@ mod tests {
             "data_time_ns": 758_809_855_500_000_000_i64, "station": "CI.RRS.00",
             "mode": "slide-rock", "theta_over_alpha": -0.85, "slide_m": 0.01,
             "overturn_probability": 0.25, "pga_mps2": 8.0, "pgv_mps": 1.5,
+            "direction_deg": 228.0,
         });
         assert_eq!(v, expected);
         // It reads back.
-        let back: RecordJson = serde_json::from_value(v).unwrap();
+        let back: RecordJson = serde_json::from_value(v.clone()).unwrap();
         assert_eq!(back, RecordJson::Alert((&alert()).into()));
+        // A record written before `direction_deg` existed reads with 0.
+        let mut old = v;
+        if let Some(map) = old.as_object_mut() {
+            map.remove("direction_deg");
+        }
+        let back: RecordJson = serde_json::from_value(old).unwrap();
+        let RecordJson::Alert(back) = back else {
+            panic!("not an alert: {back:?}");
+        };
+        assert_eq!(back.direction_deg, 0.0);
     }
 
     #[test]
