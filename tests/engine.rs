@@ -1307,7 +1307,8 @@ seed = 3
         .map(|a| f64::from((0.6 * a) as f32))
         .collect();
     for len in [1, 64] {
-        let mut engine = Engine::new(EngineConfig::default(), vec![], std::slice::from_ref(&spec)).unwrap();
+        let mut engine =
+            Engine::new(EngineConfig::default(), vec![], std::slice::from_ref(&spec)).unwrap();
         let outputs = run(
             &mut engine,
             packets("CI.RRS.00", &east, &north, record.dt_s, len),

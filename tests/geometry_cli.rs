@@ -243,3 +243,74 @@ fn trace_csv_holds_the_record_and_the_response_per_step() {
     let last_slide: f64 = rows.last().unwrap()[4].parse().unwrap();
     assert_eq!(last_slide, f(&json["residual_slide"]));
 }
+
+/// `monitor` over a catalogue with a rock from a mesh: its alerts name one of its directions,
+/// and its summary lists every direction: under a one-component record, the direction along
+/// the record and the opposite one respond alike (mirrored body, negated input), the
+/// perpendicular one not at all.
+#[test]
+fn monitor_integrates_a_meshed_rock_in_each_direction_and_names_it() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    std::fs::copy(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/meshes/leaning-wedge.obj"
+        ),
+        dir.path().join("meshes/wedge.obj"),
+    )
+    .unwrap();
+    let catalogue = dir.path().join("cat.toml");
+    std::fs::write(
+        &catalogue,
+        "[[pbr]]\nid = \"wedge\"\nname = \"wedge\"\nlat = 34.28\nlon = -118.48\n\
+         station = \"CI.RRS.00\"\nmesh = \"meshes/wedge.obj\"\nazimuths = [228, 48, 138]\n\
+         heading_deg = 0.0\nmu_s = 0.8\nmu_k = 0.6\nsource = \"test\"\n",
+    )
+    .unwrap();
+    let out = rockwatch(&[
+        "monitor",
+        "--catalogue",
+        catalogue.to_str().unwrap(),
+        "--record",
+        RINALDI,
+        "--azimuth",
+        "228",
+        "--station",
+        "CI.RRS.00",
+        "--format",
+        "jsonl",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let values: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let alerts: Vec<&serde_json::Value> = values.iter().filter(|v| v["type"] == "alert").collect();
+    assert!(!alerts.is_empty(), "the wedge rocks under Rinaldi");
+    for a in &alerts {
+        let d = f(&a["direction_deg"]);
+        assert!(d == 228.0 || d == 48.0, "{a}");
+    }
+    let summary = values.last().unwrap();
+    let dirs = summary["pbrs"][0]["directions"].as_array().unwrap();
+    let got: Vec<(f64, f64)> = dirs
+        .iter()
+        .map(|d| (f(&d["direction_deg"]), f(&d["max_theta_over_alpha"])))
+        .collect();
+    assert_eq!(
+        got.iter().map(|g| g.0).collect::<Vec<_>>(),
+        [228.0, 48.0, 138.0]
+    );
+    assert!(got[0].1 > 0.0);
+    assert!((got[0].1 - got[1].1).abs() <= 1e-6 * got[0].1, "{got:?}");
+    assert_eq!(got[2].1, 0.0, "perpendicular to the motion");
+    assert_eq!(
+        f(&summary["pbrs"][0]["max_theta_over_alpha"]),
+        got[0].1.max(got[1].1)
+    );
+}
