@@ -77,8 +77,9 @@
 //! the column `P` (a number), the pair `P_min`,`P_max` (uniform) or the pair `P_mean`,`P_sd`
 //! (normal); the other cells of `P` in that row stay empty. Columns may come in any order;
 //! unknown or repeated column names are rejected at the header, as is a header without `id`,
-//! `name`, `lat`, `lon`, `station`, `azimuth_deg` or `source`. `restitution`, `ensemble` and
-//! `seed` columns are optional. A CSV and a TOML file describing the same PBRs load equal.
+//! `name`, `lat`, `lon`, `station` or `source`. `azimuth_deg` (required in a planar block's
+//! row), `restitution`, `ensemble`, `seed` and the mesh columns `mesh`, `up`, `azimuths`,
+//! `heading_deg`, `contact_tolerance_m` are optional. A CSV and a TOML file describing the same PBRs load equal.
 //!
 //! # Errors
 //!
