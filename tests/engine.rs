@@ -610,9 +610,21 @@ fn sharded_engine_gives_each_station_the_same_results_as_one_engine() {
         .iter()
         .enumerate()
         .flat_map(|(i, s)| {
+            // A rock with three directions (as from a mesh) on every station too.
+            let body = BlockParams::from_body(0.12, 0.3, 0.9, 0.5, 0.8, 0.6, None).unwrap();
+            let mut rock = spec(&format!("rock-{i}"), s, 10.0 * i as f64, body);
+            rock.more_directions = [100.0, 250.0]
+                .iter()
+                .map(|&az| rockwatch_core::catalogue::DirectionBlocks {
+                    azimuth: Azimuth::from_degrees(az + i as f64).unwrap(),
+                    nominal: slender(),
+                    members: vec![],
+                })
+                .collect();
             [
                 spec(&format!("slender-{i}"), s, 30.0 * i as f64, slender()),
                 spec(&format!("stocky-{i}"), s, 90.0, stocky()),
+                rock,
             ]
         })
         .collect();
