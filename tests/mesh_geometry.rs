@@ -334,6 +334,16 @@ fn contact_tolerance_widens_the_patch_to_a_chamfer_within_it() {
     close(wide.b_minus_m, a / 2.0 + gx, 1e-12, "b- wide");
     close(tight.h_m, gz, 1e-12, "h");
     assert!(wide.alpha_plus_deg > tight.alpha_plus_deg);
+    // The patch of another tolerance from the same contact (what ensembles use).
+    let rest = rock.rest(UpAxis::PlusZ, 0.001).unwrap();
+    assert_eq!(rest.direction_at(90.0, 0.005), wide);
+    assert_eq!(rest.direction_at(90.0, 0.001), tight);
+    assert_eq!(rest.contact_vertices(), 4);
+    assert_eq!(rest.patch(0.005).len(), 6);
+    assert!(
+        rock.rest(UpAxis::PlusZ, 1.5).is_err(),
+        "tolerance above 1 m"
+    );
 }
 
 /// Regular n-gon of circumradius r, CCW.

@@ -412,11 +412,12 @@ impl MeshRock {
         mu_k: f64,
         restitution: Option<f64>,
     ) -> Result<Vec<BlockParams>, ParamError> {
-        let rest = self.rock.with_tolerance(&self.rest, tolerance_m);
         self.azimuths
             .iter()
             .map(|az| {
-                let d = rest.direction(az.degrees() - heading_deg);
+                let d = self
+                    .rest
+                    .direction_at(az.degrees() - heading_deg, tolerance_m);
                 BlockParams::from_body(
                     d.b_plus_m,
                     d.b_minus_m,

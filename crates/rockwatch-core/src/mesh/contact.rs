@@ -47,6 +47,9 @@ use super::{cross, dot, norm, normalize, scale3, sub, MeshError, TriMesh};
 /// Default contact tolerance (m): 5 mm.
 pub const DEFAULT_CONTACT_TOLERANCE_M: f64 = 0.005;
 
+/// Largest contact tolerance (m): 1 m.
+pub const MAX_CONTACT_TOLERANCE_M: f64 = 1.0;
+
 /// A signed mesh axis: the mesh's approximate up direction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum UpAxis {
@@ -134,12 +137,14 @@ pub struct RestingContact {
     pub tolerance_m: f64,
     /// Number of vertices of the resting facet's polygon.
     pub facet_vertices: usize,
-    /// Contact patch vertices relative to the centre of mass, as (east, north) in metres.
-    pub patch_en_m: Vec<(f64, f64)>,
     /// Unit-density mass properties of the rock.
     pub mass: MassProperties,
-    /// The resting facet's plane: points x with −up·x = `plane_offset_m` (outward normal −up).
-    pub plane_offset_m: f64,
+    /// The vertices within [`MAX_CONTACT_TOLERANCE_M`] of the resting plane, as (depth above
+    /// the plane, east, north) relative to the centre of mass (m), by increasing depth: the
+    /// patch of any tolerance is a prefix.
+    near: Vec<(f64, f64, f64)>,
+    /// Rounding allowance of the depth comparison (10⁻⁹ of the mesh size, m).
+    margin_m: f64,
 }
 
 /// The planar body of one direction (module doc).
@@ -197,9 +202,9 @@ impl RockGeometry {
             source_name: self.source.clone(),
             message,
         };
-        if !(tolerance_m.is_finite() && tolerance_m >= 0.0) {
+        if !(0.0..=MAX_CONTACT_TOLERANCE_M).contains(&tolerance_m) {
             return Err(fail(format!(
-                "contact tolerance {tolerance_m} m must be a finite length ≥ 0"
+                "contact tolerance {tolerance_m} m must be in [0, {MAX_CONTACT_TOLERANCE_M}] m"
             )));
         }
         let (up0, _, north0) = up.frame();
@@ -234,7 +239,18 @@ impl RockGeometry {
         let north = normalize(n_proj);
         let east = cross(north, u);
         let h_m = facet.offset - dot(facet.normal, c);
-        let patch_en_m = self.patch(facet.normal, facet.offset, east, north, tolerance_m);
+        let mut near: Vec<(f64, f64, f64)> = self
+            .vertices
+            .iter()
+            .filter_map(|v| {
+                let depth = facet.offset - dot(facet.normal, *v);
+                (depth <= MAX_CONTACT_TOLERANCE_M + margin).then(|| {
+                    let r = sub(*v, c);
+                    (depth, dot(r, east), dot(r, north))
+                })
+            })
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0));
         Ok(RestingContact {
             up: u,
             east,
@@ -243,56 +259,10 @@ impl RockGeometry {
             tilt_deg: alignment.clamp(-1.0, 1.0).acos().to_degrees(),
             tolerance_m,
             facet_vertices: facet.polygon.len(),
-            patch_en_m,
             mass: self.mass,
-            plane_offset_m: facet.offset,
+            near,
+            margin_m: margin,
         })
-    }
-
-    /// The same resting facet and frame as `rest` (from [`RockGeometry::rest`] of this rock)
-    /// with the contact patch for another tolerance (m, finite, ≥ 0; a negative or non-finite
-    /// value is taken as 0). Cannot fail: the facet does not depend on the tolerance.
-    #[must_use]
-    pub fn with_tolerance(&self, rest: &RestingContact, tolerance_m: f64) -> RestingContact {
-        let tolerance_m = if tolerance_m.is_finite() {
-            tolerance_m.max(0.0)
-        } else {
-            0.0
-        };
-        let normal = scale3(rest.up, -1.0);
-        RestingContact {
-            patch_en_m: self.patch(
-                normal,
-                rest.plane_offset_m,
-                rest.east,
-                rest.north,
-                tolerance_m,
-            ),
-            tolerance_m,
-            ..rest.clone()
-        }
-    }
-
-    /// The vertices within `tolerance_m` of the plane n·x = offset, relative to the centre of
-    /// mass, as (east, north).
-    fn patch(
-        &self,
-        normal: [f64; 3],
-        offset: f64,
-        east: [f64; 3],
-        north: [f64; 3],
-        tolerance_m: f64,
-    ) -> Vec<(f64, f64)> {
-        let c = self.mass.com_m;
-        let margin = 1e-9 * self.scale_m;
-        self.vertices
-            .iter()
-            .filter(|v| offset - dot(normal, **v) <= tolerance_m + margin)
-            .map(|v| {
-                let r = sub(*v, c);
-                (dot(r, east), dot(r, north))
-            })
-            .collect()
     }
 
     /// Whether c, projected along the facet's normal, is inside its polygon by more than
@@ -316,14 +286,43 @@ impl RockGeometry {
 }
 
 impl RestingContact {
+    /// The contact patch at the tolerance `tolerance_m` (clamped to [0,
+    /// [`MAX_CONTACT_TOLERANCE_M`]]): (depth above the resting plane, east, north) of each
+    /// vertex relative to the centre of mass (m). Never empty: the resting facet's vertices
+    /// are at depth 0.
+    #[must_use]
+    pub fn patch(&self, tolerance_m: f64) -> &[(f64, f64, f64)] {
+        let tolerance_m = if tolerance_m.is_nan() {
+            0.0
+        } else {
+            tolerance_m
+        };
+        let limit = tolerance_m.clamp(0.0, MAX_CONTACT_TOLERANCE_M) + self.margin_m;
+        let n = self.near.partition_point(|p| p.0 <= limit);
+        &self.near[..n]
+    }
+
+    /// The contact patch at the contact's own tolerance ([`RestingContact::patch`]).
+    #[must_use]
+    pub fn contact_vertices(&self) -> usize {
+        self.patch(self.tolerance_m).len()
+    }
+
     /// The planar body of the direction `azimuth_deg` (degrees clockwise from the mesh's
-    /// north axis; any finite value, taken modulo 360).
+    /// north axis; any finite value, taken modulo 360) at the contact's tolerance.
     #[must_use]
     pub fn direction(&self, azimuth_deg: f64) -> DirectionBody {
+        self.direction_at(azimuth_deg, self.tolerance_m)
+    }
+
+    /// The planar body of the direction `azimuth_deg` with the contact patch of another
+    /// tolerance (m; the resting facet and frame do not depend on it).
+    #[must_use]
+    pub fn direction_at(&self, azimuth_deg: f64, tolerance_m: f64) -> DirectionBody {
         let az = azimuth_deg.to_radians();
         let (s, co) = az.sin_cos();
         let (mut b_plus, mut b_minus) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for &(e, n) in &self.patch_en_m {
+        for &(_, e, n) in self.patch(tolerance_m) {
             let x = e * s + n * co;
             b_plus = b_plus.max(x);
             b_minus = b_minus.max(-x);

@@ -87,7 +87,7 @@ pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
                 north: rest.north,
                 tilt_deg: rest.tilt_deg,
                 contact_tolerance_m: rest.tolerance_m,
-                contact_vertices: rest.patch_en_m.len(),
+                contact_vertices: rest.contact_vertices(),
                 directions: &directions,
             };
             outln!("{}", serde_json::to_string_pretty(&json)?);
@@ -110,7 +110,7 @@ fn text(args: &GeometryArgs, up: UpAxis, rest: &RestingContact, dirs: &[Directio
         "resting     facet of {} hull vertices, {} contact vertices within {} m; vertical {} \
          ({:.2}° from {}), north {}",
         rest.facet_vertices,
-        rest.patch_en_m.len(),
+        rest.contact_vertices(),
         rest.tolerance_m,
         v3(rest.up),
         rest.tilt_deg,
