@@ -65,6 +65,7 @@ fn pbrs(case: Case) -> Vec<PbrSpec> {
                     nominal: BlockParams::from_width_height(width, height, 0.9, 0.7, None)
                         .expect("valid block"),
                     members: vec![],
+                    more_directions: vec![],
                 }
             })
         })

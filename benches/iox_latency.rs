@@ -141,6 +141,7 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
                             pgv_mps: 0.0,
                             data_time_ns: p.start_time_ns,
                             arrival_ns: 0,
+                            direction_deg: 0.0,
                         };
                         publisher.publish(&Publication::Alert {
                             alert,

@@ -426,9 +426,9 @@ fn csv_header_problems_are_reported() {
     assert_eq!(
         csv_error(&format!("{CSV_HEADER},colour\n{CSV_ROW},red\n")),
         "test.csv:1: unknown column \"colour\" in the CSV header (known: id, name, lat, lon, \
-         station, azimuth_deg, source, ensemble, seed, and for P in width_m, height_m, \
-         half_diagonal_m, alpha_deg, b_plus_m, b_minus_m, h_m, rho_m, mu_s, mu_k, restitution: \
-         P, P_min + P_max, or P_mean + P_sd)"
+         station, source, azimuth_deg, ensemble, seed, mesh, up, azimuths, and for P in width_m, \
+         height_m, half_diagonal_m, alpha_deg, b_plus_m, b_minus_m, h_m, rho_m, heading_deg, \
+         contact_tolerance_m, mu_s, mu_k, restitution: P, P_min + P_max, or P_mean + P_sd)"
     );
     assert_eq!(
         csv_error(&format!("{CSV_HEADER},lat\n{CSV_ROW},1\n")),
@@ -982,8 +982,8 @@ fn geometry_forms_are_validated_with_the_field_named() {
         changes.extend_from_slice(extra);
         changes
     };
-    let forms = "width_m + height_m, half_diagonal_m + alpha_deg, or b_plus_m + b_minus_m + h_m \
-                 + rho_m";
+    let forms = "width_m + height_m, half_diagonal_m + alpha_deg, b_plus_m + b_minus_m + h_m \
+                 + rho_m, or mesh";
     let cases: Vec<(Vec<Change>, String)> =
         vec![
         (
@@ -1071,4 +1071,168 @@ fn members_sized_draws_another_ensemble_size_from_the_same_entry() {
     assert_eq!(pinnacle.members_sized(1).unwrap(), vec![pinnacle.nominal()]);
     let pillar = catalogue.get("rrs-slender-pillar").unwrap();
     assert!(!pillar.has_uncertainty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rocks from meshes.
+
+/// A box 0.4 (x, east) × 0.3 (y, north) × 1.2 (z, up) as an OBJ standing on z = 0.
+const BOX_OBJ: &str = "v -0.2 -0.15 0\nv 0.2 -0.15 0\nv 0.2 0.15 0\nv -0.2 0.15 0\n\
+                       v -0.2 -0.15 1.2\nv 0.2 -0.15 1.2\nv 0.2 0.15 1.2\nv -0.2 0.15 1.2\n\
+                       f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+/// The mesh entry's TOML with `extra` lines; the mesh at `rocks/box.obj` next to it.
+fn mesh_catalogue(dir: &Path, extra: &str) -> PathBuf {
+    std::fs::create_dir_all(dir.join("rocks")).unwrap();
+    std::fs::write(dir.join("rocks/box.obj"), BOX_OBJ).unwrap();
+    let path = dir.join("cat.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "[[pbr]]\nid = \"box\"\nname = \"Box\"\nlat = 34.28\nlon = -118.48\n\
+             station = \"CI.RRS.00\"\nmesh = \"rocks/box.obj\"\nmu_s = 0.8\nmu_k = 0.6\n\
+             source = \"test\"\n{extra}"
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn load_error(path: &Path) -> String {
+    match Catalogue::load(path) {
+        Ok(_) => panic!("{} accepted", path.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn mesh_entries_give_one_planar_body_per_direction_from_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    // heading 90: the mesh's north (its y axis) points east; true azimuth az is mesh az − 90.
+    let path = mesh_catalogue(dir.path(), "azimuths = [0, 90, 45]\nheading_deg = 90.0\n");
+    let cat = Catalogue::load(&path).unwrap();
+    let pbr = &cat.pbrs()[0];
+    assert_eq!(pbr.azimuth_deg(), 0.0);
+    let dirs = pbr.directions().unwrap();
+    assert_eq!(dirs.len(), 3);
+    // True north is mesh azimuth −90 (west-east, the 0.4 m side): b = 0.2; true east is mesh
+    // north (the 0.3 m side): b = 0.15. h = 0.6; ρ² from the box's inertia (B² + H²)/12.
+    let expect = [(0.2, 0.4), (0.15, 0.3)];
+    for (d, (b, side)) in dirs.iter().zip(expect) {
+        let block = &d.nominal;
+        assert!((block.plus.b_m - b).abs() < 1e-12 && (block.minus.b_m - b).abs() < 1e-12);
+        let want = BlockParams::from_body(
+            b,
+            b,
+            0.6,
+            ((side * side + 1.44) / 12.0f64).sqrt(),
+            0.8,
+            0.6,
+            None,
+        )
+        .unwrap();
+        assert!((block.alpha_rad - want.alpha_rad).abs() < 1e-12);
+        assert!((block.plus.alpha_rad - (b / 0.6f64).atan()).abs() < 1e-12);
+        assert!(d.members.is_empty());
+    }
+    assert_eq!(pbr.nominal(), dirs[0].nominal);
+    // The step form, and CSV with the text form, load the same directions.
+    let steps = mesh_catalogue(dir.path(), "azimuths = { from = 0, to = 360, step = 90 }\n");
+    let cat = Catalogue::load(&steps).unwrap();
+    let az: Vec<f64> = cat.pbrs()[0]
+        .directions()
+        .unwrap()
+        .iter()
+        .map(|d| d.azimuth.degrees())
+        .collect();
+    assert_eq!(az, vec![0.0, 90.0, 180.0, 270.0]);
+    let csv = dir.path().join("cat.csv");
+    std::fs::write(
+        &csv,
+        "id,name,lat,lon,station,mesh,azimuths,mu_s,mu_k,source\n\
+         box,Box,34.28,-118.48,CI.RRS.00,rocks/box.obj,0:360:90,0.8,0.6,test\n",
+    )
+    .unwrap();
+    let from_csv = Catalogue::load(&csv).unwrap();
+    assert_eq!(
+        from_csv.pbrs()[0].directions().unwrap(),
+        cat.pbrs()[0].directions().unwrap()
+    );
+}
+
+#[test]
+fn mesh_heading_and_contact_tolerance_are_sampled_like_the_other_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = mesh_catalogue(
+        dir.path(),
+        "azimuths = [0, 90]\nheading_deg = { min = -20.0, max = 20.0 }\n\
+         contact_tolerance_m = { min = 0.001, max = 0.01 }\nensemble = 8\nseed = 5\n",
+    );
+    let pbr = Catalogue::load(&path).unwrap().pbrs()[0].clone();
+    let dirs = pbr.directions().unwrap();
+    assert_eq!(dirs.len(), 2);
+    // Columns: heading, tolerance (mu_s, mu_k fixed): member i has heading −20 + 40·u_i0.
+    let lhs = latin_hypercube_seeded(8, 2, 5);
+    for (i, u) in lhs.samples().enumerate() {
+        let heading = -20.0 + 40.0 * u[0];
+        // North (true 0°) is mesh azimuth −heading: the box's support along it.
+        let r = (-heading).to_radians();
+        let support = 0.2 * r.sin().abs() + 0.15 * r.cos().abs();
+        let m = &dirs[0].members[i];
+        assert!((m.plus.b_m - support).abs() < 1e-12, "member {i}");
+        let r = (90.0 - heading).to_radians();
+        let support = 0.2 * r.sin().abs() + 0.15 * r.cos().abs();
+        assert!(
+            (dirs[1].members[i].plus.b_m - support).abs() < 1e-12,
+            "member {i}"
+        );
+    }
+    // The first direction's members are Pbr::members.
+    assert_eq!(pbr.members().unwrap(), dirs[0].members);
+}
+
+#[test]
+fn mesh_entry_problems_are_reported_by_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        ("", "azimuths is missing"),
+        (
+            "azimuths = [0]\nazimuth_deg = 10.0\n",
+            "azimuth_deg cannot be combined with mesh",
+        ),
+        (
+            "azimuths = [0]\nwidth_m = 1.0\n",
+            "width_m cannot be combined with mesh",
+        ),
+        ("azimuths = [0, 360]\n", "given twice"),
+        (
+            "azimuths = { from = 0, to = 360, step = 0 }\n",
+            "azimuths: azimuth step",
+        ),
+        ("azimuths = [0]\nup = \"w\"\n", "up: up axis"),
+        (
+            "azimuths = [0]\ncontact_tolerance_m = 2.0\n",
+            "contact_tolerance_m = 2 must be in [0, 1] m",
+        ),
+        (
+            "azimuths = [0]\nensemble = 3\n",
+            "no parameter is uncertain",
+        ),
+    ];
+    for (extra, expected) in cases {
+        let e = load_error(&mesh_catalogue(dir.path(), extra));
+        assert!(
+            e.contains("pbr[0] (id \"box\")") && e.contains(expected),
+            "{extra:?}: {e}"
+        );
+    }
+    // A missing or open mesh names the file.
+    let path = mesh_catalogue(dir.path(), "azimuths = [0]\n");
+    std::fs::write(dir.path().join("rocks/box.obj"), "v 0 0 0\n").unwrap();
+    let e = load_error(&path);
+    assert!(e.contains("mesh:") && e.contains("box.obj"), "{e}");
+    let planar = entry(&[("heading_deg", Some("5.0"))]);
+    assert!(toml_error(&planar).contains("heading_deg needs mesh"));
+    let no_azimuth = entry(&[("azimuth_deg", None)]);
+    assert!(toml_error(&no_azimuth).contains("azimuth_deg is missing"));
 }

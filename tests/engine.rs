@@ -32,6 +32,7 @@ fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpec {
         azimuth: Azimuth::from_degrees(azimuth_deg).unwrap(),
         nominal: p,
         members: vec![],
+        more_directions: vec![],
     }
 }
 
@@ -609,9 +610,21 @@ fn sharded_engine_gives_each_station_the_same_results_as_one_engine() {
         .iter()
         .enumerate()
         .flat_map(|(i, s)| {
+            // A rock with three directions (as from a mesh) on every station too.
+            let body = BlockParams::from_body(0.12, 0.3, 0.9, 0.5, 0.8, 0.6, None).unwrap();
+            let mut rock = spec(&format!("rock-{i}"), s, 10.0 * i as f64, body);
+            rock.more_directions = [100.0, 250.0]
+                .iter()
+                .map(|&az| rockwatch_core::catalogue::DirectionBlocks {
+                    azimuth: Azimuth::from_degrees(az + i as f64).unwrap(),
+                    nominal: slender(),
+                    members: vec![],
+                })
+                .collect();
             [
                 spec(&format!("slender-{i}"), s, 30.0 * i as f64, slender()),
                 spec(&format!("stocky-{i}"), s, 90.0, stocky()),
+                rock,
             ]
         })
         .collect();
@@ -1245,4 +1258,130 @@ fn an_ensemble_member_costs_one_rigid_block_of_memory() {
         (std::mem::size_of::<RigidBlock>()..1024).contains(&alone),
         "{alone} B for a block"
     );
+}
+
+/// A wedge (triangle x ∈ [0, 0.5] on the ground, apex above x = 0.05 at 2 m) extruded 0.3 m
+/// along y, as an OBJ (up z, north y).
+fn wedge_obj() -> String {
+    let (l, p, h, w) = (0.5, 0.05, 2.0, 0.3);
+    let tri = [(0.0, 0.0), (l, 0.0), (p, h)];
+    let mut text = String::new();
+    for y in [-w / 2.0, w / 2.0] {
+        for (x, z) in tri {
+            text += &format!("v {x} {y} {z}\n");
+        }
+    }
+    // Caps (y = −w/2 seen from −y, y = +w/2 from +y), then the three side quads.
+    text += "f 1 2 3\nf 4 6 5\nf 1 4 5 2\nf 2 5 6 3\nf 3 6 4 1\n";
+    text
+}
+
+#[test]
+fn a_rock_from_a_mesh_is_integrated_in_each_direction_like_simulate_on_its_projection() {
+    use rockwatch_core::catalogue::Catalogue;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    std::fs::write(dir.path().join("meshes/wedge.obj"), wedge_obj()).unwrap();
+    let catalogue = dir.path().join("catalogue.toml");
+    std::fs::write(
+        &catalogue,
+        r#"
+[[pbr]]
+id = "wedge"
+name = "Wedge from a mesh"
+lat = 34.28
+lon = -118.48
+station = "CI.RRS.00"
+mesh = "meshes/wedge.obj"
+azimuths = [30.0, 120.0, 250.0]
+heading_deg = 10.0
+contact_tolerance_m = { min = 0.001, max = 0.01 }
+mu_s = 0.8
+mu_k = 0.6
+source = "test"
+ensemble = 4
+seed = 3
+"#,
+    )
+    .unwrap();
+    let cat = Catalogue::load(&catalogue).unwrap();
+    let pbr = &cat.pbrs()[0];
+    let directions = pbr.directions().unwrap();
+    assert_eq!(directions.len(), 3);
+    assert!(directions.iter().all(|d| d.members.len() == 4));
+    let spec = PbrSpec::from_catalogue(pbr).unwrap();
+    // A two-component motion: Rinaldi on east, the reversed record × 0.6 on north.
+    let record = rinaldi_f32();
+    let east = record.horizontal_mps2.clone();
+    let north: Vec<f64> = east
+        .iter()
+        .rev()
+        .map(|a| f64::from((0.6 * a) as f32))
+        .collect();
+    for len in [1, 64] {
+        let mut engine =
+            Engine::new(EngineConfig::default(), vec![], std::slice::from_ref(&spec)).unwrap();
+        let outputs = run(
+            &mut engine,
+            packets("CI.RRS.00", &east, &north, record.dt_s, len),
+        );
+        let summary = &engine.summaries()[0];
+        assert_eq!(summary.directions.len(), 3);
+        let options = SimulationOptions {
+            t_extra_s: 0.0,
+            ..SimulationOptions::default()
+        };
+        let mut any_overturned = false;
+        let mut member_fell = [false; 4];
+        for (d, got) in directions.iter().zip(&summary.directions) {
+            assert_eq!(got.direction_deg, d.azimuth.degrees());
+            // The record projected on this direction, as the engine projects it.
+            let mut projected = record.clone();
+            projected.horizontal_mps2 = east
+                .iter()
+                .zip(&north)
+                .map(|(&e, &n)| d.azimuth.component(e, n))
+                .collect();
+            let expected = simulate(d.nominal, &projected, &options).unwrap().summary;
+            let what = format!("direction {} len {len}", got.direction_deg);
+            assert_eq!(got.overturned, expected.overturned, "{what}");
+            assert_eq!(
+                got.max_theta_over_alpha, expected.max_abs_theta_over_alpha,
+                "{what}"
+            );
+            assert_eq!(got.max_slide_m, expected.max_abs_slide, "{what}");
+            any_overturned |= expected.overturned;
+            for (i, m) in d.members.iter().enumerate() {
+                member_fell[i] |= simulate(*m, &projected, &options)
+                    .unwrap()
+                    .summary
+                    .overturned;
+            }
+        }
+        assert_eq!(summary.overturned, any_overturned);
+        let fraction = member_fell.iter().filter(|&&f| f).count() as f64 / 4.0;
+        assert_eq!(summary.overturn_probability, fraction);
+        // Alerts and states name a direction of the rock; an overturn names one that fell.
+        let azimuths: Vec<f64> = directions.iter().map(|d| d.azimuth.degrees()).collect();
+        for o in &outputs {
+            match o {
+                Output::Alert(a) => {
+                    assert!(azimuths.contains(&a.direction_deg), "{a:?}");
+                    if a.level == AlertLevel::Overturned {
+                        let k = azimuths.iter().position(|&x| x == a.direction_deg).unwrap();
+                        assert!(summary.directions[k].overturned);
+                    }
+                }
+                Output::State(s) => assert!(azimuths.contains(&s.direction_deg)),
+                _ => {}
+            }
+        }
+        let overturn_alerts = outputs
+            .iter()
+            .filter(|o| matches!(o, Output::Alert(a) if a.level == AlertLevel::Overturned))
+            .count();
+        assert_eq!(overturn_alerts, usize::from(any_overturned));
+        // The case is a real test of "any direction": one direction stands, others fall.
+        assert!(any_overturned && summary.directions.iter().any(|d| !d.overturned));
+    }
 }

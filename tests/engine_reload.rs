@@ -39,6 +39,7 @@ fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpec {
         azimuth: Azimuth::from_degrees(azimuth_deg).unwrap(),
         nominal: p,
         members: vec![],
+        more_directions: vec![],
     }
 }
 

@@ -79,7 +79,7 @@ fn wire_layouts_match_the_documented_c_layouts() {
 
     assert_eq!(
         (size_of::<PbrAlertIox>(), align_of::<PbrAlertIox>()),
-        (160, 8)
+        (168, 8)
     );
     for (offset, expected) in [
         (offset_of!(PbrAlertIox, sequence), 0),

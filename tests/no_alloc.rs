@@ -90,6 +90,7 @@ fn advance_does_not_allocate_in_any_mode() {
 #[test]
 fn a_quiet_station_with_resting_blocks_does_not_allocate() {
     use rockwatch_core::azimuth::Azimuth;
+    use rockwatch_core::catalogue::DirectionBlocks;
     use rockwatch_core::engine::{AccelPacket, Engine, EngineConfig, PbrSpec, StationId};
     let station = StationId::parse("XX.Q.00").unwrap();
     let pbrs: Vec<PbrSpec> = (0..20)
@@ -101,6 +102,24 @@ fn a_quiet_station_with_resting_blocks_does_not_allocate() {
                 .unwrap(),
             members: if k % 4 == 0 {
                 vec![BlockParams::from_width_height(0.6, 2.0, 0.7, 0.5, None).unwrap(); 3]
+            } else {
+                vec![]
+            },
+            // Rocks from meshes: every fourth also topples in two more directions (general
+            // bodies), with as many members as its first direction.
+            more_directions: if k % 4 == 0 {
+                (1..3)
+                    .map(|j| {
+                        let body =
+                            BlockParams::from_body(0.2, 0.35, 0.9, 0.6, 0.7, 0.5, None).unwrap();
+                        DirectionBlocks {
+                            azimuth: Azimuth::from_degrees(18.0 * k as f64 + 60.0 * j as f64)
+                                .unwrap(),
+                            nominal: body,
+                            members: vec![body; 3],
+                        }
+                    })
+                    .collect()
             } else {
                 vec![]
             },

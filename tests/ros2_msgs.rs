@@ -313,6 +313,7 @@ fn iceoryx2_alerts_carry_the_ros2_level_and_mode_codes() {
                 pgv_mps: 0.1,
                 data_time_ns: 0,
                 arrival_ns: 0,
+                direction_deg: 0.0,
             };
             let ros = msg::PbrAlert::from(&alert);
             let iox = PbrAlertIox::from_alert(&alert, 0, 0);

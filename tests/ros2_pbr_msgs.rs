@@ -241,6 +241,8 @@ fn rclpy_peer_with_the_generated_types_gets_overturned_for_the_slender_block_onl
             ("overturn_probability", j.overturn_probability),
             ("pga", j.pga_mps2),
             ("pgv", j.pgv_mps),
+            // The last field, after the string `message`: its alignment is checked too.
+            ("direction_deg", j.direction_deg),
         ] {
             let got = a[field].as_f64().unwrap();
             assert!(close(got, want), "{field}: {got} vs {want}: {a} vs {j:?}");

@@ -280,6 +280,7 @@ fn write_fallen_journal(state: &Path) {
             pgv_mps: 1.099,
             data_time_ns: 1_700_000_003_390_000_000,
             arrival_ns: 0,
+            direction_deg: 0.0,
         }))
         .unwrap();
 }

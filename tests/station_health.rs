@@ -21,6 +21,7 @@ fn spec(id: &str, station: &str) -> PbrSpec {
         azimuth: Azimuth::from_degrees(0.0).unwrap(),
         nominal: BlockParams::from_width_height(0.4, 2.0, 0.8, 0.6, None).unwrap(),
         members: vec![],
+        more_directions: vec![],
     }
 }
 

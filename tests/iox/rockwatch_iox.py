@@ -56,6 +56,7 @@ class PbrAlert(ctypes.Structure):
         ("reserved", ctypes.c_uint8 * 6),
         ("station", ctypes.c_uint8 * 16),
         ("pbr_id", ctypes.c_uint8 * 64),
+        ("direction_deg", ctypes.c_double),
     ]
 
     @staticmethod
@@ -65,7 +66,7 @@ class PbrAlert(ctypes.Structure):
 
 assert ctypes.sizeof(AccelHeader) == 56 and ctypes.alignment(AccelHeader) == 8
 assert ctypes.sizeof(AccelSample) == 12 and ctypes.alignment(AccelSample) == 4
-assert ctypes.sizeof(PbrAlert) == 160 and ctypes.alignment(PbrAlert) == 8
+assert ctypes.sizeof(PbrAlert) == 168 and ctypes.alignment(PbrAlert) == 8
 
 
 def padded(text: str, n: int):

@@ -45,6 +45,17 @@
 //!   `rho_m` (m, > 0: a general body, horizontal distances from the centre of mass to the +x
 //!   and −x pivots, height of the centre of mass, radius of gyration). A missing field of a
 //!   form, or fields of two forms, are rejected naming the field.
+//! - or a rock from its closed mesh (docs/meshes.md): `mesh = "rocks/r1.obj"` (.obj, .ply,
+//!   .stl, metres; a relative path is relative to the catalogue file's directory when loaded
+//!   by [`Catalogue::load`]), `azimuths` instead of `azimuth_deg` — a list `[0, 90, 200]` or
+//!   `{ from = 0, to = 360, step = 15 }` (TO excluded; in CSV the text `0:360:15` or `"0,90"`),
+//!   true azimuths clockwise from north, distinct, at most [`MAX_DIRECTIONS`] — optional
+//!   `up` (the mesh axis pointing up, default `"z"`), `heading_deg` (true azimuth of the mesh's
+//!   north axis, in [−360, 360], default 0) and `contact_tolerance_m` (in [0, 1] m, default
+//!   0.005). `heading_deg` and `contact_tolerance_m` are [`Distribution`]s like the other
+//!   parameters (the mesh's uncertain fields, in that LHS column order). The rock has one
+//!   planar body per direction ([`Pbr::directions`]; direction az is the mesh's azimuth
+//!   az − heading); [`Pbr::nominal`] and [`Pbr::members`] are those of its first direction.
 //! - `mu_s` (> 0), `mu_k` (in [0, 4/3): μk ≥ 4/3 makes slide-rocking ill-posed, the Painlevé
 //!   paradox; a general body's own bound 2√(c(1 + c)), c = ρ²/R², is checked on the nominal
 //!   block), optional `restitution` (in [0, 1]). Every geometry field and these are each
@@ -66,8 +77,9 @@
 //! the column `P` (a number), the pair `P_min`,`P_max` (uniform) or the pair `P_mean`,`P_sd`
 //! (normal); the other cells of `P` in that row stay empty. Columns may come in any order;
 //! unknown or repeated column names are rejected at the header, as is a header without `id`,
-//! `name`, `lat`, `lon`, `station`, `azimuth_deg` or `source`. `restitution`, `ensemble` and
-//! `seed` columns are optional. A CSV and a TOML file describing the same PBRs load equal.
+//! `name`, `lat`, `lon`, `station` or `source`. `azimuth_deg` (required in a planar block's
+//! row), `restitution`, `ensemble`, `seed` and the mesh columns `mesh`, `up`, `azimuths`,
+//! `heading_deg`, `contact_tolerance_m` are optional. A CSV and a TOML file describing the same PBRs load equal.
 //!
 //! # Errors
 //!
@@ -108,6 +120,10 @@ use serde::Deserialize;
 use crate::azimuth::Azimuth;
 use crate::dynamics::{BlockParams, ParamError};
 use crate::lhs::{latin_hypercube_seeded, standard_normal_quantile};
+use crate::mesh::contact::{
+    azimuth_steps, parse_azimuths, RestingContact, RockGeometry, UpAxis,
+    DEFAULT_CONTACT_TOLERANCE_M,
+};
 
 /// Largest ensemble size K accepted in a catalogue.
 pub const MAX_ENSEMBLE: usize = 10_000;
@@ -215,6 +231,20 @@ const MU_K_DOMAIN: Domain = Domain {
     hi: 4.0 / 3.0,
     hi_open: true,
     requirement: "in [0, 4/3) (mu_k ≥ 4/3 makes slide-rocking ill-posed: Painlevé paradox)",
+};
+const HEADING_DOMAIN: Domain = Domain {
+    lo: -360.0,
+    lo_open: false,
+    hi: 360.0,
+    hi_open: false,
+    requirement: "in [-360, 360] degrees clockwise from north",
+};
+const CONTACT_TOLERANCE_DOMAIN: Domain = Domain {
+    lo: 0.0,
+    lo_open: false,
+    hi: 1.0,
+    hi_open: false,
+    requirement: "in [0, 1] m",
 };
 const RESTITUTION_DOMAIN: Domain = Domain {
     lo: 0.0,
@@ -341,6 +371,76 @@ pub struct Pbr {
     ensemble: usize,
     seed: u64,
     nominal: BlockParams,
+    /// The rock's mesh, for the `mesh` geometry.
+    mesh: Option<MeshRock>,
+}
+
+/// A rock given by its closed mesh (`mesh = "file"`): the analysed mesh, its up axis and
+/// the toppling directions to integrate (docs/meshes.md).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshRock {
+    /// The mesh file, as resolved (relative paths are relative to the catalogue's directory).
+    pub path: PathBuf,
+    pub up: UpAxis,
+    /// The directions (true azimuths, clockwise from north), in the order given.
+    pub azimuths: Vec<Azimuth>,
+    rock: RockGeometry,
+    /// The resting contact at the nominal contact tolerance.
+    rest: RestingContact,
+}
+
+impl MeshRock {
+    /// The analysed mesh.
+    #[must_use]
+    pub fn rock(&self) -> &RockGeometry {
+        &self.rock
+    }
+
+    /// The resting contact at the entry's nominal contact tolerance.
+    #[must_use]
+    pub fn rest(&self) -> &RestingContact {
+        &self.rest
+    }
+
+    /// One block per direction for a heading (degrees, the true azimuth of the mesh's north
+    /// axis) and a contact tolerance (m): direction az is the mesh's azimuth az − heading.
+    fn blocks(
+        &self,
+        heading_deg: f64,
+        tolerance_m: f64,
+        mu_s: f64,
+        mu_k: f64,
+        restitution: Option<f64>,
+    ) -> Result<Vec<BlockParams>, ParamError> {
+        self.azimuths
+            .iter()
+            .map(|az| {
+                let d = self
+                    .rest
+                    .direction_at(az.degrees() - heading_deg, tolerance_m);
+                BlockParams::from_body(
+                    d.b_plus_m,
+                    d.b_minus_m,
+                    d.h_m,
+                    d.rho_m,
+                    mu_s,
+                    mu_k,
+                    restitution,
+                )
+            })
+            .collect()
+    }
+}
+
+/// The blocks of one toppling direction of an entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DirectionBlocks {
+    /// Direction of the blocks' +x axis (clockwise from north).
+    pub azimuth: Azimuth,
+    /// The nominal block of this direction.
+    pub nominal: BlockParams,
+    /// The K ensemble members of this direction (empty when K = 1).
+    pub members: Vec<BlockParams>,
 }
 
 /// Why an ensemble member could not be built (cannot happen for a validated entry; reported
@@ -384,7 +484,8 @@ impl Pbr {
         &self.station
     }
 
-    /// Azimuth of the block's +x axis, clockwise from north (degrees, [0, 360)).
+    /// Azimuth of the block's +x axis, clockwise from north (degrees, [0, 360)); for a
+    /// meshed rock, its first direction.
     #[must_use]
     pub fn azimuth_deg(&self) -> f64 {
         self.azimuth.degrees()
@@ -457,10 +558,89 @@ impl Pbr {
     }
 
     /// The block with every parameter at its nominal value (midpoint of a range, mean of a
-    /// normal).
+    /// normal); for a meshed rock, the block of its first direction.
     #[must_use]
     pub fn nominal(&self) -> BlockParams {
         self.nominal
+    }
+
+    /// The mesh of a `mesh` entry.
+    #[must_use]
+    pub fn mesh(&self) -> Option<&MeshRock> {
+        self.mesh.as_ref()
+    }
+
+    /// Every toppling direction with its nominal block and, for K > 1, its K members (the
+    /// same Latin-hypercube samples in every direction: member i of each direction is one
+    /// rock). A planar entry has one direction, [`Pbr::azimuth`], with [`Pbr::nominal`] and
+    /// [`Pbr::members`].
+    pub fn directions(&self) -> Result<Vec<DirectionBlocks>, EnsembleError> {
+        self.directions_sized(self.ensemble)
+    }
+
+    /// [`Pbr::directions`] with `ensemble` members instead of the entry's own K (the Latin
+    /// hypercube of the same seed; `rockwatch fragility --ensemble K`).
+    pub fn directions_sized(&self, ensemble: usize) -> Result<Vec<DirectionBlocks>, EnsembleError> {
+        let Some(mesh) = &self.mesh else {
+            let members = if ensemble > 1 {
+                self.members_sized(ensemble)?
+            } else {
+                Vec::new()
+            };
+            return Ok(vec![DirectionBlocks {
+                azimuth: self.azimuth,
+                nominal: self.nominal,
+                members,
+            }]);
+        };
+        let nominal_values: Vec<f64> = self
+            .sampled_parameters()
+            .iter()
+            .map(|p| p.map_or(f64::NAN, |(d, _)| d.nominal()))
+            .collect();
+        let nominal = self.mesh_blocks(mesh, &nominal_values, usize::MAX)?;
+        let mut directions: Vec<DirectionBlocks> = mesh
+            .azimuths
+            .iter()
+            .zip(nominal)
+            .map(|(&azimuth, nominal)| DirectionBlocks {
+                azimuth,
+                nominal,
+                members: Vec::with_capacity(if ensemble > 1 { ensemble } else { 0 }),
+            })
+            .collect();
+        if ensemble > 1 {
+            for (member, values) in self.member_values(ensemble).iter().enumerate() {
+                let blocks = self.mesh_blocks(mesh, values, member)?;
+                for (direction, block) in directions.iter_mut().zip(blocks) {
+                    direction.members.push(block);
+                }
+            }
+        }
+        Ok(directions)
+    }
+
+    /// The blocks of every direction of a meshed rock for one row of parameter values
+    /// (heading, tolerance, μs, μk, e in LHS column order).
+    fn mesh_blocks(
+        &self,
+        mesh: &MeshRock,
+        values: &[f64],
+        member: usize,
+    ) -> Result<Vec<BlockParams>, EnsembleError> {
+        let (mu_s, mu_k, restitution) = (values[2], values[3], values[4]);
+        mesh.blocks(
+            values[0],
+            values[1],
+            mu_s,
+            mu_k.min(mu_s),
+            self.restitution.map(|_| restitution),
+        )
+        .map_err(|reason| EnsembleError {
+            id: self.id.clone(),
+            member,
+            reason,
+        })
     }
 
     /// The horizontal ground acceleration along this block's +x axis from the east and north
@@ -495,30 +675,17 @@ impl Pbr {
         if ensemble <= 1 {
             return Ok(vec![self.nominal]);
         }
-        let parameters = self.sampled_parameters();
-        // Column j of the hypercube is the j-th uncertain parameter, in `parameters` order.
-        let uncertain: Vec<(usize, Distribution, Domain)> = parameters
-            .iter()
-            .enumerate()
-            .filter_map(|(k, p)| p.filter(|(d, _)| !d.is_fixed()).map(|(d, dom)| (k, d, dom)))
-            .collect();
-        if uncertain.is_empty() {
-            // Validation rejects K > 1 without uncertainty; K identical blocks would be the answer.
-            return Ok(vec![self.nominal; ensemble]);
+        if let Some(mesh) = &self.mesh {
+            return self
+                .member_values(ensemble)
+                .iter()
+                .enumerate()
+                .map(|(member, values)| Ok(self.mesh_blocks(mesh, values, member)?[0]))
+                .collect();
         }
-        let lhs = latin_hypercube_seeded(ensemble, uncertain.len(), self.seed);
-        let nominal_values: Vec<f64> = parameters
-            .iter()
-            .map(|p| p.map_or(f64::NAN, |(d, _)| d.nominal()))
-            .collect();
         let n_geometry = self.geometry.fields().len();
         let mut members = Vec::with_capacity(ensemble);
-        let mut values = nominal_values.clone();
-        for (member, sample) in lhs.samples().enumerate() {
-            values.copy_from_slice(&nominal_values);
-            for (&(k, distribution, domain), &u) in uncertain.iter().zip(sample) {
-                values[k] = distribution.quantile(u, domain);
-            }
+        for (member, values) in self.member_values(ensemble).iter().enumerate() {
             let (geometry, friction) = values.split_at(n_geometry);
             let (mu_s, mu_k, restitution) = (friction[0], friction[1], friction[2]);
             let params = self
@@ -537,6 +704,36 @@ impl Pbr {
             members.push(params);
         }
         Ok(members)
+    }
+
+    /// The K rows of parameter values of the ensemble (K > 1), in LHS column order (the
+    /// geometry's fields, then μs, μk, e; NaN for an absent restitution).
+    fn member_values(&self, ensemble: usize) -> Vec<Vec<f64>> {
+        let parameters = self.sampled_parameters();
+        // Column j of the hypercube is the j-th uncertain parameter, in `parameters` order.
+        let uncertain: Vec<(usize, Distribution, Domain)> = parameters
+            .iter()
+            .enumerate()
+            .filter_map(|(k, p)| p.filter(|(d, _)| !d.is_fixed()).map(|(d, dom)| (k, d, dom)))
+            .collect();
+        let nominal_values: Vec<f64> = parameters
+            .iter()
+            .map(|p| p.map_or(f64::NAN, |(d, _)| d.nominal()))
+            .collect();
+        if uncertain.is_empty() {
+            // Validation rejects K > 1 without uncertainty; K identical rows would be the answer.
+            return vec![nominal_values; ensemble];
+        }
+        let lhs = latin_hypercube_seeded(ensemble, uncertain.len(), self.seed);
+        lhs.samples()
+            .map(|sample| {
+                let mut values = nominal_values.clone();
+                for (&(k, distribution, domain), &u) in uncertain.iter().zip(sample) {
+                    values[k] = distribution.quantile(u, domain);
+                }
+                values
+            })
+            .collect()
     }
 
     /// The block parameters in LHS column order (the geometry's fields in their form's
@@ -581,9 +778,17 @@ pub enum Geometry {
         h_m: Distribution,
         rho_m: Distribution,
     },
+    /// A rock from its closed mesh ([`Pbr::mesh`]): the uncertain parameters are its
+    /// `heading_deg` (true azimuth of the mesh's north axis, degrees clockwise from north;
+    /// default 0) and its `contact_tolerance_m` (m, default 0.005).
+    Mesh {
+        heading_deg: Distribution,
+        contact_tolerance_m: Distribution,
+    },
 }
 
-/// The fields of each geometry form, in LHS column order.
+/// The fields of each planar geometry form, in LHS column order (the mesh form's are
+/// `heading_deg`, `contact_tolerance_m`).
 const GEOMETRY_FORMS: [&[&str]; 3] = [
     &["width_m", "height_m"],
     &["half_diagonal_m", "alpha_deg"],
@@ -616,6 +821,13 @@ impl Geometry {
                 ("h_m", h_m),
                 ("rho_m", rho_m),
             ],
+            Geometry::Mesh {
+                heading_deg,
+                contact_tolerance_m,
+            } => vec![
+                ("heading_deg", heading_deg),
+                ("contact_tolerance_m", contact_tolerance_m),
+            ],
         }
     }
 
@@ -647,6 +859,11 @@ impl Geometry {
                 mu_k,
                 restitution,
             ),
+            // Never called: a mesh entry's blocks come from `MeshRock::blocks`.
+            Geometry::Mesh { .. } => Err(ParamError::NotPositive {
+                name: "mesh direction",
+                value: f64::NAN,
+            }),
         }
     }
 
@@ -672,10 +889,11 @@ impl Geometry {
 }
 
 fn domain_of(field: &str) -> Domain {
-    if field == "alpha_deg" {
-        ALPHA_DEG_DOMAIN
-    } else {
-        SIZE_DOMAIN
+    match field {
+        "alpha_deg" => ALPHA_DEG_DOMAIN,
+        "heading_deg" => HEADING_DOMAIN,
+        "contact_tolerance_m" => CONTACT_TOLERANCE_DOMAIN,
+        _ => SIZE_DOMAIN,
     }
 }
 
@@ -747,15 +965,27 @@ impl Catalogue {
             error,
         })?;
         let source_name = path.display().to_string();
+        let base_dir = path.parent();
         if is_toml {
-            Catalogue::from_toml_str(&text, &source_name)
+            Catalogue::from_toml_str_in(&text, &source_name, base_dir)
         } else {
-            Catalogue::from_csv_str(&text, &source_name)
+            Catalogue::from_csv_str_in(&text, &source_name, base_dir)
         }
     }
 
-    /// Parses a TOML catalogue; `source_name` names it in error messages.
+    /// Parses a TOML catalogue; `source_name` names it in error messages. Relative `mesh`
+    /// paths are taken from the current directory (see [`Catalogue::from_toml_str_in`]).
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Catalogue, CatalogueError> {
+        Catalogue::from_toml_str_in(text, source_name, None)
+    }
+
+    /// Parses a TOML catalogue whose relative `mesh` paths are relative to `base_dir` (the
+    /// catalogue file's directory).
+    pub fn from_toml_str_in(
+        text: &str,
+        source_name: &str,
+        base_dir: Option<&Path>,
+    ) -> Result<Catalogue, CatalogueError> {
         #[derive(Deserialize)]
         #[serde(deny_unknown_fields)]
         struct Document {
@@ -797,11 +1027,21 @@ impl Catalogue {
             })?;
             entries.push((context, raw));
         }
-        Catalogue::build(source_name, entries)
+        Catalogue::build(source_name, entries, base_dir)
     }
 
     /// Parses a CSV catalogue (format in the module doc); `source_name` names it in errors.
+    /// Relative `mesh` paths are taken from the current directory.
     pub fn from_csv_str(text: &str, source_name: &str) -> Result<Catalogue, CatalogueError> {
+        Catalogue::from_csv_str_in(text, source_name, None)
+    }
+
+    /// Parses a CSV catalogue whose relative `mesh` paths are relative to `base_dir`.
+    pub fn from_csv_str_in(
+        text: &str,
+        source_name: &str,
+        base_dir: Option<&Path>,
+    ) -> Result<Catalogue, CatalogueError> {
         let mut reader = csv::ReaderBuilder::new()
             .comment(Some(b'#'))
             .trim(csv::Trim::All)
@@ -843,13 +1083,14 @@ impl Catalogue {
                 .map_err(|(field, message)| context.error(Some(field), message))?;
             entries.push((context, raw));
         }
-        Catalogue::build(source_name, entries)
+        Catalogue::build(source_name, entries, base_dir)
     }
 
     /// Validates the parsed entries and checks that the ids are unique.
     fn build(
         source_name: &str,
         entries: Vec<(EntryContext<'_>, RawPbr)>,
+        base_dir: Option<&Path>,
     ) -> Result<Catalogue, CatalogueError> {
         if entries.is_empty() {
             return Err(CatalogueError::Empty {
@@ -859,7 +1100,7 @@ impl Catalogue {
         let mut pbrs: Vec<Pbr> = Vec::with_capacity(entries.len());
         let mut lines: Vec<Option<usize>> = Vec::with_capacity(entries.len());
         for (context, raw) in entries {
-            let pbr = validate(raw, context.sub_separator)
+            let pbr = validate(raw, context.sub_separator, base_dir)
                 .map_err(|(field, message)| context.error(Some(field), message))?;
             if let Some(first) = pbrs.iter().position(|p| p.id == pbr.id) {
                 let at = lines[first]
@@ -978,7 +1219,18 @@ struct RawPbr {
     lat: f64,
     lon: f64,
     station: String,
-    azimuth_deg: f64,
+    #[serde(default)]
+    azimuth_deg: Option<f64>,
+    #[serde(default)]
+    mesh: Option<String>,
+    #[serde(default)]
+    up: Option<String>,
+    #[serde(default)]
+    azimuths: Option<RawAzimuths>,
+    #[serde(default)]
+    heading_deg: Option<Distribution>,
+    #[serde(default)]
+    contact_tolerance_m: Option<Distribution>,
     #[serde(default)]
     width_m: Option<Distribution>,
     #[serde(default)]
@@ -1006,6 +1258,27 @@ struct RawPbr {
     seed: Option<Integer>,
 }
 
+/// The directions of a meshed rock as written: a list of degrees, a step form
+/// `{ from, to, step }` (TO excluded), or (CSV) the text `FROM:TO:STEP` or `A,B,C`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+enum RawAzimuths {
+    List(Vec<f64>),
+    Steps(AzimuthSteps),
+    Text(String),
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AzimuthSteps {
+    from: f64,
+    to: f64,
+    step: f64,
+}
+
+/// Most directions of one catalogued rock.
+pub const MAX_DIRECTIONS: usize = 360;
+
 /// An integer of either sign up to the `u64` range (TOML integers are `i64`, CSV seeds `u64`);
 /// range checks happen in validation, with the field's own message.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -1031,7 +1304,7 @@ impl<'de> Deserialize<'de> for Integer {
 }
 
 /// Validates one entry; the error is (field, message).
-fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
+fn validate(raw: RawPbr, sep: char, base_dir: Option<&Path>) -> Result<Pbr, (String, String)> {
     let fail = |field: &str, message: String| Err((field.to_owned(), message));
 
     if raw.id.is_empty() {
@@ -1070,19 +1343,45 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
     }
     let station = StationId::parse(&raw.station)
         .map_err(|why| ("station".to_owned(), format!("station {why}")))?;
-    let azimuth = match Azimuth::from_degrees(raw.azimuth_deg) {
-        Ok(azimuth) if (0.0..360.0).contains(&raw.azimuth_deg) => azimuth,
-        _ => {
+    let geometry = raw_geometry(&raw)?;
+    let azimuths: Vec<Azimuth> = match (&raw.mesh, raw.azimuth_deg, &raw.azimuths) {
+        (Some(_), Some(_), _) => {
             return fail(
                 "azimuth_deg",
-                format!(
-                    "azimuth_deg = {} must be in [0, 360) degrees clockwise from north",
-                    raw.azimuth_deg
-                ),
+                "azimuth_deg cannot be combined with mesh: give the directions as azimuths = \
+                 [...] or azimuths = { from, to, step }"
+                    .to_owned(),
             )
         }
+        (Some(_), None, None) => {
+            return fail(
+                "azimuths",
+                "azimuths is missing: a mesh rock needs its directions, azimuths = [...] or \
+                 { from = 0, to = 360, step = 15 } (degrees clockwise from north)"
+                    .to_owned(),
+            )
+        }
+        (Some(_), None, Some(written)) => directions(written)?,
+        (None, _, Some(_)) => {
+            return fail(
+                "azimuths",
+                "azimuths needs mesh (a planar block has azimuth_deg)".to_owned(),
+            )
+        }
+        (None, None, None) => return fail("azimuth_deg", "azimuth_deg is missing".to_owned()),
+        (None, Some(degrees), None) => match Azimuth::from_degrees(degrees) {
+            Ok(azimuth) if (0.0..360.0).contains(&degrees) => vec![azimuth],
+            _ => {
+                return fail(
+                    "azimuth_deg",
+                    format!(
+                        "azimuth_deg = {degrees} must be in [0, 360) degrees clockwise from north"
+                    ),
+                )
+            }
+        },
     };
-    let geometry = raw_geometry(&raw)?;
+    let azimuth = azimuths[0];
     for (field, d) in geometry.fields() {
         check_distribution(field, &d, domain_of(field), sep)?;
     }
@@ -1152,19 +1451,40 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
     };
     let fields = geometry.fields();
     let nominal_geometry: Vec<f64> = fields.iter().map(|(_, d)| d.nominal()).collect();
-    let nominal = geometry
-        .block(
+    let mesh = match &raw.mesh {
+        Some(file) => Some(load_mesh(
+            file,
+            raw.up.as_deref(),
+            azimuths,
+            nominal_geometry[1],
+            base_dir,
+        )?),
+        None => None,
+    };
+    let nominal = match &mesh {
+        // Every direction's nominal block must be valid; the first is the entry's nominal.
+        Some(m) => m
+            .blocks(
+                nominal_geometry[0],
+                nominal_geometry[1],
+                mu_s,
+                mu_k.min(mu_s),
+                raw.restitution.map(|d| d.nominal()),
+            )
+            .map(|blocks| blocks[0]),
+        None => geometry.block(
             &nominal_geometry,
             mu_s,
             mu_k.min(mu_s),
             raw.restitution.map(|d| d.nominal()),
+        ),
+    }
+    .map_err(|e| {
+        (
+            fields[0].0.to_owned(),
+            format!("nominal block rejected: {e}"),
         )
-        .map_err(|e| {
-            (
-                fields[0].0.to_owned(),
-                format!("nominal block rejected: {e}"),
-            )
-        })?;
+    })?;
     Ok(Pbr {
         id: raw.id,
         name: raw.name,
@@ -1180,12 +1500,112 @@ fn validate(raw: RawPbr, sep: char) -> Result<Pbr, (String, String)> {
         ensemble,
         seed,
         nominal,
+        mesh,
+    })
+}
+
+/// The directions of a mesh entry: each a finite azimuth, taken modulo 360, distinct, at most
+/// [`MAX_DIRECTIONS`].
+fn directions(written: &RawAzimuths) -> Result<Vec<Azimuth>, (String, String)> {
+    let fail = |message: String| Err(("azimuths".to_owned(), format!("azimuths: {message}")));
+    let degrees = match written {
+        RawAzimuths::List(list) => list.clone(),
+        RawAzimuths::Steps(AzimuthSteps { from, to, step }) => {
+            match azimuth_steps(*from, *to, *step) {
+                Ok(list) => list,
+                Err(e) => return fail(e),
+            }
+        }
+        RawAzimuths::Text(text) => match parse_azimuths(text) {
+            Ok(list) => list,
+            Err(e) => return fail(e),
+        },
+    };
+    if degrees.is_empty() || degrees.len() > MAX_DIRECTIONS {
+        return fail(format!(
+            "give 1 to {MAX_DIRECTIONS} directions, got {}",
+            degrees.len()
+        ));
+    }
+    let mut azimuths: Vec<Azimuth> = Vec::with_capacity(degrees.len());
+    for d in degrees {
+        let normalised = d.rem_euclid(360.0);
+        let Ok(azimuth) = Azimuth::from_degrees(normalised) else {
+            return fail(format!("{d} is not a finite number of degrees"));
+        };
+        if azimuths.iter().any(|a| a.degrees() == normalised) {
+            return fail(format!("the direction {normalised}° is given twice"));
+        }
+        azimuths.push(azimuth);
+    }
+    Ok(azimuths)
+}
+
+/// Reads and analyses the mesh of an entry (relative paths from `base_dir`).
+fn load_mesh(
+    file: &str,
+    up: Option<&str>,
+    azimuths: Vec<Azimuth>,
+    tolerance_m: f64,
+    base_dir: Option<&Path>,
+) -> Result<MeshRock, (String, String)> {
+    let up = match up {
+        Some(text) => UpAxis::parse(text).map_err(|e| ("up".to_owned(), format!("up: {e}")))?,
+        None => UpAxis::PlusZ,
+    };
+    let written = Path::new(file);
+    let path = match base_dir {
+        Some(dir) if written.is_relative() => dir.join(written),
+        _ => written.to_owned(),
+    };
+    let mesh_error = |e: crate::mesh::MeshError| ("mesh".to_owned(), format!("mesh: {e}"));
+    let rock = RockGeometry::read(&path).map_err(mesh_error)?;
+    let rest = rock.rest(up, tolerance_m).map_err(mesh_error)?;
+    Ok(MeshRock {
+        path,
+        up,
+        azimuths,
+        rock,
+        rest,
     })
 }
 
 /// The entry's geometry: exactly one complete form of [`GEOMETRY_FORMS`]; the error names the
 /// first field that conflicts or is missing.
 fn raw_geometry(raw: &RawPbr) -> Result<Geometry, (String, String)> {
+    let planar = [
+        ("width_m", raw.width_m),
+        ("height_m", raw.height_m),
+        ("half_diagonal_m", raw.half_diagonal_m),
+        ("alpha_deg", raw.alpha_deg),
+        ("b_plus_m", raw.b_plus_m),
+        ("b_minus_m", raw.b_minus_m),
+        ("h_m", raw.h_m),
+        ("rho_m", raw.rho_m),
+    ];
+    if raw.mesh.is_some() {
+        if let Some((field, _)) = planar.iter().find(|(_, d)| d.is_some()) {
+            return Err((
+                (*field).to_owned(),
+                format!("{field} cannot be combined with mesh: the mesh gives the geometry"),
+            ));
+        }
+        return Ok(Geometry::Mesh {
+            heading_deg: raw.heading_deg.unwrap_or(Distribution::Fixed(0.0)),
+            contact_tolerance_m: raw
+                .contact_tolerance_m
+                .unwrap_or(Distribution::Fixed(DEFAULT_CONTACT_TOLERANCE_M)),
+        });
+    }
+    for (field, given) in [
+        ("heading_deg", raw.heading_deg.is_some()),
+        ("contact_tolerance_m", raw.contact_tolerance_m.is_some()),
+        ("up", raw.up.is_some()),
+    ] {
+        if given {
+            return Err((field.to_owned(), format!("{field} needs mesh")));
+        }
+    }
     let value = |field: &str| match field {
         "width_m" => raw.width_m,
         "height_m" => raw.height_m,
@@ -1196,8 +1616,8 @@ fn raw_geometry(raw: &RawPbr) -> Result<Geometry, (String, String)> {
         "h_m" => raw.h_m,
         _ => raw.rho_m,
     };
-    let forms_text = "width_m + height_m, half_diagonal_m + alpha_deg, or b_plus_m + b_minus_m \
-                      + h_m + rho_m";
+    let forms_text = "width_m + height_m, half_diagonal_m + alpha_deg, b_plus_m + b_minus_m \
+                      + h_m + rho_m, or mesh";
     let used: Vec<usize> = (0..GEOMETRY_FORMS.len())
         .filter(|&i| GEOMETRY_FORMS[i].iter().any(|f| value(f).is_some()))
         .collect();
@@ -1291,7 +1711,7 @@ fn check_distribution(
 }
 
 /// The uncertain parameters, in LHS column order (also their CSV column stems).
-const UNCERTAIN_FIELDS: [&str; 11] = [
+const UNCERTAIN_FIELDS: [&str; 13] = [
     "width_m",
     "height_m",
     "half_diagonal_m",
@@ -1300,22 +1720,18 @@ const UNCERTAIN_FIELDS: [&str; 11] = [
     "b_minus_m",
     "h_m",
     "rho_m",
+    "heading_deg",
+    "contact_tolerance_m",
     "mu_s",
     "mu_k",
     "restitution",
 ];
 /// Scalar CSV columns that must be present.
-const REQUIRED_SCALAR_COLUMNS: [&str; 7] = [
-    "id",
-    "name",
-    "lat",
-    "lon",
-    "station",
-    "azimuth_deg",
-    "source",
-];
-/// Scalar CSV columns that may be absent.
-const OPTIONAL_SCALAR_COLUMNS: [&str; 2] = ["ensemble", "seed"];
+const REQUIRED_SCALAR_COLUMNS: [&str; 6] = ["id", "name", "lat", "lon", "station", "source"];
+/// Scalar CSV columns that may be absent (`azimuth_deg` for planar blocks; `mesh`, `up`,
+/// `azimuths` for meshed rocks).
+const OPTIONAL_SCALAR_COLUMNS: [&str; 6] =
+    ["azimuth_deg", "ensemble", "seed", "mesh", "up", "azimuths"];
 /// Suffixes of the columns of an uncertain parameter `P`: `P`, `P_min`, `P_max`, `P_mean`,
 /// `P_sd`.
 const DISTRIBUTION_SUFFIXES: [&str; 5] = ["", "_min", "_max", "_mean", "_sd"];
@@ -1480,7 +1896,17 @@ impl CsvColumns {
             lat: self.number(record, "lat")?,
             lon: self.number(record, "lon")?,
             station: self.string(record, "station"),
-            azimuth_deg: self.number(record, "azimuth_deg")?,
+            azimuth_deg: self
+                .value(record, "azimuth_deg")
+                .map(|text| parse_number("azimuth_deg", text))
+                .transpose()?,
+            mesh: self.value(record, "mesh").map(str::to_owned),
+            up: self.value(record, "up").map(str::to_owned),
+            azimuths: self
+                .value(record, "azimuths")
+                .map(|text| RawAzimuths::Text(text.to_owned())),
+            heading_deg: self.distribution(record, "heading_deg")?,
+            contact_tolerance_m: self.distribution(record, "contact_tolerance_m")?,
             width_m: self.distribution(record, "width_m")?,
             height_m: self.distribution(record, "height_m")?,
             half_diagonal_m: self.distribution(record, "half_diagonal_m")?,

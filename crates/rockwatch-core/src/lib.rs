@@ -17,6 +17,7 @@ pub mod hazard;
 pub mod ims;
 pub mod inventory;
 pub mod lhs;
+pub mod mesh;
 pub mod ode;
 pub mod pulse;
 pub mod record;

@@ -21,6 +21,9 @@
 //!   static overturning angle); `slide_m`: slip of the contact point (m);
 //!   `overturn_probability`: ensemble probability (0–1); `pga_mps2`, `pgv_mps`: the station's
 //!   running peaks, larger horizontal component (m/s², m/s). A non-finite value is `null`.
+//! - `direction_deg`: the direction that raised the alert, the azimuth of the block's +x axis
+//!   in degrees clockwise from north (a planar block's own azimuth; for a rock from a mesh,
+//!   the direction that overturned or rocks most).
 //!
 //! The other records of a state directory's journal: `{"type": "episode_end", "pbr_id",
 //! "episode"}` (the block is back at rest on a quiet station) and `{"type": "reset",
@@ -55,6 +58,10 @@ pub struct AlertJson {
     pub pga_mps2: f64,
     /// Station's running PGV, larger horizontal component (m/s).
     pub pgv_mps: f64,
+    /// The direction that raised the alert: azimuth of the block's +x axis, degrees
+    /// clockwise from north (absent in records written before it existed: 0).
+    #[serde(default)]
+    pub direction_deg: f64,
 }
 
 impl AlertJson {
@@ -80,6 +87,7 @@ impl From<&Alert> for AlertJson {
             overturn_probability: a.overturn_probability,
             pga_mps2: a.pga_mps2,
             pgv_mps: a.pgv_mps,
+            direction_deg: a.direction_deg,
         }
     }
 }
@@ -158,6 +166,7 @@ mod tests {
             // + 45055 s = 758 809 855 s since the epoch.
             data_time_ns: 758_809_855_500_000_000,
             arrival_ns: 42,
+            direction_deg: 228.0,
         }
     }
 
@@ -170,11 +179,22 @@ mod tests {
             "data_time_ns": 758_809_855_500_000_000_i64, "station": "CI.RRS.00",
             "mode": "slide-rock", "theta_over_alpha": -0.85, "slide_m": 0.01,
             "overturn_probability": 0.25, "pga_mps2": 8.0, "pgv_mps": 1.5,
+            "direction_deg": 228.0,
         });
         assert_eq!(v, expected);
         // It reads back.
-        let back: RecordJson = serde_json::from_value(v).unwrap();
+        let back: RecordJson = serde_json::from_value(v.clone()).unwrap();
         assert_eq!(back, RecordJson::Alert((&alert()).into()));
+        // A record written before `direction_deg` existed reads with 0.
+        let mut old = v;
+        if let Some(map) = old.as_object_mut() {
+            map.remove("direction_deg");
+        }
+        let back: RecordJson = serde_json::from_value(old).unwrap();
+        let RecordJson::Alert(back) = back else {
+            panic!("not an alert: {back:?}");
+        };
+        assert_eq!(back.direction_deg, 0.0);
     }
 
     #[test]

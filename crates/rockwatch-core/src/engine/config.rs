@@ -312,26 +312,39 @@ pub struct PbrSpec {
     pub nominal: BlockParams,
     /// Ensemble members (empty: nominal only).
     pub members: Vec<BlockParams>,
+    /// Further toppling directions of a rock from a mesh (empty for a planar block), each
+    /// with its own azimuth, nominal block and members (as many as `members`). The rock is
+    /// integrated in every direction under the ground motion projected on it; it overturns
+    /// when any direction does.
+    pub more_directions: Vec<crate::catalogue::DirectionBlocks>,
 }
 
 impl PbrSpec {
     /// The engine's view of a catalogue entry: its nominal block, and its Latin-hypercube
     /// members when it declares an ensemble of more than one.
     pub fn from_catalogue(pbr: &crate::catalogue::Pbr) -> Result<PbrSpec, ConfigError> {
-        let members = if pbr.ensemble_size() > 1 {
-            pbr.members().map_err(|error| ConfigError::Ensemble {
+        let mut directions = pbr
+            .directions()
+            .map_err(|error| ConfigError::Ensemble {
                 pbr: pbr.id().to_string(),
                 error,
             })?
-        } else {
-            Vec::new()
+            .into_iter();
+        let Some(first) = directions.next() else {
+            // `directions` always has one at least; an empty list would be a catalogue bug.
+            return Err(ConfigError::OutOfRange {
+                key: "pbr.azimuths",
+                value: 0.0,
+                range: "at least one direction",
+            });
         };
         Ok(PbrSpec {
             id: pbr.id().to_string(),
             station: pbr.station().clone(),
-            azimuth: pbr.azimuth(),
-            nominal: pbr.nominal(),
-            members,
+            azimuth: first.azimuth,
+            nominal: first.nominal,
+            members: first.members,
+            more_directions: directions.collect(),
         })
     }
 }

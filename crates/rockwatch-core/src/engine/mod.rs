@@ -44,7 +44,7 @@ pub use output::{
 };
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use sharded::{EngineHandle, ShardedEngine};
-pub use station::{PbrSummary, StationCounters};
+pub use station::{DirectionSummary, PbrSummary, StationCounters};
 pub use stream::{StreamConfig, StreamCounters};
 
 use station::{PacketContext, StationRuntime};

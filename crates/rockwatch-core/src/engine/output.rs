@@ -74,6 +74,11 @@ pub struct Alert {
     pub data_time_ns: i64,
     /// Wall time at which the triggering packet arrived (ns; the caller's clock).
     pub arrival_ns: i64,
+    /// The direction that raised the alert: the azimuth of its +x axis (degrees clockwise
+    /// from north); a planar block's own azimuth. Journals written before this field read
+    /// as 0.
+    #[serde(default)]
+    pub direction_deg: f64,
 }
 
 impl Alert {
@@ -104,6 +109,9 @@ pub struct PbrState {
     /// Its station is stale (no data for `engine.stale_after_s`): the block is not monitored,
     /// whatever its last state says (`engine::health`).
     pub not_monitored: bool,
+    /// The direction the state describes (degrees clockwise from north): the one that
+    /// overturned, else the one with the largest |θ/α|; a planar block's own azimuth.
+    pub direction_deg: f64,
 }
 
 /// A station's running intensity measures over the current event window.
@@ -262,6 +270,7 @@ mod tests {
             pgv_mps: 0.0,
             data_time_ns: 0,
             arrival_ns: 0,
+            direction_deg: 0.0,
         })
     }
 

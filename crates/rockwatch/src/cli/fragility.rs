@@ -261,7 +261,22 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
                  nominal rock (use --ensemble 1)"
             );
         }
-        let members = pbr.members_sized(k)?;
+        // Every toppling direction of the rock (one for a planar entry, one per azimuth of a
+        // meshed rock), at angles measured from its first direction: the incidences
+        // (`--azimuths`) are in that frame. Member i is one rock in every direction.
+        let directions = pbr.directions_sized(k)?;
+        let first_deg = directions.first().map_or(0.0, |d| d.azimuth.degrees());
+        let members: Vec<RockMember> = (0..k)
+            .map(|i| RockMember {
+                directions: directions
+                    .iter()
+                    .map(|d| RockDirection {
+                        azimuth_deg: (d.azimuth.degrees() - first_deg).rem_euclid(360.0),
+                        params: if k > 1 { d.members[i] } else { d.nominal },
+                    })
+                    .collect(),
+            })
+            .collect();
         let label = format!(
             "{id} ({}), {}, {} member{}",
             pbr.name(),
@@ -270,7 +285,7 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
             if k == 1 { "" } else { "s (Latin hypercube)" }
         );
         let info = json!({"pbr": id, "catalogue": path.display().to_string(), "ensemble": k, "seed": pbr.seed()});
-        return Ok((members.into_iter().map(one).collect(), label, info));
+        return Ok((members, label, info));
     }
     if args.ensemble.is_some_and(|k| k > 1) {
         bail!("--ensemble needs a catalogue entry with uncertain parameters (--pbr, --catalogue)");

@@ -39,6 +39,7 @@ mod acquire;
 mod alerts;
 mod demo;
 mod fragility;
+mod geometry;
 mod hazard;
 mod ims;
 mod monitor;
@@ -110,6 +111,9 @@ enum Command {
     /// Overturning fragility of one rock from a suite of records (multiple-stripe analysis,
     /// maximum likelihood, bootstrap intervals, two-IM surface).
     Fragility(fragility::FragilityArgs),
+    /// A rock's volume, centre of mass, resting contact and planar body (b₊, b₋, h, ρ, α±)
+    /// per toppling direction from its closed mesh (OBJ, PLY, STL).
+    Geometry(geometry::GeometryArgs),
 }
 
 /// The level of `--ros-args --log-level LEVEL` (or `--log-level rockwatch:=LEVEL`, the
@@ -253,6 +257,7 @@ pub fn run() -> ExitCode {
         Command::Study(args) => study::run(args),
         Command::Hazard(args) => hazard::run(args),
         Command::Fragility(args) => fragility::run(args),
+        Command::Geometry(args) => geometry::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

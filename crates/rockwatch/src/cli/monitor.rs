@@ -363,7 +363,7 @@ fn print_summary(outcome: &MonitorOutcome, format: MonitorFormat) {
                         "pbr_id": s.pbr_id, "station": s.station,
                         "max_theta_over_alpha": s.max_theta_over_alpha, "max_slide_m": s.max_slide_m,
                         "overturned": s.overturned, "overturn_probability": s.overturn_probability,
-                        "data_gap": s.data_gap,
+                        "data_gap": s.data_gap, "directions": s.directions,
                     })
                 })
                 .collect();

@@ -5,9 +5,10 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 use rockwatch::plot::{plot_simulation, short_number};
 use rockwatch_core::dynamics::BlockParams;
+use rockwatch_core::mesh::contact::{RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M};
 use rockwatch_core::ode::Tolerance;
 use rockwatch_core::record::Record;
-use rockwatch_core::simulate::{simulate, SimulationOptions, Status, Summary};
+use rockwatch_core::simulate::{simulate, SimulationOptions, Status, Summary, Trace};
 
 use super::OutputFormat;
 
@@ -35,7 +36,7 @@ pub struct SimulateArgs {
         long,
         value_name = "B",
         requires = "height",
-        required_unless_present_any = ["half_diagonal", "b_plus"]
+        required_unless_present_any = ["half_diagonal", "b_plus", "mesh"]
     )]
     width: Option<f64>,
     /// Height H of the block (m).
@@ -62,6 +63,21 @@ pub struct SimulateArgs {
     /// (a B × H rectangle has ρ² = (B² + H²)/12).
     #[arg(long, value_name = "M", requires = "b_plus")]
     rho: Option<f64>,
+    /// A rock from its closed mesh (.obj, .ply, .stl; metres): the planar body of the
+    /// direction --azimuth (`rockwatch geometry`, docs/meshes.md), instead of the block flags.
+    #[arg(long, value_name = "FILE", requires = "azimuth", conflicts_with_all = ["width", "height", "half_diagonal", "alpha", "b_plus"])]
+    mesh: Option<PathBuf>,
+    /// With --mesh: the direction of the block's +x axis (and of the record's horizontal
+    /// component), degrees clockwise from the mesh's north axis.
+    #[arg(long, value_name = "DEG", requires = "mesh")]
+    azimuth: Option<f64>,
+    /// With --mesh: the mesh axis pointing (roughly) up (x, y, z, optionally signed).
+    #[arg(long, value_name = "AXIS", requires = "mesh", default_value = "z")]
+    up: String,
+    /// With --mesh: vertices within this distance of the resting facet's plane touch the
+    /// ground (m).
+    #[arg(long = "contact-tolerance", value_name = "M", requires = "mesh", default_value_t = DEFAULT_CONTACT_TOLERANCE_M)]
+    contact_tolerance: f64,
     /// Static friction coefficient μs.
     #[arg(long = "mu-s", value_name = "MS")]
     mu_s: f64,
@@ -89,6 +105,13 @@ pub struct SimulateArgs {
     /// in .svg.
     #[arg(long, value_name = "OUT.svg|OUT.png")]
     plot: Option<PathBuf>,
+    /// Write the time history as CSV, one row per input sample (and per sample of the
+    /// --t-extra tail) until the end or the overturn: `t_s` (s), `ground_h_mps2` (horizontal
+    /// ground acceleration along +x, m/s²), `ground_v_mps2` (vertical, + up, m/s²; only with
+    /// --vertical), `theta_rad` (rotation, + about the +x pivot), `slide_m` (slip of the
+    /// contact point, m), `mode` (rest, slide, rock, slide-rock, flight, overturned).
+    #[arg(long, value_name = "OUT.csv")]
+    trace: Option<PathBuf>,
 }
 
 pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
@@ -101,6 +124,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         }
     }
     let params = match (args.width, args.height, args.half_diagonal, args.alpha) {
+        _ if args.mesh.is_some() => return run_with(mesh_block(&args)?, args),
         _ if args.b_plus.is_some() => {
             match (args.b_plus, args.b_minus, args.com_height, args.rho) {
                 (Some(bp), Some(bm), Some(h), Some(rho)) => {
@@ -125,6 +149,11 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         ),
     }
     .context("invalid block")?;
+    run_with(params, args)
+}
+
+/// Simulates the block `params` as the flags say.
+fn run_with(params: BlockParams, args: SimulateArgs) -> anyhow::Result<()> {
     let mut record = Record::read(&args.record)?;
     if let Some(vertical) = &args.vertical {
         record.attach_vertical(vertical)?;
@@ -135,7 +164,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     })?;
     let mut options = SimulationOptions {
         t_extra_s: args.t_extra,
-        keep_trace: args.plot.is_some(),
+        keep_trace: args.plot.is_some() || args.trace.is_some(),
         ..SimulationOptions::default()
     };
     if let Some(rtol) = args.rtol {
@@ -155,11 +184,66 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         plot_simulation(path, trace, &params, &title)
             .map_err(|e| anyhow::anyhow!("writing plot {}: {e}", path.display()))?;
     }
+    if let (Some(path), Some(trace)) = (&args.trace, &sim.trace) {
+        write_trace(path, trace).with_context(|| format!("writing trace {}", path.display()))?;
+    }
     match args.format {
         OutputFormat::Json => outln!("{}", serde_json::to_string_pretty(&sim.summary)?),
         OutputFormat::Text => out!("{}", text_summary(&sim.summary, &params, &record)),
     }
     Ok(())
+}
+
+/// The planar body of `--azimuth` of the rock `--mesh`.
+fn mesh_block(args: &SimulateArgs) -> anyhow::Result<BlockParams> {
+    let (Some(path), Some(azimuth)) = (&args.mesh, args.azimuth) else {
+        bail!("--mesh needs --azimuth");
+    };
+    if !azimuth.is_finite() {
+        bail!("--azimuth must be a finite number of degrees, got {azimuth}");
+    }
+    let up = UpAxis::parse(&args.up).map_err(|e| anyhow::anyhow!("--up: {e}"))?;
+    let rest = RockGeometry::read(path)?.rest(up, args.contact_tolerance)?;
+    let d = rest.direction(azimuth);
+    BlockParams::from_body(
+        d.b_plus_m,
+        d.b_minus_m,
+        d.h_m,
+        d.rho_m,
+        args.mu_s,
+        args.mu_k,
+        args.restitution,
+    )
+    .with_context(|| format!("{} at azimuth {azimuth}°", path.display()))
+}
+
+/// Writes the trace CSV of `--trace` (columns in [`SimulateArgs::trace`]).
+fn write_trace(path: &std::path::Path, trace: &Trace) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let vertical = !trace.vertical_mps2.is_empty();
+    if vertical {
+        writeln!(
+            out,
+            "t_s,ground_h_mps2,ground_v_mps2,theta_rad,slide_m,mode"
+        )?;
+    } else {
+        writeln!(out, "t_s,ground_h_mps2,theta_rad,slide_m,mode")?;
+    }
+    for i in 0..trace.t_s.len() {
+        write!(out, "{},{}", trace.t_s[i], trace.horizontal_mps2[i])?;
+        if vertical {
+            write!(out, ",{}", trace.vertical_mps2[i])?;
+        }
+        writeln!(
+            out,
+            ",{},{},{}",
+            trace.theta_rad[i],
+            trace.slide_m[i],
+            trace.mode[i].as_str()
+        )?;
+    }
+    out.flush()
 }
 
 fn text_summary(s: &Summary, p: &BlockParams, record: &Record) -> String {

@@ -69,7 +69,7 @@ pub const ALERT_FLAG_ID_TRUNCATED: u32 = 1;
 /// alert is published before it could be journaled (it will be when the directory recovers).
 pub const ALERT_FLAG_JOURNAL_PENDING: u32 = 2;
 
-/// One alert on `pbr/alerts` (160 bytes, alignment 8). Levels and modes are numbered as in
+/// One alert on `pbr/alerts` (168 bytes, alignment 8). Levels and modes are numbered as in
 /// `msg/pbr_msgs/msg/PbrAlert.msg` ([`crate::wire_codes`]).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
@@ -106,6 +106,9 @@ pub struct PbrAlertIox {
     pub station: [u8; STATION_BYTES],
     /// Block id from the catalogue, UTF-8, NUL-padded (truncated at a character boundary).
     pub pbr_id: [u8; PBR_ID_BYTES],
+    /// The direction that raised the alert: azimuth of its +x axis, degrees clockwise from
+    /// north (a planar block's own azimuth; one of a meshed rock's directions).
+    pub direction_deg: f64,
 }
 
 /// Copies `text` into a NUL-padded field, truncated at a character boundary; returns whether
@@ -224,6 +227,7 @@ impl PbrAlertIox {
             reserved: [0; 6],
             station: [0; STATION_BYTES],
             pbr_id: [0; PBR_ID_BYTES],
+            direction_deg: alert.direction_deg,
         };
         write_padded(&alert.station, &mut out.station);
         if write_padded(&alert.pbr_id, &mut out.pbr_id) {

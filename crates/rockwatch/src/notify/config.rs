@@ -233,6 +233,7 @@ mod tests {
             pgv_mps: 0.0,
             data_time_ns: 0,
             arrival_ns: 0,
+            direction_deg: 0.0,
         };
         assert!(c.accepts(&alert("b", AlertLevel::Overturned)));
         assert!(!c.accepts(&alert("c", AlertLevel::Overturned)));

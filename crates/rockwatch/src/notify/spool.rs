@@ -283,6 +283,7 @@ mod tests {
             overturn_probability: 0.0,
             pga_mps2: 1.0,
             pgv_mps: 0.1,
+            direction_deg: 0.0,
         }
     }
 

@@ -111,6 +111,8 @@ pub struct PbrState {
     /// The block's station is stale (no data for `engine.stale_after_s`): the block is not
     /// monitored. Published for each block when its station goes stale and when it recovers.
     pub not_monitored: bool,
+    /// The direction described: azimuth of the +x axis, degrees clockwise from north.
+    pub direction_deg: f64,
 }
 
 /// `pbr_msgs/PbrAlert`: an alert about one block.
@@ -134,6 +136,9 @@ pub struct PbrAlert {
     pub pga: f64,
     pub pgv: f64,
     pub message: String,
+    /// The direction that raised the alert: azimuth of the +x axis, degrees clockwise from
+    /// north.
+    pub direction_deg: f64,
 }
 
 /// `pbr_msgs/IntakeReport`: what the node has taken from one writer of `/pbr/accel`
@@ -234,6 +239,7 @@ impl From<&engine::PbrState> for PbrState {
             data_gap: s.data_gap,
             overturn_probability: s.overturn_probability,
             not_monitored: s.not_monitored,
+            direction_deg: s.direction_deg,
         }
     }
 }
@@ -261,6 +267,7 @@ impl From<&engine::Alert> for PbrAlert {
                 a.slide_m,
                 a.pga_mps2
             ),
+            direction_deg: a.direction_deg,
         }
     }
 }

@@ -1,0 +1,403 @@
+//! How a meshed rock rests, and the planar body ([`crate::dynamics::BlockParams::from_body`])
+//! of each horizontal direction (docs/meshes.md).
+//!
+//! # Frames
+//! The mesh is in metres. `up` ([`UpAxis`]) names the mesh axis that points roughly up; the
+//! mesh's **north** and **east** axes follow from it by a fixed right-handed table
+//! (east × north = up):
+//!
+//! | up   | east | north |
+//! |------|------|-------|
+//! | +z   | +x   | +y    |
+//! | −z   | +x   | −y    |
+//! | +y   | +z   | +x    |
+//! | −y   | +z   | −x    |
+//! | +x   | +y   | +z    |
+//! | −x   | +y   | −z    |
+//!
+//! The rock rests on the **stable hull facet nearest to `up`**: among the planar facets of the
+//! convex hull whose plane contains the centre of mass's projection strictly inside the facet
+//! (by more than 10⁻⁹ of the mesh size), the one whose outward normal n is closest to −up.
+//! The true vertical is then U = −n; north N is the mesh north axis projected on the facet's
+//! plane (normalised), east E = N × U. An azimuth az (degrees clockwise from north) is the
+//! horizontal direction d = E sin az + N cos az — the +x axis of the planar body and of the
+//! ground acceleration a_x = a_E sin az + a_N cos az ([`crate::azimuth::Azimuth`]).
+//!
+//! # Contact patch and planar body
+//! Real rocks rest on rough patches: the **contact patch** is every mesh vertex within the
+//! contact tolerance of the facet's plane (distance along n). For a direction d, with c the
+//! centre of mass and p the patch vertices:
+//! - `b_plus` = max_p (p − c)·d, `b_minus` = max_p −(p − c)·d: the horizontal distances to the
+//!   extreme contact points along ±d (the pivots of the planar body: the 2-D support polygon of
+//!   the patch projected on the vertical plane of d);
+//! - `h` = distance of c above the facet's plane;
+//! - `rho` = √(I_a / m), I_a the moment of inertia about the horizontal axis a = U × d
+//!   (perpendicular to the plane of motion) through c, from the inertia tensor at unit density
+//!   (m = volume); it does not depend on the density;
+//! - `alpha±` = atan(b±/h).
+//!
+//! Approximations (docs/meshes.md): the patch's vertices are projected on the facet's plane
+//! (their heights within the tolerance are ignored); the rock is rigid and its density
+//! uniform; the planar model of each direction ignores motion out of that vertical plane.
+
+use super::hull::{convex_hull, Facet};
+use super::mass::MassProperties;
+use super::{cross, dot, norm, normalize, scale3, sub, MeshError, TriMesh};
+
+/// Default contact tolerance (m): 5 mm.
+pub const DEFAULT_CONTACT_TOLERANCE_M: f64 = 0.005;
+
+/// Largest contact tolerance (m): 1 m.
+pub const MAX_CONTACT_TOLERANCE_M: f64 = 1.0;
+
+/// A signed mesh axis: the mesh's approximate up direction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UpAxis {
+    PlusX,
+    MinusX,
+    PlusY,
+    MinusY,
+    PlusZ,
+    MinusZ,
+}
+
+impl UpAxis {
+    /// Parses `x`, `y`, `z`, optionally signed (`+z`, `-y`), any case.
+    pub fn parse(text: &str) -> Result<UpAxis, String> {
+        Ok(match text.trim().to_ascii_lowercase().as_str() {
+            "x" | "+x" => UpAxis::PlusX,
+            "-x" => UpAxis::MinusX,
+            "y" | "+y" => UpAxis::PlusY,
+            "-y" => UpAxis::MinusY,
+            "z" | "+z" => UpAxis::PlusZ,
+            "-z" => UpAxis::MinusZ,
+            other => {
+                return Err(format!(
+                    "up axis {other:?}: expected x, y or z, optionally signed (+z, -y)"
+                ))
+            }
+        })
+    }
+
+    /// (up, east, north) unit vectors of the table in the module doc.
+    #[must_use]
+    pub fn frame(self) -> ([f64; 3], [f64; 3], [f64; 3]) {
+        const X: [f64; 3] = [1.0, 0.0, 0.0];
+        const Y: [f64; 3] = [0.0, 1.0, 0.0];
+        const Z: [f64; 3] = [0.0, 0.0, 1.0];
+        let neg = |v: [f64; 3]| scale3(v, -1.0);
+        match self {
+            UpAxis::PlusZ => (Z, X, Y),
+            UpAxis::MinusZ => (neg(Z), X, neg(Y)),
+            UpAxis::PlusY => (Y, Z, X),
+            UpAxis::MinusY => (neg(Y), Z, neg(X)),
+            UpAxis::PlusX => (X, Y, Z),
+            UpAxis::MinusX => (neg(X), Y, neg(Z)),
+        }
+    }
+
+    /// The axis as written by [`UpAxis::parse`]'s canonical form (`+z`, `-y`, …).
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            UpAxis::PlusX => "+x",
+            UpAxis::MinusX => "-x",
+            UpAxis::PlusY => "+y",
+            UpAxis::MinusY => "-y",
+            UpAxis::PlusZ => "+z",
+            UpAxis::MinusZ => "-z",
+        }
+    }
+}
+
+/// A meshed rock: its mass properties and convex hull (computed once; the contact depends on
+/// the up axis and the tolerance, see [`RockGeometry::rest`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RockGeometry {
+    source: String,
+    mass: MassProperties,
+    facets: Vec<Facet>,
+    vertices: Vec<[f64; 3]>,
+    scale_m: f64,
+}
+
+/// The resting contact of a rock (see the module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RestingContact {
+    /// True vertical (unit, mesh coordinates): −(outward normal of the resting facet).
+    pub up: [f64; 3],
+    /// Horizontal east and north (unit, mesh coordinates).
+    pub east: [f64; 3],
+    pub north: [f64; 3],
+    /// Height of the centre of mass above the resting plane (m).
+    pub h_m: f64,
+    /// Angle between the given up axis and the true vertical (degrees).
+    pub tilt_deg: f64,
+    /// The contact tolerance used (m).
+    pub tolerance_m: f64,
+    /// Number of vertices of the resting facet's polygon.
+    pub facet_vertices: usize,
+    /// Unit-density mass properties of the rock.
+    pub mass: MassProperties,
+    /// The vertices within [`MAX_CONTACT_TOLERANCE_M`] of the resting plane, as (depth above
+    /// the plane, east, north) relative to the centre of mass (m), by increasing depth: the
+    /// patch of any tolerance is a prefix.
+    near: Vec<(f64, f64, f64)>,
+    /// Rounding allowance of the depth comparison (10⁻⁹ of the mesh size, m).
+    margin_m: f64,
+}
+
+/// The planar body of one direction (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct DirectionBody {
+    /// Direction, degrees clockwise from the mesh's north axis.
+    pub azimuth_deg: f64,
+    pub b_plus_m: f64,
+    pub b_minus_m: f64,
+    pub h_m: f64,
+    pub rho_m: f64,
+    pub alpha_plus_deg: f64,
+    pub alpha_minus_deg: f64,
+}
+
+impl RockGeometry {
+    /// Mass properties and hull of a validated mesh.
+    pub fn new(mesh: &TriMesh) -> Result<RockGeometry, MeshError> {
+        let mass = MassProperties::of(mesh);
+        let facets = convex_hull(&mesh.vertices).map_err(|e| MeshError::Degenerate {
+            source_name: mesh.source.clone(),
+            location: None,
+            message: format!("convex hull: {e}"),
+        })?;
+        Ok(RockGeometry {
+            source: mesh.source.clone(),
+            mass,
+            facets,
+            vertices: mesh.vertices.clone(),
+            scale_m: mesh.bounding_diagonal(),
+        })
+    }
+
+    /// Reads, validates and analyses a mesh file.
+    pub fn read(path: impl AsRef<std::path::Path>) -> Result<RockGeometry, MeshError> {
+        RockGeometry::new(&TriMesh::read(path)?)
+    }
+
+    /// Unit-density mass properties.
+    #[must_use]
+    pub fn mass(&self) -> &MassProperties {
+        &self.mass
+    }
+
+    /// The facets of the convex hull.
+    #[must_use]
+    pub fn facets(&self) -> &[Facet] {
+        &self.facets
+    }
+
+    /// The resting contact for the approximate up axis `up` and the contact tolerance
+    /// `tolerance_m` (m, finite, ≥ 0).
+    pub fn rest(&self, up: UpAxis, tolerance_m: f64) -> Result<RestingContact, MeshError> {
+        let fail = |message: String| MeshError::Contact {
+            source_name: self.source.clone(),
+            message,
+        };
+        if !(0.0..=MAX_CONTACT_TOLERANCE_M).contains(&tolerance_m) {
+            return Err(fail(format!(
+                "contact tolerance {tolerance_m} m must be in [0, {MAX_CONTACT_TOLERANCE_M}] m"
+            )));
+        }
+        let (up0, _, north0) = up.frame();
+        let c = self.mass.com_m;
+        let margin = 1e-9 * self.scale_m;
+        let mut best: Option<(f64, &Facet)> = None;
+        for facet in &self.facets {
+            if !self.com_projects_inside(facet, margin) {
+                continue;
+            }
+            let alignment = -dot(facet.normal, up0);
+            if best.is_none_or(|(a, _)| alignment > a) {
+                best = Some((alignment, facet));
+            }
+        }
+        let Some((alignment, facet)) = best else {
+            return Err(fail(
+                "no facet of the convex hull has the centre of mass strictly above it: the \
+                 body cannot rest (numerically degenerate mesh?)"
+                    .into(),
+            ));
+        };
+        let u = scale3(facet.normal, -1.0);
+        let n_proj = sub(north0, scale3(u, dot(north0, u)));
+        if norm(n_proj) < 1e-6 {
+            return Err(fail(format!(
+                "the resting facet is perpendicular to the mesh's north axis for up {}: choose \
+                 the up axis the rock stands on",
+                up.as_str()
+            )));
+        }
+        let north = normalize(n_proj);
+        let east = cross(north, u);
+        let h_m = facet.offset - dot(facet.normal, c);
+        let mut near: Vec<(f64, f64, f64)> = self
+            .vertices
+            .iter()
+            .filter_map(|v| {
+                let depth = facet.offset - dot(facet.normal, *v);
+                (depth <= MAX_CONTACT_TOLERANCE_M + margin).then(|| {
+                    let r = sub(*v, c);
+                    (depth, dot(r, east), dot(r, north))
+                })
+            })
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Ok(RestingContact {
+            up: u,
+            east,
+            north,
+            h_m,
+            tilt_deg: alignment.clamp(-1.0, 1.0).acos().to_degrees(),
+            tolerance_m,
+            facet_vertices: facet.polygon.len(),
+            mass: self.mass,
+            near,
+            margin_m: margin,
+        })
+    }
+
+    /// Whether c, projected along the facet's normal, is inside its polygon by more than
+    /// `margin` from every edge.
+    fn com_projects_inside(&self, facet: &Facet, margin: f64) -> bool {
+        let c = self.mass.com_m;
+        let m = facet.polygon.len();
+        if m < 3 {
+            return false;
+        }
+        (0..m).all(|k| {
+            let a = self.vertices[facet.polygon[k]];
+            let b = self.vertices[facet.polygon[(k + 1) % m]];
+            // Inward edge normal in the facet plane: n × (b − a) for a CCW polygon.
+            let edge = sub(b, a);
+            let inward = cross(facet.normal, edge);
+            let len = norm(inward);
+            len > 0.0 && dot(sub(c, a), inward) / len > margin
+        })
+    }
+}
+
+impl RestingContact {
+    /// The contact patch at the tolerance `tolerance_m` (clamped to [0,
+    /// [`MAX_CONTACT_TOLERANCE_M`]]): (depth above the resting plane, east, north) of each
+    /// vertex relative to the centre of mass (m). Never empty: the resting facet's vertices
+    /// are at depth 0.
+    #[must_use]
+    pub fn patch(&self, tolerance_m: f64) -> &[(f64, f64, f64)] {
+        let tolerance_m = if tolerance_m.is_nan() {
+            0.0
+        } else {
+            tolerance_m
+        };
+        let limit = tolerance_m.clamp(0.0, MAX_CONTACT_TOLERANCE_M) + self.margin_m;
+        let n = self.near.partition_point(|p| p.0 <= limit);
+        &self.near[..n]
+    }
+
+    /// The contact patch at the contact's own tolerance ([`RestingContact::patch`]).
+    #[must_use]
+    pub fn contact_vertices(&self) -> usize {
+        self.patch(self.tolerance_m).len()
+    }
+
+    /// The planar body of the direction `azimuth_deg` (degrees clockwise from the mesh's
+    /// north axis; any finite value, taken modulo 360) at the contact's tolerance.
+    #[must_use]
+    pub fn direction(&self, azimuth_deg: f64) -> DirectionBody {
+        self.direction_at(azimuth_deg, self.tolerance_m)
+    }
+
+    /// The planar body of the direction `azimuth_deg` with the contact patch of another
+    /// tolerance (m; the resting facet and frame do not depend on it).
+    #[must_use]
+    pub fn direction_at(&self, azimuth_deg: f64, tolerance_m: f64) -> DirectionBody {
+        let az = azimuth_deg.to_radians();
+        let (s, co) = az.sin_cos();
+        let (mut b_plus, mut b_minus) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for &(_, e, n) in self.patch(tolerance_m) {
+            let x = e * s + n * co;
+            b_plus = b_plus.max(x);
+            b_minus = b_minus.max(-x);
+        }
+        let d = [
+            self.east[0] * s + self.north[0] * co,
+            self.east[1] * s + self.north[1] * co,
+            self.east[2] * s + self.north[2] * co,
+        ];
+        let axis = cross(self.up, d);
+        let rho_m = (self.mass.moment_about(axis) / self.mass.volume_m3).sqrt();
+        DirectionBody {
+            azimuth_deg,
+            b_plus_m: b_plus,
+            b_minus_m: b_minus,
+            h_m: self.h_m,
+            rho_m,
+            alpha_plus_deg: (b_plus / self.h_m).atan().to_degrees(),
+            alpha_minus_deg: (b_minus / self.h_m).atan().to_degrees(),
+        }
+    }
+}
+
+/// Parses an azimuth list: `A:B:STEP` (from A up to but excluding B, B − A ≤ 360, STEP > 0,
+/// at most 3600 directions) or a comma-separated list `0,90,180`. Degrees.
+pub fn parse_azimuths(text: &str) -> Result<Vec<f64>, String> {
+    let number = |w: &str| -> Result<f64, String> {
+        let v: f64 = w
+            .trim()
+            .parse()
+            .map_err(|_| format!("azimuth {w:?} is not a number"))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(format!("azimuth {w:?} is not finite"))
+        }
+    };
+    let parts: Vec<&str> = text.split(':').collect();
+    match parts.as_slice() {
+        [from, to, step] => azimuth_steps(number(from)?, number(to)?, number(step)?),
+        [_] => {
+            let list = text
+                .split(',')
+                .map(number)
+                .collect::<Result<Vec<f64>, String>>()?;
+            if list.is_empty() || list.len() > MAX_AZIMUTHS {
+                return Err(format!("give 1 to {MAX_AZIMUTHS} azimuths"));
+            }
+            Ok(list)
+        }
+        _ => Err(format!(
+            "azimuths {text:?}: give FROM:TO:STEP (degrees, TO excluded) or a list A,B,C"
+        )),
+    }
+}
+
+/// Most directions of one rock.
+pub const MAX_AZIMUTHS: usize = 3600;
+
+/// The azimuths `from`, `from + step`, … below `to` (degrees; `to − from` in (0, 360],
+/// `step > 0`, at most [`MAX_AZIMUTHS`]).
+pub fn azimuth_steps(from: f64, to: f64, step: f64) -> Result<Vec<f64>, String> {
+    if !(step > 0.0 && step.is_finite()) {
+        return Err(format!("azimuth step {step} must be > 0"));
+    }
+    if !(to > from && to - from <= 360.0) {
+        return Err(format!(
+            "azimuth range {from}:{to} must have FROM < TO ≤ FROM + 360"
+        ));
+    }
+    let n = ((to - from) / step - 1e-9).ceil().max(1.0);
+    if n > MAX_AZIMUTHS as f64 {
+        return Err(format!(
+            "{n} azimuths from {from}:{to}:{step}, more than {MAX_AZIMUTHS}"
+        ));
+    }
+    Ok((0..n as usize).map(|k| from + k as f64 * step).collect())
+}

@@ -1,0 +1,316 @@
+//! `rockwatch geometry` and `rockwatch simulate --mesh --azimuth` / `--trace` through the
+//! binary: the JSON against a box's closed forms, one-line errors for bad meshes and flags,
+//! a meshed block simulated like the same block given by its planar-body flags, and the trace
+//! CSV against the record and the summary.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const RINALDI: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../tests/data/records/Rinaldi228.AT2"
+);
+const RINALDI_UP: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../tests/data/records/RinaldiUP.AT2"
+);
+
+fn rockwatch(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok_json(args: &[&str]) -> serde_json::Value {
+    let out = rockwatch(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// A box a (east, x) × b (north, y) × c (up, z) standing on z = 0, centred on x = y = 0, as
+/// an OBJ with quad faces (outward).
+fn box_obj(dir: &Path, a: f64, b: f64, c: f64) -> PathBuf {
+    let (x, y) = (a / 2.0, b / 2.0);
+    let text = format!(
+        "# box {a} x {b} x {c}\n\
+         v {} {} 0\nv {x} {} 0\nv {x} {y} 0\nv {} {y} 0\n\
+         v {} {} {c}\nv {x} {} {c}\nv {x} {y} {c}\nv {} {y} {c}\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
+        -x, -y, -y, -x, -x, -y, -y, -x
+    );
+    let path = dir.join("box.obj");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn f(v: &serde_json::Value) -> f64 {
+    v.as_f64().unwrap()
+}
+
+#[test]
+fn geometry_json_of_a_box_matches_its_closed_forms() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, c) = (0.4, 0.3, 1.2);
+    let mesh = box_obj(dir.path(), a, b, c);
+    let json = ok_json(&[
+        "geometry",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--azimuths",
+        "0:360:45",
+        "--format",
+        "json",
+    ]);
+    assert!((f(&json["volume_m3"]) - a * b * c).abs() < 1e-14);
+    let com: Vec<f64> = json["com_m"].as_array().unwrap().iter().map(f).collect();
+    assert_eq!(com.len(), 3);
+    assert!(com[0].abs() < 1e-14 && com[1].abs() < 1e-14 && (com[2] - c / 2.0).abs() < 1e-14);
+    let dirs = json["directions"].as_array().unwrap();
+    assert_eq!(dirs.len(), 8);
+    for d in dirs {
+        let az = f(&d["azimuth_deg"]).to_radians();
+        let support = a / 2.0 * az.sin().abs() + b / 2.0 * az.cos().abs();
+        let rho2 = (az.cos().powi(2) * (b * b + c * c) + az.sin().powi(2) * (a * a + c * c)) / 12.0;
+        for key in ["b_plus_m", "b_minus_m"] {
+            assert!((f(&d[key]) - support).abs() < 1e-12, "{key} {d}");
+        }
+        assert!((f(&d["h_m"]) - c / 2.0).abs() < 1e-12);
+        assert!((f(&d["rho_m"]) - rho2.sqrt()).abs() < 1e-12);
+        let alpha = (support / (c / 2.0)).atan().to_degrees();
+        assert!((f(&d["alpha_plus_deg"]) - alpha).abs() < 1e-10);
+        assert!((f(&d["alpha_minus_deg"]) - alpha).abs() < 1e-10);
+    }
+    // Text output names the units.
+    let out = rockwatch(&["geometry", "--mesh", mesh.to_str().unwrap()]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("volume") && text.contains("m³") && text.contains("rho(m)"));
+    assert_eq!(
+        text.lines()
+            .filter(|l| l.trim_start().starts_with("345.00"))
+            .count(),
+        1
+    );
+}
+
+#[test]
+fn bad_meshes_and_flags_fail_with_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let hole = dir.path().join("hole.obj");
+    std::fs::write(
+        &hole,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\n",
+    )
+    .unwrap();
+    let mesh = box_obj(dir.path(), 1.0, 1.0, 1.0);
+    let cases: [(Vec<&str>, &str); 5] = [
+        (vec!["--mesh", hole.to_str().unwrap()], "hole.obj:"),
+        (
+            vec!["--mesh", "/nonexistent/rock.stl"],
+            "cannot read the mesh",
+        ),
+        (vec!["--mesh", "rock.dxf"], "unknown mesh format"),
+        (vec!["--mesh", mesh.to_str().unwrap(), "--up", "w"], "--up"),
+        (
+            vec!["--mesh", mesh.to_str().unwrap(), "--azimuths", "0:360:0"],
+            "--azimuths",
+        ),
+    ];
+    for (args, expected) in cases {
+        let mut all = vec!["geometry"];
+        all.extend(args.iter());
+        let out = rockwatch(&all);
+        assert_eq!(out.status.code(), Some(1), "{all:?}");
+        let stderr = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.starts_with("rockwatch: error: ") && stderr.contains(expected),
+            "{stderr}"
+        );
+    }
+}
+
+#[test]
+fn simulate_mesh_azimuth_is_the_planar_body_of_that_direction() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, c) = (0.5, 0.3, 1.5);
+    let mesh = box_obj(dir.path(), a, b, c);
+    let common = [
+        "simulate", "--record", RINALDI, "--mu-s", "1.5", "--mu-k", "1.0", "--scale", "0.6",
+        "--format", "json",
+    ];
+    for (az, width) in [("90", a), ("0", b)] {
+        let mut meshed = common.to_vec();
+        meshed.extend(["--mesh", mesh.to_str().unwrap(), "--azimuth", az]);
+        let mut rect = common.to_vec();
+        let (w, h) = (width.to_string(), c.to_string());
+        rect.extend(["--width", w.as_str(), "--height", h.as_str()]);
+        let (m, r) = (ok_json(&meshed), ok_json(&rect));
+        assert_eq!(m["status"], r["status"], "az {az}");
+        assert!((f(&m["alpha"]) - f(&r["alpha"])).abs() < 1e-12);
+        let (x, y) = (f(&m["max_abs_theta"]), f(&r["max_abs_theta"]));
+        assert!((x - y).abs() <= 1e-9 * y.max(1e-3), "az {az}: {x} vs {y}");
+    }
+    let out = rockwatch(&[
+        "simulate",
+        "--record",
+        RINALDI,
+        "--mu-s",
+        "1",
+        "--mu-k",
+        "0.8",
+        "--mesh",
+        mesh.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1), "--mesh without --azimuth");
+}
+
+#[test]
+fn trace_csv_holds_the_record_and_the_response_per_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("trace.csv");
+    let json = ok_json(&[
+        "simulate",
+        "--record",
+        RINALDI,
+        "--vertical",
+        RINALDI_UP,
+        "--width",
+        "0.4",
+        "--height",
+        "2.0",
+        "--mu-s",
+        "1.5",
+        "--mu-k",
+        "1.0",
+        "--scale",
+        "0.3",
+        "--t-extra",
+        "2",
+        "--format",
+        "json",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string(&trace).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("t_s,ground_h_mps2,ground_v_mps2,theta_rad,slide_m,mode")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    // The record's own samples: AT2 values in g × 9.80665 × scale.
+    let at2 = std::fs::read_to_string(RINALDI).unwrap();
+    let values: Vec<f64> = at2
+        .lines()
+        .skip(4)
+        .flat_map(|l| l.split_whitespace().map(|w| w.parse::<f64>().unwrap()))
+        .collect();
+    let dt = 0.01; // the file's DT
+    let expected_rows = values.len() + (2.0 / dt) as usize;
+    assert_eq!(json["status"], "ok");
+    assert_eq!(rows.len(), expected_rows);
+    let mut max_theta: f64 = 0.0;
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!(row.len(), 6);
+        let t: f64 = row[0].parse().unwrap();
+        assert!((t - i as f64 * dt).abs() < 1e-9, "row {i}: t {t}");
+        let ah: f64 = row[1].parse().unwrap();
+        let want = values.get(i).map_or(0.0, |g| g * 9.80665 * 0.3);
+        assert!((ah - want).abs() <= 1e-12 * want.abs().max(1.0), "row {i}");
+        max_theta = max_theta.max(row[3].parse::<f64>().unwrap().abs());
+        assert!(
+            [
+                "rest",
+                "slide",
+                "rock",
+                "slide-rock",
+                "flight",
+                "overturned"
+            ]
+            .contains(&row[5]),
+            "{}",
+            row[5]
+        );
+    }
+    assert!(max_theta > 0.0, "the block rocks");
+    assert!(max_theta <= f(&json["max_abs_theta"]) * (1.0 + 1e-12));
+    let last_slide: f64 = rows.last().unwrap()[4].parse().unwrap();
+    assert_eq!(last_slide, f(&json["residual_slide"]));
+}
+
+/// `monitor` over a catalogue with a rock from a mesh: its alerts name one of its directions,
+/// and its summary lists every direction: under a one-component record, the direction along
+/// the record and the opposite one respond alike (mirrored body, negated input), the
+/// perpendicular one not at all.
+#[test]
+fn monitor_integrates_a_meshed_rock_in_each_direction_and_names_it() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    std::fs::copy(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/meshes/leaning-wedge.obj"
+        ),
+        dir.path().join("meshes/wedge.obj"),
+    )
+    .unwrap();
+    let catalogue = dir.path().join("cat.toml");
+    std::fs::write(
+        &catalogue,
+        "[[pbr]]\nid = \"wedge\"\nname = \"wedge\"\nlat = 34.28\nlon = -118.48\n\
+         station = \"CI.RRS.00\"\nmesh = \"meshes/wedge.obj\"\nazimuths = [228, 48, 138]\n\
+         heading_deg = 0.0\nmu_s = 0.8\nmu_k = 0.6\nsource = \"test\"\n",
+    )
+    .unwrap();
+    let out = rockwatch(&[
+        "monitor",
+        "--catalogue",
+        catalogue.to_str().unwrap(),
+        "--record",
+        RINALDI,
+        "--azimuth",
+        "228",
+        "--station",
+        "CI.RRS.00",
+        "--format",
+        "jsonl",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let values: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let alerts: Vec<&serde_json::Value> = values.iter().filter(|v| v["type"] == "alert").collect();
+    assert!(!alerts.is_empty(), "the wedge rocks under Rinaldi");
+    for a in &alerts {
+        let d = f(&a["direction_deg"]);
+        assert!(d == 228.0 || d == 48.0, "{a}");
+    }
+    let summary = values.last().unwrap();
+    let dirs = summary["pbrs"][0]["directions"].as_array().unwrap();
+    let got: Vec<(f64, f64)> = dirs
+        .iter()
+        .map(|d| (f(&d["direction_deg"]), f(&d["max_theta_over_alpha"])))
+        .collect();
+    assert_eq!(
+        got.iter().map(|g| g.0).collect::<Vec<_>>(),
+        [228.0, 48.0, 138.0]
+    );
+    assert!(got[0].1 > 0.0);
+    assert!((got[0].1 - got[1].1).abs() <= 1e-6 * got[0].1, "{got:?}");
+    assert_eq!(got[2].1, 0.0, "perpendicular to the motion");
+    assert_eq!(
+        f(&summary["pbrs"][0]["max_theta_over_alpha"]),
+        got[0].1.max(got[1].1)
+    );
+}
