@@ -167,7 +167,7 @@ fn reset_live(args: &ResetArgs) -> anyhow::Result<()> {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
-    let plan = network_plan_from_env(&config.ros2)?;
+    let plan = network_plan_from_env(&config.ros2, rockwatch::ros2::OPERATOR_ENCLAVE)?;
     let mut client = Ros2ResetClient::open(&plan, &config.ros2.namespace)
         .context("cannot join the ROS 2 graph")?;
     if !client.wait_for_service(wait) {

@@ -53,7 +53,7 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
-    let plan = network_plan_from_env(&config.ros2)?;
+    let plan = network_plan_from_env(&config.ros2, rockwatch::ros2::NODE_ENCLAVE)?;
     let options = NodeOptions {
         config,
         catalogue: args.catalogue,
@@ -63,7 +63,7 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         reject_future: true,
     };
     eprintln!(
-        "rockwatch: node {}/{} on DDS domain {} ({})",
+        "rockwatch: node {}/{} on DDS domain {} ({}; {})",
         options.config.ros2.namespace.trim_end_matches('/'),
         rockwatch::ros2::NODE_NAME,
         plan.domain_id,
@@ -76,8 +76,19 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
                     .join(", ")
             ),
             None => "all interfaces".into(),
+        },
+        match &plan.security {
+            Some(s) => format!(
+                "DDS Security enclave {} from {}",
+                s.enclave,
+                s.dir.display()
+            ),
+            None => "DDS Security off".into(),
         }
     );
+    if let Some(warning) = plan.exposure_warning() {
+        eprintln!("{warning}");
+    }
     let state_dir = options
         .state_dir
         .clone()

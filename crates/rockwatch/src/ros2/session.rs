@@ -5,7 +5,7 @@
 use std::thread::JoinHandle;
 
 use anyhow::anyhow;
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{DomainParticipantBuilder, DomainParticipantSecurityConfigFiles};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, QosProfile, Subscription,
 };
@@ -44,9 +44,25 @@ impl Ros2Session {
         if let Some(networks) = &plan.only_networks {
             builder = builder.with_only_networks(networks.iter().copied());
         }
+        if let Some(security) = &plan.security {
+            // The SROS2 file names; keys are not encrypted (RustDDS reads no encrypted key).
+            builder = builder.builtin_security(
+                DomainParticipantSecurityConfigFiles::with_ros_default_names(
+                    &security.dir,
+                    String::new(),
+                ),
+            );
+        }
         let (participant, threads) = DdsThreads::spawned_by(|| builder.build());
-        let participant = participant
-            .map_err(|e| anyhow!("DDS participant (domain {}): {e:?}", plan.domain_id))?;
+        let participant = participant.map_err(|e| match &plan.security {
+            Some(s) => anyhow!(
+                "DDS participant (domain {}, DDS Security enclave {} in {}): {e:?}",
+                plan.domain_id,
+                s.enclave,
+                s.dir.display()
+            ),
+            None => anyhow!("DDS participant (domain {}): {e:?}", plan.domain_id),
+        })?;
         let context = Context::from_domain_participant(participant).map_err(dds_err("context"))?;
         let node_name = NodeName::new(namespace, name)
             .map_err(|e| anyhow!("ROS 2 node name {namespace:?}/{name:?}: {e:?}"))?;
@@ -80,7 +96,8 @@ impl Ros2Session {
     }
 
     /// A session for the client node `name` of a tool (replay, listener, reset client):
-    /// without `/rosout`.
+    /// without `/rosout` and without parameter services (nothing to set; and none to grant in
+    /// a DDS Security permissions document).
     pub fn open_client(
         plan: &NetworkPlan,
         namespace: &str,
@@ -90,7 +107,9 @@ impl Ros2Session {
             plan,
             namespace,
             name,
-            NodeOptions::new().enable_rosout(false),
+            NodeOptions::new()
+                .enable_rosout(false)
+                .start_parameter_services(false),
         )
     }
 
