@@ -44,7 +44,8 @@ const CYCLE: Duration = Duration::from_millis(100);
 struct Args {
     /// Print each alert as one JSON object per line (keys: data_time_ns, data_time, level,
     /// level_code, pbr_id, station, mode, mode_code, theta_over_alpha, slide_m,
-    /// overturn_probability, pga_mps2, pgv_mps, message).
+    /// overturn_probability, pga_mps2, pgv_mps, message, episode). One alert per (pbr_id,
+    /// episode, level): de-duplicate by that triple.
     #[arg(long)]
     json: bool,
     /// Stop after N alerts.
@@ -265,6 +266,7 @@ fn json_line(alert: &msg::PbrAlert) -> String {
         "pga_mps2": alert.pga,
         "pgv_mps": alert.pgv,
         "message": alert.message,
+        "episode": alert.episode,
     })
     .to_string()
 }

@@ -36,8 +36,8 @@ pub use config::{
     AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, StationConfig,
 };
 pub use output::{
-    fallen_blocks, journaled_alerts, Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output,
-    OutputSink, PbrState, StationIntensity,
+    compact_journal, fallen_blocks, journaled_alerts, Alert, AlertKey, AlertLevel, JournalRecord,
+    Notice, Output, OutputSink, PbrState, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use sharded::{EngineHandle, ShardedEngine};

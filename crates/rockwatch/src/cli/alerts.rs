@@ -179,7 +179,7 @@ fn reset_live(args: &ResetArgs) -> anyhow::Result<()> {
     }
     let response = client.reset(&args.pbr, wait)?;
     // A peer's text, on one line (control characters escaped); its length is not bounded.
-    let message = printable(&response.message, usize::MAX);
+    let message = printable(response.message.trim_end(), usize::MAX);
     if !response.success {
         bail!("the node refused: {message}");
     }

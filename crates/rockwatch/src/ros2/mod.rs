@@ -65,7 +65,7 @@ pub use replay_sink::{Ros2PacketSink, CREDIT_WINDOW, DEFAULT_INTAKE_WAIT};
 pub use reset::{RESET_MATCH_GRACE, RESET_REPLIES_HELD, RESET_REPLY_WAIT, RESET_REQUESTS_PER_TURN};
 pub use reset_client::Ros2ResetClient;
 pub use security::{
-    security_from_env, security_plan, DdsSecurity, SecurityEnv, SecurityError, SecurityPlan,
-    ENCLAVE_FILES, NODE_ENCLAVE, OPERATOR_ENCLAVE, READER_ENCLAVE, STATION_ENCLAVE,
+    pad_for_protection, security_from_env, security_plan, DdsSecurity, SecurityEnv, SecurityError,
+    SecurityPlan, ENCLAVE_FILES, NODE_ENCLAVE, OPERATOR_ENCLAVE, READER_ENCLAVE, STATION_ENCLAVE,
 };
 pub use session::Ros2Session;

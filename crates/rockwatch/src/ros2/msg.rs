@@ -131,6 +131,9 @@ pub struct PbrAlert {
     pub pga: f64,
     pub pgv: f64,
     pub message: String,
+    /// The block's episode: one alert per (pbr_id, episode, level), the key subscribers
+    /// de-duplicate by.
+    pub episode: u32,
 }
 
 /// `pbr_msgs/IntakeReport`: what the node has taken from one writer of `/pbr/accel`
@@ -257,6 +260,7 @@ impl From<&engine::Alert> for PbrAlert {
                 a.slide_m,
                 a.pga_mps2
             ),
+            episode: a.episode,
         }
     }
 }

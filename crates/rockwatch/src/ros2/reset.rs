@@ -12,6 +12,7 @@ use super::input::IntakeLog;
 use super::msg;
 use super::names::{NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING};
 use super::qos::service_qos;
+use super::security::pad_for_protection;
 use super::session::Ros2Session;
 
 /// Longest a reset response waits for the requesting client's response reader to be
@@ -41,6 +42,8 @@ pub(super) struct ResetServer {
     server: Server<msg::ResetPbrRequest, msg::ResetPbrResponse>,
     reply_topic: String,
     pending: Vec<PendingReply>,
+    /// DDS Security is on: responses are padded ([`pad_for_protection`]).
+    secured: bool,
 }
 
 impl ResetServer {
@@ -65,6 +68,7 @@ impl ResetServer {
             server,
             reply_topic,
             pending: Vec::new(),
+            secured: session.plan().security.is_some(),
         })
     }
 
@@ -84,7 +88,11 @@ impl ResetServer {
         for _ in 0..RESET_REQUESTS_PER_TURN {
             match self.server.receive_request() {
                 Ok(Some((id, request))) => {
-                    let response = handle(&request.pbr_id);
+                    // A secured client pads the id with NULs (see pad_for_protection).
+                    let mut response = handle(request.pbr_id.trim_end_matches('\0'));
+                    if self.secured {
+                        response.message = pad_for_protection(response.message, ' ');
+                    }
                     if self.pending.len() < RESET_REPLIES_HELD {
                         self.pending.push(PendingReply {
                             id,

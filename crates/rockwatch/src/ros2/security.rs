@@ -169,6 +169,26 @@ pub fn security_from_env(default_enclave: &str) -> Result<Option<DdsSecurity>, S
     }
 }
 
+/// Pads `text` with `fill` so that its CDR encoding (a 4-byte length, the bytes and a NUL)
+/// ends on a 4-byte boundary, i.e. `text.len() + 1` is a multiple of 4.
+///
+/// Why: RustDDS 0.15.1 cannot decode a protected payload whose length is not a multiple of 4.
+/// Its `decode_serialized_payload` finds the CryptoFooter by counting back from the end of the
+/// received payload, but the sender pads every DATA submessage to 4 bytes (RTPS), so the padding
+/// is taken for the end of the footer and the MAC check fails ("ring … 'Unspecified' error",
+/// or "Could not find decode key materials"). The messages of a secured rockwatch end on a
+/// 4-byte field (`PbrAlert.episode`, `AccelPacket.up`, …); the reset request and response end
+/// on a string, padded by this function when security is on (the server ignores trailing NULs
+/// of an id; a response message may end in spaces).
+#[must_use]
+pub fn pad_for_protection(mut text: String, fill: char) -> String {
+    debug_assert!(fill.is_ascii());
+    while (text.len() + 1) % 4 != 0 {
+        text.push(fill);
+    }
+    text
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -246,6 +266,16 @@ mod tests {
             security_plan(&e, NODE_ENCLAVE),
             Err(SecurityError::Strategy(_))
         ));
+    }
+
+    #[test]
+    fn padded_strings_end_their_cdr_encoding_on_four_bytes() {
+        for n in 0..12 {
+            let s = pad_for_protection("é".repeat(n), '\0');
+            assert_eq!((s.len() + 1) % 4, 0, "{n}");
+            assert_eq!(s.trim_end_matches('\0'), "é".repeat(n));
+            assert!(s.len() < 2 * n + 4);
+        }
     }
 
     #[test]

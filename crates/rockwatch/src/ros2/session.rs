@@ -19,6 +19,9 @@ fn dds_err(what: &str) -> impl Fn(ros2_client::CreateError) -> anyhow::Error + '
     move |e| anyhow!("ROS 2: {what}: {e:?}")
 }
 
+/// Longest wait for the spinner thread to stop when a session is dropped.
+const SPINNER_STOP_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
+
 /// A DDS participant with one ROS 2 node and its spinner thread (discovery, parameters).
 pub struct Ros2Session {
     pub(super) node: Node,
@@ -173,7 +176,16 @@ impl Drop for Ros2Session {
         self._teardown = Some(MuteLibraries::new());
         self.node.stop_spinner();
         if let Some(spinner) = self.spinner.take() {
-            let _ = spinner.join();
+            // Bounded: a spinner that missed the stop (its stop channel already closed, seen
+            // when a secured participant is dropped right after a refused endpoint) is left
+            // to end with the process rather than hang it.
+            let deadline = std::time::Instant::now() + SPINNER_STOP_WAIT;
+            while !spinner.is_finished() && std::time::Instant::now() < deadline {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            if spinner.is_finished() {
+                let _ = spinner.join();
+            }
         }
     }
 }
