@@ -10,8 +10,10 @@
 //! identity cannot.
 
 mod ros2_util;
+mod seedlink_server;
 use std::path::Path;
-use std::process::Command;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
 
 use ros2_util::*;
 
@@ -393,5 +395,158 @@ fn a_participant_that_cannot_be_rebuilt_ends_the_node_with_exit_1() {
     assert!(
         last.contains("could not be rebuilt for 30 s") && last.contains("/rockwatch/node"),
         "{last}\n{stderr}"
+    );
+}
+
+/// A six-needle catalogue on the K2 station XX.STN (as tests/acquire_e2e.rs).
+fn needles(dir: &Path) -> std::path::PathBuf {
+    let mut text = String::new();
+    for (i, width) in [0.01, 0.015, 0.02, 0.04, 0.05, 0.06].iter().enumerate() {
+        text += &format!(
+            "[[pbr]]\nid = \"needle-{i}\"\nname = \"test needle\"\nlat = 50.47\nlon = 4.279\n\
+             station = \"XX.STN.\"\nazimuth_deg = {}\nwidth_m = {width}\nheight_m = 10.0\n\
+             mu_s = 0.7\nmu_k = 0.55\nsource = \"test\"\n\n",
+            30.0 * i as f64
+        );
+    }
+    let path = dir.join("catalogue.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// (pbr_id, level, episode) of the journal's alerts.
+fn alert_keys(state: &Path) -> Vec<(String, u64, u32)> {
+    use rockwatch_core::engine::JournalRecord;
+    let Ok((records, _)) = rockwatch::journal::read_journal(state) else {
+        return Vec::new();
+    };
+    records
+        .into_iter()
+        .filter_map(|r| match r {
+            JournalRecord::Alert(a) => Some((a.pbr_id, a.level as u64, a.episode)),
+            _ => None,
+        })
+        .collect()
+}
+
+fn secured(cmd: &mut Command, keystore: &str) -> Child {
+    cmd.env("ROS_SECURITY_KEYSTORE", keystore)
+        .env("ROS_SECURITY_ENABLE", "true")
+        .env("ROS_SECURITY_STRATEGY", "Enforce")
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+fn stop(mut child: Child) -> String {
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while child.try_wait().unwrap().is_none() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let _ = child.kill();
+    let out = child.wait_with_output().unwrap();
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// SeedLink (an independent server, seedlink-rs-server) → `rockwatch acquire --to ros2` with
+/// the station identity → a secured node: the node's alerts equal `monitor`'s on the same
+/// records, so every packet of the secured acquisition was taken.
+#[test]
+fn an_acquire_with_the_station_identity_is_served() {
+    if !reexec_in_netns("an_acquire_with_the_station_identity_is_served", 150) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let ks = keystore(dir.path());
+    let catalogue = needles(dir.path());
+    let xml = repo().join("tests/data/stationxml/obspy_XX.STN_k2.xml");
+    let reference = dir.path().join("monitor-state");
+    let out = Command::new(rockwatch())
+        .args(["monitor", "--catalogue"])
+        .arg(&catalogue)
+        .arg("--mseed")
+        .arg(repo().join("tests/data/mseed/k2_STNA_HN123_counts.mseed"))
+        .arg("--stationxml")
+        .arg(&xml)
+        .args([
+            "--station",
+            "XX.STN.",
+            "--tail",
+            "0",
+            "--format",
+            "jsonl",
+            "--state-dir",
+        ])
+        .arg(&reference)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let expected = alert_keys(&reference);
+    assert!(expected.len() >= 3, "{expected:?}");
+
+    let server = seedlink_server::Server::start("127.0.0.1:0");
+    server.push(&seedlink_server::records_in_time_order());
+    let node_state = dir.path().join("node-state");
+    let node_config = dir.path().join("node.toml");
+    std::fs::write(
+        &node_config,
+        format!(
+            "catalogue = \"{}\"\nstate_dir = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n",
+            catalogue.display(),
+            node_state.display()
+        ),
+    )
+    .unwrap();
+    let acquire_config = dir.path().join("acquire.toml");
+    std::fs::write(
+        &acquire_config,
+        format!(
+            "[seedlink]\nserver = \"{}\"\nstreams = [\"XX.STN..HN?\"]\nprotocol = 3\n\
+             [inventory]\nstationxml = [\"{}\"]\n[assembly]\nmax_wait_s = 1.0\n\
+             [ros2]\ndiscovery_range = \"LOCALHOST\"\n",
+            server.addr,
+            xml.display()
+        ),
+    )
+    .unwrap();
+    let node = secured(
+        Command::new(rockwatch())
+            .args(["node", "--config"])
+            .arg(&node_config),
+        &ks,
+    );
+    let acquire = secured(
+        Command::new(rockwatch())
+            .args(["acquire", "--to", "ros2", "--config"])
+            .arg(&acquire_config)
+            .arg("--state-dir")
+            .arg(dir.path().join("acquire-state")),
+        &ks,
+    );
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let mut got = alert_keys(&node_state);
+    while got.len() < expected.len() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(200));
+        got = alert_keys(&node_state);
+    }
+    std::thread::sleep(Duration::from_secs(1)); // anything doubled would show
+    let acquire_err = stop(acquire);
+    let node_err = stop(node);
+    server.stop();
+    let got = alert_keys(&node_state);
+    assert_eq!(
+        got, expected,
+        "\nacquire:\n{acquire_err}\nnode:\n{node_err}"
+    );
+    assert!(
+        node_err.contains("DDS Security enclave /rockwatch/node"),
+        "{node_err}"
     );
 }
