@@ -100,6 +100,39 @@ fn paths() -> Paths {
 
 const SECURE: &str = "ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce";
 
+/// The executable of example `ros2-alert-subscriber` (a reader of `/pbr/alerts`, enclave
+/// `/rockwatch/reader`), built with the cargo that runs the tests into this test's target
+/// directory (as tests/examples.rs does).
+fn alert_subscriber() -> String {
+    let exe = std::env::current_exe().unwrap();
+    let profile_dir = exe.parent().and_then(Path::parent).unwrap();
+    let profile = match profile_dir.file_name().and_then(|n| n.to_str()) {
+        Some("debug") => "dev".to_owned(),
+        Some(other) => other.to_owned(),
+        None => panic!("no profile directory in {}", exe.display()),
+    };
+    let out = Command::new(env!("CARGO"))
+        .args([
+            "build",
+            "--message-format=json-render-diagnostics",
+            "--manifest-path",
+        ])
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/Cargo.toml"))
+        .arg("--target-dir")
+        .arg(profile_dir.parent().unwrap())
+        .args(["--profile", &profile, "--example", "ros2-alert-subscriber"])
+        .stderr(Stdio::inherit())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "cargo build --example failed");
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|m| m["reason"] == "compiler-artifact")
+        .find_map(|m| m["executable"].as_str().map(str::to_owned))
+        .expect("the example's executable")
+}
+
 #[test]
 fn without_security_an_unauthenticated_peer_forges_packets_and_resets_blocks() {
     if !peer_available(
@@ -164,6 +197,7 @@ fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_s
         msg,
         rec,
     } = paths();
+    let reader = alert_subscriber();
     let script = format!(
         "export ROS_SECURITY_KEYSTORE='{ks}'
          {SECURE} '{bin}' node --config '{d}/node.toml' --state-dir '{d}/state' 2> '{d}/node.err' & NODE=$!
@@ -174,10 +208,15 @@ fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_s
              2> '{d}/replay.err' && echo REPLAY_RC=0 || echo REPLAY_RC=$?
          python3 '{py}' '{msg}' --reset rrs-slender-pillar --seconds 6 | sed 's/^/RESET /'
          python3 '{alerts_py}' '{msg}' --seconds 4 | sed 's/^/LATE /'
+         {SECURE} '{reader}' --json --count 1 --timeout 20 2> '{d}/reader.err' | sed 's/^/READER /' \
+             && echo READER_RC=0 || echo READER_RC=$?
+         {SECURE} ROS_SECURITY_ENCLAVE_OVERRIDE=/rockwatch/station '{reader}' --json --count 1 \
+             --timeout 5 2> '{d}/notreader.err' | sed 's/^/NOTREADER /'
          kill -TERM $NODE; wait $NODE && echo NODE_RC=0 || echo NODE_RC=$?
          kill $SUB 2>/dev/null || true; wait $SUB || true
          sed 's/^/EARLY /' '{d}/sub.out'
-         cat '{d}/node.err' '{d}/replay.err' '{d}/sub.err' >&2"
+         cat '{d}/node.err' '{d}/replay.err' '{d}/sub.err' '{d}/reader.err' >&2
+         sed 's/^/NOTREADER_ERR /' '{d}/notreader.err'"
     );
     let out = run_in_netns(&script, 150, &[]);
     let (stdout, stderr) = text(&out);
@@ -215,6 +254,25 @@ fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_s
         "{alerts:?}\n{stderr}"
     );
     assert!(resets.is_empty(), "the attacker reset a block: {resets:?}");
+    // A subscriber with the reader identity reads the history; with the station identity
+    // (no subscribe grant for rt/pbr/alerts) it cannot even subscribe.
+    assert!(stdout.contains("READER_RC=0"), "{stdout}\n{stderr}");
+    let read = json_lines(&stdout, "READER ");
+    assert_eq!(read.len(), 1, "{stdout}");
+    assert_eq!(read[0]["station"], "CI.RRS.00", "{read:?}");
+    assert!(
+        read[0]["pbr_id"]
+            .as_str()
+            .is_some_and(|p| p.starts_with("rrs-")),
+        "{read:?}"
+    );
+    assert!(json_lines(&stdout, "NOTREADER ").is_empty(), "{stdout}");
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("NOTREADER_ERR ") && l.contains("not allowed by security")),
+        "{stdout}"
+    );
     // Neither an early nor a late unauthenticated subscriber read an alert.
     for prefix in ["EARLY ", "LATE "] {
         let got: Vec<_> = json_lines(&stdout, prefix)

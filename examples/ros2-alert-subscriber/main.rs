@@ -16,6 +16,7 @@ use clap::Parser;
 use nix::sys::signal::{SigSet, Signal};
 use rockwatch::ros2::{
     alerts_qos, msg, network_plan_from_env, NetworkPlan, Ros2Config, Ros2Session, ALERTS_TOPIC,
+    READER_ENCLAVE,
 };
 use rockwatch_core::engine::AlertLevel;
 use rockwatch_core::record::mseed::format_time_ns;
@@ -35,7 +36,10 @@ const CYCLE: Duration = Duration::from_millis(100);
 /// The topic is reliable and transient local (the node keeps its last 1000 alerts), so
 /// alerts raised before this subscriber started are printed first. The DDS domain is
 /// ROS_DOMAIN_ID (default 0); ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (or OFF) keeps the
-/// participant on the loopback interface, as for the node: give both the same values.
+/// participant on the loopback interface, as for the node: give both the same values. With
+/// DDS Security (ROS_SECURITY_ENABLE=true, ROS_SECURITY_KEYSTORE, ROS_SECURITY_STRATEGY) it
+/// uses the enclave /rockwatch/reader of launch-scripts/keystore.sh, which may read
+/// /pbr/alerts (ROS_SECURITY_ENCLAVE_OVERRIDE picks another).
 ///
 /// Ends after --count alerts (exit 1 if --timeout passes first), after --timeout seconds, or
 /// on SIGINT/SIGTERM (exit 0), printing how many alerts it received to standard error.
@@ -66,7 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     // ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE, resolved exactly as the node does.
-    let plan = network_plan_from_env(&Ros2Config::default())?;
+    let plan = network_plan_from_env(&Ros2Config::default(), READER_ENCLAVE)?;
     let stop = stop_on_signals()?;
 
     // The participant's threads must never take SIGINT/SIGTERM: open it with them blocked.

@@ -275,7 +275,8 @@ pub fn compact_journal(records: &[JournalRecord], history: usize) -> Vec<Journal
     records
         .iter()
         .zip(keep)
-        .filter_map(|(r, k)| k.then(|| r.clone()))
+        .filter(|(_, k)| *k)
+        .map(|(r, _)| r.clone())
         .collect()
 }
 

@@ -183,7 +183,7 @@ pub fn security_from_env(default_enclave: &str) -> Result<Option<DdsSecurity>, S
 #[must_use]
 pub fn pad_for_protection(mut text: String, fill: char) -> String {
     debug_assert!(fill.is_ascii());
-    while (text.len() + 1) % 4 != 0 {
+    while !(text.len() + 1).is_multiple_of(4) {
         text.push(fill);
     }
     text
