@@ -208,8 +208,9 @@ fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_s
              2> '{d}/replay.err' && echo REPLAY_RC=0 || echo REPLAY_RC=$?
          python3 '{py}' '{msg}' --reset rrs-slender-pillar --seconds 6 | sed 's/^/RESET /'
          python3 '{alerts_py}' '{msg}' --seconds 4 | sed 's/^/LATE /'
-         {SECURE} '{reader}' --json --count 1 --timeout 20 2> '{d}/reader.err' | sed 's/^/READER /' \
+         {SECURE} '{reader}' --json --count 1 --timeout 20 > '{d}/reader.out' 2> '{d}/reader.err' \
              && echo READER_RC=0 || echo READER_RC=$?
+         sed 's/^/READER /' '{d}/reader.out'
          {SECURE} ROS_SECURITY_ENCLAVE_OVERRIDE=/rockwatch/station '{reader}' --json --count 1 \
              --timeout 5 2> '{d}/notreader.err' | sed 's/^/NOTREADER /'
          kill -TERM $NODE; wait $NODE && echo NODE_RC=0 || echo NODE_RC=$?

@@ -79,7 +79,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &plan,
             "/",
             "rockwatch_alert_subscriber",
-            NodeOptions::new().enable_rosout(false),
+            // No parameter services: nothing to set, and none to grant under DDS Security.
+            NodeOptions::new()
+                .enable_rosout(false)
+                .start_parameter_services(false),
         )?;
         // The node's QoS for /pbr/alerts: reliable, transient local, keep last 1000.
         let subscription = session.subscription::<msg::PbrAlert>(
