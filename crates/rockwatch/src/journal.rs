@@ -40,8 +40,8 @@ pub const COMPACT_TMP: &str = "journal.log.compact";
 pub const COMPACT_AT_BYTES: u64 = 32 << 20;
 
 /// Alerts a compaction keeps for the history a restarted node publishes again (the depth of
-/// `/pbr/alerts`, [`crate::node::REPUBLISH_DEPTH`]).
-pub const HISTORY_ALERTS: usize = crate::node::REPUBLISH_DEPTH;
+/// `/pbr/alerts`, which the node republishes at start).
+pub const HISTORY_ALERTS: usize = crate::ros2::ALERTS_DEPTH;
 
 /// What a compaction did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
