@@ -52,6 +52,11 @@ pub struct Compacted {
     pub bytes_after: u64,
 }
 
+/// Fault injection for the crash-safety tests: with this variable set to `mid-temporary`,
+/// `before-rename` or `before-dir-sync`, the process aborts at that point of a compaction
+/// ([`CrashPoint`]).
+pub const FAULT_ABORT_IN_COMPACTION_ENV: &str = "ROCKWATCH_FAULT_ABORT_IN_COMPACTION";
+
 /// Where a compaction stops as if the process had crashed there (crash-safety tests).
 #[doc(hidden)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -288,16 +293,34 @@ impl Journal {
                 message,
             })?);
         }
+        // A crash point is simulated (`crash`: return, as if nothing more ran) or, under
+        // FAULT_ABORT_IN_COMPACTION_ENV, a real abort of the process.
+        let abort_at = std::env::var(FAULT_ABORT_IN_COMPACTION_ENV).ok();
+        let stop = |point: CrashPoint| {
+            let name = match point {
+                CrashPoint::MidTemporary => "mid-temporary",
+                CrashPoint::BeforeRename => "before-rename",
+                CrashPoint::BeforeDirSync => "before-dir-sync",
+            };
+            if abort_at.as_deref() == Some(name) {
+                std::process::abort();
+            }
+            crash == Some(point)
+        };
         let tmp = dir.join(COMPACT_TMP);
+        let mut simulated = false;
         let written = (|| -> std::io::Result<()> {
             let mut f = File::create(&tmp)?;
-            if crash == Some(CrashPoint::MidTemporary) {
-                return f.write_all(&text.as_bytes()[..text.len() / 2]);
+            let half = &text.as_bytes()[..text.len() / 2];
+            f.write_all(half)?;
+            if stop(CrashPoint::MidTemporary) {
+                simulated = true;
+                return Ok(());
             }
-            f.write_all(text.as_bytes())?;
+            f.write_all(&text.as_bytes()[half.len()..])?;
             f.sync_all()
         })();
-        if crash == Some(CrashPoint::MidTemporary) || crash == Some(CrashPoint::BeforeRename) {
+        if simulated || stop(CrashPoint::BeforeRename) {
             return Err(io(&tmp)(std::io::Error::other("simulated crash")));
         }
         if let Err(e) = written.and_then(|()| std::fs::rename(&tmp, &self.path)) {
@@ -313,7 +336,7 @@ impl Journal {
         let before = self.len;
         self.file = file;
         self.len = text.len() as u64;
-        if crash == Some(CrashPoint::BeforeDirSync) {
+        if stop(CrashPoint::BeforeDirSync) {
             return Err(io(&dir)(std::io::Error::other("simulated crash")));
         }
         File::open(&dir)
