@@ -1385,3 +1385,139 @@ seed = 3
         assert!(any_overturned && summary.directions.iter().any(|d| !d.overturned));
     }
 }
+
+/// The journal a shell writes for these outputs: alerts, each followed by its `Published`
+/// marker unless `unpublished`, and episode ends.
+fn full_journal_of(
+    out: &[Output],
+    unpublished: bool,
+) -> Vec<rockwatch_core::engine::JournalRecord> {
+    use rockwatch_core::engine::JournalRecord;
+    let mut records = Vec::new();
+    for o in out {
+        match o {
+            Output::Alert(a) => {
+                records.push(JournalRecord::Alert(a.clone()));
+                if !unpublished {
+                    records.push(JournalRecord::Published {
+                        pbr_id: a.pbr_id.clone(),
+                        episode: a.episode,
+                        level: a.level,
+                    });
+                }
+            }
+            Output::EpisodeEnd { pbr_id, episode } => records.push(JournalRecord::EpisodeEnd {
+                pbr_id: pbr_id.clone(),
+                episode: *episode,
+            }),
+            _ => {}
+        }
+    }
+    records
+}
+
+#[test]
+fn a_compacted_journal_restores_the_same_engine_and_the_same_history() {
+    use rockwatch_core::engine::{compact_journal, fallen_blocks, journaled_alerts, JournalRecord};
+    let record = rinaldi_f32();
+    let zeros = vec![0.0; record.len()];
+    let pbrs = [
+        spec("slender", "CI.RRS.00", 90.0, slender()),
+        spec("stocky", "CI.RRS.00", 90.0, stocky()),
+        spec("other", "CI.SYL.00", 90.0, slender()),
+    ];
+    // Quiet tail: episodes end once the station is quiet again.
+    let mut shaking = record.horizontal_mps2.clone();
+    shaking.extend(std::iter::repeat_n(0.0, 6000));
+    let mut zeros_long = zeros.clone();
+    zeros_long.extend(std::iter::repeat_n(0.0, 6000));
+    let life_packets = |life: i64, station: &str| -> Vec<AccelPacket> {
+        let mut p = packets(station, &shaking, &zeros_long, record.dt_s, 100);
+        for q in &mut p {
+            q.start_time_ns += life * 10_000_000_000_000; // a new stretch of data per life
+        }
+        p
+    };
+    // Eight lives of a node: each restores the journal, sees the earthquake again and
+    // journals what it raised; the operator resets the slender pillar after all but the last
+    // (it stays fallen), the other station's block only every other life; the last life's
+    // alerts are never marked published.
+    let mut journal: Vec<JournalRecord> = Vec::new();
+    let lives = 8;
+    for life in 0..lives {
+        let mut engine = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+        engine.restore(&journal);
+        let mut packets = life_packets(life, "CI.RRS.00");
+        if life % 2 == 0 {
+            packets.extend(life_packets(life, "CI.SYL.00"));
+        }
+        let out = run(&mut engine, packets);
+        journal.extend(full_journal_of(&out, life == lives - 1));
+        if life < lives - 1 {
+            journal.push(JournalRecord::Reset {
+                pbr_id: "slender".into(),
+            });
+            if life % 2 == 0 {
+                journal.push(JournalRecord::Reset {
+                    pbr_id: "other".into(),
+                });
+            }
+        }
+    }
+    let episodes_seen = journal
+        .iter()
+        .filter_map(|r| match r {
+            JournalRecord::Alert(a) if a.pbr_id == "slender" => Some(a.episode),
+            _ => None,
+        })
+        .max();
+    assert_eq!(episodes_seen, Some(lives as u32), "one episode per life");
+    assert!(journal
+        .iter()
+        .any(|r| matches!(r, JournalRecord::EpisodeEnd { .. })));
+
+    for history in [0, 2, 5, 1000] {
+        let compacted = compact_journal(&journal, history);
+        if history < 1000 {
+            assert!(
+                compacted.len() < journal.len() / 2,
+                "history {history}: {} of {} records kept",
+                compacted.len(),
+                journal.len()
+            );
+        }
+        // Idempotent: compacting again keeps everything.
+        assert_eq!(compact_journal(&compacted, history), compacted);
+        // What a restart derives: fallen blocks, the republished history with its markers.
+        assert_eq!(fallen_blocks(&compacted), fallen_blocks(&journal));
+        assert_eq!(
+            journaled_alerts(&compacted, history),
+            journaled_alerts(&journal, history),
+            "history {history}"
+        );
+        // The restored engines are the same: same summaries, and the same outputs for the
+        // same next stretch of data (alerts with the same episodes, none twice).
+        let mut a = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+        let mut b = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+        a.restore(&journal);
+        b.restore(&compacted);
+        let summary = |e: &Engine| {
+            e.summaries()
+                .into_iter()
+                .map(|s| (s.pbr_id, s.overturned, s.episodes))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(summary(&a), summary(&b), "history {history}");
+        for stretch in [lives, lives + 1] {
+            let mut next = life_packets(stretch, "CI.RRS.00");
+            next.extend(life_packets(stretch, "CI.SYL.00"));
+            let (oa, ob) = (run(&mut a, next.clone()), run(&mut b, next));
+            assert_eq!(alert_keys(&oa), alert_keys(&ob), "history {history}");
+            assert_eq!(summary(&a), summary(&b), "history {history}");
+            // Then resets applied live act the same on both.
+            for pbr in ["slender", "stocky", "other"] {
+                assert_eq!(a.reset_pbr(pbr), b.reset_pbr(pbr));
+            }
+        }
+    }
+}

@@ -400,3 +400,112 @@ fn mseed_in_counts_with_station_gain_matches_the_file_in_mps2() {
     // Packets carry f32: the two paths round differently (counts exact, m/s² to 2^-24).
     assert!((a - b).abs() <= 1e-4 * a.max(b), "{a} vs {b}");
 }
+
+/// Issue 11 ("the journal rotates/compacts so it does not grow forever"), with the fault
+/// injection of the crash tests: a state directory whose journal has passed its bound
+/// (`journal::COMPACT_AT_BYTES`) is compacted when `monitor` opens it; the process is aborted
+/// half-way through the temporary file, before the rename and before the directory sync. After
+/// each crash the journal is the old one or the compacted one, never a mix; the next run
+/// compacts it and raises exactly the alerts of a run without the old history, and the old
+/// history's fallen block stays fallen.
+#[test]
+fn a_crash_during_journal_compaction_loses_nothing() {
+    use rockwatch::journal::{
+        read_journal, Journal, COMPACT_AT_BYTES, COMPACT_TMP, HISTORY_ALERTS,
+    };
+    use rockwatch_core::dynamics::Mode;
+    use rockwatch_core::engine::{
+        compact_journal, fallen_blocks, Alert, AlertLevel, JournalRecord,
+    };
+    let uninterrupted = alert_ids(&lines(&monitor_rinaldi(None, &[])));
+    let alert = |episode: u32, level| {
+        JournalRecord::Alert(Alert {
+            pbr_id: "old-rock".into(),
+            station: "CI.OLD.00".into(),
+            level,
+            episode,
+            mode: Mode::Rock,
+            theta_over_alpha: 1.0,
+            slide_m: 0.0,
+            overturn_probability: 1.0,
+            pga_mps2: 3.0,
+            pgv_mps: 0.5,
+            data_time_ns: i64::from(episode) * 1_000_000_000,
+            arrival_ns: 0,
+            direction_deg: 0.0,
+        })
+    };
+    // Years of a block that kept falling and being reset; fallen in its last episode.
+    let history = |dir: &Path| -> Vec<JournalRecord> {
+        let (mut j, _, _) = Journal::open(dir).unwrap();
+        let mut episode = 0;
+        while j.len_bytes() <= COMPACT_AT_BYTES {
+            episode += 1;
+            for level in [AlertLevel::MotionOnset, AlertLevel::Overturned] {
+                j.append_unsynced(&alert(episode, level)).unwrap();
+                j.append_unsynced(&JournalRecord::Published {
+                    pbr_id: "old-rock".into(),
+                    episode,
+                    level,
+                })
+                .unwrap();
+            }
+            j.append_unsynced(&JournalRecord::Reset {
+                pbr_id: "old-rock".into(),
+            })
+            .unwrap();
+        }
+        j.append(&alert(episode + 1, AlertLevel::Overturned))
+            .unwrap();
+        read_journal(dir).unwrap().0
+    };
+    for stage in ["mid-temporary", "before-rename", "before-dir-sync"] {
+        let dir = tempfile::tempdir().unwrap();
+        let old = history(dir.path());
+        let crashed = monitor_rinaldi(
+            Some(dir.path()),
+            &[("ROCKWATCH_FAULT_ABORT_IN_COMPACTION", stage)],
+        );
+        assert!(!crashed.status.success(), "{stage}: the fault must abort");
+        let (after, report) = read_journal(dir.path()).unwrap();
+        assert!(
+            report.corrupt_lines.is_empty() && !report.truncated_tail,
+            "{stage}"
+        );
+        if stage == "before-dir-sync" {
+            assert_eq!(after, compact_journal(&old, HISTORY_ALERTS), "{stage}");
+        } else {
+            assert_eq!(after, old, "{stage}: the old journal, whole");
+            assert!(dir.path().join(COMPACT_TMP).exists(), "{stage}");
+        }
+        let restarted = monitor_rinaldi(Some(dir.path()), &[]);
+        assert!(
+            restarted.status.success(),
+            "{stage}: {}",
+            String::from_utf8_lossy(&restarted.stderr)
+        );
+        assert!(!dir.path().join(COMPACT_TMP).exists(), "{stage}");
+        let size = std::fs::metadata(dir.path().join("journal.log"))
+            .unwrap()
+            .len();
+        assert!(size < COMPACT_AT_BYTES / 8, "{stage}: {size} bytes");
+        let (records, _) = read_journal(dir.path()).unwrap();
+        assert!(fallen_blocks(&records).contains("old-rock"), "{stage}");
+        let mut got: Vec<String> = records
+            .iter()
+            .filter_map(|r| match r {
+                JournalRecord::Alert(a) if a.pbr_id != "old-rock" => Some(format!(
+                    "\"{}\" {} \"{}\"",
+                    a.pbr_id,
+                    a.episode,
+                    a.level.as_str()
+                )),
+                _ => None,
+            })
+            .collect();
+        got.sort();
+        let mut expected = uninterrupted.clone();
+        expected.sort();
+        assert_eq!(got, expected, "{stage}");
+    }
+}

@@ -224,6 +224,7 @@ fn the_issue_s_required_fields_are_present() {
                 "pga",
                 "pgv",
                 "message",
+                "episode",
             ],
         ),
     ];

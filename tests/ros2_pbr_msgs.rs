@@ -196,6 +196,8 @@ fn rclpy_peer_with_the_generated_types_gets_overturned_for_the_slender_block_onl
     );
     assert!(a["stamp_nanosec"].as_u64().unwrap() < 1_000_000_000, "{a}");
     assert!(!a["message"].as_str().unwrap().is_empty(), "{a}");
+    // The first episode of a fresh node (the de-duplication key is (pbr_id, episode, level)).
+    assert_eq!(a["episode"], 1, "{a}");
 
     // The stocky block never fell.
     for a in of(STOCKY) {

@@ -16,7 +16,7 @@ use clap::Parser;
 use nix::sys::signal::{SigSet, Signal};
 use rockwatch::ros2::{
     alerts_qos, msg, network_plan_from_env, Naming, NetworkPlan, Ros2Config, Ros2Session,
-    ALERTS_TOPIC,
+    ALERTS_TOPIC, READER_ENCLAVE,
 };
 use rockwatch_core::engine::AlertLevel;
 use rockwatch_core::record::mseed::format_time_ns;
@@ -36,7 +36,10 @@ const CYCLE: Duration = Duration::from_millis(100);
 /// The topic is reliable and transient local (the node keeps its last 1000 alerts), so
 /// alerts raised before this subscriber started are printed first. The DDS domain is
 /// ROS_DOMAIN_ID (default 0); ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (or OFF) keeps the
-/// participant on the loopback interface, as for the node: give both the same values.
+/// participant on the loopback interface, as for the node: give both the same values. With
+/// DDS Security (ROS_SECURITY_ENABLE=true, ROS_SECURITY_KEYSTORE, ROS_SECURITY_STRATEGY) it
+/// uses the enclave /rockwatch/reader of launch-scripts/keystore.sh, which may read
+/// /pbr/alerts (ROS_SECURITY_ENCLAVE_OVERRIDE picks another).
 ///
 /// Ends after --count alerts (exit 1 if --timeout passes first), after --timeout seconds, or
 /// on SIGINT/SIGTERM (exit 0), printing how many alerts it received to standard error.
@@ -45,7 +48,8 @@ const CYCLE: Duration = Duration::from_millis(100);
 struct Args {
     /// Print each alert as one JSON object per line (keys: data_time_ns, data_time, level,
     /// level_code, pbr_id, station, mode, mode_code, theta_over_alpha, slide_m,
-    /// overturn_probability, pga_mps2, pgv_mps, message).
+    /// overturn_probability, pga_mps2, pgv_mps, message, episode). One alert per (pbr_id,
+    /// episode, level): de-duplicate by that triple.
     #[arg(long)]
     json: bool,
     /// Stop after N alerts.
@@ -68,15 +72,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     // ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE, resolved exactly as the node does.
-    let plan = network_plan_from_env(&Ros2Config::default())?;
+    let plan = network_plan_from_env(&Ros2Config::default(), READER_ENCLAVE)?;
     let stop = stop_on_signals()?;
 
     // The participant's threads must never take SIGINT/SIGTERM: open it with them blocked.
     let (_session, mut subscription) = with_termination_signals_blocked(|| {
         // In the root namespace: ALERTS_TOPIC (`pbr/alerts`) resolves to /pbr/alerts.
         let naming = Naming::new("/", "rockwatch_alert_subscriber", Vec::new())?;
-        let mut session =
-            Ros2Session::open(&plan, &naming, NodeOptions::new().enable_rosout(false))?;
+        let mut session = Ros2Session::open(
+            &plan,
+            &naming,
+            // No parameter services: nothing to set, and none to grant under DDS Security.
+            NodeOptions::new()
+                .enable_rosout(false)
+                .start_parameter_services(false),
+        )?;
         // The node's QoS for /pbr/alerts: reliable, transient local, keep last 1000.
         let subscription = session.subscription::<msg::PbrAlert>(
             ALERTS_TOPIC,
@@ -266,6 +276,7 @@ fn json_line(alert: &msg::PbrAlert) -> String {
         "pga_mps2": alert.pga,
         "pgv_mps": alert.pgv,
         "message": alert.message,
+        "episode": alert.episode,
     })
     .to_string()
 }

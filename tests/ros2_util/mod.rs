@@ -41,6 +41,15 @@ pub fn run_in_netns(script: &str, timeout_s: u32, envs: &[(&str, String)]) -> Ou
         .arg(format!("set -e; {NETNS_SETUP}; {script}"))
         .env_remove("ROS_DOMAIN_ID")
         .env_remove("ROS_AUTOMATIC_DISCOVERY_RANGE");
+    // DDS Security only where a test asks for it (tests/ros2_security.rs sets these itself).
+    for var in [
+        "ROS_SECURITY_ENABLE",
+        "ROS_SECURITY_KEYSTORE",
+        "ROS_SECURITY_ENCLAVE_OVERRIDE",
+        "ROS_SECURITY_STRATEGY",
+    ] {
+        cmd.env_remove(var);
+    }
     for (k, v) in envs {
         cmd.env(k, v);
     }

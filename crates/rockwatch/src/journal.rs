@@ -7,6 +7,13 @@
 //! A torn last line (a crash mid-write) is discarded and truncated away on open; a corrupt line
 //! elsewhere is skipped and reported.
 //!
+//! Bounded: once the file passes [`COMPACT_AT_BYTES`] it is compacted
+//! ([`Journal::compact`]) to what a restart needs ([`compact_journal`]: the open episodes,
+//! fallen blocks, resets, the last [`HISTORY_ALERTS`] alerts republished at start and their
+//! `Published` markers), written atomically: a temporary file [`COMPACT_TMP`] is written and
+//! synced, renamed over the journal, and the directory synced. A crash at any point leaves
+//! either the old journal or the compacted one (a leftover temporary file is removed on open).
+//!
 //! One process per state directory: [`Journal::open`] takes an exclusive OS lock (`flock`) on
 //! [`LOCK_FILE`] and holds it as long as the journal is open (the process's lifetime for the
 //! node); a second opener is refused ([`JournalError::Locked`]). The lock is released by the
@@ -16,13 +23,51 @@ use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use rockwatch_core::engine::JournalRecord;
+use rockwatch_core::engine::{compact_journal, JournalRecord};
 
 /// File name of the journal inside the state directory.
 pub const JOURNAL_FILE: &str = "journal.log";
 
 /// File name of the lock inside the state directory (empty; only its `flock` matters).
 pub const LOCK_FILE: &str = "lock";
+
+/// The compacted journal while it is written (renamed over [`JOURNAL_FILE`] once synced).
+pub const COMPACT_TMP: &str = "journal.log.compact";
+
+/// Journal size (bytes) beyond which it is compacted: ≈ 100 000 records of ≈ 300 bytes. If
+/// what a restart needs is itself larger (a very large catalogue), the next compaction waits
+/// until the file has doubled.
+pub const COMPACT_AT_BYTES: u64 = 32 << 20;
+
+/// Alerts a compaction keeps for the history a restarted node publishes again (the depth of
+/// `/pbr/alerts`, which the node republishes at start).
+pub const HISTORY_ALERTS: usize = crate::ros2::ALERTS_DEPTH;
+
+/// What a compaction did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Compacted {
+    pub records_before: usize,
+    pub records_after: usize,
+    pub bytes_before: u64,
+    pub bytes_after: u64,
+}
+
+/// Fault injection for the crash-safety tests: with this variable set to `mid-temporary`,
+/// `before-rename` or `before-dir-sync`, the process aborts at that point of a compaction
+/// ([`CrashPoint`]).
+pub const FAULT_ABORT_IN_COMPACTION_ENV: &str = "ROCKWATCH_FAULT_ABORT_IN_COMPACTION";
+
+/// Where a compaction stops as if the process had crashed there (crash-safety tests).
+#[doc(hidden)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CrashPoint {
+    /// Half of the temporary file written, nothing synced.
+    MidTemporary,
+    /// The temporary file written and synced, not renamed.
+    BeforeRename,
+    /// Renamed over the journal, the directory not synced.
+    BeforeDirSync,
+}
 
 /// A problem with the state directory.
 #[derive(Debug, thiserror::Error)]
@@ -61,6 +106,8 @@ pub struct Journal {
     file: File,
     /// Length of the file's complete lines: a failed append is truncated back to it.
     len: u64,
+    /// Size beyond which [`Journal::compact_if_due`] compacts.
+    compact_at: u64,
     /// Holds the state directory's exclusive lock while open.
     _lock: File,
 }
@@ -152,6 +199,12 @@ impl Journal {
     pub fn open(dir: &Path) -> Result<(Journal, Vec<JournalRecord>, LoadReport), JournalError> {
         std::fs::create_dir_all(dir).map_err(io(dir))?;
         let lock = lock_state_dir(dir)?;
+        // A compaction that crashed before its rename: the journal is the old one, whole.
+        let tmp = dir.join(COMPACT_TMP);
+        match std::fs::remove_file(&tmp) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(&tmp)(e)),
+            _ => {}
+        }
         let (records, report) = read_journal(dir)?;
         let path = dir.join(JOURNAL_FILE);
         let mut file = OpenOptions::new()
@@ -172,6 +225,7 @@ impl Journal {
                 path,
                 file,
                 len,
+                compact_at: COMPACT_AT_BYTES,
                 _lock: lock,
             },
             records,
@@ -193,6 +247,107 @@ impl Journal {
     /// truncated as in [`Journal::append`].
     pub fn append_unsynced(&mut self, record: &JournalRecord) -> Result<(), JournalError> {
         self.write(record, false)
+    }
+
+    /// The journal's size in bytes (complete lines).
+    #[must_use]
+    pub fn len_bytes(&self) -> u64 {
+        self.len
+    }
+
+    /// Sets the size beyond which [`Journal::compact_if_due`] compacts (default
+    /// [`COMPACT_AT_BYTES`]).
+    pub fn set_compact_at(&mut self, bytes: u64) {
+        self.compact_at = bytes;
+    }
+
+    /// Compacts the journal if it has grown beyond its bound. After a compaction (or a failed
+    /// one) the bound becomes at least twice the journal's size, so a journal whose needed
+    /// part is large, or a directory that keeps failing, is not rewritten on every append.
+    pub fn compact_if_due(&mut self) -> Result<Option<Compacted>, JournalError> {
+        if self.len <= self.compact_at {
+            return Ok(None);
+        }
+        let result = self.compact();
+        self.compact_at = self.compact_at.max(self.len.saturating_mul(2));
+        result.map(Some)
+    }
+
+    /// Rewrites the journal with only what a restart needs ([`compact_journal`] with
+    /// [`HISTORY_ALERTS`]), atomically (see the module doc). On error the journal is left as
+    /// it was (the temporary file removed) and appends go on.
+    pub fn compact(&mut self) -> Result<Compacted, JournalError> {
+        self.compact_until(None)
+    }
+
+    /// [`Journal::compact`], stopping at `crash` as a crash there would (nothing cleaned up).
+    #[doc(hidden)]
+    pub fn compact_until(&mut self, crash: Option<CrashPoint>) -> Result<Compacted, JournalError> {
+        let dir = self.path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        let (records, _) = read_journal(&dir)?;
+        let kept = compact_journal(&records, HISTORY_ALERTS);
+        let mut text = String::new();
+        for r in &kept {
+            text.push_str(&encode(r).map_err(|message| JournalError::Encode {
+                path: self.path.clone(),
+                message,
+            })?);
+        }
+        // A crash point is simulated (`crash`: return, as if nothing more ran) or, under
+        // FAULT_ABORT_IN_COMPACTION_ENV, a real abort of the process.
+        let abort_at = std::env::var(FAULT_ABORT_IN_COMPACTION_ENV).ok();
+        let stop = |point: CrashPoint| {
+            let name = match point {
+                CrashPoint::MidTemporary => "mid-temporary",
+                CrashPoint::BeforeRename => "before-rename",
+                CrashPoint::BeforeDirSync => "before-dir-sync",
+            };
+            if abort_at.as_deref() == Some(name) {
+                std::process::abort();
+            }
+            crash == Some(point)
+        };
+        let tmp = dir.join(COMPACT_TMP);
+        let mut simulated = false;
+        let written = (|| -> std::io::Result<()> {
+            let mut f = File::create(&tmp)?;
+            let half = &text.as_bytes()[..text.len() / 2];
+            f.write_all(half)?;
+            if stop(CrashPoint::MidTemporary) {
+                simulated = true;
+                return Ok(());
+            }
+            f.write_all(&text.as_bytes()[half.len()..])?;
+            f.sync_all()
+        })();
+        if simulated || stop(CrashPoint::BeforeRename) {
+            return Err(io(&tmp)(std::io::Error::other("simulated crash")));
+        }
+        if let Err(e) = written.and_then(|()| std::fs::rename(&tmp, &self.path)) {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(io(&tmp)(e));
+        }
+        // From here the journal is the compacted file: append to it.
+        let file = OpenOptions::new()
+            .read(true)
+            .append(true)
+            .open(&self.path)
+            .map_err(io(&self.path))?;
+        let before = self.len;
+        self.file = file;
+        self.len = text.len() as u64;
+        if stop(CrashPoint::BeforeDirSync) {
+            return Err(io(&dir)(std::io::Error::other("simulated crash")));
+        }
+        File::open(&dir)
+            .and_then(|d| d.sync_all())
+            .map_err(io(&dir))?;
+        Ok(Compacted {
+            records_before: records.len(),
+            records_after: kept.len(),
+            bytes_before: before,
+            bytes_after: self.len,
+        })
     }
 
     fn write(&mut self, record: &JournalRecord, sync: bool) -> Result<(), JournalError> {
@@ -252,13 +407,15 @@ pub enum Appended {
 impl JournalWriter {
     #[must_use]
     pub fn new(journal: Journal) -> JournalWriter {
-        JournalWriter {
+        let mut writer = JournalWriter {
             journal,
             backlog: std::collections::VecDeque::new(),
             failures: 0,
             dropped: 0,
             last_error: None,
-        }
+        };
+        writer.compact_if_due(); // a journal that grew past its bound before this start
+        writer
     }
 
     /// Records waiting for the state directory.
@@ -276,6 +433,7 @@ impl JournalWriter {
         self.backlog.push_back(record);
         self.drain();
         if self.backlog.is_empty() {
+            self.compact_if_due();
             Appended::Written
         } else {
             Appended::Pending
@@ -312,6 +470,34 @@ impl JournalWriter {
                 self.failures += 1;
                 self.last_error = Some(e.to_string());
                 false
+            }
+        }
+    }
+
+    /// The underlying journal.
+    pub fn journal_mut(&mut self) -> &mut Journal {
+        &mut self.journal
+    }
+
+    /// Compacts the journal when it has passed its bound (see [`Journal::compact_if_due`]),
+    /// saying so on stderr; a failed compaction is counted and said, and appends go on.
+    fn compact_if_due(&mut self) {
+        match self.journal.compact_if_due() {
+            Ok(None) => {}
+            Ok(Some(c)) => eprintln!(
+                "rockwatch: journal {} compacted: {} records ({} bytes) -> {} records ({} bytes) kept for restarts",
+                self.journal.path.display(),
+                c.records_before,
+                c.bytes_before,
+                c.records_after,
+                c.bytes_after
+            ),
+            Err(e) => {
+                self.failures += 1;
+                eprintln!(
+                    "rockwatch: error: journal compaction failed ({e}): the journal is kept whole \
+                     and grows on; compaction is tried again once it has doubled"
+                );
             }
         }
     }
@@ -417,5 +603,133 @@ mod tests {
         let (recs, report) = read_journal(dir.path()).unwrap();
         assert_eq!(recs, vec![reset("b"), reset("c")]);
         assert!(!report.truncated_tail);
+    }
+
+    fn alert(id: &str, episode: u32, level: rockwatch_core::engine::AlertLevel) -> JournalRecord {
+        JournalRecord::Alert(rockwatch_core::engine::Alert {
+            pbr_id: id.into(),
+            station: "CI.RRS.00".into(),
+            level,
+            episode,
+            mode: rockwatch_core::dynamics::Mode::Rock,
+            theta_over_alpha: 1.0,
+            slide_m: 0.0,
+            overturn_probability: 1.0,
+            pga_mps2: 3.0,
+            pgv_mps: 0.5,
+            data_time_ns: i64::from(episode) * 1_000_000_000,
+            arrival_ns: 0,
+            direction_deg: 0.0,
+        })
+    }
+
+    /// A long journal: 3000 episodes of block "p" (each reset after its overturn), 1500 of
+    /// "q" (each ended), "r" fallen in its last episode, every alert marked published but the
+    /// last two.
+    fn long_journal() -> Vec<JournalRecord> {
+        use rockwatch_core::engine::AlertLevel::{MotionOnset, Overturned};
+        let mut r = Vec::new();
+        let published = |a: &JournalRecord| match a {
+            JournalRecord::Alert(a) => JournalRecord::Published {
+                pbr_id: a.pbr_id.clone(),
+                episode: a.episode,
+                level: a.level,
+            },
+            _ => unreachable!(),
+        };
+        for e in 1..=3000u32 {
+            for rec in [alert("p", e, MotionOnset), alert("p", e, Overturned)] {
+                r.push(rec.clone());
+                r.push(published(&rec));
+            }
+            r.push(reset("p"));
+            if e % 2 == 0 {
+                let q = alert("q", e / 2, MotionOnset);
+                r.push(q.clone());
+                r.push(published(&q));
+                r.push(JournalRecord::EpisodeEnd {
+                    pbr_id: "q".into(),
+                    episode: e / 2,
+                });
+            }
+        }
+        r.push(alert("r", 1, MotionOnset));
+        r.push(alert("r", 1, Overturned));
+        r
+    }
+
+    fn derived(records: &[JournalRecord]) -> impl PartialEq + std::fmt::Debug {
+        use rockwatch_core::engine::{fallen_blocks, journaled_alerts};
+        let mut fallen: Vec<String> = fallen_blocks(records).into_iter().collect();
+        fallen.sort();
+        (fallen, journaled_alerts(records, HISTORY_ALERTS))
+    }
+
+    #[test]
+    fn compaction_keeps_what_a_restart_needs_and_a_crash_at_any_step_loses_nothing() {
+        let records = long_journal();
+        let compacted = compact_journal(&records, HISTORY_ALERTS);
+        assert!(compacted.len() * 4 < records.len(), "{}", compacted.len());
+        for crash in [
+            None,
+            Some(CrashPoint::MidTemporary),
+            Some(CrashPoint::BeforeRename),
+            Some(CrashPoint::BeforeDirSync),
+        ] {
+            let dir = tempfile::tempdir().unwrap();
+            let (mut j, _, _) = Journal::open(dir.path()).unwrap();
+            for r in &records {
+                j.append_unsynced(r).unwrap();
+            }
+            let full = j.len_bytes();
+            let result = j.compact_until(crash);
+            assert_eq!(result.is_ok(), crash.is_none(), "{crash:?}: {result:?}");
+            drop(j); // the crash: nothing more runs
+            let (mut j, after, report) = Journal::open(dir.path()).unwrap();
+            assert!(report.corrupt_lines.is_empty() && !report.truncated_tail);
+            assert!(!dir.path().join(COMPACT_TMP).exists(), "{crash:?}");
+            // Either the old journal, whole, or the compacted one: never a mix.
+            match crash {
+                Some(CrashPoint::MidTemporary | CrashPoint::BeforeRename) => {
+                    assert_eq!(after, records, "{crash:?}");
+                    assert_eq!(j.len_bytes(), full);
+                }
+                _ => assert_eq!(after, compacted, "{crash:?}"),
+            }
+            // Restarts derive the same fallen blocks and republished history.
+            assert_eq!(derived(&after), derived(&records), "{crash:?}");
+            // And appends go on after it.
+            j.append(&reset("r")).unwrap();
+            let (again, _) = read_journal(dir.path()).unwrap();
+            assert_eq!(again.last(), Some(&reset("r")));
+            assert_eq!(again.len(), after.len() + 1);
+        }
+    }
+
+    #[test]
+    fn the_writer_compacts_once_the_journal_passes_its_bound() {
+        let records = long_journal();
+        // Every append is synced: on tmpfs when there is one, so the test stays quick.
+        let dir = tempfile::tempdir_in("/dev/shm")
+            .or_else(|_| tempfile::tempdir())
+            .unwrap();
+        let (mut j, _, _) = Journal::open(dir.path()).unwrap();
+        j.set_compact_at(1_000_000);
+        let mut w = JournalWriter::new(j);
+        let mut largest = 0;
+        for r in &records {
+            assert_eq!(w.append(r.clone()), Appended::Written);
+            largest = largest.max(w.journal_mut().len_bytes());
+        }
+        let size = std::fs::metadata(dir.path().join(JOURNAL_FILE))
+            .unwrap()
+            .len();
+        // Bounded: never far beyond the bound, and compacted now.
+        assert!(largest <= 1_000_000 + 400, "{largest}");
+        assert!(size < 1_000_000, "{size}");
+        assert_eq!(w.failures, 0);
+        let (after, _) = read_journal(dir.path()).unwrap();
+        assert!(after.len() < records.len() / 4);
+        assert_eq!(derived(&after), derived(&records));
     }
 }

@@ -60,6 +60,7 @@ def main():
                 "pbr_id": a.pbr_id, "station": a.station, "level": a.level, "mode": a.mode,
                 "frame_id": a.header.frame_id, "stamp_s": a.header.stamp.sec,
                 "theta_over_alpha": a.theta_over_alpha, "message": a.message,
+                "episode": a.episode,
             }), flush=True)
         time.sleep(0.02)
 

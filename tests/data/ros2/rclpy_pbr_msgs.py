@@ -45,7 +45,7 @@ def alert_json(a):
         "is_overturned": a.level == PbrAlert.OVERTURNED,
         "theta_over_alpha": a.theta_over_alpha, "slide": a.slide,
         "overturn_probability": a.overturn_probability, "pga": a.pga, "pgv": a.pgv,
-        "message": a.message, "direction_deg": a.direction_deg,
+        "message": a.message, "direction_deg": a.direction_deg, "episode": a.episode,
     }
 
 

@@ -39,8 +39,8 @@ pub use config::{
 };
 pub use health::{HealthChange, StationHealth};
 pub use output::{
-    fallen_blocks, journaled_alerts, Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output,
-    OutputSink, PbrState, StationIntensity,
+    compact_journal, fallen_blocks, journaled_alerts, Alert, AlertKey, AlertLevel, JournalRecord,
+    Notice, Output, OutputSink, PbrState, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use sharded::{EngineHandle, ShardedEngine};

@@ -1,6 +1,6 @@
 //! What the engine emits: alerts, block states, station intensities and notices.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use crate::dynamics::Mode;
 
@@ -227,6 +227,73 @@ pub fn fallen_blocks(records: &[JournalRecord]) -> HashSet<String> {
         }
     }
     fallen
+}
+
+/// The records of the journal `records` that a restart needs, in their order: what
+/// [`Engine::restore`](super::Engine::restore), [`fallen_blocks`] and
+/// [`journaled_alerts`]`(…, history)` derive from `records` they derive equally from the result.
+/// Kept: per block, the alerts of its last episode (its open episode, the alert that felled
+/// it, and the episode number the next episode continues from), that episode's end and the
+/// resets after its first alert; the last `history` alerts (the republished history); and the
+/// [`JournalRecord::Published`] markers of every alert kept. Dropped: older episodes' alerts,
+/// ends and resets, and markers of dropped alerts. The result is bounded by the blocks and
+/// `history`, not by the journal's age. Pure; the shell writes it atomically
+/// (`rockwatch::journal`).
+#[must_use]
+pub fn compact_journal(records: &[JournalRecord], history: usize) -> Vec<JournalRecord> {
+    // Per block: its last episode.
+    let mut last: HashMap<&str, u32> = HashMap::new();
+    let mut alert_count = 0usize;
+    for r in records {
+        if let JournalRecord::Alert(a) = r {
+            alert_count += 1;
+            let e = last.entry(a.pbr_id.as_str()).or_insert(a.episode);
+            *e = (*e).max(a.episode);
+        }
+    }
+    // The alerts kept, and per block the index of its first kept alert.
+    let history_from = alert_count.saturating_sub(history);
+    let mut kept_alerts: HashSet<AlertKey> = HashSet::new();
+    let mut first_kept: HashMap<&str, usize> = HashMap::new();
+    let mut keep = vec![false; records.len()];
+    let mut alert_index = 0usize;
+    for (i, r) in records.iter().enumerate() {
+        if let JournalRecord::Alert(a) = r {
+            let in_history = alert_index >= history_from;
+            alert_index += 1;
+            if in_history || last.get(a.pbr_id.as_str()) == Some(&a.episode) {
+                keep[i] = true;
+                kept_alerts.insert(a.key());
+                first_kept.entry(a.pbr_id.as_str()).or_insert(i);
+            }
+        }
+    }
+    for (i, r) in records.iter().enumerate() {
+        keep[i] = keep[i]
+            || match r {
+                JournalRecord::Alert(_) => false,
+                // Only an end of the last episode closes it (restore takes the largest).
+                JournalRecord::EpisodeEnd { pbr_id, episode } => {
+                    last.get(pbr_id.as_str()).is_some_and(|l| episode >= l)
+                }
+                // A reset after a kept alert may stand a kept overturned block again; one
+                // before every kept alert of its block changes nothing derived from them.
+                JournalRecord::Reset { pbr_id } => {
+                    first_kept.get(pbr_id.as_str()).is_some_and(|f| i > *f)
+                }
+                JournalRecord::Published {
+                    pbr_id,
+                    episode,
+                    level,
+                } => kept_alerts.contains(&(pbr_id.clone(), *episode, *level)),
+            };
+    }
+    records
+        .iter()
+        .zip(keep)
+        .filter(|(_, k)| *k)
+        .map(|(r, _)| r.clone())
+        .collect()
 }
 
 /// Identity of an alert: block, episode, level.

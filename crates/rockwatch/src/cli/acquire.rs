@@ -100,7 +100,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
             Box::new(IoxPacketSink::new(&config.iceoryx2)?)
         }
         Output::Ros2 => {
-            let plan = network_plan_from_env(&config.ros2)?;
+            let plan = network_plan_from_env(&config.ros2, rockwatch::ros2::STATION_ENCLAVE)?;
             Box::new(Ros2PacketSink::open(&plan, config.ros2.naming()?)?)
         }
     };

@@ -168,7 +168,7 @@ fn reset_live(args: &ResetArgs) -> anyhow::Result<()> {
         None => NodeConfig::default(),
     };
     super::apply_ros_naming(&mut config.ros2);
-    let plan = network_plan_from_env(&config.ros2)?;
+    let plan = network_plan_from_env(&config.ros2, rockwatch::ros2::OPERATOR_ENCLAVE)?;
     let naming = config.ros2.naming()?;
     let mut client =
         Ros2ResetClient::open(&plan, &naming).context("cannot join the ROS 2 graph")?;
@@ -185,7 +185,7 @@ fn reset_live(args: &ResetArgs) -> anyhow::Result<()> {
     }
     let response = client.reset(&args.pbr, wait)?;
     // A peer's text, on one line (control characters escaped); its length is not bounded.
-    let message = printable(&response.message, usize::MAX);
+    let message = printable(response.message.trim_end(), usize::MAX);
     if !response.success {
         bail!("the node refused: {message}");
     }

@@ -101,9 +101,9 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     let systemd = SystemdNotifier::from_env()?;
     let options = resolve_options(&args)?;
     let naming = options.config.ros2.naming()?;
-    let plan = network_plan_from_env(&options.config.ros2)?;
+    let plan = network_plan_from_env(&options.config.ros2, rockwatch::ros2::NODE_ENCLAVE)?;
     tracing::info!(
-        "node {} on DDS domain {} ({})",
+        "node {} on DDS domain {} ({}; {})",
         naming.node_fqn(),
         plan.domain_id,
         match &plan.only_networks {
@@ -115,8 +115,19 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
                     .join(", ")
             ),
             None => "all interfaces".into(),
+        },
+        match &plan.security {
+            Some(s) => format!(
+                "DDS Security enclave {} from {}",
+                s.enclave,
+                s.dir.display()
+            ),
+            None => "DDS Security off".into(),
         }
     );
+    if let Some(warning) = plan.exposure_warning() {
+        tracing::warn!("{warning}");
+    }
     let state_dir = options
         .state_dir
         .clone()

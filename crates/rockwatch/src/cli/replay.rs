@@ -252,7 +252,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     check_station_known(&args, &config)?;
     match args.transport {
         Transport::Ros2 => {
-            let plan = network_plan_from_env(&config.ros2)?;
+            let plan = network_plan_from_env(&config.ros2, rockwatch::ros2::STATION_ENCLAVE)?;
             let mut sink = Ros2PacketSink::open(&plan, config.ros2.naming()?)?;
             if args.wait_s.is_finite() && args.wait_s >= 0.0 {
                 sink.set_wait(Duration::from_secs_f64(args.wait_s));

@@ -13,6 +13,7 @@
 //! - [`diagnostics`]: the node's status on `/diagnostics`, its log records on `/rosout`;
 //! - `config.rs`: the `[ros2]` configuration section;
 //! - `network.rs`: the DDS domain and interfaces ([`NetworkPlan`]);
+//! - `security.rs`: DDS Security from the SROS2 variables and keystore ([`security_plan`]);
 //! - `qos.rs`: the QoS profiles;
 //! - `session.rs`: a participant with one ROS 2 node ([`Ros2Session`]);
 //! - `intake_report.rs`: `/pbr/intake`, what the node took of each sender ([`WriterCounts`],
@@ -42,6 +43,7 @@ mod replay_sink;
 mod reset;
 mod reset_client;
 pub mod ros_args;
+mod security;
 mod session;
 
 pub use alert_listener::Ros2AlertListener;
@@ -70,4 +72,8 @@ pub use replay_sink::{Ros2PacketSink, CREDIT_WINDOW, DEFAULT_INTAKE_WAIT};
 pub use reset::{RESET_MATCH_GRACE, RESET_REPLIES_HELD, RESET_REPLY_WAIT, RESET_REQUESTS_PER_TURN};
 pub use reset_client::Ros2ResetClient;
 pub use ros_args::{split_ros_args, RosArgs};
+pub use security::{
+    pad_for_protection, security_from_env, security_plan, DdsSecurity, SecurityEnv, SecurityError,
+    SecurityPlan, ENCLAVE_FILES, NODE_ENCLAVE, OPERATOR_ENCLAVE, READER_ENCLAVE, STATION_ENCLAVE,
+};
 pub use session::Ros2Session;

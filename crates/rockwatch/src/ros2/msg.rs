@@ -139,6 +139,9 @@ pub struct PbrAlert {
     /// The direction that raised the alert: azimuth of the +x axis, degrees clockwise from
     /// north.
     pub direction_deg: f64,
+    /// The block's episode: one alert per (pbr_id, episode, level), the key subscribers
+    /// de-duplicate by.
+    pub episode: u32,
 }
 
 /// `pbr_msgs/IntakeReport`: what the node has taken from one writer of `/pbr/accel`
@@ -268,6 +271,7 @@ impl From<&engine::Alert> for PbrAlert {
                 a.pga_mps2
             ),
             direction_deg: a.direction_deg,
+            episode: a.episode,
         }
     }
 }

@@ -1,10 +1,12 @@
 //! The network plan: which DDS domain and interfaces a participant uses, resolved like rclcpp
 //! from `ROS_DOMAIN_ID` (default 0) and `ROS_AUTOMATIC_DISCOVERY_RANGE` (`LOCALHOST` or `OFF`:
-//! the loopback interface only), which the `[ros2]` configuration may override.
+//! the loopback interface only), which the `[ros2]` configuration may override; and the DDS
+//! Security enclave from the SROS2 variables (`security.rs`).
 
 use std::net::{IpAddr, Ipv4Addr};
 
 use super::config::{DiscoveryRange, Ros2Config};
+use super::security::{security_from_env, DdsSecurity, SecurityError};
 
 /// Which DDS domain and interfaces a participant uses.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -12,6 +14,34 @@ pub struct NetworkPlan {
     pub domain_id: u16,
     /// `None`: every interface.
     pub only_networks: Option<Vec<IpAddr>>,
+    /// DDS Security (SROS2 enclave), `None`: unsecured.
+    pub security: Option<DdsSecurity>,
+}
+
+impl NetworkPlan {
+    /// True when the participant may be reached from beyond this host: it does not keep to
+    /// loopback interfaces.
+    #[must_use]
+    pub fn beyond_localhost(&self) -> bool {
+        match &self.only_networks {
+            None => true,
+            Some(n) => n.iter().any(|a| !a.is_loopback()),
+        }
+    }
+
+    /// The line `rockwatch node` prints at start when its participant is reachable from other
+    /// hosts without DDS Security (anyone there can publish packets and reset blocks), if so.
+    #[must_use]
+    pub fn exposure_warning(&self) -> Option<String> {
+        (self.security.is_none() && self.beyond_localhost()).then(|| {
+            "DDS Security is off and the node listens beyond localhost: \
+             any host that reaches these interfaces can publish /pbr/accel packets, reset \
+             blocks and read alerts. Enable SROS2 (launch-scripts/keystore.sh, \
+             ROS_SECURITY_ENABLE=true, ROS_SECURITY_KEYSTORE, ROS_SECURITY_STRATEGY=Enforce) or \
+             keep DDS on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)"
+                .to_owned()
+        })
+    }
 }
 
 /// Why the DDS domain or interfaces could not be resolved.
@@ -26,6 +56,9 @@ pub enum NetworkPlanError {
     /// `ROS_AUTOMATIC_DISCOVERY_RANGE` names no range.
     #[error("{0}")]
     DiscoveryRange(String),
+    /// The SROS2 variables cannot be followed.
+    #[error("DDS Security: {0}")]
+    Security(#[from] SecurityError),
 }
 
 /// Resolves the configuration and the values of `ROS_DOMAIN_ID` and
@@ -62,14 +95,23 @@ pub fn network_plan(
     Ok(NetworkPlan {
         domain_id,
         only_networks,
+        security: None,
     })
 }
 
-/// The plan for this process's environment.
-pub fn network_plan_from_env(config: &Ros2Config) -> Result<NetworkPlan, NetworkPlanError> {
+/// The plan for this process's environment, for a participant whose own SROS2 enclave is
+/// `enclave` (e.g. [`super::NODE_ENCLAVE`]; `ROS_SECURITY_ENCLAVE_OVERRIDE` replaces it): the
+/// one way every command (`node`, `replay`, `acquire`, `reset`) resolves its domain,
+/// interfaces and security.
+pub fn network_plan_from_env(
+    config: &Ros2Config,
+    enclave: &str,
+) -> Result<NetworkPlan, NetworkPlanError> {
     let domain = std::env::var("ROS_DOMAIN_ID").ok();
     let range = std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").ok();
-    network_plan(config, domain.as_deref(), range.as_deref())
+    let mut plan = network_plan(config, domain.as_deref(), range.as_deref())?;
+    plan.security = security_from_env(enclave)?;
+    Ok(plan)
 }
 
 #[cfg(test)]
@@ -100,6 +142,27 @@ mod tests {
         let plan = network_plan(&demo, Some("3"), Some("SUBNET")).unwrap();
         assert_eq!(plan.only_networks, Some(vec!["127.0.0.1".parse().unwrap()]));
         assert_eq!(plan.domain_id, 3);
+    }
+
+    #[test]
+    fn unsecured_participants_beyond_localhost_are_warned_about() {
+        let mut plan = network_plan(&Ros2Config::default(), None, Some("LOCALHOST")).unwrap();
+        assert!(plan.exposure_warning().is_none());
+        plan.only_networks = None;
+        assert!(plan
+            .exposure_warning()
+            .unwrap()
+            .contains("beyond localhost"));
+        plan.only_networks = Some(vec![
+            "127.0.0.1".parse().unwrap(),
+            "10.0.0.5".parse().unwrap(),
+        ]);
+        assert!(plan.exposure_warning().is_some());
+        plan.security = Some(DdsSecurity {
+            enclave: "/rockwatch/node".into(),
+            dir: "/k/enclaves/rockwatch/node".into(),
+        });
+        assert!(plan.exposure_warning().is_none());
     }
 
     #[test]

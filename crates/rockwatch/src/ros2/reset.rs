@@ -8,6 +8,7 @@ use super::held_server::HeldServer;
 use super::input::IntakeLog;
 use super::msg;
 use super::names::{RESET_SERVICE, RESET_SERVICE_MAPPING};
+use super::security::pad_for_protection;
 use super::session::Ros2Session;
 
 pub use super::held_server::{RESET_MATCH_GRACE, RESET_REPLIES_HELD, RESET_REPLY_WAIT};
@@ -18,6 +19,8 @@ pub const RESET_REQUESTS_PER_TURN: usize = 64;
 /// The reset server.
 pub(super) struct ResetServer {
     server: HeldServer<msg::ResetPbrRequest, msg::ResetPbrResponse>,
+    /// DDS Security is on: responses are padded ([`pad_for_protection`]).
+    secured: bool,
 }
 
 impl ResetServer {
@@ -32,6 +35,7 @@ impl ResetServer {
                 msg::PACKAGE,
                 msg::RESET_SERVICE_TYPE,
             )?,
+            secured: session.plan().security.is_some(),
         })
     }
 
@@ -51,7 +55,11 @@ impl ResetServer {
         for _ in 0..RESET_REQUESTS_PER_TURN {
             match self.server.receive() {
                 Ok(Some((id, request))) => {
-                    let response = handle(&request.pbr_id);
+                    // A secured client pads the id with NULs (see pad_for_protection).
+                    let mut response = handle(request.pbr_id.trim_end_matches('\0'));
+                    if self.secured {
+                        response.message = pad_for_protection(response.message, ' ');
+                    }
                     self.server.reply(id, response);
                 }
                 Ok(None) => {

@@ -11,6 +11,7 @@ use super::msg;
 use super::names::{Naming, RESET_SERVICE, RESET_SERVICE_MAPPING};
 use super::network::NetworkPlan;
 use super::qos::service_qos;
+use super::security::pad_for_protection;
 use super::session::Ros2Session;
 
 /// Runs `future` on this thread until it completes (true) or `timeout` passes (false).
@@ -93,7 +94,11 @@ impl Ros2ResetClient {
         let id = self
             .client
             .send_request(msg::ResetPbrRequest {
-                pbr_id: pbr_id.to_string(),
+                pbr_id: if self.session.plan().security.is_some() {
+                    pad_for_protection(pbr_id.to_string(), '\0')
+                } else {
+                    pbr_id.to_string()
+                },
             })
             .map_err(|e| anyhow!("ROS 2 {}: request not sent: {e:?}", self.service))?;
         loop {

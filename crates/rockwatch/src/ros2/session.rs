@@ -5,7 +5,7 @@
 use std::thread::JoinHandle;
 
 use anyhow::anyhow;
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{DomainParticipantBuilder, DomainParticipantSecurityConfigFiles};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, QosProfile, Subscription,
 };
@@ -19,6 +19,9 @@ use crate::logging::MuteLibraries;
 fn dds_err(what: &str) -> impl Fn(ros2_client::CreateError) -> anyhow::Error + '_ {
     move |e| anyhow!("ROS 2: {what}: {e:?}")
 }
+
+/// Longest wait for the spinner thread to stop when a session is dropped.
+const SPINNER_STOP_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// A DDS participant with one ROS 2 node and its spinner thread (discovery, parameters).
 pub struct Ros2Session {
@@ -48,9 +51,25 @@ impl Ros2Session {
         if let Some(networks) = &plan.only_networks {
             builder = builder.with_only_networks(networks.iter().copied());
         }
+        if let Some(security) = &plan.security {
+            // The SROS2 file names; keys are not encrypted (RustDDS reads no encrypted key).
+            builder = builder.builtin_security(
+                DomainParticipantSecurityConfigFiles::with_ros_default_names(
+                    &security.dir,
+                    String::new(),
+                ),
+            );
+        }
         let (participant, threads) = DdsThreads::spawned_by(|| builder.build());
-        let participant = participant
-            .map_err(|e| anyhow!("DDS participant (domain {}): {e:?}", plan.domain_id))?;
+        let participant = participant.map_err(|e| match &plan.security {
+            Some(s) => anyhow!(
+                "DDS participant (domain {}, DDS Security enclave {} in {}): {e:?}",
+                plan.domain_id,
+                s.enclave,
+                s.dir.display()
+            ),
+            None => anyhow!("DDS participant (domain {}): {e:?}", plan.domain_id),
+        })?;
         let context = Context::from_domain_participant(participant).map_err(dds_err("context"))?;
         let node_name = NodeName::new(namespace, name)
             .map_err(|e| anyhow!("ROS 2 node name {namespace:?}/{name:?}: {e:?}"))?;
@@ -85,7 +104,8 @@ impl Ros2Session {
     }
 
     /// A session for the client node `name` of a tool (replay, listener, reset client) in
-    /// `naming`'s namespace, with its remaps: without `/rosout` and parameter services.
+    /// `naming`'s namespace, with its remaps: without `/rosout` and without parameter services
+    /// (nothing to set; and none to grant in a DDS Security permissions document).
     pub fn open_client(
         plan: &NetworkPlan,
         naming: &Naming,
@@ -172,7 +192,16 @@ impl Drop for Ros2Session {
         self._teardown = Some(MuteLibraries::new());
         self.node.stop_spinner();
         if let Some(spinner) = self.spinner.take() {
-            let _ = spinner.join();
+            // Bounded: a spinner that missed the stop (its stop channel already closed, seen
+            // when a secured participant is dropped right after a refused endpoint) is left
+            // to end with the process rather than hang it.
+            let deadline = std::time::Instant::now() + SPINNER_STOP_WAIT;
+            while !spinner.is_finished() && std::time::Instant::now() < deadline {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            if spinner.is_finished() {
+                let _ = spinner.join();
+            }
         }
     }
 }
