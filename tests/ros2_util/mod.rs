@@ -55,6 +55,15 @@ pub fn text(o: &Output) -> (String, String) {
     )
 }
 
+/// Shell snippet killing (SIGKILL) every process of the current network namespace except
+/// the shell itself, each named on stderr (`left running by the test: PID CMDLINE`). Only for
+/// the private namespace of [`run_in_netns`]: there, every such process is the test's.
+pub const KILL_LEFTOVERS: &str = "me=$(readlink /proc/$$/ns/net); \
+    for p in /proc/[0-9]*; do pid=${p#/proc/}; [ \"$pid\" = \"$$\" ] && continue; \
+    [ \"$(readlink $p/ns/net 2>/dev/null)\" = \"$me\" ] || continue; \
+    echo \"left running by the test: $pid $(tr '\\0' ' ' < $p/cmdline 2>/dev/null)\" >&2; \
+    kill -KILL $pid 2>/dev/null || true; done";
+
 /// Set in a test re-executed inside its network namespace.
 pub const IN_NETNS: &str = "ROCKWATCH_TEST_IN_NETNS";
 
@@ -67,9 +76,12 @@ pub fn reexec_in_netns(name: &str, timeout_s: u32) -> bool {
         return true;
     }
     let exe = std::env::current_exe().expect("test executable path");
+    // Not `exec`: when the test ends, whatever it started and left running (a child of a
+    // failed test) would keep this output's pipes open and `output()` would wait forever.
+    // Every process in this private namespace but the shell is the test's: killed, named.
     let out = run_in_netns(
         &format!(
-            "exec '{}' --exact '{name}' --nocapture --test-threads=1",
+            "rc=0; '{}' --exact '{name}' --nocapture --test-threads=1 || rc=$?; {KILL_LEFTOVERS}; exit $rc",
             exe.display()
         ),
         timeout_s,
