@@ -91,10 +91,14 @@ pub fn reexec_in_netns(name: &str, timeout_s: u32) -> bool {
         ],
     );
     let (stdout, stderr) = text(&out);
+    // timeout(1): 124 after its SIGTERM, 137 after the SIGKILL 5 s later.
+    let how = match out.status.code() {
+        Some(124 | 137) => format!("did not finish within {timeout_s} s: killed by timeout"),
+        _ => format!("failed ({})", out.status),
+    };
     assert!(
         out.status.success() && stdout.contains("1 passed"),
-        "{name} in its network namespace failed ({})\n--- stdout\n{stdout}\n--- stderr\n{stderr}",
-        out.status
+        "{name} in its network namespace {how}\n--- stdout\n{stdout}\n--- stderr\n{stderr}"
     );
     false
 }
