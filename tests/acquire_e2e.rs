@@ -179,28 +179,76 @@ enum Scenario {
     Ros2,
 }
 
-fn acquire(config: &Path, state: &Path, to: &str, log: &Path) -> Child {
-    Command::new(rockwatch())
-        .args(["acquire", "--to", to, "--config"])
-        .arg(config)
-        .arg("--state-dir")
-        .arg(state)
-        .stderr(std::fs::File::create(log).unwrap())
-        .spawn()
-        .unwrap()
+/// A child process of the scenario with its stderr log: stopped (SIGTERM, SIGKILL after 15 s)
+/// when dropped, so a failed assertion leaves nothing running; the end of its log (its closing
+/// counters) is then printed.
+struct Process {
+    child: Child,
+    name: &'static str,
+    log: PathBuf,
 }
 
-fn stop(mut child: Child) {
-    let _ = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status();
-    let deadline = Instant::now() + Duration::from_secs(15);
-    while child.try_wait().unwrap().is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
+impl Process {
+    fn spawn(name: &'static str, command: &mut Command, log: &Path) -> Process {
+        let child = command
+            .stdout(std::process::Stdio::null())
+            .stderr(std::fs::File::create(log).unwrap())
+            .spawn()
+            .unwrap();
+        Process {
+            child,
+            name,
+            log: log.to_path_buf(),
         }
-        std::thread::sleep(Duration::from_millis(50));
     }
+
+    /// SIGTERM, then SIGKILL if it has not exited within 15 s; waits for it.
+    fn stop(&mut self) {
+        if !matches!(self.child.try_wait(), Ok(None)) {
+            return;
+        }
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let deadline = Instant::now() + Duration::from_secs(15);
+        while matches!(self.child.try_wait(), Ok(None)) {
+            if Instant::now() > deadline {
+                eprintln!("{} did not stop within 15 s of SIGTERM: SIGKILL", self.name);
+                let _ = self.child.kill();
+                let _ = self.child.wait();
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let running = matches!(self.child.try_wait(), Ok(None));
+        self.stop();
+        if running && std::thread::panicking() {
+            let log = std::fs::read_to_string(&self.log).unwrap_or_default();
+            let lines: Vec<&str> = log.lines().collect();
+            eprintln!(
+                "{} stopped after the failure; the end of its log:\n{}",
+                self.name,
+                lines[lines.len().saturating_sub(8)..].join("\n")
+            );
+        }
+    }
+}
+
+fn acquire(config: &Path, state: &Path, to: &str, log: &Path) -> Process {
+    Process::spawn(
+        "acquire",
+        Command::new(rockwatch())
+            .args(["acquire", "--to", to, "--config"])
+            .arg(config)
+            .arg("--state-dir")
+            .arg(state),
+        log,
+    )
 }
 
 /// The latest record start per stream in `records`.
@@ -283,12 +331,13 @@ fn run(scenario: Scenario) {
     .unwrap();
 
     let node_log = dir.path().join("node.log");
-    let node = Command::new(rockwatch())
-        .args(["node", "--config"])
-        .arg(&node_config)
-        .stderr(std::fs::File::create(&node_log).unwrap())
-        .spawn()
-        .unwrap();
+    let mut node = Process::spawn(
+        "node",
+        Command::new(rockwatch())
+            .args(["node", "--config"])
+            .arg(&node_config),
+        &node_log,
+    );
     let logs = |extra: &str| {
         let read = |p: &Path| std::fs::read_to_string(p).unwrap_or_default();
         format!(
@@ -348,8 +397,8 @@ fn run(scenario: Scenario) {
                 &|| std::fs::read_to_string(&state_file).is_ok_and(|t| t.contains("\"sequence\"")),
                 &logs,
             );
-            first.kill().unwrap(); // SIGKILL
-            let _ = first.wait();
+            first.child.kill().unwrap(); // SIGKILL
+            let _ = first.child.wait();
             server.push(&records[half..]);
             acquire(&acquire_config, &acquire_state, to, &log2)
         }
@@ -413,8 +462,9 @@ fn run(scenario: Scenario) {
         std::thread::sleep(Duration::from_millis(50));
     }
     got = alerts(&node_state);
-    stop(running);
-    stop(node);
+    let mut running = running;
+    running.stop();
+    node.stop();
     server.stop();
     let context = logs(&format!("scenario {scenario:?}"));
 

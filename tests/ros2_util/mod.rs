@@ -64,6 +64,15 @@ pub fn text(o: &Output) -> (String, String) {
     )
 }
 
+/// Shell snippet killing (SIGKILL) every process of the current network namespace except
+/// the shell itself, each named on stderr (`left running by the test: PID CMDLINE`). Only for
+/// the private namespace of [`run_in_netns`]: there, every such process is the test's.
+pub const KILL_LEFTOVERS: &str = "me=$(readlink /proc/$$/ns/net); \
+    for p in /proc/[0-9]*; do pid=${p#/proc/}; [ \"$pid\" = \"$$\" ] && continue; \
+    [ \"$(readlink $p/ns/net 2>/dev/null)\" = \"$me\" ] || continue; \
+    echo \"left running by the test: $pid $(tr '\\0' ' ' < $p/cmdline 2>/dev/null)\" >&2; \
+    kill -KILL $pid 2>/dev/null || true; done";
+
 /// Set in a test re-executed inside its network namespace.
 pub const IN_NETNS: &str = "ROCKWATCH_TEST_IN_NETNS";
 
@@ -76,9 +85,12 @@ pub fn reexec_in_netns(name: &str, timeout_s: u32) -> bool {
         return true;
     }
     let exe = std::env::current_exe().expect("test executable path");
+    // Not `exec`: when the test ends, whatever it started and left running (a child of a
+    // failed test) would keep this output's pipes open and `output()` would wait forever.
+    // Every process in this private namespace but the shell is the test's: killed, named.
     let out = run_in_netns(
         &format!(
-            "exec '{}' --exact '{name}' --nocapture --test-threads=1",
+            "rc=0; '{}' --exact '{name}' --nocapture --test-threads=1 || rc=$?; {KILL_LEFTOVERS}; exit $rc",
             exe.display()
         ),
         timeout_s,
@@ -88,10 +100,14 @@ pub fn reexec_in_netns(name: &str, timeout_s: u32) -> bool {
         ],
     );
     let (stdout, stderr) = text(&out);
+    // timeout(1): 124 after its SIGTERM, 137 after the SIGKILL 5 s later.
+    let how = match out.status.code() {
+        Some(124 | 137) => format!("did not finish within {timeout_s} s: killed by timeout"),
+        _ => format!("failed ({})", out.status),
+    };
     assert!(
         out.status.success() && stdout.contains("1 passed"),
-        "{name} in its network namespace failed ({})\n--- stdout\n{stdout}\n--- stderr\n{stderr}",
-        out.status
+        "{name} in its network namespace {how}\n--- stdout\n{stdout}\n--- stderr\n{stderr}"
     );
     false
 }

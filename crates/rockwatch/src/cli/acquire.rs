@@ -72,6 +72,10 @@ impl RecordSink for Watched<'_, '_> {
             systemd.ping_if_due();
         }
     }
+
+    fn link(&mut self, up: bool) {
+        self.inner.link(up);
+    }
 }
 
 pub fn run(args: AcquireArgs) -> anyhow::Result<()> {

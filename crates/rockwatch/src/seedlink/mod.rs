@@ -183,23 +183,23 @@ pub struct LinkCounters {
 /// [`RecordSink::published_until_ns`] of its station passes the record's end. A station's
 /// saved sequence number never passes a record that is not committed, so a record held when
 /// `acquire` is killed is fetched again on restart.
+///
+/// Every method is required (no defaults): a sink wrapping another must forward each one, and
+/// the compiler says so (a wrapper that silently dropped `link` left the assembler's clock
+/// stopped, so a component missing after a restart was waited for forever).
 pub trait RecordSink {
     /// A new record of a selected stream (decoded: one channel, one record). `true` when the
     /// sink holds some of its samples to publish later.
     fn record(&mut self, record: &Channel) -> bool;
-    /// Time before which every sample of station `NET.STA.LOC` has been published (ns).
-    fn published_until_ns(&self, station: &str) -> Option<i64> {
-        let _ = station;
-        None
-    }
+    /// Time before which every sample of station `NET.STA.LOC` has been published (ns);
+    /// `None` if the sink holds nothing of it.
+    fn published_until_ns(&self, station: &str) -> Option<i64>;
     /// Called about every 100 ms while connected (bounded waits, housekeeping).
-    fn tick(&mut self) {}
+    fn tick(&mut self);
     /// The link came up (`true`: streams requested, data may flow) or went down. A sink that
     /// waits for data (a missing component) should not count the time the link is down:
     /// the data is not missing, it has not been fetched yet.
-    fn link(&mut self, up: bool) {
-        let _ = up;
-    }
+    fn link(&mut self, up: bool);
 }
 
 /// A sink that takes every record at once (nothing held).
@@ -210,6 +210,14 @@ impl<F: FnMut(&Channel)> RecordSink for EachRecord<F> {
         (self.0)(record);
         false
     }
+
+    fn published_until_ns(&self, _station: &str) -> Option<i64> {
+        None
+    }
+
+    fn tick(&mut self) {}
+
+    fn link(&mut self, _up: bool) {}
 }
 
 /// A delivered record not yet committed.
