@@ -429,6 +429,22 @@ fn a_meshed_catalogue_rock_is_analysed_in_each_of_its_directions() {
         ],
         "0",
     );
+    // The same mesh given directly (--mesh, --directions) is the same rock.
+    let mesh_flag = run(
+        "mesh-flag",
+        &[
+            "--mesh",
+            dir.join("box.obj").to_str().unwrap(),
+            "--directions",
+            "0,90",
+            "--mu-s",
+            "0.8",
+            "--mu-k",
+            "0.6",
+        ],
+        "0,90",
+    );
+    assert_eq!(mesh_flag, mesh);
     assert_eq!(mesh.len(), 2 * 8 * 2);
     assert!(mesh.iter().any(|r| r.3 == "overturned"), "{mesh:?}");
     assert!(mesh.iter().any(|r| r.3 != "overturned"), "{mesh:?}");

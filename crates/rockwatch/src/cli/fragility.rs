@@ -16,6 +16,9 @@ use rockwatch_core::fragility::{
     Intensity, RockDirection, RockMember, DEFAULT_BOOTSTRAP, DEFAULT_SURFACE_GRID,
     DEFAULT_T_EXTRA_S,
 };
+use rockwatch_core::mesh::contact::{
+    parse_azimuths, RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M,
+};
 use rockwatch_core::record::Record;
 use rockwatch_core::STANDARD_GRAVITY_MPS2;
 use serde_json::json;
@@ -72,6 +75,27 @@ pub struct FragilityArgs {
     /// General body: radius of gyration about the centre of mass (m).
     #[arg(long, value_name = "M", requires = "b_plus")]
     rho: Option<f64>,
+    /// A rock from its closed mesh (.obj, .ply, .stl; metres), with --mu-s: analysed in each
+    /// toppling direction of --directions (the planar bodies of `rockwatch geometry`,
+    /// docs/meshes.md); a run overturns when any direction does.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["pbr", "width", "height", "half_diagonal", "alpha", "b_plus"])]
+    mesh: Option<PathBuf>,
+    /// With --mesh: the toppling directions, degrees clockwise from the mesh's north axis: a
+    /// list, or FROM:TO:STEP (TO excluded). --azimuths are measured from the first one.
+    #[arg(
+        long,
+        value_name = "DEG,…|FROM:TO:STEP",
+        requires = "mesh",
+        default_value = "0:360:90"
+    )]
+    directions: String,
+    /// With --mesh: the mesh axis pointing (roughly) up (x, y, z, optionally signed).
+    #[arg(long, value_name = "AXIS", requires = "mesh", default_value = "z")]
+    up: String,
+    /// With --mesh: vertices within this distance of the resting facet's plane touch the
+    /// ground (m).
+    #[arg(long = "contact-tolerance", value_name = "M", requires = "mesh", default_value_t = DEFAULT_CONTACT_TOLERANCE_M)]
+    contact_tolerance: f64,
     /// Static friction coefficient μs (block flags).
     #[arg(long = "mu-s", value_name = "MS")]
     mu_s: Option<f64>,
@@ -186,29 +210,6 @@ fn range(lo: f64, hi: f64, n: usize, what: &str) -> anyhow::Result<Vec<f64>> {
     Ok(log_spaced(lo, hi, n))
 }
 
-fn parse_azimuths(text: &str) -> anyhow::Result<Vec<f64>> {
-    let parts: Vec<&str> = text.split(':').collect();
-    if parts.len() == 3 {
-        let v: Vec<f64> = parts
-            .iter()
-            .map(|p| parse_number(p, "--azimuths", false))
-            .collect::<anyhow::Result<_>>()?;
-        if !(v[2] > 0.0 && v[1] > v[0] && (v[1] - v[0]) / v[2] <= 3600.0) {
-            bail!("--azimuths FROM:TO:STEP needs FROM < TO and 0 < STEP (at most 3600 angles)");
-        }
-        let mut out = Vec::new();
-        let mut k = 0.0;
-        while v[0] + k * v[2] < v[1] - 1e-9 {
-            out.push(v[0] + k * v[2]);
-            k += 1.0;
-        }
-        return Ok(out);
-    }
-    text.split(',')
-        .map(|p| parse_number(p, "--azimuths", false))
-        .collect()
-}
-
 fn block_from_flags(args: &FragilityArgs) -> anyhow::Result<(BlockParams, String)> {
     let Some(mu_s) = args.mu_s else {
         bail!("give --pbr ID --catalogue FILE, or the block flags with --mu-s");
@@ -290,6 +291,9 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
     if args.ensemble.is_some_and(|k| k > 1) {
         bail!("--ensemble needs a catalogue entry with uncertain parameters (--pbr, --catalogue)");
     }
+    if let Some(path) = &args.mesh {
+        return mesh_rock(args, path);
+    }
     let (params, label) = block_from_flags(args)?;
     let info = json!({
         "b_plus_m": params.b_plus_m, "b_minus_m": params.b_minus_m,
@@ -297,6 +301,54 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
         "mu_s": params.mu_s, "mu_k": params.mu_k, "restitution": params.restitution,
     });
     Ok((vec![one(params)], label, info))
+}
+
+/// The rock of `--mesh`: one member, one direction per `--directions` azimuth (measured from
+/// the first, the frame of the incidences).
+fn mesh_rock(
+    args: &FragilityArgs,
+    path: &Path,
+) -> anyhow::Result<(Vec<RockMember>, String, serde_json::Value)> {
+    let Some(mu_s) = args.mu_s else {
+        bail!("--mesh needs --mu-s (and optionally --mu-k, --restitution)");
+    };
+    let mu_k = args.mu_k.unwrap_or(mu_s);
+    let azimuths =
+        parse_azimuths(&args.directions).map_err(|e| anyhow::anyhow!("--directions: {e}"))?;
+    let up = UpAxis::parse(&args.up).map_err(|e| anyhow::anyhow!("--up: {e}"))?;
+    let rest = RockGeometry::read(path)?.rest(up, args.contact_tolerance)?;
+    let first_deg = azimuths.first().copied().unwrap_or(0.0);
+    let directions = azimuths
+        .iter()
+        .map(|&azimuth| {
+            let d = rest.direction(azimuth);
+            let params = BlockParams::from_body(
+                d.b_plus_m,
+                d.b_minus_m,
+                d.h_m,
+                d.rho_m,
+                mu_s,
+                mu_k,
+                args.restitution,
+            )
+            .with_context(|| format!("{} at azimuth {azimuth}°", path.display()))?;
+            Ok(RockDirection {
+                azimuth_deg: (azimuth - first_deg).rem_euclid(360.0),
+                params,
+            })
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let label = format!(
+        "{} ({} directions from {first_deg}°), μs = {mu_s}, μk = {mu_k}",
+        path.display(),
+        directions.len()
+    );
+    let info = json!({
+        "mesh": path.display().to_string(), "directions_deg": azimuths, "up": args.up,
+        "contact_tolerance_m": args.contact_tolerance, "mu_s": mu_s, "mu_k": mu_k,
+        "restitution": args.restitution,
+    });
+    Ok((vec![RockMember { directions }], label, info))
 }
 
 fn is_record_file(p: &Path) -> bool {
@@ -443,7 +495,8 @@ fn build_config(args: &FragilityArgs, members: Vec<RockMember>) -> anyhow::Resul
         ims,
         intensity,
         members,
-        incidences_deg: parse_azimuths(&args.azimuths)?,
+        incidences_deg: parse_azimuths(&args.azimuths)
+            .map_err(|e| anyhow::anyhow!("--azimuths: {e}"))?,
         t_extra_s: args.t_extra,
         block: BlockOptions::default(),
         bootstrap: args.bootstrap,
