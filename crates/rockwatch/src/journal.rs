@@ -729,7 +729,16 @@ mod tests {
         assert!(size < 1_000_000, "{size}");
         assert_eq!(w.failures, 0);
         let (after, _) = read_journal(dir.path()).unwrap();
-        assert!(after.len() < records.len() / 4);
+        // What is left: the last compaction's kept records plus what was appended since, all
+        // within the 1 MB bound: under half of everything written (≈ 3 bounds' worth). How
+        // far past the last compaction the appends went depends on the records' size, so the
+        // margin is not tighter than that.
+        assert!(
+            after.len() < records.len() / 2,
+            "{} of {}",
+            after.len(),
+            records.len()
+        );
         assert_eq!(derived(&after), derived(&records));
     }
 }
