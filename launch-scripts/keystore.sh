@@ -24,8 +24,8 @@
 # rt/clock (read),
 # rt/rosout and rt/parameter_events):
 #   /rockwatch/node      the node: reads /pbr/accel (and any Imu topic: rt/*), publishes
-#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake, serves /pbr/reset and its
-#                        parameter services
+#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake and its status on
+#                        /diagnostics, serves /pbr/reset and its parameter services
 #   /rockwatch/station   replay / acquire: publishes /pbr/accel, reads /pbr/intake
 #   /rockwatch/operator  `rockwatch reset --node`: calls /pbr/reset
 #   /rockwatch/reader    reads /pbr/alerts, /pbr/state, /pbr/ims
@@ -162,7 +162,7 @@ EOF
 }
 
 enclave /rockwatch/node \
-  "rt/pbr/alerts rt/pbr/state rt/pbr/ims rt/pbr/intake rr/pbr/resetReply rr/*rockwatch/*" \
+  "rt/pbr/alerts rt/pbr/state rt/pbr/ims rt/pbr/intake rt/diagnostics rr/pbr/resetReply rr/*rockwatch/*" \
   "rt/* rq/pbr/resetRequest rq/*rockwatch/*"
 enclave /rockwatch/station "rt/pbr/accel" "rt/pbr/intake"
 enclave /rockwatch/operator "rq/pbr/resetRequest" "rr/pbr/resetReply"
