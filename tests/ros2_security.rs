@@ -609,3 +609,72 @@ fn an_acquire_with_the_station_identity_is_served() {
         "{node_err}"
     );
 }
+
+/// The pbr names are granted under the node's namespace (`keystore.sh --namespace`): a node
+/// in `/site_a` with such a keystore is served (the operator resets through
+/// `/site_a/pbr/reset`); a node in `/site_b`, which the keystore does not cover, may not create
+/// its endpoints and exits 1 at start.
+#[test]
+fn the_keystore_grants_the_pbr_names_under_the_nodes_namespace() {
+    let dir = tempfile::tempdir().unwrap();
+    let ks = dir.path().join("keystore");
+    let out = Command::new("bash")
+        .arg(repo().join("launch-scripts/keystore.sh"))
+        .args(["--namespace", "/site_a"])
+        .arg(&ks)
+        .output()
+        .expect("bash");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let ks = ks.display();
+    let d = dir.path().display();
+    for site in ["site_a", "site_b"] {
+        std::fs::write(
+            dir.path().join(format!("{site}.toml")),
+            format!(
+                "catalogue = \"{}\"\n[ros2]\nnamespace = \"/{site}\"\ndiscovery_range = \"LOCALHOST\"\n",
+                repo().join("config/catalogue.toml").display()
+            ),
+        )
+        .unwrap();
+    }
+    let bin = rockwatch().display().to_string();
+    let script = format!(
+        "export ROS_SECURITY_KEYSTORE='{ks}'
+         {SECURE} '{bin}' node --config '{d}/site_b.toml' --state-dir '{d}/b' 2> '{d}/b.err' \
+             && echo B_RC=0 || echo B_RC=$?
+         {SECURE} '{bin}' node --config '{d}/site_a.toml' --state-dir '{d}/a' 2> '{d}/a.err' & NODE=$!
+         {SECURE} '{bin}' reset --node --config '{d}/site_a.toml' --pbr rrs-slender-pillar \
+             --wait-s 10 > '{d}/reset.out' 2> '{d}/reset.err' && echo RESET_RC=0 || echo RESET_RC=$?
+         kill -TERM $NODE; wait $NODE && echo NODE_RC=0 || echo NODE_RC=$?
+         for f in a b reset; do sed \"s/^/$f: /\" '{d}'/$f.err >&2; done
+         sed 's/^/RESET /' '{d}/reset.out'"
+    );
+    let out = run_in_netns(
+        &script,
+        90,
+        &[("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST".into())],
+    );
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("B_RC=1"), "{stdout}\n{stderr}");
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.starts_with("b: rockwatch: error: ")
+                && !l.contains("rustdds")
+                && l.contains("not allowed by security")
+                && l.contains("site_b/pbr/")),
+        "{stderr}"
+    );
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{stderr}");
+    assert!(stdout.contains("RESET_RC=0"), "{stdout}\n{stderr}");
+    // Served through /site_a/pbr/reset: the node answered (the pillar has not fallen).
+    assert!(
+        stdout.contains("RESET block rrs-slender-pillar has not overturned"),
+        "{stdout}\n{stderr}"
+    );
+}
