@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Creates a DDS Security (SROS2) keystore for rockwatch with openssl only — no ROS 2 needed.
 #
-# Usage: launch-scripts/keystore.sh [--days N] [--domains MIN-MAX] DIR
+# Usage: launch-scripts/keystore.sh [--days N] [--domains MIN-MAX] [--namespace NS]... DIR
 #   DIR        the keystore to create (must not exist, or be empty). Then run every rockwatch
 #              process with
 #                ROS_SECURITY_KEYSTORE=DIR ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce
@@ -9,6 +9,9 @@
 #              ROS_SECURITY_ENCLAVE_OVERRIDE=/rockwatch/... chooses another one.
 #   --days N   validity of the certificates (default 3650).
 #   --domains  the DDS domain ids the governance and permissions cover (default 0-232).
+#   --namespace NS  the ROS 2 namespace of the node (`[ros2] namespace`, e.g. /site_a for
+#              rockwatch-node@site_a): the pbr topics and /pbr/reset are granted under it
+#              (rt/site_a/pbr/alerts, …). Repeat it for several sites; default /.
 #
 # Layout (that of `ros2 security create_keystore` / `create_enclave`, so SROS2's tools and any
 # ROS 2 middleware with security read it):
@@ -24,8 +27,8 @@
 # rt/clock (read),
 # rt/rosout and rt/parameter_events):
 #   /rockwatch/node      the node: reads /pbr/accel (and any Imu topic: rt/*), publishes
-#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake, serves /pbr/reset and its
-#                        parameter services
+#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake and its status on
+#                        /diagnostics, serves /pbr/reset and its parameter services
 #   /rockwatch/station   replay / acquire: publishes /pbr/accel, reads /pbr/intake
 #   /rockwatch/operator  `rockwatch reset --node`: calls /pbr/reset
 #   /rockwatch/reader    reads /pbr/alerts, /pbr/state, /pbr/ims
@@ -35,17 +38,26 @@ set -euo pipefail
 
 days=3650
 domains="0-232"
+namespaces=()
 while [ $# -gt 1 ]; do
   case "$1" in
     --days) days="$2"; shift 2 ;;
     --domains) domains="$2"; shift 2 ;;
-    *) echo "keystore.sh: unknown option $1 (usage: keystore.sh [--days N] [--domains MIN-MAX] DIR)" >&2; exit 2 ;;
+    --namespace)
+      case "$2" in
+        /|/[A-Za-z]*) ;;
+        *) echo "keystore.sh: --namespace must be an absolute ROS 2 namespace (/ or /site_a), got '$2'" >&2; exit 2 ;;
+      esac
+      case "$2" in *[!A-Za-z0-9_/]*|*//*) echo "keystore.sh: --namespace '$2' is not a ROS 2 namespace" >&2; exit 2 ;; esac
+      namespaces+=("$2"); shift 2 ;;
+    *) echo "keystore.sh: unknown option $1 (usage: keystore.sh [--days N] [--domains MIN-MAX] [--namespace NS]... DIR)" >&2; exit 2 ;;
   esac
 done
 if [ $# -ne 1 ]; then
-  echo "usage: keystore.sh [--days N] [--domains MIN-MAX] DIR" >&2
+  echo "usage: keystore.sh [--days N] [--domains MIN-MAX] [--namespace NS]... DIR" >&2
   exit 2
 fi
+[ ${#namespaces[@]} -gt 0 ] || namespaces=(/)
 ks="$1"
 case "$days" in ''|*[!0-9]*) echo "keystore.sh: --days must be a positive integer, got '$days'" >&2; exit 2 ;; esac
 dmin="${domains%-*}"; dmax="${domains#*-}"
@@ -161,12 +173,15 @@ EOF
   chmod 0755 "$dir"
 }
 
+# The pbr names under every namespace: /site_a/pbr/alerts is rt/site_a/pbr/alerts.
+under() { local f="$1" ns p; shift; for ns in "${namespaces[@]}"; do
+  p="${ns%/}"; for t in "$@"; do printf '%s ' "${f}${p}/$t"; done; done; }
 enclave /rockwatch/node \
-  "rt/pbr/alerts rt/pbr/state rt/pbr/ims rt/pbr/intake rr/pbr/resetReply rr/*rockwatch/*" \
-  "rt/* rq/pbr/resetRequest rq/*rockwatch/*"
-enclave /rockwatch/station "rt/pbr/accel" "rt/pbr/intake"
-enclave /rockwatch/operator "rq/pbr/resetRequest" "rr/pbr/resetReply"
-enclave /rockwatch/reader "" "rt/pbr/alerts rt/pbr/state rt/pbr/ims"
+  "$(under rt pbr/alerts pbr/state pbr/ims pbr/intake) $(under rr pbr/resetReply) rt/diagnostics rr/*rockwatch/*" \
+  "rt/* $(under rq pbr/resetRequest) rq/*rockwatch/*"
+enclave /rockwatch/station "$(under rt pbr/accel)" "$(under rt pbr/intake)"
+enclave /rockwatch/operator "$(under rq pbr/resetRequest)" "$(under rr pbr/resetReply)"
+enclave /rockwatch/reader "" "$(under rt pbr/alerts pbr/state pbr/ims)"
 
 chmod 0755 "$ks" "$ks/public" "$ks/enclaves" "$ks/enclaves/rockwatch"
 chmod 0600 "$ks/private/"*.pem

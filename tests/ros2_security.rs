@@ -93,7 +93,7 @@ fn paths() -> Paths {
             .join("tests/data/ros2/cyclone_alerts.py")
             .display()
             .to_string(),
-        msg: repo().join("msg").display().to_string(),
+        msg: repo().join("msg/pbr_msgs").display().to_string(),
         rec: repo().join("tests/data/records").display().to_string(),
     }
 }
@@ -201,13 +201,13 @@ fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_s
     let script = format!(
         "export ROS_SECURITY_KEYSTORE='{ks}'
          {SECURE} '{bin}' node --config '{d}/node.toml' --state-dir '{d}/state' 2> '{d}/node.err' & NODE=$!
-         python3 '{alerts_py}' '{msg}' --seconds 30 > '{d}/sub.out' 2> '{d}/sub.err' & SUB=$!
+         python3 '{alerts_py}' '{msg}/msg' --seconds 30 > '{d}/sub.out' 2> '{d}/sub.err' & SUB=$!
          python3 '{py}' '{msg}' --accel CI.RRS.00 50 --seconds 6 | sed 's/^/FORGE /'
          {SECURE} '{bin}' replay --record '{rec}/Rinaldi228.AT2' --vertical '{rec}/RinaldiUP.AT2' \
              --azimuth 228 --station CI.RRS.00 --transport ros2 --speed max --tail 10 --wait-s 20 \
              2> '{d}/replay.err' && echo REPLAY_RC=0 || echo REPLAY_RC=$?
          python3 '{py}' '{msg}' --reset rrs-slender-pillar --seconds 6 | sed 's/^/RESET /'
-         python3 '{alerts_py}' '{msg}' --seconds 4 | sed 's/^/LATE /'
+         python3 '{alerts_py}' '{msg}/msg' --seconds 4 | sed 's/^/LATE /'
          {SECURE} '{reader}' --json --count 1 --timeout 20 > '{d}/reader.out' 2> '{d}/reader.err' \
              && echo READER_RC=0 || echo READER_RC=$?
          sed 's/^/READER /' '{d}/reader.out'
@@ -607,5 +607,74 @@ fn an_acquire_with_the_station_identity_is_served() {
     assert!(
         node_err.contains("DDS Security enclave /rockwatch/node"),
         "{node_err}"
+    );
+}
+
+/// The pbr names are granted under the node's namespace (`keystore.sh --namespace`): a node
+/// in `/site_a` with such a keystore is served (the operator resets through
+/// `/site_a/pbr/reset`); a node in `/site_b`, which the keystore does not cover, may not create
+/// its endpoints and exits 1 at start.
+#[test]
+fn the_keystore_grants_the_pbr_names_under_the_nodes_namespace() {
+    let dir = tempfile::tempdir().unwrap();
+    let ks = dir.path().join("keystore");
+    let out = Command::new("bash")
+        .arg(repo().join("launch-scripts/keystore.sh"))
+        .args(["--namespace", "/site_a"])
+        .arg(&ks)
+        .output()
+        .expect("bash");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let ks = ks.display();
+    let d = dir.path().display();
+    for site in ["site_a", "site_b"] {
+        std::fs::write(
+            dir.path().join(format!("{site}.toml")),
+            format!(
+                "catalogue = \"{}\"\n[ros2]\nnamespace = \"/{site}\"\ndiscovery_range = \"LOCALHOST\"\n",
+                repo().join("config/catalogue.toml").display()
+            ),
+        )
+        .unwrap();
+    }
+    let bin = rockwatch().display().to_string();
+    let script = format!(
+        "export ROS_SECURITY_KEYSTORE='{ks}'
+         {SECURE} '{bin}' node --config '{d}/site_b.toml' --state-dir '{d}/b' 2> '{d}/b.err' \
+             && echo B_RC=0 || echo B_RC=$?
+         {SECURE} '{bin}' node --config '{d}/site_a.toml' --state-dir '{d}/a' 2> '{d}/a.err' & NODE=$!
+         {SECURE} '{bin}' reset --node --config '{d}/site_a.toml' --pbr rrs-slender-pillar \
+             --wait-s 10 > '{d}/reset.out' 2> '{d}/reset.err' && echo RESET_RC=0 || echo RESET_RC=$?
+         kill -TERM $NODE; wait $NODE && echo NODE_RC=0 || echo NODE_RC=$?
+         for f in a b reset; do sed \"s/^/$f: /\" '{d}'/$f.err >&2; done
+         sed 's/^/RESET /' '{d}/reset.out'"
+    );
+    let out = run_in_netns(
+        &script,
+        90,
+        &[("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST".into())],
+    );
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("B_RC=1"), "{stdout}\n{stderr}");
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.starts_with("b: rockwatch: error: ")
+                && !l.contains("rustdds")
+                && l.contains("not allowed by security")
+                && l.contains("site_b/pbr/")),
+        "{stderr}"
+    );
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{stderr}");
+    assert!(stdout.contains("RESET_RC=0"), "{stdout}\n{stderr}");
+    // Served through /site_a/pbr/reset: the node answered (the pillar has not fallen).
+    assert!(
+        stdout.contains("RESET block rrs-slender-pillar has not overturned"),
+        "{stdout}\n{stderr}"
     );
 }

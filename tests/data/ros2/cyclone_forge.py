@@ -1,5 +1,6 @@
 """An unauthenticated ROS 2 peer acting as an attacker (tests/ros2_security.rs), on Eclipse
-Cyclone DDS (PyPI `cyclonedds`, no DDS Security configured), the types parsed from msg/:
+Cyclone DDS (PyPI `cyclonedds`, no DDS Security configured), the types parsed from the package
+directory given first (msg/pbr_msgs: its msg/*.msg and srv/*.srv):
 
   --accel STATION N   publishes N forged pbr_msgs/AccelPackets of one second each (100 Hz, a
                       1 Hz sine of 6 m/s² on east and north) on rt/pbr/accel, stamped so the
@@ -49,13 +50,13 @@ def fields_of(lines):
     return fields
 
 
-def msg_type(msg_dir, name):
-    with open(os.path.join(msg_dir, name + ".msg")) as f:
+def msg_type(pkg_dir, name):
+    with open(os.path.join(pkg_dir, "msg", name + ".msg")) as f:
         return struct(name, "pbr_msgs::msg::dds_::%s_" % name, fields_of(f))
 
 
-def srv_types(msg_dir, name):
-    with open(os.path.join(msg_dir, "srv", name + ".srv")) as f:
+def srv_types(pkg_dir, name):
+    with open(os.path.join(pkg_dir, "srv", name + ".srv")) as f:
         text = f.read()
     request, response = text.split("---", 1)
     return (

@@ -128,6 +128,15 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     if let Some(warning) = plan.exposure_warning() {
         tracing::warn!("{warning}");
     }
+    if plan.security.is_some() {
+        // What a keystore of launch-scripts/keystore.sh leaves closed (docs/reliability.md).
+        tracing::info!(
+            "DDS Security: only enclaves whose permissions grant it may call the parameter \
+             services of {} or read /diagnostics and /rosout; launch-scripts/keystore.sh \
+             grants none (set parameters at start: --ros-args -p / --params-file)",
+            naming.node_fqn()
+        );
+    }
     let state_dir = options
         .state_dir
         .clone()
