@@ -16,6 +16,7 @@ pub mod ims;
 pub mod inventory;
 pub mod lhs;
 pub mod ode;
+pub mod partition;
 pub mod pulse;
 pub mod record;
 pub mod seedlink;

@@ -152,15 +152,41 @@ impl NodeOptions {
             .context("no catalogue: give --catalogue FILE or a --config that names one")
     }
 
-    /// Loads the catalogue as the engine's blocks (with their ensemble members).
+    /// Loads the catalogue as the engine's blocks (with their ensemble members): those of the
+    /// node's partition's stations (`partition` of the configuration; all without one).
     pub fn load_blocks(&self) -> anyhow::Result<Vec<PbrSpec>> {
+        Ok(self.load_partitioned_blocks()?.0)
+    }
+
+    /// As [`NodeOptions::load_blocks`], with the ids of the catalogue's blocks that other
+    /// partitions own (empty without a partition). Logs the partition's share.
+    pub fn load_partitioned_blocks(&self) -> anyhow::Result<(Vec<PbrSpec>, HashSet<String>)> {
         let path = self.catalogue_path()?;
-        Catalogue::load(&path)?
+        let specs = Catalogue::load(&path)?
             .pbrs()
             .iter()
             .map(PbrSpec::from_catalogue)
             .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let Some((partition, map)) = self
+            .config
+            .partitioning()
+            .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
+        else {
+            return Ok((specs, HashSet::new()));
+        };
+        let all = specs.len();
+        let stations: HashSet<&str> = specs.iter().map(|s| s.station.as_str()).collect();
+        let owned_stations = stations.iter().filter(|s| map.owns(partition, s)).count();
+        let total_stations = stations.len();
+        let (owned, foreign): (Vec<PbrSpec>, Vec<PbrSpec>) = specs
+            .into_iter()
+            .partition(|s| map.owns(partition, s.station.as_str()));
+        eprintln!(
+            "rockwatch: partition {partition}: {owned_stations} of the catalogue's {total_stations} stations, {} of its {all} blocks",
+            owned.len()
+        );
+        Ok((owned, foreign.into_iter().map(|s| s.id).collect()))
     }
 
     /// Opens the state directory in force (the flag's, else the configuration's), if any,
@@ -478,6 +504,8 @@ pub struct NodeRuntime {
     /// Journal, stats, logs: where outputs go.
     emit: Emitter,
     pbr_ids: Vec<String>,
+    /// Blocks of the catalogue that other partitions' nodes own (scale-out).
+    foreign_pbr_ids: HashSet<String>,
     last_flush: Instant,
     /// UTC (ns since the Unix epoch) at `emit.epoch`: arrival stamps in UTC.
     epoch_utc_ns: i64,
@@ -500,7 +528,10 @@ impl NodeRuntime {
     /// As [`NodeRuntime::start`]; with several shards, each worker calls `wake` after queueing
     /// outputs (so an event loop can sleep until [`NodeRuntime::poll`] has work).
     pub fn start_with_wake(options: &NodeOptions, wake: Wake) -> anyhow::Result<NodeRuntime> {
-        Self::start_with_blocks(options, options.load_blocks()?, wake)
+        let (owned, foreign) = options.load_partitioned_blocks()?;
+        let mut runtime = Self::start_with_blocks(options, owned, wake)?;
+        runtime.foreign_pbr_ids = foreign;
+        Ok(runtime)
     }
 
     /// As [`NodeRuntime::start_with_wake`], with the catalogue's blocks already loaded
@@ -528,14 +559,27 @@ impl NodeRuntime {
             options.shards
         };
         let config = &options.config;
+        // A partitioned node configures only its own stations (the others never reach it).
+        let stations: Vec<_> = match config
+            .partitioning()
+            .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
+        {
+            Some((partition, map)) => config
+                .stations
+                .iter()
+                .filter(|s| map.owns(partition, s.id.as_str()))
+                .cloned()
+                .collect(),
+            None => config.stations.clone(),
+        };
         let engine = if shards == 1 {
-            let mut engine = Engine::new(config.engine, config.stations.clone(), &specs)?;
+            let mut engine = Engine::new(config.engine, stations, &specs)?;
             engine.restore(&records);
             EngineMode::Inline(Box::new(engine))
         } else {
             EngineMode::Sharded(ShardedEngine::start_with_wake(
                 config.engine,
-                &config.stations,
+                &stations,
                 &specs,
                 &records,
                 shards,
@@ -558,6 +602,7 @@ impl NodeRuntime {
                 overturned,
             },
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+            foreign_pbr_ids: HashSet::new(),
             last_flush: Instant::now(),
             epoch_utc_ns: std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
@@ -724,6 +769,13 @@ impl NodeRuntime {
             }
             (_, None) => {}
         }
+    }
+
+    /// Whether block `pbr_id` is in the catalogue but owned by another partition's node (which
+    /// answers for it: this node stays silent on its resets).
+    #[must_use]
+    pub fn is_foreign(&self, pbr_id: &str) -> bool {
+        self.foreign_pbr_ids.contains(pbr_id)
     }
 
     /// Whether block `pbr_id` has overturned and not been reset since (None: no such block).

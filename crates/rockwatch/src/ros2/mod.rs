@@ -45,7 +45,7 @@ pub use input::IntakeCounters;
 pub use intake_report::{IntakeWatch, WriterCounts, MAX_WRITERS, REPORT_EVERY, REPORT_PERIOD};
 pub use liveness::DdsThreads;
 pub use names::{
-    ACCEL_TOPIC, ALERTS_TOPIC, IMS_TOPIC, INTAKE_TOPIC, NODE_NAME, RESET_SERVICE,
+    accel_topic, ACCEL_TOPIC, ALERTS_TOPIC, IMS_TOPIC, INTAKE_TOPIC, NODE_NAME, RESET_SERVICE,
     RESET_SERVICE_MAPPING, STATE_TOPIC,
 };
 pub use network::{network_plan, network_plan_from_env, NetworkPlan, NetworkPlanError};

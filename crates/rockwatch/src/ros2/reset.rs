@@ -79,12 +79,15 @@ impl ResetServer {
         &mut self,
         session: &Ros2Session,
         log: &mut IntakeLog,
-        handle: &mut impl FnMut(&str) -> msg::ResetPbrResponse,
+        handle: &mut impl FnMut(&str) -> Option<msg::ResetPbrResponse>,
     ) -> bool {
         for _ in 0..RESET_REQUESTS_PER_TURN {
             match self.server.receive_request() {
                 Ok(Some((id, request))) => {
-                    let response = handle(&request.pbr_id);
+                    // None: a block another node of the service owns (it answers).
+                    let Some(response) = handle(&request.pbr_id) else {
+                        continue;
+                    };
                     if self.pending.len() < RESET_REPLIES_HELD {
                         self.pending.push(PendingReply {
                             id,
