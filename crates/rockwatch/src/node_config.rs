@@ -143,19 +143,24 @@ impl NodeConfig {
             return Err("[partition_assign] needs `partition = \"i/N\"`".into());
         };
         let partition = Partition::parse(text).map_err(|e| e.to_string())?;
-        let assigned = self
-            .partition_assign
-            .iter()
-            .map(|(id, &i)| {
-                StationId::parse(id)
-                    .map(|s| (s, i))
-                    .map_err(|e| format!("[partition_assign]: station {e}"))
-            })
-            .collect::<Result<Vec<_>, String>>()?;
-        let map = PartitionMap::assign(partition.count(), assigned)
-            .map_err(|e: PartitionError| format!("[partition_assign]: {e}"))?;
+        let map = partition_map(partition.count(), &self.partition_assign)?;
         Ok(Some((partition, map)))
     }
+}
+
+/// The partition map of a service of `count` partitions with the `[partition_assign]` table
+/// `assign` (`"NET.STA.LOC" = i`): the one reading of that table, for nodes and senders.
+pub fn partition_map(count: u32, assign: &BTreeMap<String, u32>) -> Result<PartitionMap, String> {
+    let assigned = assign
+        .iter()
+        .map(|(id, &i)| {
+            StationId::parse(id)
+                .map(|s| (s, i))
+                .map_err(|e| format!("[partition_assign]: station {e}"))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    PartitionMap::assign(count, assigned)
+        .map_err(|e: PartitionError| format!("[partition_assign]: {e}"))
 }
 
 #[cfg(test)]
