@@ -2,6 +2,9 @@
 //! (b) a rocking block, (c) a slide-rocking block, (d) a rocking general (asymmetric) body.
 //! Run: `cargo bench --bench block_step`.
 //! Criterion reports the time of one `advance` call (one input sample) and the throughput.
+//! Before the timings it prints, for each moving case, how much the live engine's tolerance
+//! (rtol 1e-9, atol 1e-12) moves the peaks against a 100× tighter reference (target ≤ 1e-6
+//! relative): the speed is that of an integration whose peaks are right to that bound.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rockwatch_core::dynamics::{BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock};
@@ -28,6 +31,50 @@ fn run(block: &mut RigidBlock, input: &[GroundAccel]) {
             })
             .expect("benchmark input is valid");
     }
+}
+
+/// Peak |θ|/α and peak |u| of `block` under `input` at the live tolerance and at a 100×
+/// tighter one; prints their relative differences and returns the larger.
+fn tolerance_effect(name: &str, block: &RigidBlock, input: &[GroundAccel]) -> f64 {
+    let peaks = |options: BlockOptions| {
+        let mut b = RigidBlock::new(*block.params(), options);
+        // The same initial state as `block` (released or at rest).
+        if block.theta_rad() != 0.0 || block.theta_dot() != 0.0 {
+            b = RigidBlock::released(
+                *block.params(),
+                options,
+                block.theta_rad(),
+                block.theta_dot(),
+            );
+        }
+        run(&mut b, input);
+        (
+            b.stats().max_abs_theta_over_alpha,
+            b.stats().max_abs_slide_m,
+        )
+    };
+    let live = BlockOptions::default();
+    let tight = BlockOptions {
+        tolerance: rockwatch_core::ode::Tolerance {
+            rtol: live.tolerance.rtol / 100.0,
+            atol: live.tolerance.atol / 100.0,
+        },
+        ..live
+    };
+    let (a, b) = (peaks(live), peaks(tight));
+    let rel = |x: f64, y: f64| {
+        if y == 0.0 {
+            (x - y).abs()
+        } else {
+            ((x - y) / y).abs()
+        }
+    };
+    let (d_theta, d_slide) = (rel(a.0, b.0), rel(a.1, b.1));
+    println!(
+        "tolerance effect {name}: peak |θ|/α {:.9} vs {:.9} at rtol/100 (relative {d_theta:.1e}), peak |u| {:.3e} m vs {:.3e} m (relative {d_slide:.1e}); target ≤ 1e-6",
+        a.0, b.0, a.1, b.1
+    );
+    d_theta.max(d_slide)
 }
 
 fn bench(c: &mut Criterion) {
@@ -64,6 +111,7 @@ fn bench(c: &mut Criterion) {
         run(&mut check, &mild);
         assert_eq!(check.mode(), Mode::Rock, "benchmark (b) must stay rocking");
     }
+    tolerance_effect("(b) rocking", &rocking, &mild);
     group.bench_function("b_rocking", |b| {
         b.iter_batched_ref(
             || rocking.clone(),
@@ -97,6 +145,7 @@ fn bench(c: &mut Criterion) {
             "benchmark (c) must not overturn"
         );
     }
+    tolerance_effect("(c) slide-rocking", &sr, &strong);
     group.bench_function("c_slide_rocking", |b| {
         b.iter_batched_ref(
             || sr.clone(),
@@ -122,6 +171,7 @@ fn bench(c: &mut Criterion) {
         run(&mut check, &mild);
         assert_eq!(check.mode(), Mode::Rock, "benchmark (d) must stay rocking");
     }
+    tolerance_effect("(d) general body", &body, &mild);
     group.bench_function("d_general_body_rocking", |b| {
         b.iter_batched_ref(
             || body.clone(),

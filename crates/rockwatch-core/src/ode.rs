@@ -16,6 +16,15 @@ use nalgebra::SVector;
 pub trait OdeSystem<const N: usize> {
     /// The derivative at time `t` and state `y`.
     fn derivative(&self, t: f64, y: &SVector<f64, N>) -> SVector<f64, N>;
+
+    /// The derivative at the end `(t, y)` of a step that is then accepted or rejected (the
+    /// last stage of [`Dopri5::step`], reused as the next step's first): the same value as
+    /// [`OdeSystem::derivative`]; a system may keep what it computed there (e.g. for event
+    /// functions evaluated at the step's end).
+    #[inline]
+    fn derivative_at_step_end(&self, t: f64, y: &SVector<f64, N>) -> SVector<f64, N> {
+        self.derivative(t, y)
+    }
 }
 
 /// Mixed error tolerance: a step is accepted when the RMS over components of
@@ -162,8 +171,26 @@ impl<const N: usize> Dopri5<N> {
         y: &SVector<f64, N>,
         t_end: f64,
     ) -> Result<DenseStep<N>, OdeError> {
-        let k1 = match self.fsal {
-            Some(k) => k,
+        self.step_leading(system, t, y, t_end)
+    }
+
+    /// As [`Dopri5::step`] on a state of `N` components whose last `N − M` have a zero
+    /// derivative, integrating only the first `M` (`system`, `y`): the others stay as they
+    /// are and add exactly 0 to the error norm, which still averages over `N` components, so
+    /// the steps, the values and the stored derivative are bit for bit those of
+    /// [`Dopri5::step`] on the full state (with the last components of `y1` and of the dense
+    /// output equal to the state's plus 0.0). A system with a constant part (a rocking
+    /// block's slip) thus costs the arithmetic of its moving part only.
+    pub fn step_leading<const M: usize, S: OdeSystem<M>>(
+        &mut self,
+        system: &S,
+        t: f64,
+        y: &SVector<f64, M>,
+        t_end: f64,
+    ) -> Result<DenseStep<M>, OdeError> {
+        debug_assert!(M <= N);
+        let k1 = match &self.fsal {
+            Some(k) => SVector::<f64, M>::from_fn(|i, _| k[i]),
             None => system.derivative(t, y),
         };
         if !k1.iter().all(|v| v.is_finite()) {
@@ -192,12 +219,12 @@ impl<const N: usize> Dopri5<N> {
                 &(y + (k1 * A61 + k2 * A62 + k3 * A63 + k4 * A64 + k5 * A65) * h),
             );
             let y1 = y + (k1 * A71 + k3 * A73 + k4 * A74 + k5 * A75 + k6 * A76) * h;
-            let k7 = system.derivative(t1, &y1);
+            let k7 = system.derivative_at_step_end(t1, &y1);
             let err_vec = (k1 * E1 + k3 * E3 + k4 * E4 + k5 * E5 + k6 * E6 + k7 * E7) * h;
 
             let tol = self.tolerance;
             let mut sum = 0.0;
-            for i in 0..N {
+            for i in 0..M {
                 let scale = tol.atol + tol.rtol * y[i].abs().max(y1[i].abs());
                 let e = err_vec[i] / scale;
                 sum += e * e;
@@ -216,7 +243,15 @@ impl<const N: usize> Dopri5<N> {
                     (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
                 };
                 self.h_next = h * factor;
-                self.fsal = Some(k7);
+                self.fsal = Some(SVector::<f64, N>::from_fn(
+                    |i, _| {
+                        if i < M {
+                            k7[i]
+                        } else {
+                            0.0
+                        }
+                    },
+                ));
                 self.accepted_steps += 1;
                 let ydiff = y1 - y;
                 let bspl = k1 * h - ydiff;

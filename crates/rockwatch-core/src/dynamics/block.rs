@@ -14,12 +14,16 @@
 //!
 //! State vector `y = [θ (rad), θ̇ (rad/s), u (m), u̇ (m/s)]`; see spec §1 for the signs.
 
-use nalgebra::Vector4;
+use std::cell::Cell;
 
-use super::equations::{effective_gravity, rocking, slide_rocking, sliding, GroundAccel};
+use nalgebra::{Vector2, Vector4};
+
+use super::equations::{
+    effective_gravity, rocking, slide_rocking, sliding, GroundAccel, PivotDynamics,
+};
 use super::impact::{impact, ImpactKind};
 use super::params::BlockParams;
-use crate::ode::{locate_root, Dopri5, OdeError, OdeSystem, Tolerance};
+use crate::ode::{locate_root, DenseStep, Dopri5, OdeError, OdeSystem, Tolerance};
 
 /// The response mode of a block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -235,6 +239,81 @@ pub struct RigidBlock {
     rest_limits: [f64; 2],
 }
 
+/// The rocking mode's moving part `[θ, θ̇]` (u stays, u̇ = 0), integrated on its own.
+struct RockPart<'a>(&'a ModeSystem);
+
+impl OdeSystem<2> for RockPart<'_> {
+    #[inline]
+    fn derivative(&self, t: f64, y: &Vector2<f64>) -> Vector2<f64> {
+        let m = self.0;
+        let Phase::Rock { sigma } = m.phase else {
+            return Vector2::zeros();
+        };
+        let d = rocking(&m.params, sigma, y[0], y[1], m.ground(t));
+        Vector2::new(y[1], d.theta_ddot)
+    }
+
+    #[inline]
+    fn derivative_at_step_end(&self, t: f64, y: &Vector2<f64>) -> Vector2<f64> {
+        let m = self.0;
+        let Phase::Rock { sigma } = m.phase else {
+            return Vector2::zeros();
+        };
+        let d = rocking(&m.params, sigma, y[0], y[1], m.ground(t));
+        m.remember(t, y[0], y[1], d);
+        Vector2::new(y[1], d.theta_ddot)
+    }
+}
+
+/// One accepted step with its dense output, over the full state or the rocking part.
+enum Dense {
+    Full(DenseStep<4>),
+    Rocking {
+        step: DenseStep<2>,
+        slide: f64,
+        slide_velocity: f64,
+    },
+}
+
+impl Dense {
+    #[inline]
+    fn t1(&self) -> f64 {
+        match self {
+            Dense::Full(s) => s.t1(),
+            Dense::Rocking { step, .. } => step.t1(),
+        }
+    }
+
+    /// The state at the step's end (u, u̇ plus 0.0, as the full step computes them).
+    #[inline]
+    fn y1(&self) -> Vector4<f64> {
+        match self {
+            Dense::Full(s) => s.y1,
+            Dense::Rocking {
+                step,
+                slide,
+                slide_velocity,
+            } => Vector4::new(step.y1[0], step.y1[1], slide + 0.0, slide_velocity + 0.0),
+        }
+    }
+
+    /// The interpolated state at `t` in the step.
+    #[inline]
+    fn eval(&self, t: f64) -> Vector4<f64> {
+        match self {
+            Dense::Full(s) => s.eval(t),
+            Dense::Rocking {
+                step,
+                slide,
+                slide_velocity,
+            } => {
+                let y = step.eval(t);
+                Vector4::new(y[0], y[1], slide + 0.0, slide_velocity + 0.0)
+            }
+        }
+    }
+}
+
 /// Index of pivot σ in the per-pivot arrays `[+x, −x]`.
 #[inline]
 fn side_index(sigma: f64) -> usize {
@@ -257,9 +336,47 @@ struct ModeSystem {
     phase: Phase,
     start: GroundAccel,
     slope: GroundAccel,
+    /// The last pivot-mode evaluation: the bits of (t, θ, θ̇) and its dynamics. The event
+    /// functions at a step's end take the dynamics the step's last stage (its FSAL derivative)
+    /// computed at the same point instead of evaluating them again: the same numbers, one
+    /// `sin_cos` and the force balance less per step.
+    last: Cell<([u64; 3], PivotDynamics)>,
 }
 
 impl ModeSystem {
+    fn new(params: BlockParams, phase: Phase, start: GroundAccel, slope: GroundAccel) -> Self {
+        ModeSystem {
+            params,
+            phase,
+            start,
+            slope,
+            // No evaluation has these bits (a NaN time never occurs).
+            last: Cell::new((
+                [f64::NAN.to_bits(); 3],
+                PivotDynamics {
+                    theta_ddot: 0.0,
+                    slip_ddot: 0.0,
+                    friction_per_mass: 0.0,
+                    normal_per_mass: 0.0,
+                },
+            )),
+        }
+    }
+
+    /// Remembers the pivot mode's dynamics `d` at `t`, `y` (see [`ModeSystem::last`]).
+    #[inline]
+    fn remember(&self, t: f64, theta: f64, theta_dot: f64, d: PivotDynamics) {
+        self.last
+            .set(([t.to_bits(), theta.to_bits(), theta_dot.to_bits()], d));
+    }
+
+    /// The last remembered dynamics if they were evaluated at exactly `t`, `y`.
+    #[inline]
+    fn recall(&self, t: f64, y: &Vector4<f64>) -> Option<PivotDynamics> {
+        let (key, d) = self.last.get();
+        (key == [t.to_bits(), y[0].to_bits(), y[1].to_bits()]).then_some(d)
+    }
+
     #[inline]
     fn ground(&self, t: f64) -> GroundAccel {
         GroundAccel {
@@ -275,7 +392,9 @@ impl ModeSystem {
         match self.phase {
             Phase::Slide { s } => [1.0, s * y[3], effective_gravity(p, ground), 1.0, 0.0, 0.0],
             Phase::Rock { sigma } => {
-                let d = rocking(p, sigma, y[0], y[1], ground);
+                let d = self
+                    .recall(t, y)
+                    .unwrap_or_else(|| rocking(p, sigma, y[0], y[1], ground));
                 pivot_events(
                     p,
                     sigma,
@@ -285,7 +404,9 @@ impl ModeSystem {
                 )
             }
             Phase::SlideRock { sigma, s } => {
-                let d = slide_rocking(p, sigma, s, y[0], y[1], ground);
+                let d = self
+                    .recall(t, y)
+                    .unwrap_or_else(|| slide_rocking(p, sigma, s, y[0], y[1], ground));
                 pivot_events(p, sigma, y, s * y[3], d.normal_per_mass)
             }
             Phase::Rest | Phase::Overturned | Phase::Flight => [1.0; 6],
@@ -322,6 +443,27 @@ impl OdeSystem<4> for ModeSystem {
                 Vector4::new(y[1], d.theta_ddot, y[3], d.slip_ddot)
             }
             Phase::Rest | Phase::Overturned | Phase::Flight => Vector4::zeros(),
+        }
+    }
+
+    /// As `derivative`, remembering a pivot mode's dynamics for the event functions at the
+    /// step's end ([`ModeSystem::last`]).
+    #[inline]
+    fn derivative_at_step_end(&self, t: f64, y: &Vector4<f64>) -> Vector4<f64> {
+        let p = &self.params;
+        let ground = self.ground(t);
+        match self.phase {
+            Phase::Rock { sigma } => {
+                let d = rocking(p, sigma, y[0], y[1], ground);
+                self.remember(t, y[0], y[1], d);
+                Vector4::new(y[1], d.theta_ddot, 0.0, 0.0)
+            }
+            Phase::SlideRock { sigma, s } => {
+                let d = slide_rocking(p, sigma, s, y[0], y[1], ground);
+                self.remember(t, y[0], y[1], d);
+                Vector4::new(y[1], d.theta_ddot, y[3], d.slip_ddot)
+            }
+            _ => self.derivative(t, y),
         }
     }
 }
@@ -508,12 +650,7 @@ impl RigidBlock {
                 self.time_s = t0_abs + tau;
                 return Err(AdvanceError::WorkBudget { t_s: self.time_s });
             }
-            let system = ModeSystem {
-                params: self.params,
-                phase: self.phase,
-                start: from,
-                slope: system_slope,
-            };
+            let system = ModeSystem::new(self.params, self.phase, from, system_slope);
             tau = match self.phase {
                 Phase::Overturned | Phase::Flight => dt_s,
                 Phase::Rest => self.advance_rest(&system, tau, dt_s, t0_abs, &mut on_event),
@@ -656,10 +793,26 @@ impl RigidBlock {
             if *work > self.options.max_work_per_interval {
                 return Err(AdvanceError::WorkBudget { t_s: t0_abs + tau });
             }
-            let step = self.integrator.step(system, tau, &self.y, dt)?;
+            let step = match self.phase {
+                // Rocking: u and u̇ stay put; only [θ, θ̇] is integrated (bit for bit the same
+                // steps as the full state, see `Dopri5::step_leading`).
+                Phase::Rock { .. } => Dense::Rocking {
+                    step: self.integrator.step_leading(
+                        &RockPart(system),
+                        tau,
+                        &Vector2::new(self.y[0], self.y[1]),
+                        dt,
+                    )?,
+                    slide: self.y[2],
+                    slide_velocity: self.y[3],
+                },
+                _ => Dense::Full(self.integrator.step(system, tau, &self.y, dt)?),
+            };
             let t1 = step.t1();
-            let g_end = system.events(t1, &step.y1);
-            let event_at = |i: usize| move |t: f64| system.events(t, &step.eval(t))[i];
+            let y1 = step.y1();
+            let g_end = system.events(t1, &y1);
+            let dense = &step;
+            let event_at = |i: usize| move |t: f64| system.events(t, &dense.eval(t))[i];
 
             // Earliest terminal event in (tau, t1].
             let mut terminal: Option<(f64, usize)> = None;
@@ -720,7 +873,7 @@ impl RigidBlock {
 
             match terminal {
                 None => {
-                    self.y = step.y1;
+                    self.y = y1;
                     self.record_extremes(self.y[0], self.y[2]);
                     tau = t1;
                     g_start = g_end;
