@@ -457,7 +457,10 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 self.emit.overturned.insert(a.pbr_id.clone());
             }
         }
+        // Without a state directory there is nothing to journal: no copy of the alert (an
+        // allocation on the way from packet to alert).
         let record = match &output {
+            _ if self.emit.journal.is_none() => None,
             Output::Alert(alert) => Some(JournalRecord::Alert(alert.clone())),
             Output::EpisodeEnd { pbr_id, episode } => Some(JournalRecord::EpisodeEnd {
                 pbr_id: pbr_id.clone(),
