@@ -25,7 +25,7 @@
 # rt/rosout and rt/parameter_events):
 #   /rockwatch/node      the node: reads /pbr/accel, a partitioned node's /pbr/accel/p<i>of<N>
 #                        (docs/capacity.md) and any Imu topic (all three as rt/*), publishes
-#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake, serves /pbr/reset and its
+#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake, /diagnostics, serves /pbr/reset and its
 #                        parameter services
 #   /rockwatch/station   replay / acquire: publishes /pbr/accel and the partition topics
 #                        /pbr/accel/p<i>of<N> of a scaled-out service (rt/pbr/accel/p*: the
@@ -169,7 +169,7 @@ EOF
 }
 
 enclave /rockwatch/node \
-  "rt/pbr/alerts rt/pbr/state rt/pbr/ims rt/pbr/intake rr/pbr/resetReply rr/*rockwatch/*" \
+  "rt/pbr/alerts rt/pbr/state rt/pbr/ims rt/pbr/intake rt/diagnostics rr/pbr/resetReply rr/*rockwatch/*" \
   "rt/* rq/pbr/resetRequest rq/*rockwatch/*"
 enclave /rockwatch/station "rt/pbr/accel rt/pbr/accel/p*" "rt/pbr/intake"
 enclave /rockwatch/operator "rq/pbr/resetRequest" "rr/pbr/resetReply"

@@ -93,7 +93,7 @@ fn paths() -> Paths {
             .join("tests/data/ros2/cyclone_alerts.py")
             .display()
             .to_string(),
-        msg: repo().join("msg").display().to_string(),
+        msg: repo().join("msg/pbr_msgs").display().to_string(),
         rec: repo().join("tests/data/records").display().to_string(),
     }
 }
@@ -201,13 +201,13 @@ fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_s
     let script = format!(
         "export ROS_SECURITY_KEYSTORE='{ks}'
          {SECURE} '{bin}' node --config '{d}/node.toml' --state-dir '{d}/state' 2> '{d}/node.err' & NODE=$!
-         python3 '{alerts_py}' '{msg}' --seconds 30 > '{d}/sub.out' 2> '{d}/sub.err' & SUB=$!
+         python3 '{alerts_py}' '{msg}/msg' --seconds 30 > '{d}/sub.out' 2> '{d}/sub.err' & SUB=$!
          python3 '{py}' '{msg}' --accel CI.RRS.00 50 --seconds 6 | sed 's/^/FORGE /'
          {SECURE} '{bin}' replay --record '{rec}/Rinaldi228.AT2' --vertical '{rec}/RinaldiUP.AT2' \
              --azimuth 228 --station CI.RRS.00 --transport ros2 --speed max --tail 10 --wait-s 20 \
              2> '{d}/replay.err' && echo REPLAY_RC=0 || echo REPLAY_RC=$?
          python3 '{py}' '{msg}' --reset rrs-slender-pillar --seconds 6 | sed 's/^/RESET /'
-         python3 '{alerts_py}' '{msg}' --seconds 4 | sed 's/^/LATE /'
+         python3 '{alerts_py}' '{msg}/msg' --seconds 4 | sed 's/^/LATE /'
          {SECURE} '{reader}' --json --count 1 --timeout 20 > '{d}/reader.out' 2> '{d}/reader.err' \
              && echo READER_RC=0 || echo READER_RC=$?
          sed 's/^/READER /' '{d}/reader.out'

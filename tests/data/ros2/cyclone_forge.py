@@ -1,5 +1,5 @@
 """An unauthenticated ROS 2 peer acting as an attacker (tests/ros2_security.rs), on Eclipse
-Cyclone DDS (PyPI `cyclonedds`, no DDS Security configured), the types parsed from msg/:
+Cyclone DDS (PyPI `cyclonedds`, no DDS Security configured), the types parsed from msg/pbr_msgs/ (msg/, srv/):
 
   --accel STATION N   publishes N forged pbr_msgs/AccelPackets of one second each (100 Hz, a
                       1 Hz sine of 6 m/s² on east and north) on rt/pbr/accel, stamped so the
@@ -50,7 +50,7 @@ def fields_of(lines):
 
 
 def msg_type(msg_dir, name):
-    with open(os.path.join(msg_dir, name + ".msg")) as f:
+    with open(os.path.join(msg_dir, "msg", name + ".msg")) as f:
         return struct(name, "pbr_msgs::msg::dds_::%s_" % name, fields_of(f))
 
 
