@@ -26,10 +26,14 @@
 # rq/pbr/resetRequest + rr/pbr/resetReply; every enclave may use ROS 2's own ros_discovery_info,
 # rt/clock (read),
 # rt/rosout and rt/parameter_events):
-#   /rockwatch/node      the node: reads /pbr/accel (and any Imu topic: rt/*), publishes
-#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake and its status on
-#                        /diagnostics, serves /pbr/reset and its parameter services
-#   /rockwatch/station   replay / acquire: publishes /pbr/accel, reads /pbr/intake
+#   /rockwatch/node      the node: reads /pbr/accel, a partitioned node's /pbr/accel/p<i>of<N>
+#                        (docs/capacity.md) and any Imu topic (all three as rt/*), publishes
+#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake, /diagnostics, serves /pbr/reset and its
+#                        parameter services
+#   /rockwatch/station   replay / acquire: publishes /pbr/accel and the partition topics
+#                        /pbr/accel/p<i>of<N> of a scaled-out service (rt/pbr/accel/p*: the
+#                        permissions' topic expressions are fnmatch patterns, `*` matching `/`
+#                        too, in RustDDS (glob::Pattern) and Cyclone DDS alike), reads /pbr/intake
 #   /rockwatch/operator  `rockwatch reset --node`: calls /pbr/reset
 #   /rockwatch/reader    reads /pbr/alerts, /pbr/state, /pbr/ims
 # The governance refuses unauthenticated participants, encrypts discovery, liveliness and data,
@@ -132,6 +136,9 @@ topics() { for t in "$@"; do printf '          <topic>%s</topic>\n' "$t"; done; 
 # enclave NAME "PUBLISH TOPICS" "SUBSCRIBE TOPICS" (DDS topic names, globs allowed)
 enclave() {
   local name="$1" pub="$2" sub="$3" dir="$ks/enclaves$1"
+  # The topic lists hold DDS patterns (rt/*): never expanded as file names here.
+  local -
+  set -f
   mkdir -p "$dir"
   openssl req -new -nodes -newkey "ec:$tmp/ec.pem" -sha256 -keyout "$dir/key.pem" \
     -out "$tmp/req.pem" -subj "/CN=${name//\//\\/}" 2>"$tmp/err" || { cat "$tmp/err" >&2; exit 1; }
@@ -179,7 +186,7 @@ under() { local f="$1" ns p; shift; for ns in "${namespaces[@]}"; do
 enclave /rockwatch/node \
   "$(under rt pbr/alerts pbr/state pbr/ims pbr/intake) $(under rr pbr/resetReply) rt/diagnostics rr/*rockwatch/*" \
   "rt/* $(under rq pbr/resetRequest) rq/*rockwatch/*"
-enclave /rockwatch/station "$(under rt pbr/accel)" "$(under rt pbr/intake)"
+enclave /rockwatch/station "$(under rt pbr/accel 'pbr/accel/p*')" "$(under rt pbr/intake)"
 enclave /rockwatch/operator "$(under rq pbr/resetRequest)" "$(under rr pbr/resetReply)"
 enclave /rockwatch/reader "" "$(under rt pbr/alerts pbr/state pbr/ims)"
 

@@ -19,6 +19,7 @@ pub mod inventory;
 pub mod lhs;
 pub mod mesh;
 pub mod ode;
+pub mod partition;
 pub mod pulse;
 pub mod record;
 pub mod seedlink;

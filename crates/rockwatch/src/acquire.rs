@@ -38,6 +38,14 @@ pub struct AcquireConfig {
     /// iceoryx2 output (`--to iceoryx2`, the default): the node's `[iceoryx2]` section.
     #[serde(default)]
     pub iceoryx2: IoxConfig,
+    /// ROS 2 output to a scaled-out service of this many partitioned nodes
+    /// (docs/capacity.md): each station's packets go to its partition's topic
+    /// `pbr/accel/p<i>of<N>` (relative, resolved in `[ros2] namespace`). None: `pbr/accel`.
+    #[serde(default)]
+    pub partitions: Option<u32>,
+    /// Stations assigned to a partition explicitly, as in the nodes' configurations.
+    #[serde(default)]
+    pub partition_assign: BTreeMap<String, u32>,
 }
 
 /// `[inventory]`.
@@ -150,6 +158,7 @@ impl AcquireConfig {
         config.iceoryx2.config_file = config.iceoryx2.config_file.map(|f| base.join(f));
         config.seedlink.patterns().map_err(fail)?;
         config.clipping.check().map_err(fail)?;
+        config.partition_map().map_err(fail)?;
         if config.inventory.stationxml.is_empty() {
             return Err(fail(
                 "inventory.stationxml is empty: list the StationXML files".into(),
@@ -168,6 +177,15 @@ impl AcquireConfig {
             )));
         }
         Ok(config)
+    }
+
+    /// The partition map of the ROS 2 output (`partitions`, `[partition_assign]`), if any.
+    pub fn partition_map(&self) -> Result<Option<rockwatch_core::partition::PartitionMap>, String> {
+        match self.partitions {
+            Some(n) => crate::node_config::partition_map(n, &self.partition_assign).map(Some),
+            None if self.partition_assign.is_empty() => Ok(None),
+            None => Err("[partition_assign] needs `partitions = N`".into()),
+        }
     }
 
     /// The assembler settings.
@@ -481,6 +499,7 @@ mod tests {
         let base = "[seedlink]\nserver = \"h:1\"\nstreams = [\"XX.S..HN?\"]\n[inventory]\nstationxml = [\"x.xml\"]\n";
         for (extra, needle) in [
             ("[assembly]\nmax_wait_s = -1.0\n", "[assembly] out of range"),
+            ("[partition_assign]\n\"XX.S.00\" = 1\n", "needs `partitions"),
             ("", ""),
         ] {
             std::fs::write(&path, format!("{base}{extra}")).unwrap();

@@ -63,12 +63,14 @@ pub const FAULT_ABORT_AFTER_JOURNAL_ENV: &str = "ROCKWATCH_FAULT_ABORT_AFTER_JOU
 pub const FAULT_STALL_ON_RELOAD_ENV: &str = "ROCKWATCH_FAULT_STALL_ON_RELOAD_S";
 
 /// A configuration read again for a reload (SIGHUP): the engine's settings, the stations and
-/// the catalogue's blocks.
+/// the catalogue's blocks (with a partition: the node's own stations and blocks, and the ids of
+/// the blocks other partitions own, as [`NodeOptions::load_partitioned_blocks`] gives them).
 #[derive(Debug, Clone)]
 pub struct Reloaded {
     pub engine: rockwatch_core::engine::EngineConfig,
     pub stations: Vec<rockwatch_core::engine::StationConfig>,
     pub blocks: Vec<PbrSpec>,
+    pub foreign_blocks: HashSet<String>,
 }
 
 /// Most engine shards (worker threads) a runtime starts.
@@ -167,15 +169,41 @@ impl NodeOptions {
             .context("no catalogue: give --catalogue FILE or a --config that names one")
     }
 
-    /// Loads the catalogue as the engine's blocks (with their ensemble members).
+    /// Loads the catalogue as the engine's blocks (with their ensemble members): those of the
+    /// node's partition's stations (`partition` of the configuration; all without one).
     pub fn load_blocks(&self) -> anyhow::Result<Vec<PbrSpec>> {
+        Ok(self.load_partitioned_blocks()?.0)
+    }
+
+    /// As [`NodeOptions::load_blocks`], with the ids of the catalogue's blocks that other
+    /// partitions own (empty without a partition). Logs the partition's share.
+    pub fn load_partitioned_blocks(&self) -> anyhow::Result<(Vec<PbrSpec>, HashSet<String>)> {
         let path = self.catalogue_path()?;
-        Catalogue::load(&path)?
+        let specs = Catalogue::load(&path)?
             .pbrs()
             .iter()
             .map(PbrSpec::from_catalogue)
             .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let Some((partition, map)) = self
+            .config
+            .partitioning()
+            .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
+        else {
+            return Ok((specs, HashSet::new()));
+        };
+        let all = specs.len();
+        let stations: HashSet<&str> = specs.iter().map(|s| s.station.as_str()).collect();
+        let owned_stations = stations.iter().filter(|s| map.owns(partition, s)).count();
+        let total_stations = stations.len();
+        let (owned, foreign): (Vec<PbrSpec>, Vec<PbrSpec>) = specs
+            .into_iter()
+            .partition(|s| map.owns(partition, s.station.as_str()));
+        tracing::info!(
+            "partition {partition}: {owned_stations} of the catalogue's {total_stations} stations, {} of its {all} blocks",
+            owned.len()
+        );
+        Ok((owned, foreign.into_iter().map(|s| s.id).collect()))
     }
 
     /// Opens the state directory in force (the flag's, else the configuration's), if any,
@@ -459,7 +487,10 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 self.emit.overturned.insert(a.pbr_id.clone());
             }
         }
+        // Without a state directory there is nothing to journal: no copy of the alert (an
+        // allocation on the way from packet to alert).
         let record = match &output {
+            _ if self.emit.journal.is_none() => None,
             Output::Alert(alert) => Some(JournalRecord::Alert(alert.clone())),
             Output::EpisodeEnd { pbr_id, episode } => Some(JournalRecord::EpisodeEnd {
                 pbr_id: pbr_id.clone(),
@@ -597,6 +628,8 @@ pub struct NodeRuntime {
     /// Journal, stats, logs: where outputs go.
     emit: Emitter,
     pbr_ids: Vec<String>,
+    /// Blocks of the catalogue that other partitions' nodes own (scale-out).
+    foreign_pbr_ids: HashSet<String>,
     last_flush: Instant,
     /// [`NodeOptions::reject_future`]: the tolerance (ns), when on.
     max_ahead_ns: Option<i64>,
@@ -623,7 +656,10 @@ impl NodeRuntime {
     /// As [`NodeRuntime::start`]; with several shards, each worker calls `wake` after queueing
     /// outputs (so an event loop can sleep until [`NodeRuntime::poll`] has work).
     pub fn start_with_wake(options: &NodeOptions, wake: Wake) -> anyhow::Result<NodeRuntime> {
-        Self::start_with_blocks(options, options.load_blocks()?, wake)
+        let (owned, foreign) = options.load_partitioned_blocks()?;
+        let mut runtime = Self::start_with_blocks(options, owned, wake)?;
+        runtime.foreign_pbr_ids = foreign;
+        Ok(runtime)
     }
 
     /// As [`NodeRuntime::start_with_wake`], with the catalogue's blocks already loaded
@@ -651,14 +687,18 @@ impl NodeRuntime {
             options.shards
         };
         let config = &options.config;
+        // A partitioned node configures only its own stations (the others never reach it).
+        let stations = config
+            .owned_stations()
+            .map_err(|e| anyhow::anyhow!("configuration: {e}"))?;
         let engine = if shards == 1 {
-            let mut engine = Engine::new(config.engine, config.stations.clone(), &specs)?;
+            let mut engine = Engine::new(config.engine, stations, &specs)?;
             engine.restore(&records);
             EngineMode::Inline(Box::new(engine))
         } else {
             EngineMode::Sharded(ShardedEngine::start_with_wake(
                 config.engine,
-                &config.stations,
+                &stations,
                 &specs,
                 &records,
                 shards,
@@ -690,6 +730,7 @@ impl NodeRuntime {
             busy_ns: 0,
             data_s: 0.0,
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+            foreign_pbr_ids: HashSet::new(),
             last_flush: Instant::now(),
             max_ahead_ns: options
                 .reject_future
@@ -874,6 +915,7 @@ impl NodeRuntime {
             engine: config,
             stations,
             blocks,
+            foreign_blocks,
         } = reloaded;
         let report = match &mut self.engine {
             Some(EngineMode::Inline(engine)) => engine.reload(config, stations, &blocks)?,
@@ -883,10 +925,18 @@ impl NodeRuntime {
             None => anyhow::bail!("the engine has stopped"),
         };
         self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
+        self.foreign_pbr_ids = foreign_blocks;
         if self.max_ahead_ns.is_some() {
             self.max_ahead_ns = Some((config.plausibility.max_ahead_s * 1e9) as i64);
         }
         Ok(report)
+    }
+
+    /// Whether block `pbr_id` is in the catalogue but owned by another partition's node (which
+    /// answers for it: this node stays silent on its resets).
+    #[must_use]
+    pub fn is_foreign(&self, pbr_id: &str) -> bool {
+        self.foreign_pbr_ids.contains(pbr_id)
     }
 
     /// Whether block `pbr_id` has overturned and not been reset since (None: no such block).

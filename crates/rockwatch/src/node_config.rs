@@ -31,7 +31,11 @@
 //! qos = "sensor_data"                   # default: best effort, as most Imu drivers publish
 //! ```
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+
+use rockwatch_core::partition::{Partition, PartitionError, PartitionMap};
+use rockwatch_core::station_id::StationId;
 
 use rockwatch_core::engine::{EngineConfig, StationConfig};
 
@@ -45,6 +49,14 @@ pub struct NodeConfig {
     /// State directory (journal of alerts and fallen blocks).
     #[serde(default)]
     pub state_dir: Option<PathBuf>,
+    /// Scale-out: the partition of the service's stations this node owns, `"i/N"`
+    /// (docs/capacity.md); none: every station.
+    #[serde(default)]
+    pub partition: Option<String>,
+    /// Stations assigned to a partition explicitly (`[partition_assign]`, `"NET.STA.LOC" = i`),
+    /// the others by hash.
+    #[serde(default)]
+    pub partition_assign: BTreeMap<String, u32>,
     #[serde(default)]
     pub engine: EngineConfig,
     #[serde(default, rename = "station")]
@@ -87,6 +99,9 @@ pub enum NodeConfigProblem {
     /// A value is invalid (engine or station settings).
     #[error("{0}")]
     Invalid(#[from] rockwatch_core::engine::ConfigError),
+    /// `partition` or `[partition_assign]` is invalid.
+    #[error("{0}")]
+    Partition(String),
     /// A `[[notify]]` entry is invalid: its number (1-based) and why.
     #[error("[[notify]] #{0}: {1}")]
     Notify(usize, String),
@@ -120,12 +135,59 @@ impl NodeConfig {
             .status
             .validate()
             .map_err(|e| error(NodeConfigProblem::Status(e)))?;
+        config
+            .partitioning()
+            .map_err(|e| error(NodeConfigProblem::Partition(e)))?;
         for (i, n) in config.notify.iter().enumerate() {
             n.validate()
                 .map_err(|e| error(NodeConfigProblem::Notify(i + 1, e)))?;
         }
         Ok(config)
     }
+
+    /// The node's partition and the service's partition map (`partition`,
+    /// `[partition_assign]`), or None if the node owns every station; the error says which
+    /// setting is wrong.
+    pub fn partitioning(&self) -> Result<Option<(Partition, PartitionMap)>, String> {
+        let Some(text) = &self.partition else {
+            if self.partition_assign.is_empty() {
+                return Ok(None);
+            }
+            return Err("[partition_assign] needs `partition = \"i/N\"`".into());
+        };
+        let partition = Partition::parse(text).map_err(|e| e.to_string())?;
+        let map = partition_map(partition.count(), &self.partition_assign)?;
+        Ok(Some((partition, map)))
+    }
+
+    /// The stations of `[[station]]` this node serves: those of its partition (all without
+    /// one); the error says which partition setting is wrong.
+    pub fn owned_stations(&self) -> Result<Vec<StationConfig>, String> {
+        Ok(match self.partitioning()? {
+            Some((partition, map)) => self
+                .stations
+                .iter()
+                .filter(|s| map.owns(partition, s.id.as_str()))
+                .cloned()
+                .collect(),
+            None => self.stations.clone(),
+        })
+    }
+}
+
+/// The partition map of a service of `count` partitions with the `[partition_assign]` table
+/// `assign` (`"NET.STA.LOC" = i`): the one reading of that table, for nodes and senders.
+pub fn partition_map(count: u32, assign: &BTreeMap<String, u32>) -> Result<PartitionMap, String> {
+    let assigned = assign
+        .iter()
+        .map(|(id, &i)| {
+            StationId::parse(id)
+                .map(|s| (s, i))
+                .map_err(|e| format!("[partition_assign]: station {e}"))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    PartitionMap::assign(count, assigned)
+        .map_err(|e: PartitionError| format!("[partition_assign]: {e}"))
 }
 
 #[cfg(test)]
@@ -282,6 +344,30 @@ mod tests {
         assert!(
             e.contains("node.toml") && e.contains("[[notify]] #2") && e.contains("url"),
             "{e}"
+        );
+        for (bad, says) in [
+            ("partition = \"3/3\"\n", "i/N"),
+            (
+                "partition = \"1/3\"\n[partition_assign]\n\"CI.RRS.00\" = 3\n",
+                "only 3",
+            ),
+            (
+                "partition = \"1/3\"\n[partition_assign]\n\"CI.R-S.00\" = 0\n",
+                "R-S",
+            ),
+            ("[partition_assign]\n\"CI.RRS.00\" = 0\n", "needs"),
+        ] {
+            let e = load(bad).unwrap_err();
+            assert!(e.contains("node.toml") && e.contains(says), "{bad}: {e}");
+        }
+        let (p, map) = load("partition = \"2/3\"\n[partition_assign]\n\"CI.RRS.00\" = 0\n")
+            .unwrap()
+            .partitioning()
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            (p.index(), p.count(), map.partition_of("CI.RRS.00")),
+            (2, 3, 0)
         );
         let e = load("[[station]]\nid = \"CI.R-S.00\"\n").unwrap_err();
         assert!(e.contains("node.toml") && e.contains("R-S"), "{e}");

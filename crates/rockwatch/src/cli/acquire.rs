@@ -105,7 +105,12 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         }
         Output::Ros2 => {
             let plan = network_plan_from_env(&config.ros2, rockwatch::ros2::STATION_ENCLAVE)?;
-            Box::new(Ros2PacketSink::open(&plan, config.ros2.naming()?)?)
+            let map = config.partition_map().map_err(anyhow::Error::msg)?;
+            Box::new(Ros2PacketSink::open_partitioned(
+                &plan,
+                config.ros2.naming()?,
+                map,
+            )?)
         }
     };
     tracing::info!(

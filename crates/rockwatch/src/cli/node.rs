@@ -163,16 +163,24 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         if options.state_dir != new.state_dir || old.state_dir != now.state_dir {
             ignored.push("state_dir");
         }
+        // The partition fixes the node's input topic: a reload cannot move it.
+        if old.partition != now.partition || old.partition_assign != now.partition_assign {
+            anyhow::bail!(
+                "a change of partition or [partition_assign] needs a restart (the input topic and the service's other nodes depend on it)"
+            );
+        }
         if !ignored.is_empty() {
             tracing::warn!(
                 "reload: changes to {} take effect at the next restart",
                 ignored.join(", ")
             );
         }
+        let (blocks, foreign_blocks) = new.load_partitioned_blocks()?;
         Ok(Reloaded {
             engine: now.engine,
-            stations: now.stations.clone(),
-            blocks: new.load_blocks()?,
+            stations: now.owned_stations().map_err(anyhow::Error::msg)?,
+            blocks,
+            foreign_blocks,
         })
     };
     let supervision = Supervision {

@@ -110,7 +110,9 @@ pub struct ReplayArgs {
     #[arg(long = "loop", default_value_t = 1, value_name = "N")]
     loops: u32,
     /// Node configuration whose [ros2] section (namespace, domain, interfaces) or [iceoryx2]
-    /// section (config file, service names) to use.
+    /// section (config file, service names) to use. With `partition = "i/N"` (a node of a
+    /// scaled-out service), the packets go over ROS 2 to the station's partition's topic
+    /// `/pbr/accel/p<j>of<N>` (the hash or `[partition_assign]`), whatever i.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Seconds to wait for the node's subscription before the first packet, and (ROS 2) for
@@ -253,7 +255,12 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     match args.transport {
         Transport::Ros2 => {
             let plan = network_plan_from_env(&config.ros2, rockwatch::ros2::STATION_ENCLAVE)?;
-            let mut sink = Ros2PacketSink::open(&plan, config.ros2.naming()?)?;
+            // A partitioned service's configuration: each station to its partition's topic.
+            let map = config
+                .partitioning()
+                .map_err(anyhow::Error::msg)?
+                .map(|(_, map)| map);
+            let mut sink = Ros2PacketSink::open_partitioned(&plan, config.ros2.naming()?, map)?;
             if args.wait_s.is_finite() && args.wait_s >= 0.0 {
                 sink.set_wait(Duration::from_secs_f64(args.wait_s));
             }

@@ -208,8 +208,12 @@ impl Reactor {
                 .map(|d| d.display().to_string())
                 .unwrap_or_default(),
         };
+        let partition = config
+            .partitioning()
+            .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
+            .map(|(p, _)| p);
         let (mut ros2, ros2_publisher) =
-            Ros2Node::start(&config.ros2, plan, params, control_sender)?;
+            Ros2Node::start(&config.ros2, plan, params, control_sender, partition)?;
         ros2.register(poll.registry(), ROS2_FIRST)
             .context("cannot register the ROS 2 subscriptions with the event loop")?;
         ros2.register_reset(poll.registry(), RESET)
@@ -773,8 +777,12 @@ impl Inbox {
 /// Serves one `/pbr/reset` request: [`NodeRuntime::operator_reset`] (an overturned block is
 /// reset, journaled first; a standing one left alone; an unknown id refused) and its response.
 /// A failed journal is reported to the client (success false) and logged; the node goes on.
-fn reset_response(runtime: &mut NodeRuntime, pbr_id: &str) -> ResetPbrResponse {
-    match runtime.operator_reset(pbr_id) {
+/// None (no response) for a block of another partition: its own node answers.
+fn reset_response(runtime: &mut NodeRuntime, pbr_id: &str) -> Option<ResetPbrResponse> {
+    if runtime.is_foreign(pbr_id) {
+        return None;
+    }
+    Some(match runtime.operator_reset(pbr_id) {
         Ok(outcome) => ResetPbrResponse {
             success: outcome.success(),
             message: outcome.message(pbr_id),
@@ -783,7 +791,7 @@ fn reset_response(runtime: &mut NodeRuntime, pbr_id: &str) -> ResetPbrResponse {
             success: false,
             message: format!("block {pbr_id} not reset: the state directory failed: {e:#}"),
         },
-    }
+    })
 }
 
 /// Applies every queued settings change.

@@ -14,10 +14,11 @@ use super::config::{ImuInput, Ros2Config};
 use super::imu::{imu_packet, ImuMsg};
 use super::intake_report::WriterCounts;
 use super::msg;
-use super::names::ACCEL_TOPIC;
+use super::names::accel_topic;
 use super::qos::input_qos;
 use super::session::Ros2Session;
 use rockwatch_core::engine::AccelPacket;
+use rockwatch_core::partition::Partition;
 
 /// Counters of the node's ROS 2 intake.
 #[derive(Debug, Default)]
@@ -65,21 +66,27 @@ impl IntakeLog {
     }
 }
 
-/// The input subscriptions: `/pbr/accel` (input 0), then the Imu topics (inputs 1..).
+/// The input subscriptions: `pbr/accel` or the partition's `pbr/accel/p<i>of<N>` (input 0),
+/// then the Imu topics (inputs 1..).
 pub(super) struct Inputs {
     accel: Subscription<msg::AccelPacket>,
+    /// Name of input 0.
+    accel_topic: String,
     /// Imu inputs with the sequence number of their next one-sample packet.
     imus: Vec<(ImuInput, Subscription<ImuMsg>, u64)>,
 }
 
 impl Inputs {
-    /// Subscribes `/pbr/accel` and every configured Imu topic on `session`'s node.
+    /// Subscribes `/pbr/accel` (`partition`: its own topic) and every configured Imu topic on
+    /// `session`'s node.
     pub(super) fn subscribe(
         session: &mut Ros2Session,
         config: &Ros2Config,
+        partition: Option<Partition>,
     ) -> anyhow::Result<Inputs> {
+        let accel_topic = accel_topic(partition);
         let accel: Subscription<msg::AccelPacket> = session.subscription(
-            ACCEL_TOPIC,
+            &accel_topic,
             msg::PACKAGE,
             "AccelPacket",
             input_qos(config.input_qos, config.input_depth),
@@ -97,7 +104,11 @@ impl Inputs {
                 session.subscription(&imu.topic, "sensor_msgs", "Imu", qos)?;
             imus.push((imu.clone(), sub, 0));
         }
-        Ok(Inputs { accel, imus })
+        Ok(Inputs {
+            accel,
+            accel_topic,
+            imus,
+        })
     }
 
     /// Number of input subscriptions.
@@ -138,7 +149,7 @@ impl Inputs {
                         submit(AccelPacket::from(&m))?;
                     }
                     Ok(None) => return Ok(false),
-                    Err(e) => log.undecodable(ACCEL_TOPIC, &format!("{e:?}")),
+                    Err(e) => log.undecodable(&self.accel_topic, &format!("{e:?}")),
                 }
             } else {
                 let Some((imu, sub, sequence)) = self.imus.get_mut(input - 1) else {

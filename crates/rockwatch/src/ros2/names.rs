@@ -8,12 +8,25 @@
 //! every topic and service name through it.
 
 use anyhow::{anyhow, bail};
+use rockwatch_core::partition::Partition;
 use ros2_client::ServiceMapping;
 
 /// The node's default name in the ROS graph (`-r __node:=NAME` changes it).
 pub const NODE_NAME: &str = "rockwatch";
 /// Input topic (`pbr_msgs/AccelPacket`), relative: resolved in the node's namespace.
 pub const ACCEL_TOPIC: &str = "pbr/accel";
+/// The input topic of `partition` of a scaled-out service, `pbr/accel/p<i>of<N>` (relative,
+/// resolved in the node's namespace like [`ACCEL_TOPIC`]; docs/capacity.md); [`ACCEL_TOPIC`]
+/// without one. RustDDS 0.15 implements neither the DDS Partition QoS nor content-filtered
+/// topics, and ROS 2 messages carry no DDS key: a topic per partition is what lets a node
+/// receive only its stations' packets.
+#[must_use]
+pub fn accel_topic(partition: Option<Partition>) -> String {
+    match partition {
+        Some(p) => format!("{ACCEL_TOPIC}/p{}of{}", p.index(), p.count()),
+        None => ACCEL_TOPIC.to_string(),
+    }
+}
 /// Output topics, relative.
 pub const IMS_TOPIC: &str = "pbr/ims";
 pub const STATE_TOPIC: &str = "pbr/state";
@@ -270,6 +283,22 @@ mod tests {
             from: from.into(),
             to: to.into(),
         }
+    }
+
+    #[test]
+    fn partition_topics_are_relative_and_resolve_in_the_namespace() {
+        let p = Partition::new(1, 3).unwrap();
+        assert_eq!(accel_topic(None), ACCEL_TOPIC);
+        assert_eq!(accel_topic(Some(p)), "pbr/accel/p1of3");
+        let site = Naming::new("/site_a", NODE_NAME, vec![]).unwrap();
+        assert_eq!(
+            site.resolve(&accel_topic(Some(p))).unwrap(),
+            "/site_a/pbr/accel/p1of3"
+        );
+        assert_eq!(
+            Naming::default().resolve(&accel_topic(Some(p))).unwrap(),
+            "/pbr/accel/p1of3"
+        );
     }
 
     #[test]

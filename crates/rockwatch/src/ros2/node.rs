@@ -20,6 +20,7 @@ use super::reset::ResetServer;
 use super::session::Ros2Session;
 use crate::ports::ControlSender;
 use rockwatch_core::engine::{AccelPacket, EngineConfig};
+use rockwatch_core::partition::Partition;
 
 /// The node's ROS 2 side: parameters, the input subscriptions, the reset service and (returned
 /// separately by [`Ros2Node::start`]) the output publishers. It has no intake thread: the
@@ -50,6 +51,7 @@ struct Started {
     plan: NetworkPlan,
     params: ParamValues,
     controls: ControlSender,
+    partition: Option<Partition>,
 }
 
 impl Ros2Node {
@@ -57,17 +59,22 @@ impl Ros2Node {
     /// parameter services (initial values `params`; changes go to `controls`, i.e. the node's
     /// event loop), subscribes the inputs, creates the output publishers and the server of
     /// [`RESET_SERVICE`](super::RESET_SERVICE), every name resolved in the namespace.
+    /// With a `partition` (scale-out), the packet input is that partition's topic
+    /// (`pbr/accel/p<i>of<N>`, resolved in the namespace) instead of `pbr/accel`; the outputs,
+    /// parameters and service are the same as every other node's of the service.
     pub fn start(
         config: &Ros2Config,
         plan: &NetworkPlan,
         params: ParamValues,
         controls: ControlSender,
+        partition: Option<Partition>,
     ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
         let started = Started {
             config: config.clone(),
             plan: plan.clone(),
             params,
             controls,
+            partition,
         };
         Self::open(started, Arc::new(IntakeCounters::default()))
     }
@@ -81,6 +88,7 @@ impl Ros2Node {
             plan,
             params,
             controls,
+            partition,
         } = &started;
         // The node serves its own parameter services (with descriptors): ros2-client's off.
         let options = NodeOptions::new()
@@ -88,7 +96,7 @@ impl Ros2Node {
             .start_parameter_services(false);
         let mut session = Ros2Session::open(plan, &config.naming()?, options)?;
         let publisher = Ros2Publisher::open(&mut session)?;
-        let inputs = Inputs::subscribe(&mut session, config)?;
+        let inputs = Inputs::subscribe(&mut session, config, *partition)?;
         let reset = ResetServer::open(&mut session)?;
         let params = ParamServer::open(&mut session, params.clone(), controls.clone())?;
         let intake = session.publisher(INTAKE_TOPIC, "IntakeReport", intake_qos())?;
@@ -130,6 +138,7 @@ impl Ros2Node {
             plan: self.started.plan.clone(),
             params: self.params.values.clone(),
             controls: self.started.controls.clone(),
+            partition: self.started.partition,
         };
         let (mut node, publisher) = Self::open(started, Arc::clone(&self.counters))?;
         node.log.writers = std::mem::take(&mut self.log.writers);
@@ -178,7 +187,11 @@ impl Ros2Node {
     /// block id and gives the response, which is sent once the client can receive it
     /// ([`Ros2Node::send_due_replies`]). Undecodable requests are counted and logged like
     /// undecodable packets. Returns true if the bound was reached (more may be waiting).
-    pub fn serve_resets(&mut self, handle: &mut impl FnMut(&str) -> msg::ResetPbrResponse) -> bool {
+    /// `handle` gives None for a block that another node of the service owns: no response.
+    pub fn serve_resets(
+        &mut self,
+        handle: &mut impl FnMut(&str) -> Option<msg::ResetPbrResponse>,
+    ) -> bool {
         self.reset.serve(&self.session, &mut self.log, handle)
     }
 

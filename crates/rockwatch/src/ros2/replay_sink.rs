@@ -1,6 +1,8 @@
 //! Replay over ROS 2 ([`Ros2PacketSink`]): `/pbr/accel` published from a node
 //! `rockwatch_replay`, paced by what the node reports it has taken (`/pbr/intake`), so that
 //! a replay ends only once the node has processed every packet — or says how many it did not.
+//! To a scaled-out service (docs/capacity.md) each station's packets go to its partition's
+//! topic, one writer per partition, each paced and confirmed by the node that reads it.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -11,13 +13,14 @@ use ros2_client::Gid;
 
 use super::intake_report::IntakeWatch;
 use super::msg;
-use super::names::{Naming, ACCEL_TOPIC, INTAKE_TOPIC};
+use super::names::{accel_topic, Naming, INTAKE_TOPIC};
 use super::network::NetworkPlan;
 use super::qos::{intake_qos, replay_qos, REPLAY_HISTORY};
 use super::session::Ros2Session;
 use crate::logging::MuteLibraries;
 use crate::ports::PacketSink;
 use rockwatch_core::engine::AccelPacket;
+use rockwatch_core::partition::{Partition, PartitionMap};
 
 /// Most packets a replay has sent that the node has not yet reported taken. Below the node's
 /// reader depth (`[ros2] input_depth`, default 1000), so the node's DDS reader (keep last) can
@@ -46,22 +49,23 @@ pub const DEFAULT_INTAKE_WAIT: Duration = Duration::from_secs(30);
 /// replay's memory stays bounded), and [`PacketSink::finish`] waits until the node has taken
 /// every packet sent, else fails naming how many it did not.
 ///
+/// To a service of N partitioned nodes ([`Ros2PacketSink::open_partitioned`]) the sink has one
+/// writer ("lane") per partition topic `pbr/accel/p<i>of<N>`, and sends each packet on its
+/// station's partition's lane. Only the node of partition i reads lane i's writer, so the
+/// reports about that writer (one GUID) come from that node alone and every lane is paced and
+/// confirmed exactly as a single node's replay: the accounting needs no change in the nodes.
+///
 /// A replay survives the death of its own DDS participant (RustDDS ends its threads on EINTR,
 /// e.g. after SIGSTOP/SIGCONT of the replay): it notices within [`REPLAY_LIVENESS_CHECK`],
-/// says so, builds a new participant and writer, learns from the node's report how many
-/// packets of the dead writer the node took, and sends the rest again (it keeps the last
-/// [`CREDIT_WINDOW`] packets for that). The writer is not listed under
+/// says so, builds a new participant and writers, learns from the nodes' reports how many
+/// packets of each dead writer they took, and sends the rest again (it keeps the last
+/// [`CREDIT_WINDOW`] packets of each lane for that). The writers are not listed under
 /// the node in the ROS 2 graph (`ros2 topic info` shows the publisher without its node name).
 pub struct Ros2PacketSink {
-    writer: no_key::DataWriterCdr<msg::AccelPacket>,
-    intake: IntakeWatch,
-    /// Distinct packets sent (each resent one counted once).
-    sent: u64,
-    /// Packets of the writers before the current one that the node took: the current writer's
-    /// k-th message is packet `base + k - 1`.
-    base: u64,
-    /// The last packets sent (at most [`CREDIT_WINDOW`]), the last one being packet `sent - 1`.
-    recent: VecDeque<msg::AccelPacket>,
+    /// One per partition (one lane, `pbr/accel`, without partitions).
+    lanes: Vec<Lane>,
+    /// Which lane a station's packets take (None: the one lane).
+    map: Option<PartitionMap>,
     /// Where and as what the participant was built (for a rebuild).
     plan: NetworkPlan,
     naming: Naming,
@@ -70,66 +74,143 @@ pub struct Ros2PacketSink {
     pub rebuilds: u64,
     /// How long to wait for the node's reports to move.
     wait: Duration,
-    /// Readers matched now, from the writer's publication-matched status events.
-    matched: i32,
-    /// A matched reader went away (the node stopped or died mid-replay).
-    lost_reader: bool,
     /// Last: the endpoints above are dropped before their participant.
     _session: Ros2Session,
 }
 
+/// One writer of a replay and what the node reading it has taken.
+struct Lane {
+    topic: String,
+    writer: no_key::DataWriterCdr<msg::AccelPacket>,
+    intake: IntakeWatch,
+    /// Distinct packets sent on this lane (each resent one counted once).
+    sent: u64,
+    /// Packets of the lane's writers before the current one that the node took: the current
+    /// writer's k-th message is packet `base + k - 1`.
+    base: u64,
+    /// The last packets sent (at most [`CREDIT_WINDOW`]), the last one being packet `sent - 1`.
+    recent: VecDeque<msg::AccelPacket>,
+    /// Readers matched now, from the writer's publication-matched status events.
+    matched: i32,
+    /// A matched reader went away (the node stopped or died mid-replay).
+    lost_reader: bool,
+}
+
+impl Lane {
+    /// Packets the node has reported taken, over every writer of this lane.
+    fn confirmed(&mut self) -> u64 {
+        self.base + self.intake.taken()
+    }
+
+    /// Readers matched now (after taking the writer's pending status events).
+    fn matched_readers(&mut self) -> i32 {
+        while let Some(status) = self.writer.try_recv_status() {
+            if let DataWriterStatus::PublicationMatched { current, .. } = status {
+                self.matched = current.count();
+                self.lost_reader |= current.count_change() < 0;
+            }
+        }
+        self.matched
+    }
+
+    fn write(&mut self, m: msg::AccelPacket) -> anyhow::Result<()> {
+        self.writer
+            .write(m, Some(ros2_client::dds::rustdds::Timestamp::now()))
+            .map_err(|e| anyhow!("ROS 2 publish on {}: {e:?}", self.topic))
+    }
+}
+
+/// A new participant's writers (one per topic) with their subscriptions to the nodes' reports.
+type Parts = (
+    Ros2Session,
+    Vec<(
+        no_key::DataWriterCdr<msg::AccelPacket>,
+        ros2_client::Subscription<msg::IntakeReport>,
+    )>,
+);
+
 impl Ros2PacketSink {
     /// Publishes on `pbr/accel` as the node `rockwatch_replay` in `naming`'s namespace (the
-    /// node's: the topics resolve there, then its remaps).
+    /// node's: the topics resolve there, then its remaps): a replay to one node (or nodes
+    /// without partitions).
     pub fn open(plan: &NetworkPlan, naming: impl Into<Naming>) -> anyhow::Result<Ros2PacketSink> {
+        Self::open_partitioned(plan, naming, None)
+    }
+
+    /// A replay to a service partitioned by `map` (each station's packets on its partition's
+    /// topic `pbr/accel/p<i>of<N>`), or to `pbr/accel` if None; every topic resolved by
+    /// `naming` as the nodes resolve theirs.
+    pub fn open_partitioned(
+        plan: &NetworkPlan,
+        naming: impl Into<Naming>,
+        map: Option<PartitionMap>,
+    ) -> anyhow::Result<Ros2PacketSink> {
         let naming = naming.into();
-        let (session, writer, reports) = Self::open_parts(plan, &naming)?;
-        let intake = IntakeWatch::new(reports, Gid::from(writer.guid()));
+        let topics = Self::topics(map.as_ref())?;
+        let (session, parts) = Self::open_parts(plan, &naming, &topics)?;
+        let lanes = topics
+            .into_iter()
+            .zip(parts)
+            .map(|(topic, (writer, reports))| Lane {
+                intake: IntakeWatch::new(reports, Gid::from(writer.guid())),
+                topic,
+                writer,
+                sent: 0,
+                base: 0,
+                recent: VecDeque::with_capacity(CREDIT_WINDOW as usize),
+                matched: 0,
+                lost_reader: false,
+            })
+            .collect();
         Ok(Ros2PacketSink {
             _session: session,
-            writer,
-            intake,
-            sent: 0,
-            base: 0,
-            recent: VecDeque::with_capacity(CREDIT_WINDOW as usize),
+            lanes,
+            map,
             plan: plan.clone(),
             naming,
             last_liveness: Instant::now(),
             rebuilds: 0,
             wait: DEFAULT_INTAKE_WAIT,
-            matched: 0,
-            lost_reader: false,
         })
     }
 
-    /// A participant with the replay's writer and its subscription to the node's reports.
-    #[allow(clippy::type_complexity)]
-    fn open_parts(
-        plan: &NetworkPlan,
-        naming: &Naming,
-    ) -> anyhow::Result<(
-        Ros2Session,
-        no_key::DataWriterCdr<msg::AccelPacket>,
-        ros2_client::Subscription<msg::IntakeReport>,
-    )> {
-        let mut session = Ros2Session::open_client(plan, naming, "rockwatch_replay")?;
-        let qos = replay_qos();
-        let topic = session.topic(ACCEL_TOPIC, msg::PACKAGE, "AccelPacket", &qos)?;
-        let dds_qos = ros2_client::dds::rustdds::QosPolicies::from(qos);
-        let writer = session
-            .context
-            .domain_participant()
-            .create_publisher(&dds_qos)
-            .and_then(|p| p.create_datawriter_no_key_cdr(&topic, Some(dds_qos.clone())))
-            .map_err(|e| anyhow!("ROS 2 publisher {ACCEL_TOPIC}: {e:?}"))?;
-        let reports =
-            session.subscription(INTAKE_TOPIC, msg::PACKAGE, "IntakeReport", intake_qos())?;
-        Ok((session, writer, reports))
+    /// The input topics of the service: one per partition of `map`, else `pbr/accel`.
+    fn topics(map: Option<&PartitionMap>) -> anyhow::Result<Vec<String>> {
+        match map {
+            None => Ok(vec![accel_topic(None)]),
+            Some(map) => (0..map.count())
+                .map(|i| Ok(accel_topic(Some(Partition::new(i, map.count())?))))
+                .collect(),
+        }
     }
 
-    /// Packets the node has reported taken, over every writer of this replay.
-    fn confirmed(&mut self) -> u64 {
-        self.base + self.intake.taken()
+    /// A participant with one writer per topic and, for each, a subscription to the nodes'
+    /// reports.
+    fn open_parts(plan: &NetworkPlan, naming: &Naming, topics: &[String]) -> anyhow::Result<Parts> {
+        let mut session = Ros2Session::open_client(plan, naming, "rockwatch_replay")?;
+        let qos = replay_qos();
+        let dds_qos = ros2_client::dds::rustdds::QosPolicies::from(qos.clone());
+        let mut parts = Vec::with_capacity(topics.len());
+        for name in topics {
+            let topic = session.topic(name, msg::PACKAGE, "AccelPacket", &qos)?;
+            let writer = session
+                .context
+                .domain_participant()
+                .create_publisher(&dds_qos)
+                .and_then(|p| p.create_datawriter_no_key_cdr(&topic, Some(dds_qos.clone())))
+                .map_err(|e| anyhow!("ROS 2 publisher {name}: {e:?}"))?;
+            let reports =
+                session.subscription(INTAKE_TOPIC, msg::PACKAGE, "IntakeReport", intake_qos())?;
+            parts.push((writer, reports));
+        }
+        Ok((session, parts))
+    }
+
+    /// The lane of `station`'s packets.
+    fn lane_of(&self, station: &str) -> usize {
+        self.map
+            .as_ref()
+            .map_or(0, |m| m.partition_of(station) as usize)
     }
 
     /// Checks (at most every [`REPLAY_LIVENESS_CHECK`]) that the participant's threads run;
@@ -145,7 +226,7 @@ impl Ros2PacketSink {
         }
     }
 
-    /// Replaces the dead participant: a new writer, the node's count of the dead writer's
+    /// Replaces the dead participant: new writers, the nodes' count of each dead writer's
     /// packets, and the packets after those sent again.
     fn rebuild(&mut self, thread: &str) -> anyhow::Result<()> {
         tracing::error!(
@@ -153,17 +234,20 @@ impl Ros2PacketSink {
              has ended (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT); \
              rebuilding it and sending again what the node has not taken"
         );
-        let (session, writer, reports) = Self::open_parts(&self.plan, &self.naming)?;
+        let topics: Vec<String> = self.lanes.iter().map(|l| l.topic.clone()).collect();
+        let (session, parts) = Self::open_parts(&self.plan, &self.naming, &topics)?;
         {
             // The dead participant's teardown: RustDDS logs each endpoint it cannot remove.
             let _quiet = MuteLibraries::new();
-            self.intake.switch(reports, Gid::from(writer.guid()));
-            // Endpoints before their participant (see the field order).
-            self.writer = writer;
+            for (lane, (writer, reports)) in self.lanes.iter_mut().zip(parts) {
+                lane.intake.switch(reports, Gid::from(writer.guid()));
+                // Endpoints before their participant (see the field order).
+                lane.writer = writer;
+                lane.matched = 0;
+                lane.lost_reader = false;
+            }
             self._session = session;
         }
-        self.matched = 0;
-        self.lost_reader = false;
         if !self.wait_for_subscriber(self.wait)? {
             bail!(
                 "the replay's DDS participant was rebuilt, but no node subscribed again within {:.0} s",
@@ -171,36 +255,45 @@ impl Ros2PacketSink {
             );
         }
         let deadline = Instant::now() + PREVIOUS_REPORT_WAIT;
-        while !self.intake.previous().is_some_and(|(_, heard)| heard) && Instant::now() < deadline {
+        while !self
+            .lanes
+            .iter_mut()
+            .all(|l| l.sent == 0 || l.intake.previous().is_some_and(|(_, heard)| heard))
+            && Instant::now() < deadline
+        {
             std::thread::sleep(Duration::from_millis(20));
         }
-        let (taken, _) = self.intake.previous().unwrap_or((0, false));
-        self.base += taken;
-        let first_kept = self.sent - self.recent.len() as u64;
-        if self.base < first_kept {
-            bail!(
-                "the replay's DDS participant was rebuilt, but the node has taken only {} of {} packets and the replay kept only the last {}",
-                self.base,
-                self.sent,
-                self.recent.len()
-            );
-        }
-        self.base = self.base.min(self.sent);
-        let again: Vec<msg::AccelPacket> = self
-            .recent
-            .iter()
-            .skip((self.base - first_kept) as usize)
-            .cloned()
-            .collect();
-        for m in &again {
-            self.send_msg(m.clone())?;
+        let (mut taken_all, mut sent_all, mut again_all) = (0, 0, 0);
+        for lane in &mut self.lanes {
+            let (taken, _) = lane.intake.previous().unwrap_or((0, false));
+            lane.base += taken;
+            let first_kept = lane.sent - lane.recent.len() as u64;
+            if lane.base < first_kept {
+                bail!(
+                    "the replay's DDS participant was rebuilt, but the node of {} has taken only {} of {} packets and the replay kept only the last {}",
+                    lane.topic,
+                    lane.base,
+                    lane.sent,
+                    lane.recent.len()
+                );
+            }
+            lane.base = lane.base.min(lane.sent);
+            let again: Vec<msg::AccelPacket> = lane
+                .recent
+                .iter()
+                .skip((lane.base - first_kept) as usize)
+                .cloned()
+                .collect();
+            for m in &again {
+                lane.write(m.clone())?;
+            }
+            taken_all += lane.base;
+            sent_all += lane.sent;
+            again_all += again.len();
         }
         self.rebuilds += 1;
         tracing::info!(
-            "replay participant rebuilt: the node had taken {} of {} packets; {} sent again",
-            self.base,
-            self.sent,
-            again.len()
+            "replay participant rebuilt: the node had taken {taken_all} of {sent_all} packets; {again_all} sent again"
         );
         Ok(())
     }
@@ -211,38 +304,29 @@ impl Ros2PacketSink {
         self.wait = wait;
     }
 
-    /// Sends a raw message (tests of malformed input), without flow control.
+    /// Sends a raw message (tests of malformed input), without flow control, on the lane of
+    /// its `frame_id`.
     pub fn send_msg(&mut self, m: msg::AccelPacket) -> anyhow::Result<()> {
-        self.writer
-            .write(m, Some(ros2_client::dds::rustdds::Timestamp::now()))
-            .map_err(|e| anyhow!("ROS 2 publish on {ACCEL_TOPIC}: {e:?}"))
+        let lane = self.lane_of(&m.header.frame_id);
+        self.lanes[lane].write(m)
     }
 
-    /// Packets sent so far, and of those the node has reported taken.
+    /// Packets sent so far, and of those the node(s) have reported taken.
     pub fn progress(&mut self) -> (u64, u64) {
-        (self.sent, self.confirmed())
+        self.lanes.iter_mut().fold((0, 0), |(s, t), l| {
+            (s + l.sent, t + l.confirmed().min(l.sent))
+        })
     }
 
-    /// Readers matched now (after taking the writer's pending status events).
-    fn matched_readers(&mut self) -> i32 {
-        while let Some(status) = self.writer.try_recv_status() {
-            if let DataWriterStatus::PublicationMatched { current, .. } = status {
-                self.matched = current.count();
-                self.lost_reader |= current.count_change() < 0;
-            }
-        }
-        self.matched
-    }
-
-    /// Waits until at most `unreported` packets are not reported taken by the node; false if
-    /// the reports stood still for the wait ([`Ros2PacketSink::set_wait`]).
-    fn wait_for_intake(&mut self, unreported: u64) -> anyhow::Result<bool> {
-        let mut taken = self.confirmed();
+    /// Waits until at most `unreported` packets of lane `lane` are not reported taken by its
+    /// node; false if the reports stood still for the wait ([`Ros2PacketSink::set_wait`]).
+    fn wait_for_intake(&mut self, lane: usize, unreported: u64) -> anyhow::Result<bool> {
+        let mut taken = self.lanes[lane].confirmed();
         let mut last_move = Instant::now();
-        while self.sent - taken.min(self.sent) > unreported {
+        while self.lanes[lane].sent - taken.min(self.lanes[lane].sent) > unreported {
             std::thread::sleep(Duration::from_micros(200));
             self.keep_alive()?;
-            let now = self.confirmed();
+            let now = self.lanes[lane].confirmed();
             if now != taken {
                 taken = now;
                 last_move = Instant::now();
@@ -253,31 +337,39 @@ impl Ros2PacketSink {
         Ok(true)
     }
 
-    /// One line on why the node has not taken everything.
-    fn shortfall(&mut self) -> String {
-        let (sent, taken) = self.progress();
-        let why = if self.intake.heard == 0 {
+    /// One line on why the node of lane `lane` has not taken everything.
+    fn shortfall(&mut self, lane: usize) -> String {
+        let wait = self.wait.as_secs_f64();
+        let partitioned = self.map.is_some();
+        let l = &mut self.lanes[lane];
+        let (sent, taken) = (l.sent, l.confirmed());
+        let why = if l.intake.heard == 0 {
             format!(
                 "no report of the node on {INTAKE_TOPIC} (is the subscriber a rockwatch node of this version?)"
             )
-        } else if self.matched_readers() == 0 || self.lost_reader {
+        } else if l.matched_readers() == 0 || l.lost_reader {
             "the node went away".to_string()
         } else {
             "lost on the way, e.g. the node's participant was rebuilt".to_string()
         };
+        let whose = if partitioned {
+            format!(" of {}", l.topic)
+        } else {
+            String::new()
+        };
         format!(
-            "sent {sent} packets, but the node did not acknowledge them all within {:.0} s: it took {taken}, {} not processed ({why})",
-            self.wait.as_secs_f64(),
+            "sent {sent} packets, but the node{whose} did not acknowledge them all within {wait:.0} s: it took {taken}, {} not processed ({why})",
             sent - taken.min(sent)
         )
     }
 }
 
 impl PacketSink for Ros2PacketSink {
+    /// Every lane's topic has a reader (with partitions: every partition's node is there).
     fn wait_for_subscriber(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         let deadline = Instant::now() + timeout;
         loop {
-            if self.matched_readers() > 0 {
+            if self.lanes.iter_mut().all(|l| l.matched_readers() > 0) {
                 return Ok(true);
             }
             if Instant::now() >= deadline {
@@ -289,23 +381,27 @@ impl PacketSink for Ros2PacketSink {
 
     fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()> {
         self.keep_alive()?;
-        if !self.wait_for_intake(CREDIT_WINDOW - 1)? {
-            bail!("{}", self.shortfall());
+        let lane = self.lane_of(&packet.station);
+        if !self.wait_for_intake(lane, CREDIT_WINDOW - 1)? {
+            bail!("{}", self.shortfall(lane));
         }
         let m = msg::AccelPacket::from(packet);
-        if self.recent.len() == CREDIT_WINDOW as usize {
-            self.recent.pop_front();
+        let l = &mut self.lanes[lane];
+        if l.recent.len() == CREDIT_WINDOW as usize {
+            l.recent.pop_front();
         }
-        self.recent.push_back(m.clone());
-        self.send_msg(m)?;
-        self.sent += 1;
+        l.recent.push_back(m.clone());
+        l.write(m)?;
+        l.sent += 1;
         Ok(())
     }
 
     fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         self.wait = timeout;
-        if !self.wait_for_intake(0)? {
-            bail!("{}", self.shortfall());
+        for lane in 0..self.lanes.len() {
+            if !self.wait_for_intake(lane, 0)? {
+                bail!("{}", self.shortfall(lane));
+            }
         }
         Ok(true)
     }
