@@ -43,7 +43,7 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
             Ok(s) => break s,
             Err(_) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(100)),
             Err(e) => {
-                let _ = node.kill();
+                let _ = node.child.kill();
                 panic!("alerts service never appeared: {e:#}");
             }
         }

@@ -16,12 +16,12 @@ mod ros2_util;
 
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output};
+use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
 use rockwatch::iox::{AccelHeader, AccelSample, IoxAlertSubscriber, IoxConfig};
-use ros2_util::{repo, spawn_node_in_netns, stop_node};
+use ros2_util::{repo, spawn_node_in_netns, stop_node, LoggedChild};
 
 /// Set in the copy of this binary run as the other user: what it does (see [`attacker`]).
 const ROLE_ENV: &str = "ROCKWATCH_IOX_OTHER_USER";
@@ -280,22 +280,32 @@ impl Deployment {
             .unwrap_or_else(|| panic!("no management segment among {:?}", self.segments()))
     }
 
-    /// The node, once its services exist (its alerts service can be opened).
+    /// The node, once it runs (its start line is written: its signals are taken, so a
+    /// SIGTERM stops it cleanly) and its services exist (its alerts service can be opened;
+    /// alone this may hold before the node runs, the previous node's service still seen).
     fn start_node(&self) -> Node {
         let mut node = spawn_node_in_netns(&self.node_file);
         let deadline = Instant::now() + Duration::from_secs(20);
         loop {
+            let started = node.stderr_so_far().contains("on DDS domain");
             match IoxAlertSubscriber::new(&self.iox_config()) {
-                Ok(_) => return Node(Some(node)),
-                Err(_) if Instant::now() < deadline => {
-                    if let Ok(Some(status)) = node.try_wait() {
+                Ok(_) if started => return Node(Some(node)),
+                Ok(_) | Err(_) if Instant::now() < deadline => {
+                    if let Ok(Some(status)) = node.child.try_wait() {
                         let (_, stderr) = stop_node(node);
                         panic!("node exited {status:?}: {stderr}");
                     }
                     std::thread::sleep(Duration::from_millis(100));
                 }
+                Ok(_) => {
+                    let _ = node.child.kill();
+                    panic!(
+                        "the node never wrote its start line: {}",
+                        node.stderr_so_far()
+                    );
+                }
                 Err(e) => {
-                    let _ = node.kill();
+                    let _ = node.child.kill();
                     panic!("the node's services never appeared: {e:#}");
                 }
             }
@@ -306,7 +316,7 @@ impl Deployment {
     fn refused_node(&self) -> (std::process::ExitStatus, String) {
         let mut node = spawn_node_in_netns(&self.node_file);
         let deadline = Instant::now() + Duration::from_secs(20);
-        while node.try_wait().unwrap().is_none() {
+        while node.child.try_wait().unwrap().is_none() {
             if Instant::now() > deadline {
                 let (_, stderr) = stop_node(node);
                 panic!("the node did not refuse to start: {stderr}");
@@ -326,7 +336,7 @@ impl Drop for Deployment {
 }
 
 /// A running node, killed if the test fails before stopping it.
-struct Node(Option<Child>);
+struct Node(Option<LoggedChild>);
 
 impl Node {
     /// SIGTERM; its exit status and stderr.
@@ -337,9 +347,9 @@ impl Node {
 
 impl Drop for Node {
     fn drop(&mut self) {
-        if let Some(mut child) = self.0.take() {
-            let _ = child.kill();
-            let _ = child.wait();
+        if let Some(mut node) = self.0.take() {
+            let _ = node.child.kill();
+            let _ = node.child.wait();
         }
     }
 }

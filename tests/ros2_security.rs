@@ -12,23 +12,10 @@
 mod ros2_util;
 mod seedlink_server;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use ros2_util::*;
-
-/// The tests of this file run one at a time: DDS Security handshakes are CPU-heavy, and with
-/// several secured participants per test starting together on 2 cores RustDDS 0.15.1 can leave
-/// an endpoint pair without its crypto handles ("Could not find a remote EndpointCryptoHandle"),
-/// a match that never completes (seen: the secured acquire's packets never reached the node
-/// while the other tests ran beside it; alone it passes). Held by the parent process around its
-/// re-executed child.
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    SERIAL
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-}
 
 fn keystore(dir: &Path) -> String {
     let ks = dir.join("keystore");
@@ -148,7 +135,6 @@ fn alert_subscriber() -> String {
 
 #[test]
 fn without_security_an_unauthenticated_peer_forges_packets_and_resets_blocks() {
-    let _serial = serial();
     if !peer_available(
         have_cyclonedds(),
         "cyclonedds",
@@ -193,7 +179,6 @@ fn without_security_an_unauthenticated_peer_forges_packets_and_resets_blocks() {
 
 #[test]
 fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_served() {
-    let _serial = serial();
     if !peer_available(
         have_cyclonedds(),
         "cyclonedds",
@@ -307,7 +292,6 @@ fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_s
 
 #[test]
 fn an_operator_identity_resets_a_block_and_a_station_identity_cannot() {
-    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let ks = keystore(dir.path());
     node_toml(dir.path(), "LOCALHOST");
@@ -363,7 +347,6 @@ fn an_operator_identity_resets_a_block_and_a_station_identity_cannot() {
 
 #[test]
 fn security_that_cannot_be_set_up_is_refused_under_enforce_and_said_under_permissive() {
-    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let ks = keystore(dir.path());
     node_toml(dir.path(), "LOCALHOST");
@@ -436,7 +419,6 @@ fn security_that_cannot_be_set_up_is_refused_under_enforce_and_said_under_permis
 /// the identity, and after `REBUILD_GIVE_UP` (30 s) the node exits 1 naming the fault.
 #[test]
 fn a_participant_that_cannot_be_rebuilt_ends_the_node_with_exit_1() {
-    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let ks = keystore(dir.path());
     node_toml(dir.path(), "LOCALHOST");
@@ -506,26 +488,16 @@ fn alert_keys(state: &Path) -> Vec<(String, u64, u32)> {
         .collect()
 }
 
-fn secured(cmd: &mut Command, keystore: &str) -> Child {
-    cmd.env("ROS_SECURITY_KEYSTORE", keystore)
-        .env("ROS_SECURITY_ENABLE", "true")
-        .env("ROS_SECURITY_STRATEGY", "Enforce")
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap()
+fn secured(cmd: &mut Command, keystore: &str) -> LoggedChild {
+    LoggedChild::spawn(
+        cmd.env("ROS_SECURITY_KEYSTORE", keystore)
+            .env("ROS_SECURITY_ENABLE", "true")
+            .env("ROS_SECURITY_STRATEGY", "Enforce"),
+    )
 }
 
-fn stop(mut child: Child) -> String {
-    let _ = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status();
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while child.try_wait().unwrap().is_none() && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    let _ = child.kill();
-    let out = child.wait_with_output().unwrap();
-    String::from_utf8_lossy(&out.stderr).into_owned()
+fn stop(child: LoggedChild) -> String {
+    child.stop(Duration::from_secs(10)).1
 }
 
 /// SeedLink (an independent server, seedlink-rs-server) → `rockwatch acquire --to ros2` with
@@ -533,7 +505,6 @@ fn stop(mut child: Child) -> String {
 /// records, so every packet of the secured acquisition was taken.
 #[test]
 fn an_acquire_with_the_station_identity_is_served() {
-    let _serial = serial();
     if !reexec_in_netns("an_acquire_with_the_station_identity_is_served", 150) {
         return;
     }
@@ -635,7 +606,6 @@ fn an_acquire_with_the_station_identity_is_served() {
 /// its endpoints and exits 1 at start.
 #[test]
 fn the_keystore_grants_the_pbr_names_under_the_nodes_namespace() {
-    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let ks = dir.path().join("keystore");
     let out = Command::new("bash")

@@ -296,22 +296,82 @@ pub fn source_pbr_msgs(prefix: &std::path::Path) -> String {
     )
 }
 
+/// A child process whose stderr a thread reads as it comes. A pipe nobody reads fills at
+/// 64 KiB, and then every thread of the child that logs blocks in `write`: the whole process
+/// stalls (a DDS participant's event loop included), which looks like a failure of the
+/// process under test.
+pub struct LoggedChild {
+    pub child: std::process::Child,
+    /// What the child has written on stderr so far.
+    text: std::sync::Arc<std::sync::Mutex<String>>,
+    reader: Option<std::thread::JoinHandle<()>>,
+}
+
+impl LoggedChild {
+    /// Spawns `cmd` with its stderr piped to the reading thread.
+    pub fn spawn(cmd: &mut Command) -> LoggedChild {
+        let mut child = cmd.stderr(std::process::Stdio::piped()).spawn().unwrap();
+        let pipe = child.stderr.take().expect("piped");
+        let text = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+        let theirs = std::sync::Arc::clone(&text);
+        let reader = Some(std::thread::spawn(move || {
+            use std::io::BufRead;
+            for line in std::io::BufReader::new(pipe).lines().map_while(Result::ok) {
+                let mut text = theirs
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                text.push_str(&line);
+                text.push('\n');
+            }
+        }));
+        LoggedChild {
+            child,
+            text,
+            reader,
+        }
+    }
+
+    /// What the child has written on stderr so far.
+    pub fn stderr_so_far(&self) -> String {
+        self.text
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
+    }
+
+    /// SIGTERM, then up to `grace` for the process to end (SIGKILL after): its exit status
+    /// and everything it wrote on stderr.
+    pub fn stop(mut self, grace: std::time::Duration) -> (std::process::ExitStatus, String) {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let deadline = std::time::Instant::now() + grace;
+        while self.child.try_wait().unwrap().is_none() && std::time::Instant::now() < deadline {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        let _ = self.child.kill();
+        let status = self.child.wait().unwrap();
+        if let Some(reader) = self.reader.take() {
+            let _ = reader.join();
+        }
+        (status, self.stderr_so_far())
+    }
+}
+
 /// `rockwatch node --config CONFIG` in its own network namespace (loopback up: its ROS 2 side
-/// opens DDS; iceoryx2 uses shared memory, which the namespace does not separate), stderr
-/// piped.
-pub fn spawn_node_in_netns(config: &std::path::Path) -> std::process::Child {
-    Command::new("unshare")
-        .args([
-            "-n",
-            "sh",
-            "-c",
-            "ip link set lo up && exec \"$0\" node --config \"$1\"",
-        ])
-        .arg(rockwatch())
-        .arg(config)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap()
+/// opens DDS; iceoryx2 uses shared memory, which the namespace does not separate).
+pub fn spawn_node_in_netns(config: &std::path::Path) -> LoggedChild {
+    LoggedChild::spawn(
+        Command::new("unshare")
+            .args([
+                "-n",
+                "sh",
+                "-c",
+                "ip link set lo up && exec \"$0\" node --config \"$1\"",
+            ])
+            .arg(rockwatch())
+            .arg(config),
+    )
 }
 
 /// `rockwatch replay --transport iceoryx2` of the bundled Rinaldi record (228° + vertical) as
@@ -342,17 +402,8 @@ pub fn replay_rinaldi_iox(config: &std::path::Path) -> Output {
 }
 
 /// SIGTERM to a node of [`spawn_node_in_netns`]; its exit status and stderr.
-pub fn stop_node(mut node: std::process::Child) -> (std::process::ExitStatus, String) {
-    use std::io::Read;
-    let _ = Command::new("kill")
-        .args(["-TERM", &node.id().to_string()])
-        .status();
-    let status = node.wait().unwrap();
-    let mut stderr = String::new();
-    if let Some(mut pipe) = node.stderr.take() {
-        pipe.read_to_string(&mut stderr).unwrap();
-    }
-    (status, stderr)
+pub fn stop_node(node: LoggedChild) -> (std::process::ExitStatus, String) {
+    node.stop(std::time::Duration::from_secs(60))
 }
 
 /// (pbr, episode, level) of every alert journaled in the state directory `state`, in journal

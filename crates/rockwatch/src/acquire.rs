@@ -341,6 +341,13 @@ impl RecordSink for PacketPublisher<'_> {
     }
 
     fn tick(&mut self) {
+        if let Err(e) = self.sink.tick() {
+            self.log.log(
+                "output",
+                "transport",
+                &format!("acquire: the output transport: {e:#} (logged at most once a minute)"),
+            );
+        }
         let now = self.now_ns();
         let mut send = send_all(&mut *self.sink, &mut self.counters);
         self.assembler.tick(now, &mut send);

@@ -91,6 +91,11 @@ pub trait PacketSink {
     fn wait_for_subscriber(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool>;
     /// Sends one packet.
     fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()>;
+    /// Housekeeping while nothing is sent (a live sender calls it about every 100 ms), e.g.
+    /// checking that the transport still runs. An error: the sink can no longer send.
+    fn tick(&mut self) -> anyhow::Result<()> {
+        Ok(())
+    }
     /// Waits up to `timeout` until every connected subscriber has received everything sent
     /// (reliable transports acknowledge); true if it has. Call before the sink is dropped.
     fn finish(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool> {

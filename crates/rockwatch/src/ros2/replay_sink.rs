@@ -379,6 +379,12 @@ impl PacketSink for Ros2PacketSink {
         }
     }
 
+    /// The participant's liveness: a sender that waits for data (acquire) still notices
+    /// its participant's death, and rebuilds it, while it has nothing to send.
+    fn tick(&mut self) -> anyhow::Result<()> {
+        self.keep_alive()
+    }
+
     fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()> {
         self.keep_alive()?;
         let lane = self.lane_of(&packet.station);

@@ -20,6 +20,9 @@ fn dds_err(what: &str) -> impl Fn(ros2_client::CreateError) -> anyhow::Error + '
     move |e| anyhow!("ROS 2: {what}: {e:?}")
 }
 
+/// Longest wait for the spinner thread to create its readers when a session opens.
+const SPINNER_SETUP_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
+
 /// Longest wait for the spinner thread to stop when a session is dropped.
 const SPINNER_STOP_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
 
@@ -77,13 +80,31 @@ impl Ros2Session {
             .new_node(node_name, options)
             .map_err(|e| anyhow!("ROS 2 node: {e:?}"))?;
         let spinner = node.spinner().map_err(dds_err("spinner"))?;
+        // The spinner creates its readers (ros_discovery_info, clock) when it is first
+        // polled. With DDS Security, RustDDS 0.15.1 deadlocks if another thread creates a
+        // topic meanwhile: creating a reader takes the security plugins' lock and then the
+        // participant's, creating a topic takes them the other way round (seen: `acquire`
+        // hung for good, RustDDS logging "I need my lock!!" every 100 ms). So the caller
+        // waits here until that first poll is over, before it creates any endpoint.
+        let (set_up, spinner_set_up) = std::sync::mpsc::channel::<()>();
         let spinner = std::thread::Builder::new()
             .name(format!("ros2-spin-{name}"))
             .spawn(move || {
-                if let Err(e) = futures::executor::block_on(spinner.spin()) {
+                let spun = futures::executor::block_on(async move {
+                    let mut spin = std::pin::pin!(spinner.spin());
+                    let first = futures::poll!(spin.as_mut());
+                    drop(set_up);
+                    match first {
+                        std::task::Poll::Ready(result) => result,
+                        std::task::Poll::Pending => spin.await,
+                    }
+                });
+                if let Err(e) = spun {
                     tracing::warn!("ROS 2 spinner stopped: {e:?}");
                 }
             })?;
+        // Disconnected once the first poll is over (or the thread ended); bounded all the same.
+        let _ = spinner_set_up.recv_timeout(SPINNER_SETUP_WAIT);
         Ok(Ros2Session {
             node,
             context,
