@@ -34,7 +34,7 @@ fn bench_intake(c: &mut Criterion) {
                 for i in 0..MESSAGES {
                     sn += 1;
                     let gid = gids[(i % writers) as usize];
-                    black_box(counts.taken(gid, sn));
+                    black_box(counts.taken(gid, sn, black_box(true)));
                     if i % PER_TURN == PER_TURN - 1 {
                         counts.due(false, &mut |r| reports += black_box(r.taken) & 1);
                     }

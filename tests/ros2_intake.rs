@@ -111,3 +111,60 @@ fn a_replay_whose_node_paused_mid_stream_is_whole_or_names_the_shortfall() {
         );
     }
 }
+
+/// A replay not given the node's configuration cannot check its station against the node's
+/// catalogue: the node reports on `/pbr/intake` how many packets it ignored (a station it
+/// does not monitor), and the replay exits 1 naming them; the same replay of a station the
+/// node monitors exits 0.
+#[test]
+fn a_replay_of_a_station_the_node_does_not_monitor_exits_1_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
+    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let rec = repo().join("tests/data/records/Rinaldi228.AT2");
+    let replay = |station: &str, out: &str| {
+        format!(
+            "RC=0; ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST '{bin}' replay --record '{r}' --azimuth 228 \
+                 --station {station} --transport ros2 --speed max --tail 0 --wait-s 30 \
+                 > '{d}/{out}.out' 2> '{d}/{out}.err' || RC=$?; echo {out}_RC=$RC",
+            r = rec.display()
+        )
+    };
+    let script = format!(
+        "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
+         {unknown}
+         {known}
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?",
+        c = config.display(),
+        unknown = replay("XX.UNK.00", "unknown"),
+        known = replay("CI.RRS.00", "known"),
+    );
+    let out = run_in_netns(&script, 240, &[]);
+    let (stdout, _) = text(&out);
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap_or_default();
+    let node_err = read("node.err");
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{node_err}");
+    let unknown_err = read("unknown.err");
+    assert!(
+        stdout.contains("unknown_RC=1"),
+        "{stdout}\n{unknown_err}\n{node_err}"
+    );
+    let line = unknown_err
+        .lines()
+        .find(|l| l.contains("the node ignored"))
+        .unwrap_or_else(|| panic!("{unknown_err}"));
+    assert!(
+        line.contains("the node ignored 200 of the 200 packets sent") && line.contains("XX.UNK.00"),
+        "{line}"
+    );
+    assert_eq!(
+        count_before(&node_err, "from unknown stations"),
+        200,
+        "{node_err}"
+    );
+    assert!(
+        stdout.contains("known_RC=0"),
+        "{stdout}\n{}\n{node_err}",
+        read("known.err")
+    );
+}

@@ -256,7 +256,8 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
     let (stdout, stderr) = text(&out);
     assert!(
         out.status.success() && stdout.contains("reset"),
-        "reset of {fallen} (partition {owner}): {stdout}\n{stderr}"
+        "reset of {fallen} (partition {owner}): {stdout}\n{stderr}\nits node:\n{}",
+        nodes[owner].stderr()
     );
     // `rockwatch replay --config` of a partitioned node (any of them: its index is ignored)
     // sends the station to its partition's topic and waits for that node's reports. The

@@ -28,7 +28,8 @@ pub const NETNS_SETUP: &str = "ip link set lo up && \
 pub const VETH_TX: &str =
     "echo VETH_TX=$(sed 's/:/ /' /proc/net/dev | awk '$1 == \"rwv0\" {print $11}')";
 
-/// Runs `script` (sh) in a new network namespace with `timeout_s` as a hard bound.
+/// Runs `script` (sh, `set -e`) in a new network namespace with `timeout_s` as a hard bound;
+/// whatever it leaves running is killed when it ends.
 pub fn run_in_netns(script: &str, timeout_s: u32, envs: &[(&str, String)]) -> Output {
     let mut cmd = Command::new("timeout");
     cmd.arg("-k")
@@ -38,7 +39,12 @@ pub fn run_in_netns(script: &str, timeout_s: u32, envs: &[(&str, String)]) -> Ou
         .arg("-n")
         .arg("sh")
         .arg("-c")
-        .arg(format!("set -e; {NETNS_SETUP}; {script}"))
+        // The script in a subshell, then whatever it left running is killed: an orphan (a
+        // node started with `&` before a failing command ended the script under `set -e`)
+        // would keep the output's pipes open, and `output()` would wait for ever.
+        .arg(format!(
+            "set -e; {NETNS_SETUP}; rc=0; (\n{script}\n) || rc=$?; {KILL_LEFTOVERS}; exit $rc"
+        ))
         .env_remove("ROS_DOMAIN_ID")
         .env_remove("ROS_AUTOMATIC_DISCOVERY_RANGE");
     // DDS Security only where a test asks for it (tests/ros2_security.rs sets these itself).
@@ -85,12 +91,11 @@ pub fn reexec_in_netns(name: &str, timeout_s: u32) -> bool {
         return true;
     }
     let exe = std::env::current_exe().expect("test executable path");
-    // Not `exec`: when the test ends, whatever it started and left running (a child of a
-    // failed test) would keep this output's pipes open and `output()` would wait forever.
-    // Every process in this private namespace but the shell is the test's: killed, named.
+    // Whatever the test started and left running (a child of a failed test) is killed and
+    // named by run_in_netns when the test ends.
     let out = run_in_netns(
         &format!(
-            "rc=0; '{}' --exact '{name}' --nocapture --test-threads=1 || rc=$?; {KILL_LEFTOVERS}; exit $rc",
+            "'{}' --exact '{name}' --nocapture --test-threads=1",
             exe.display()
         ),
         timeout_s,

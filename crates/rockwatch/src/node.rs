@@ -854,6 +854,17 @@ impl NodeRuntime {
         }
     }
 
+    /// Whether the engine monitors station `station` (configured, or bound to one of this
+    /// node's blocks): a packet of any other station is taken but ignored.
+    #[must_use]
+    pub fn monitors(&self, station: &str) -> bool {
+        match &self.engine {
+            Some(EngineMode::Inline(engine)) => engine.monitors(station),
+            Some(EngineMode::Sharded(engine)) => engine.monitors(station),
+            None => false,
+        }
+    }
+
     /// Whether `packet`, arrived at `arrival` ([`NodeRuntime::now_ns`]), ends more than the
     /// tolerance ahead of the UTC clock then ([`NodeOptions::reject_future`]); such a packet
     /// is counted and logged (rate-limited), never handed to the engine, so it cannot move

@@ -204,6 +204,19 @@ impl Engine {
         Ok(report)
     }
 
+    /// Whether the engine monitors station `station` (`NET.STA.LOC`): configured, or bound to
+    /// a block. A packet of any other station is ignored ([`Engine::process`] counts it and
+    /// says so in a notice).
+    #[must_use]
+    pub fn monitors(&self, station: &str) -> bool {
+        self.ids.contains_key(station)
+    }
+
+    /// The stations the engine monitors (see [`Engine::monitors`]).
+    pub fn monitored_stations(&self) -> impl Iterator<Item = &str> {
+        self.ids.keys().map(String::as_str)
+    }
+
     /// The configuration in force.
     #[must_use]
     pub fn config(&self) -> &EngineConfig {

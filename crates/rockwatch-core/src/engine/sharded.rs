@@ -87,6 +87,8 @@ pub type Wake = Arc<dyn Fn() + Send + Sync>;
 /// A pool of engine shards on worker threads.
 pub struct ShardedEngine {
     handle: EngineHandle,
+    /// Every shard's monitored stations ([`Engine::monitors`]).
+    monitored: std::collections::HashSet<String>,
     outputs: Receiver<Vec<Output>>,
     workers: Vec<JoinHandle<Engine>>,
 }
@@ -122,6 +124,7 @@ impl ShardedEngine {
         let (out_tx, outputs): (Sender<Vec<Output>>, _) = mpsc::channel();
         let mut senders = Vec::with_capacity(shards);
         let mut workers = Vec::with_capacity(shards);
+        let mut monitored = std::collections::HashSet::new();
         for shard in 0..shards {
             let mine = |id: &str| shard_of(id, shards) == shard;
             let my_stations: Vec<StationConfig> = stations
@@ -136,6 +139,7 @@ impl ShardedEngine {
                 .collect();
             let mut engine = Engine::new(config, my_stations, &my_pbrs)?;
             engine.restore(journal);
+            monitored.extend(engine.monitored_stations().map(str::to_owned));
             let (tx, rx) = mpsc::sync_channel::<Command>(QUEUE_PACKETS);
             let out_tx = out_tx.clone();
             let wake = Arc::clone(&wake);
@@ -172,6 +176,7 @@ impl ShardedEngine {
             workers.push(handle);
         }
         Ok(ShardedEngine {
+            monitored,
             handle: EngineHandle {
                 senders: senders.into(),
             },
@@ -184,6 +189,12 @@ impl ShardedEngine {
     #[must_use]
     pub fn shards(&self) -> usize {
         self.handle.senders.len()
+    }
+
+    /// Whether a shard monitors station `station` ([`Engine::monitors`]).
+    #[must_use]
+    pub fn monitors(&self, station: &str) -> bool {
+        self.monitored.contains(station)
     }
 
     /// A handle for transport threads.

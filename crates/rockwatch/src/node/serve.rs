@@ -707,7 +707,10 @@ fn turn(
                     let room = INBOX_BOUND
                         .saturating_sub(inbox.queue.len())
                         .min(ROS2_CHUNK);
-                    more = ros2.drain(s - 1, room, &mut |p| inbox.push(p, clock.now_ns()))?;
+                    more =
+                        ros2.drain(s - 1, room, &|station| clock.monitors(station), &mut |p| {
+                            inbox.push(p, clock.now_ns())
+                        })?;
                 }
                 more
             }

@@ -126,27 +126,31 @@ impl Inputs {
     }
 
     /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`,
-    /// counting them (and the undecodable ones) in `log`. Returns true if `max` was reached.
+    /// counting them (and the undecodable ones, and per writer those of a station that
+    /// `monitors` denies) in `log`. Returns true if `max` was reached.
     pub(super) fn drain(
         &mut self,
         input: usize,
         max: usize,
         log: &mut IntakeLog,
+        monitors: &dyn Fn(&str) -> bool,
         submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
     ) -> anyhow::Result<bool> {
         for _ in 0..max {
             if input == 0 {
                 match self.accel.take() {
                     Ok(Some((m, info))) => {
-                        if !log
-                            .writers
-                            .taken(info.publisher_gid(), info.sequence_number())
-                        {
+                        let packet = AccelPacket::from(&m);
+                        if !log.writers.taken(
+                            info.publisher_gid(),
+                            info.sequence_number(),
+                            monitors(&packet.station),
+                        ) {
                             log.counters.redelivered.fetch_add(1, Ordering::Relaxed);
                             continue;
                         }
                         log.packet();
-                        submit(AccelPacket::from(&m))?;
+                        submit(packet)?;
                     }
                     Ok(None) => return Ok(false),
                     Err(e) => log.undecodable(&self.accel_topic, &format!("{e:?}")),

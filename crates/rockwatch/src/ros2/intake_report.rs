@@ -1,5 +1,6 @@
 //! The intake report protocol of `/pbr/intake` (`pbr_msgs/IntakeReport`): the node tells each
-//! sender of `/pbr/accel` how many of its messages it has taken ([`WriterCounts`], node side),
+//! sender of `/pbr/accel` how many of its messages it has taken, and how many of those it
+//! ignored (a station it does not monitor) ([`WriterCounts`], node side),
 //! and a sender reads what the node took of its own writer ([`IntakeWatch`], sender side), so a
 //! replay knows that everything it sent was processed — or exactly how much was not — and
 //! paces itself so that the node's reader (keep last `input_depth`) never overwrites a sample
@@ -31,6 +32,8 @@ pub const REPORT_RECENT: Duration = Duration::from_secs(10);
 #[derive(Debug, Clone, Copy)]
 struct Count {
     taken: u64,
+    /// Of `taken`, packets of a station the node does not monitor.
+    ignored: u64,
     /// Highest DDS sequence number taken.
     last_sn: i64,
     reported: u64,
@@ -62,10 +65,11 @@ impl Default for WriterCounts {
 }
 
 impl WriterCounts {
-    /// A message of DDS sequence number `sn` taken from `writer`: counted and true if it is
-    /// new, false if its sequence number is not above the writer's highest so far (a reliable
-    /// writer delivers in order: a redelivery to a rebuilt reader, to be skipped).
-    pub fn taken(&mut self, writer: Gid, sn: i64) -> bool {
+    /// A message of DDS sequence number `sn` taken from `writer`, of a station the node
+    /// `monitored` or not (then counted as ignored too): counted and true if it is new, false
+    /// if its sequence number is not above the writer's highest so far (a reliable writer
+    /// delivers in order: a redelivery to a rebuilt reader, to be skipped).
+    pub fn taken(&mut self, writer: Gid, sn: i64, monitored: bool) -> bool {
         let gid = writer.to_bytes16();
         let now = Instant::now();
         if !self.counts.contains_key(&gid) && self.counts.len() >= MAX_WRITERS {
@@ -82,6 +86,7 @@ impl WriterCounts {
         }
         let count = self.counts.entry(gid).or_insert(Count {
             taken: 0,
+            ignored: 0,
             last_sn: i64::MIN,
             reported: 0,
             last_report: now - REPORT_PERIOD,
@@ -96,6 +101,7 @@ impl WriterCounts {
             self.dirty.push(gid);
         }
         count.taken += 1;
+        count.ignored += u64::from(!monitored);
         true
     }
 
@@ -122,6 +128,7 @@ impl WriterCounts {
                 publish(IntakeReport {
                     writer_gid: *gid,
                     taken: c.taken,
+                    ignored: c.ignored,
                 });
                 c.reported = c.taken;
                 c.last_report = now;
@@ -135,6 +142,7 @@ impl WriterCounts {
                     publish(IntakeReport {
                         writer_gid: *gid,
                         taken: c.taken,
+                        ignored: c.ignored,
                     });
                     c.reported = c.taken;
                     c.last_report = now;
@@ -144,17 +152,31 @@ impl WriterCounts {
     }
 }
 
+/// What the node reported of one writer: messages taken, and of those ignored.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Intake {
+    pub taken: u64,
+    pub ignored: u64,
+}
+
+impl Intake {
+    fn merge(&mut self, report: &IntakeReport) {
+        self.taken = self.taken.max(report.taken);
+        self.ignored = self.ignored.max(report.ignored);
+    }
+}
+
 /// Sender side: what the node has taken of one writer, from the reports on `/pbr/intake`
 /// (and of the sender's previous writer, whose participant died: [`IntakeWatch::switch`]).
 pub struct IntakeWatch {
     reports: Subscription<IntakeReport>,
     writer: [u8; 16],
-    taken: u64,
+    intake: Intake,
     /// Reports about this writer received.
     pub heard: u64,
     /// The previous writer, what the node took of it, and whether a report about it came on
     /// the current subscription.
-    previous: Option<([u8; 16], u64, bool)>,
+    previous: Option<([u8; 16], Intake, bool)>,
 }
 
 impl IntakeWatch {
@@ -162,45 +184,51 @@ impl IntakeWatch {
         IntakeWatch {
             reports,
             writer: writer.to_bytes16(),
-            taken: 0,
+            intake: Intake::default(),
             heard: 0,
             previous: None,
         }
     }
 
-    /// Messages of the writer the node has taken, after reading the reports waiting.
-    pub fn taken(&mut self) -> u64 {
+    /// What the node has taken (and ignored) of the writer, after reading the reports
+    /// waiting.
+    pub fn intake(&mut self) -> Intake {
         while let Ok(Some((report, _))) = self.reports.take() {
             if report.writer_gid == self.writer {
                 self.heard += 1;
-                self.taken = self.taken.max(report.taken);
-            } else if let Some((gid, taken, heard)) = &mut self.previous {
+                self.intake.merge(&report);
+            } else if let Some((gid, intake, heard)) = &mut self.previous {
                 if report.writer_gid == *gid {
-                    *taken = (*taken).max(report.taken);
+                    intake.merge(&report);
                     *heard = true;
                 }
             }
         }
-        self.taken
+        self.intake
+    }
+
+    /// Messages of the writer the node has taken, after reading the reports waiting.
+    pub fn taken(&mut self) -> u64 {
+        self.intake().taken
     }
 
     /// Follows `writer` on `reports` from now on (a new participant's); the writer followed
     /// so far becomes the previous one ([`IntakeWatch::previous`]).
     pub fn switch(&mut self, reports: Subscription<IntakeReport>, writer: Gid) {
-        self.taken();
-        self.previous = Some((self.writer, self.taken, false));
+        let intake = self.intake();
+        self.previous = Some((self.writer, intake, false));
         self.reports = reports;
         self.writer = writer.to_bytes16();
-        self.taken = 0;
+        self.intake = Intake::default();
         self.heard = 0;
     }
 
     /// What the node has taken of the previous writer, and whether a report about it has come
     /// on the current subscription (the node repeats every count of the last 10 s each
     /// second, so one comes soon after a switch if the node is there).
-    pub fn previous(&mut self) -> Option<(u64, bool)> {
-        self.taken();
-        self.previous.map(|(_, taken, heard)| (taken, heard))
+    pub fn previous(&mut self) -> Option<(Intake, bool)> {
+        self.intake();
+        self.previous.map(|(_, intake, heard)| (intake, heard))
     }
 }
 
@@ -217,15 +245,17 @@ mod tests {
         let mut counts = WriterCounts::default();
         let mut got = Vec::new();
         for sn in 1..=REPORT_EVERY as i64 {
-            assert!(counts.taken(gid(1), sn));
+            // Every fourth packet of a station the node does not monitor.
+            assert!(counts.taken(gid(1), sn, sn % 4 != 0));
         }
         // A redelivery (sequence number not above the highest) is skipped, not counted.
-        assert!(!counts.taken(gid(1), 5));
+        assert!(!counts.taken(gid(1), 5, false));
         // A new count is due at once (its period has passed), then after REPORT_EVERY more.
         counts.due(false, &mut |r| got.push(r));
         assert_eq!(got.len(), 1);
         assert_eq!(got[0].taken, REPORT_EVERY);
-        assert!(counts.taken(gid(1), REPORT_EVERY as i64 + 1));
+        assert_eq!(got[0].ignored, REPORT_EVERY / 4);
+        assert!(counts.taken(gid(1), REPORT_EVERY as i64 + 1, true));
         counts.due(false, &mut |r| got.push(r));
         assert_eq!(got.len(), 1, "one more message, within the period: not due");
         counts.due(true, &mut |r| got.push(r));
@@ -234,7 +264,7 @@ mod tests {
         for n in 0..MAX_WRITERS + 5 {
             let mut bytes = [7u8; 16];
             bytes[..8].copy_from_slice(&(n as u64).to_le_bytes());
-            counts.taken(Gid::from(bytes), 1);
+            counts.taken(Gid::from(bytes), 1, true);
         }
         assert_eq!(counts.counts.len(), MAX_WRITERS);
         assert_eq!(counts.forgotten, 6);

@@ -153,6 +153,9 @@ pub struct IntakeReport {
     /// Messages taken from this writer since the node first heard from it (each handed to the
     /// engine; undecodable ones not counted).
     pub taken: u64,
+    /// Of `taken`, packets of a station the node does not monitor (neither configured nor
+    /// bound to one of its blocks): the engine ignores them.
+    pub ignored: u64,
 }
 
 /// `pbr_msgs/srv/ResetPbr` request (`msg/pbr_msgs/srv/ResetPbr.srv`): the operator reset of a block.

@@ -262,14 +262,18 @@ impl Ros2Node {
 
     /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`
     /// (an Imu message is a one-sample packet of its station). Undecodable messages are
-    /// counted and logged (at most one line per 10 s). Returns true if `max` was reached
-    /// (more may be waiting: bounded so that a flood on one input cannot starve the others).
+    /// counted and logged (at most one line per 10 s); a `/pbr/accel` packet of a station
+    /// the engine does not `monitor` is counted as ignored in its writer's intake report.
+    /// Returns true if `max` was reached (more may be waiting: bounded so that a flood on one
+    /// input cannot starve the others).
     pub fn drain(
         &mut self,
         input: usize,
         max: usize,
+        monitors: &dyn Fn(&str) -> bool,
         submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
     ) -> anyhow::Result<bool> {
-        self.inputs.drain(input, max, &mut self.log, submit)
+        self.inputs
+            .drain(input, max, &mut self.log, monitors, submit)
     }
 }

@@ -4,7 +4,7 @@
 //! To a scaled-out service (docs/capacity.md) each station's packets go to its partition's
 //! topic, one writer per partition, each paced and confirmed by the node that reads it.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeSet, VecDeque};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail};
@@ -34,6 +34,12 @@ pub const REPLAY_LIVENESS_CHECK: Duration = Duration::from_millis(100);
 /// After rebuilding its participant, how long a replay waits for the node's report on its
 /// previous writer (the node repeats its counts every second).
 pub const PREVIOUS_REPORT_WAIT: Duration = Duration::from_secs(3);
+
+/// A live sender (acquire) warns at most this often that the node ignores some of its packets.
+pub const IGNORED_WARNING_INTERVAL: Duration = Duration::from_secs(60);
+
+/// Stations a lane remembers by name, to name them when the node ignores packets.
+const NAMED_STATIONS: usize = 64;
 
 /// How long a replay waits for the node's reports to move before it gives up (default; see
 /// [`Ros2PacketSink::set_wait`]).
@@ -74,6 +80,8 @@ pub struct Ros2PacketSink {
     pub rebuilds: u64,
     /// How long to wait for the node's reports to move.
     wait: Duration,
+    /// Ignored packets when the last warning about them was logged, and when.
+    ignored_warned: (u64, Option<Instant>),
     /// Last: the endpoints above are dropped before their participant.
     _session: Ros2Session,
 }
@@ -88,6 +96,10 @@ struct Lane {
     /// Packets of the lane's writers before the current one that the node took: the current
     /// writer's k-th message is packet `base + k - 1`.
     base: u64,
+    /// Of those, packets the node ignored (a station it does not monitor).
+    ignored_base: u64,
+    /// The stations sent on this lane (the first [`NAMED_STATIONS`]).
+    stations: BTreeSet<String>,
     /// The last packets sent (at most [`CREDIT_WINDOW`]), the last one being packet `sent - 1`.
     recent: VecDeque<msg::AccelPacket>,
     /// Readers matched now, from the writer's publication-matched status events.
@@ -100,6 +112,11 @@ impl Lane {
     /// Packets the node has reported taken, over every writer of this lane.
     fn confirmed(&mut self) -> u64 {
         self.base + self.intake.taken()
+    }
+
+    /// Packets the node has reported taken but ignored, over every writer of this lane.
+    fn ignored(&mut self) -> u64 {
+        self.ignored_base + self.intake.intake().ignored
     }
 
     /// Readers matched now (after taking the writer's pending status events).
@@ -157,6 +174,8 @@ impl Ros2PacketSink {
                 writer,
                 sent: 0,
                 base: 0,
+                ignored_base: 0,
+                stations: BTreeSet::new(),
                 recent: VecDeque::with_capacity(CREDIT_WINDOW as usize),
                 matched: 0,
                 lost_reader: false,
@@ -171,6 +190,7 @@ impl Ros2PacketSink {
             last_liveness: Instant::now(),
             rebuilds: 0,
             wait: DEFAULT_INTAKE_WAIT,
+            ignored_warned: (0, None),
         })
     }
 
@@ -220,10 +240,52 @@ impl Ros2PacketSink {
             return Ok(());
         }
         self.last_liveness = Instant::now();
+        self.warn_ignored();
         match self._session.ended_thread() {
             Some(thread) => self.rebuild(&thread),
             None => Ok(()),
         }
+    }
+
+    /// Logs (at most every [`IGNORED_WARNING_INTERVAL`]) that the node ignores packets of
+    /// this sender, when their number has grown.
+    fn warn_ignored(&mut self) {
+        let (warned, at) = self.ignored_warned;
+        if at.is_some_and(|t| t.elapsed() < IGNORED_WARNING_INTERVAL) {
+            return;
+        }
+        let ignored: u64 = self.lanes.iter_mut().map(Lane::ignored).sum();
+        if ignored > warned {
+            tracing::warn!("{}", self.ignored_line(ignored));
+            self.ignored_warned = (ignored, Some(Instant::now()));
+        }
+    }
+
+    /// One line on the `ignored` packets: the node does not monitor their station.
+    fn ignored_line(&mut self, ignored: u64) -> String {
+        let sent: u64 = self.lanes.iter().map(|l| l.sent).sum();
+        let mut stations = BTreeSet::new();
+        for lane in &mut self.lanes {
+            if lane.ignored() > 0 {
+                stations.extend(lane.stations.iter().map(String::as_str));
+            }
+        }
+        let named: Vec<&str> = stations.iter().take(5).copied().collect();
+        let more = stations.len().saturating_sub(named.len());
+        format!(
+            "the node ignored {ignored} of the {sent} packets sent: it does not monitor their station (neither in its [[stations]] nor bound to a block of its catalogue{}); among {}{} (the node's log names the station: unknown_station)",
+            if self.map.is_some() {
+                ", or the station belongs to another partition"
+            } else {
+                ""
+            },
+            named.join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
+        )
     }
 
     /// Replaces the dead participant: new writers, the nodes' count of each dead writer's
@@ -265,8 +327,9 @@ impl Ros2PacketSink {
         }
         let (mut taken_all, mut sent_all, mut again_all) = (0, 0, 0);
         for lane in &mut self.lanes {
-            let (taken, _) = lane.intake.previous().unwrap_or((0, false));
-            lane.base += taken;
+            let (previous, _) = lane.intake.previous().unwrap_or_default();
+            lane.base += previous.taken;
+            lane.ignored_base += previous.ignored;
             let first_kept = lane.sent - lane.recent.len() as u64;
             if lane.base < first_kept {
                 bail!(
@@ -393,6 +456,9 @@ impl PacketSink for Ros2PacketSink {
         }
         let m = msg::AccelPacket::from(packet);
         let l = &mut self.lanes[lane];
+        if l.stations.len() < NAMED_STATIONS && !l.stations.contains(&packet.station) {
+            l.stations.insert(packet.station.clone());
+        }
         if l.recent.len() == CREDIT_WINDOW as usize {
             l.recent.pop_front();
         }
@@ -402,12 +468,18 @@ impl PacketSink for Ros2PacketSink {
         Ok(())
     }
 
+    /// Also fails when the node took everything but ignored some packets (a station it
+    /// does not monitor): nothing the replay sent about those stations was processed.
     fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         self.wait = timeout;
         for lane in 0..self.lanes.len() {
             if !self.wait_for_intake(lane, 0)? {
                 bail!("{}", self.shortfall(lane));
             }
+        }
+        let ignored: u64 = self.lanes.iter_mut().map(Lane::ignored).sum();
+        if ignored > 0 {
+            bail!("{}", self.ignored_line(ignored));
         }
         Ok(true)
     }

@@ -14,6 +14,15 @@ use super::qos::service_qos;
 use super::security::pad_for_protection;
 use super::session::Ros2Session;
 
+/// How often an unanswered reset request is sent again. A request written before the client
+/// has matched a server's request reader never reaches that server (services are volatile):
+/// with several nodes (a partitioned service, where only the block's owner answers), the
+/// owner may match after the first one. Sending again is safe: a reset applies only to a
+/// block that has overturned, so a repeat finds it standing ("nothing to reset") and the
+/// client keeps the first answer to any of its requests. Longer than a node holds an answer
+/// for its client's discovery (`RESET_REPLY_WAIT`), so an answered request is rarely repeated.
+pub const RESET_RESEND: Duration = Duration::from_secs(3);
+
 /// Runs `future` on this thread until it completes (true) or `timeout` passes (false).
 fn block_on_with_timeout(future: impl std::future::Future<Output = ()>, timeout: Duration) -> bool {
     use futures::future::{select, Either};
@@ -84,31 +93,39 @@ impl Ros2ResetClient {
         block_on_with_timeout(self.client.wait_for_service(&self.session.node), timeout)
     }
 
-    /// Asks for the reset of block `pbr_id` and waits up to `timeout` for the response.
+    /// Asks for the reset of block `pbr_id` and waits up to `timeout` for the response,
+    /// sending the request again every [`RESET_RESEND`] while none has come.
     pub fn reset(
         &mut self,
         pbr_id: &str,
         timeout: Duration,
     ) -> anyhow::Result<msg::ResetPbrResponse> {
         let deadline = Instant::now() + timeout;
-        let id = self
-            .client
-            .send_request(msg::ResetPbrRequest {
-                pbr_id: if self.session.plan().security.is_some() {
-                    pad_for_protection(pbr_id.to_string(), '\0')
-                } else {
-                    pbr_id.to_string()
-                },
-            })
-            .map_err(|e| anyhow!("ROS 2 {}: request not sent: {e:?}", self.service))?;
+        let request = msg::ResetPbrRequest {
+            pbr_id: if self.session.plan().security.is_some() {
+                pad_for_protection(pbr_id.to_string(), '\0')
+            } else {
+                pbr_id.to_string()
+            },
+        };
+        let mut ids = Vec::new();
+        let mut sent_at = Instant::now();
         loop {
+            if ids.is_empty() || sent_at.elapsed() >= RESET_RESEND {
+                let id = self
+                    .client
+                    .send_request(request.clone())
+                    .map_err(|e| anyhow!("ROS 2 {}: request not sent: {e:?}", self.service))?;
+                ids.push(id);
+                sent_at = Instant::now();
+            }
             // Responses to other clients' requests share the topic: keep only ours.
             while let Some((rid, response)) = self
                 .client
                 .receive_response()
                 .map_err(|e| anyhow!("ROS 2 {}: bad response: {e:?}", self.service))?
             {
-                if rid == id {
+                if ids.contains(&rid) {
                     return Ok(response);
                 }
             }
