@@ -668,3 +668,74 @@ fn the_keystore_grants_the_pbr_names_under_the_nodes_namespace() {
         "{stdout}\n{stderr}"
     );
 }
+
+/// A secured service of two partitioned nodes: a replay with the station identity to a
+/// station of the SECOND partition (`[partition_assign]`) is paced and acknowledged by that
+/// partition's node. The replay reads the nodes' reports on one `/pbr/intake` subscription:
+/// with one per partition in one secured participant, only the first heard the nodes
+/// (RustDDS 0.15.1's key exchange remembers the remote writer, not the local reader).
+#[test]
+fn a_secured_replay_to_the_second_of_two_partitions_is_acknowledged() {
+    let dir = tempfile::tempdir().unwrap();
+    let ks = keystore(dir.path());
+    let d = dir.path().display();
+    let Paths { bin, rec, .. } = paths();
+    for i in 0..2 {
+        std::fs::write(
+            dir.path().join(format!("node{i}.toml")),
+            format!(
+                "catalogue = \"{}\"\nstate_dir = \"{d}/state{i}\"\npartition = \"{i}/2\"\n\
+                 [partition_assign]\n\"CI.RRS.00\" = 1\n\"CI.SYL.00\" = 0\n\
+                 [ros2]\ndiscovery_range = \"LOCALHOST\"\n",
+                repo().join("config/catalogue.toml").display()
+            ),
+        )
+        .unwrap();
+    }
+    let script = format!(
+        "export ROS_SECURITY_KEYSTORE='{ks}'
+         {SECURE} '{bin}' node --config '{d}/node0.toml' 2> '{d}/node0.err' & N0=$!
+         {SECURE} '{bin}' node --config '{d}/node1.toml' 2> '{d}/node1.err' & N1=$!
+         {SECURE} ROS_SECURITY_ENCLAVE_OVERRIDE=/rockwatch/station '{bin}' replay \
+             --config '{d}/node0.toml' --record '{rec}/Rinaldi228.AT2' --azimuth 228 \
+             --station CI.RRS.00 --transport ros2 --speed max --tail 10 --wait-s 20 \
+             > '{d}/replay.out' 2> '{d}/replay.err' && echo REPLAY_RC=0 || echo REPLAY_RC=$?
+         kill -TERM $N0 $N1; wait $N0 && echo N0_RC=0 || echo N0_RC=$?
+         wait $N1 && echo N1_RC=0 || echo N1_RC=$?
+         cat '{d}/replay.out'
+         cat '{d}/replay.err' '{d}/node0.err' '{d}/node1.err' >&2"
+    );
+    let out = run_in_netns(&script, 150, &[]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("REPLAY_RC=0"), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("N0_RC=0") && stdout.contains("N1_RC=0"),
+        "{stdout}\n{stderr}"
+    );
+    let node = |i: usize| std::fs::read_to_string(dir.path().join(format!("node{i}.err"))).unwrap();
+    assert!(
+        node(1).contains("DDS Security enclave /rockwatch/node"),
+        "{}",
+        node(1)
+    );
+    // Partition 1 took every packet (the record and 10 s of quiet), partition 0 none.
+    assert_eq!(
+        count_before(&node(1), "packets received over ROS 2"),
+        300,
+        "{}",
+        node(1)
+    );
+    assert_eq!(
+        count_before(&node(0), "packets received over ROS 2"),
+        0,
+        "{}",
+        node(0)
+    );
+    let (alerts, _) = journal(&dir.path().join("state1"));
+    assert!(
+        alerts.contains(&("rrs-slender-pillar".into(), 3)),
+        "{alerts:?}\n{}",
+        node(1)
+    );
+}

@@ -15,6 +15,11 @@
 //!   `latency_ms`, …) are in the JSON objects.
 //! - **Muting** ([`MuteLibraries`]): while a guard lives, the libraries' records (not
 //!   rockwatch's) are dropped: a DDS participant's teardown logs an error per endpoint.
+//! - **Floods** ([`LibraryLog`]): a library's call site (target, file, line) writes at most
+//!   [`LIBRARY_BURST`] records per [`LIBRARY_WINDOW`]; the next record it lets through is
+//!   preceded by a line saying how many were dropped. A library stuck in a loop (RustDDS logs
+//!   an error every 100 ms while it waits for a lock, or per packet it cannot encode) can
+//!   neither fill a disk nor drown the node's own lines.
 //! - **`/rosout`** ([`enable_rosout`], [`take_rosout`]): rockwatch's own records at or above
 //!   a level are also queued (bounded) for the node's event loop, which publishes them as
 //!   `rcl_interfaces/msg/Log` on its own thread (no record is ever published from a DDS
@@ -24,7 +29,7 @@
 //! when enabled. The node logs per alert and per event (a station going silent), never per
 //! sample.
 
-use std::collections::VecDeque;
+use std::collections::{HashMap, VecDeque};
 use std::fmt;
 use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -189,12 +194,104 @@ where
     };
     if installed.is_ok() {
         // Fails only if a `log` logger is installed already (then theirs stays).
-        let _ = tracing_log::LogTracer::init_with_filter(max);
+        if log::set_boxed_logger(Box::new(LibraryLog::default())).is_ok() {
+            log::set_max_level(max);
+        }
         if let Some(w) = warning {
             tracing::warn!(target: "rockwatch::logging", "{w}");
         }
     }
     Ok(())
+}
+
+/// Records a library call site may write per [`LIBRARY_WINDOW`] (see [`LibraryLog`]).
+pub const LIBRARY_BURST: u32 = 10;
+
+/// See [`LIBRARY_BURST`].
+pub const LIBRARY_WINDOW: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Call sites [`FloodLimit`] remembers; past this, new sites share one budget (bounded memory
+/// whatever a library logs).
+const LIBRARY_SITES: usize = 1024;
+
+/// A call site of a library's `log` records.
+type Site = (String, Option<&'static str>, Option<u32>);
+
+/// Per call site, at most [`LIBRARY_BURST`] records per [`LIBRARY_WINDOW`].
+#[derive(Debug, Default)]
+struct FloodLimit {
+    /// Per site: start of its window, records let through in it, records dropped since the
+    /// last one let through.
+    sites: HashMap<Site, (std::time::Instant, u32, u64)>,
+}
+
+impl FloodLimit {
+    /// Whether a record of `site` at `now` may be written; `Some(n)`: yes, `n` records of the
+    /// site were dropped before it.
+    fn admit(&mut self, mut site: Site, now: std::time::Instant) -> Option<u64> {
+        if self.sites.len() >= LIBRARY_SITES && !self.sites.contains_key(&site) {
+            site = ("(other call sites)".into(), None, None);
+        }
+        let (start, passed, dropped) = self.sites.entry(site).or_insert((now, 0, 0));
+        if now.duration_since(*start) >= LIBRARY_WINDOW {
+            *start = now;
+            *passed = 0;
+        }
+        if *passed < LIBRARY_BURST {
+            *passed += 1;
+            Some(std::mem::take(dropped))
+        } else {
+            *dropped += 1;
+            None
+        }
+    }
+}
+
+/// The `log` logger of the process: the libraries' records (RustDDS, iceoryx2) go to
+/// `tracing` as `tracing_log::LogTracer` sends them, each call site within [`FloodLimit`].
+#[derive(Default)]
+pub struct LibraryLog {
+    bridge: tracing_log::LogTracer,
+    limit: Mutex<FloodLimit>,
+}
+
+impl log::Log for LibraryLog {
+    fn enabled(&self, metadata: &log::Metadata<'_>) -> bool {
+        self.bridge.enabled(metadata)
+    }
+
+    fn log(&self, record: &log::Record<'_>) {
+        if !self.bridge.enabled(record.metadata()) {
+            return;
+        }
+        let site = (
+            record.target().to_owned(),
+            record.file_static(),
+            record.line(),
+        );
+        // The lock is held for the count only, never while a record is written.
+        let admitted = match self.limit.lock() {
+            Ok(mut limit) => limit.admit(site, std::time::Instant::now()),
+            Err(_) => Some(0),
+        };
+        match admitted {
+            Some(0) => self.bridge.log(record),
+            Some(dropped) => {
+                tracing::warn!(
+                    target: "rockwatch::logging",
+                    "{dropped} more lines of {} ({}:{}) were dropped (at most {LIBRARY_BURST} per {} s per call site)",
+                    record.target(),
+                    record.file().unwrap_or("?"),
+                    record.line().unwrap_or(0),
+                    LIBRARY_WINDOW.as_secs()
+                );
+                self.bridge.log(record);
+            }
+            None => {}
+        }
+    }
+
+    fn flush(&self) {}
 }
 
 /// The text format: `rockwatch: [level: ][target: ]message` (target for the libraries only).
@@ -359,6 +456,37 @@ mod tests {
             format: LogFormat::Json,
         };
         assert!(filter(&ok).is_ok());
+    }
+
+    #[test]
+    fn a_library_call_site_writes_at_most_its_burst_per_window_and_says_what_it_dropped() {
+        let mut limit = FloodLimit::default();
+        let site = || {
+            (
+                "rustdds::security".to_string(),
+                Some("plugins.rs"),
+                Some(1357),
+            )
+        };
+        let other = ("rustdds::rtps".to_string(), Some("writer.rs"), Some(10));
+        let t0 = std::time::Instant::now();
+        for _ in 0..LIBRARY_BURST {
+            assert_eq!(limit.admit(site(), t0), Some(0));
+        }
+        for _ in 0..25 {
+            assert_eq!(limit.admit(site(), t0), None);
+        }
+        // Another site has its own budget.
+        assert_eq!(limit.admit(other, t0), Some(0));
+        // The next window: the first record says how many were dropped.
+        let t1 = t0 + LIBRARY_WINDOW;
+        assert_eq!(limit.admit(site(), t1), Some(25));
+        assert_eq!(limit.admit(site(), t1), Some(0));
+        // Bounded whatever the number of sites.
+        for line in 0..(LIBRARY_SITES as u32 + 50) {
+            limit.admit(("x".into(), None, Some(line)), t1);
+        }
+        assert!(limit.sites.len() <= LIBRARY_SITES + 1);
     }
 
     #[test]

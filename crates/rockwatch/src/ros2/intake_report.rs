@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
-use ros2_client::{Gid, Subscription};
+use ros2_client::Gid;
 
 use super::msg::IntakeReport;
 
@@ -168,21 +168,25 @@ impl Intake {
 
 /// Sender side: what the node has taken of one writer, from the reports on `/pbr/intake`
 /// (and of the sender's previous writer, whose participant died: [`IntakeWatch::switch`]).
+/// The sender reads the reports from one subscription per participant and [offers]
+/// (IntakeWatch::offer) each to the watch of every writer: two readers of `/pbr/intake` in one
+/// secured RustDDS 0.15.1 participant do not both receive (its key exchange remembers the
+/// remote writer it sent keys to, not the local reader they were for).
+#[derive(Debug)]
 pub struct IntakeWatch {
-    reports: Subscription<IntakeReport>,
     writer: [u8; 16],
     intake: Intake,
     /// Reports about this writer received.
     pub heard: u64,
-    /// The previous writer, what the node took of it, and whether a report about it came on
-    /// the current subscription.
+    /// The previous writer, what the node took of it, and whether a report about it came
+    /// since the switch.
     previous: Option<([u8; 16], Intake, bool)>,
 }
 
 impl IntakeWatch {
-    pub fn new(reports: Subscription<IntakeReport>, writer: Gid) -> IntakeWatch {
+    #[must_use]
+    pub fn new(writer: Gid) -> IntakeWatch {
         IntakeWatch {
-            reports,
             writer: writer.to_bytes16(),
             intake: Intake::default(),
             heard: 0,
@@ -190,44 +194,39 @@ impl IntakeWatch {
         }
     }
 
-    /// What the node has taken (and ignored) of the writer, after reading the reports
-    /// waiting.
-    pub fn intake(&mut self) -> Intake {
-        while let Ok(Some((report, _))) = self.reports.take() {
-            if report.writer_gid == self.writer {
-                self.heard += 1;
-                self.intake.merge(&report);
-            } else if let Some((gid, intake, heard)) = &mut self.previous {
-                if report.writer_gid == *gid {
-                    intake.merge(&report);
-                    *heard = true;
-                }
+    /// Takes `report` into account if it is about the writer or the previous one.
+    pub fn offer(&mut self, report: &IntakeReport) {
+        if report.writer_gid == self.writer {
+            self.heard += 1;
+            self.intake.merge(report);
+        } else if let Some((gid, intake, heard)) = &mut self.previous {
+            if report.writer_gid == *gid {
+                intake.merge(report);
+                *heard = true;
             }
         }
+    }
+
+    /// What the node has reported taken (and ignored) of the writer.
+    #[must_use]
+    pub fn intake(&self) -> Intake {
         self.intake
     }
 
-    /// Messages of the writer the node has taken, after reading the reports waiting.
-    pub fn taken(&mut self) -> u64 {
-        self.intake().taken
-    }
-
-    /// Follows `writer` on `reports` from now on (a new participant's); the writer followed
-    /// so far becomes the previous one ([`IntakeWatch::previous`]).
-    pub fn switch(&mut self, reports: Subscription<IntakeReport>, writer: Gid) {
-        let intake = self.intake();
-        self.previous = Some((self.writer, intake, false));
-        self.reports = reports;
+    /// Follows `writer` (a new participant's) from now on; the writer followed so far
+    /// becomes the previous one ([`IntakeWatch::previous`]).
+    pub fn switch(&mut self, writer: Gid) {
+        self.previous = Some((self.writer, self.intake, false));
         self.writer = writer.to_bytes16();
         self.intake = Intake::default();
         self.heard = 0;
     }
 
     /// What the node has taken of the previous writer, and whether a report about it has come
-    /// on the current subscription (the node repeats every count of the last 10 s each
-    /// second, so one comes soon after a switch if the node is there).
-    pub fn previous(&mut self) -> Option<(Intake, bool)> {
-        self.intake();
+    /// since the switch (the node repeats every count of the last 10 s each second, so one
+    /// comes soon after a switch if the node is there).
+    #[must_use]
+    pub fn previous(&self) -> Option<(Intake, bool)> {
         self.previous.map(|(_, intake, heard)| (intake, heard))
     }
 }
@@ -269,5 +268,56 @@ mod tests {
         assert_eq!(counts.counts.len(), MAX_WRITERS);
         assert_eq!(counts.forgotten, 6);
         assert_eq!(counts.of(gid(1)), 0);
+    }
+
+    #[test]
+    fn a_watch_follows_its_writer_and_after_a_switch_its_previous_one() {
+        let report = |n: u8, taken: u64, ignored: u64| IntakeReport {
+            writer_gid: [n; 16],
+            taken,
+            ignored,
+        };
+        let mut watch = IntakeWatch::new(gid(1));
+        watch.offer(&report(2, 50, 0)); // another sender's writer
+        watch.offer(&report(1, 10, 1));
+        watch.offer(&report(1, 7, 0)); // an older report, delivered late
+        assert_eq!(
+            watch.intake(),
+            Intake {
+                taken: 10,
+                ignored: 1
+            }
+        );
+        assert_eq!(watch.heard, 2);
+        watch.switch(gid(3));
+        assert_eq!(
+            watch.previous(),
+            Some((
+                Intake {
+                    taken: 10,
+                    ignored: 1
+                },
+                false
+            ))
+        );
+        watch.offer(&report(1, 12, 1));
+        watch.offer(&report(3, 4, 0));
+        assert_eq!(
+            watch.previous(),
+            Some((
+                Intake {
+                    taken: 12,
+                    ignored: 1
+                },
+                true
+            ))
+        );
+        assert_eq!(
+            watch.intake(),
+            Intake {
+                taken: 4,
+                ignored: 0
+            }
+        );
     }
 }

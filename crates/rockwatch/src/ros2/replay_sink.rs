@@ -13,6 +13,7 @@ use ros2_client::Gid;
 
 use super::intake_report::IntakeWatch;
 use super::msg;
+use super::msg::IntakeReport;
 use super::names::{accel_topic, Naming, INTAKE_TOPIC};
 use super::network::NetworkPlan;
 use super::qos::{intake_qos, replay_qos, REPLAY_HISTORY};
@@ -82,6 +83,8 @@ pub struct Ros2PacketSink {
     wait: Duration,
     /// Ignored packets when the last warning about them was logged, and when.
     ignored_warned: (u64, Option<Instant>),
+    /// The nodes' reports on `/pbr/intake`: one subscription for every lane.
+    reports: ros2_client::Subscription<IntakeReport>,
     /// Last: the endpoints above are dropped before their participant.
     _session: Ros2Session,
 }
@@ -109,13 +112,14 @@ struct Lane {
 }
 
 impl Lane {
-    /// Packets the node has reported taken, over every writer of this lane.
-    fn confirmed(&mut self) -> u64 {
-        self.base + self.intake.taken()
+    /// Packets the node has reported taken, over every writer of this lane (as of the last
+    /// [`Ros2PacketSink::read_reports`]).
+    fn confirmed(&self) -> u64 {
+        self.base + self.intake.intake().taken
     }
 
     /// Packets the node has reported taken but ignored, over every writer of this lane.
-    fn ignored(&mut self) -> u64 {
+    fn ignored(&self) -> u64 {
         self.ignored_base + self.intake.intake().ignored
     }
 
@@ -137,13 +141,11 @@ impl Lane {
     }
 }
 
-/// A new participant's writers (one per topic) with their subscriptions to the nodes' reports.
+/// A new participant, its subscription to the nodes' reports and its writers (one per topic).
 type Parts = (
     Ros2Session,
-    Vec<(
-        no_key::DataWriterCdr<msg::AccelPacket>,
-        ros2_client::Subscription<msg::IntakeReport>,
-    )>,
+    ros2_client::Subscription<IntakeReport>,
+    Vec<no_key::DataWriterCdr<msg::AccelPacket>>,
 );
 
 impl Ros2PacketSink {
@@ -164,12 +166,12 @@ impl Ros2PacketSink {
     ) -> anyhow::Result<Ros2PacketSink> {
         let naming = naming.into();
         let topics = Self::topics(map.as_ref())?;
-        let (session, parts) = Self::open_parts(plan, &naming, &topics)?;
+        let (session, reports, writers) = Self::open_parts(plan, &naming, &topics)?;
         let lanes = topics
             .into_iter()
-            .zip(parts)
-            .map(|(topic, (writer, reports))| Lane {
-                intake: IntakeWatch::new(reports, Gid::from(writer.guid())),
+            .zip(writers)
+            .map(|(topic, writer)| Lane {
+                intake: IntakeWatch::new(Gid::from(writer.guid())),
                 topic,
                 writer,
                 sent: 0,
@@ -182,6 +184,7 @@ impl Ros2PacketSink {
             })
             .collect();
         Ok(Ros2PacketSink {
+            reports,
             _session: session,
             lanes,
             map,
@@ -204,13 +207,14 @@ impl Ros2PacketSink {
         }
     }
 
-    /// A participant with one writer per topic and, for each, a subscription to the nodes'
-    /// reports.
+    /// A participant with one subscription to the nodes' reports and one writer per topic.
     fn open_parts(plan: &NetworkPlan, naming: &Naming, topics: &[String]) -> anyhow::Result<Parts> {
         let mut session = Ros2Session::open_client(plan, naming, "rockwatch_replay")?;
+        let reports =
+            session.subscription(INTAKE_TOPIC, msg::PACKAGE, "IntakeReport", intake_qos())?;
         let qos = replay_qos();
         let dds_qos = ros2_client::dds::rustdds::QosPolicies::from(qos.clone());
-        let mut parts = Vec::with_capacity(topics.len());
+        let mut writers = Vec::with_capacity(topics.len());
         for name in topics {
             let topic = session.topic(name, msg::PACKAGE, "AccelPacket", &qos)?;
             let writer = session
@@ -219,11 +223,18 @@ impl Ros2PacketSink {
                 .create_publisher(&dds_qos)
                 .and_then(|p| p.create_datawriter_no_key_cdr(&topic, Some(dds_qos.clone())))
                 .map_err(|e| anyhow!("ROS 2 publisher {name}: {e:?}"))?;
-            let reports =
-                session.subscription(INTAKE_TOPIC, msg::PACKAGE, "IntakeReport", intake_qos())?;
-            parts.push((writer, reports));
+            writers.push(writer);
         }
-        Ok((session, parts))
+        Ok((session, reports, writers))
+    }
+
+    /// Takes the nodes' reports waiting and hands each to every lane's watch.
+    fn read_reports(&mut self) {
+        while let Ok(Some((report, _))) = self.reports.take() {
+            for lane in &mut self.lanes {
+                lane.intake.offer(&report);
+            }
+        }
     }
 
     /// The lane of `station`'s packets.
@@ -254,7 +265,8 @@ impl Ros2PacketSink {
         if at.is_some_and(|t| t.elapsed() < IGNORED_WARNING_INTERVAL) {
             return;
         }
-        let ignored: u64 = self.lanes.iter_mut().map(Lane::ignored).sum();
+        self.read_reports();
+        let ignored: u64 = self.lanes.iter().map(Lane::ignored).sum();
         if ignored > warned {
             tracing::warn!("{}", self.ignored_line(ignored));
             self.ignored_warned = (ignored, Some(Instant::now()));
@@ -265,7 +277,7 @@ impl Ros2PacketSink {
     fn ignored_line(&mut self, ignored: u64) -> String {
         let sent: u64 = self.lanes.iter().map(|l| l.sent).sum();
         let mut stations = BTreeSet::new();
-        for lane in &mut self.lanes {
+        for lane in &self.lanes {
             if lane.ignored() > 0 {
                 stations.extend(lane.stations.iter().map(String::as_str));
             }
@@ -297,12 +309,14 @@ impl Ros2PacketSink {
              rebuilding it and sending again what the node has not taken"
         );
         let topics: Vec<String> = self.lanes.iter().map(|l| l.topic.clone()).collect();
-        let (session, parts) = Self::open_parts(&self.plan, &self.naming, &topics)?;
+        let (session, reports, writers) = Self::open_parts(&self.plan, &self.naming, &topics)?;
         {
             // The dead participant's teardown: RustDDS logs each endpoint it cannot remove.
             let _quiet = MuteLibraries::new();
-            for (lane, (writer, reports)) in self.lanes.iter_mut().zip(parts) {
-                lane.intake.switch(reports, Gid::from(writer.guid()));
+            self.read_reports();
+            self.reports = reports;
+            for (lane, writer) in self.lanes.iter_mut().zip(writers) {
+                lane.intake.switch(Gid::from(writer.guid()));
                 // Endpoints before their participant (see the field order).
                 lane.writer = writer;
                 lane.matched = 0;
@@ -317,12 +331,15 @@ impl Ros2PacketSink {
             );
         }
         let deadline = Instant::now() + PREVIOUS_REPORT_WAIT;
-        while !self
-            .lanes
-            .iter_mut()
-            .all(|l| l.sent == 0 || l.intake.previous().is_some_and(|(_, heard)| heard))
-            && Instant::now() < deadline
-        {
+        loop {
+            self.read_reports();
+            let heard = self
+                .lanes
+                .iter()
+                .all(|l| l.sent == 0 || l.intake.previous().is_some_and(|(_, heard)| heard));
+            if heard || Instant::now() >= deadline {
+                break;
+            }
             std::thread::sleep(Duration::from_millis(20));
         }
         let (mut taken_all, mut sent_all, mut again_all) = (0, 0, 0);
@@ -376,7 +393,8 @@ impl Ros2PacketSink {
 
     /// Packets sent so far, and of those the node(s) have reported taken.
     pub fn progress(&mut self) -> (u64, u64) {
-        self.lanes.iter_mut().fold((0, 0), |(s, t), l| {
+        self.read_reports();
+        self.lanes.iter().fold((0, 0), |(s, t), l| {
             (s + l.sent, t + l.confirmed().min(l.sent))
         })
     }
@@ -384,11 +402,13 @@ impl Ros2PacketSink {
     /// Waits until at most `unreported` packets of lane `lane` are not reported taken by its
     /// node; false if the reports stood still for the wait ([`Ros2PacketSink::set_wait`]).
     fn wait_for_intake(&mut self, lane: usize, unreported: u64) -> anyhow::Result<bool> {
+        self.read_reports();
         let mut taken = self.lanes[lane].confirmed();
         let mut last_move = Instant::now();
         while self.lanes[lane].sent - taken.min(self.lanes[lane].sent) > unreported {
             std::thread::sleep(Duration::from_micros(200));
             self.keep_alive()?;
+            self.read_reports();
             let now = self.lanes[lane].confirmed();
             if now != taken {
                 taken = now;
@@ -404,6 +424,7 @@ impl Ros2PacketSink {
     fn shortfall(&mut self, lane: usize) -> String {
         let wait = self.wait.as_secs_f64();
         let partitioned = self.map.is_some();
+        self.read_reports();
         let l = &mut self.lanes[lane];
         let (sent, taken) = (l.sent, l.confirmed());
         let why = if l.intake.heard == 0 {
@@ -477,7 +498,8 @@ impl PacketSink for Ros2PacketSink {
                 bail!("{}", self.shortfall(lane));
             }
         }
-        let ignored: u64 = self.lanes.iter_mut().map(Lane::ignored).sum();
+        self.read_reports();
+        let ignored: u64 = self.lanes.iter().map(Lane::ignored).sum();
         if ignored > 0 {
             bail!("{}", self.ignored_line(ignored));
         }
