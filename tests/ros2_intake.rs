@@ -151,7 +151,7 @@ fn a_replay_of_a_station_the_node_does_not_monitor_exits_1_naming_it() {
     );
     let line = unknown_err
         .lines()
-        .find(|l| l.contains("the node ignored"))
+        .find(|l| l.starts_with("rockwatch: error: the node ignored"))
         .unwrap_or_else(|| panic!("{unknown_err}"));
     assert!(
         line.contains("the node ignored 200 of the 200 packets sent") && line.contains("XX.UNK.00"),
@@ -166,5 +166,55 @@ fn a_replay_of_a_station_the_node_does_not_monitor_exits_1_naming_it() {
         stdout.contains("known_RC=0"),
         "{stdout}\n{}\n{node_err}",
         read("known.err")
+    );
+}
+
+/// A node whose stderr nobody reads (a one-page pipe, full at once under `--log-level debug`)
+/// still takes every packet and raises its alerts: its records are queued for the log thread
+/// (dropped and counted beyond `LOG_QUEUE`), never waited for (with a blocking stderr every
+/// thread that logs stalled, DDS's included).
+#[test]
+fn a_node_whose_stderr_nobody_reads_keeps_monitoring() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("state");
+    let config = dir.path().join("node.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "catalogue = \"{}\"\nstate_dir = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n",
+            repo().join("config/catalogue.toml").display(),
+            state.display()
+        ),
+    )
+    .unwrap();
+    let d = dir.path().display();
+    let script = format!(
+        "python3 '{py}' '{bin}' '{c}' '{rec}' '{d}/node.err' '{d}/replay.err'",
+        py = repo().join("tests/data/ros2/blocked_stderr.py").display(),
+        bin = rockwatch().display(),
+        c = config.display(),
+        rec = repo().join("tests/data/records/Rinaldi228.AT2").display(),
+    );
+    let out = run_in_netns(&script, 180, &[]);
+    let (stdout, stderr) = text(&out);
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap_or_default();
+    let node_err = read("node.err");
+    assert!(
+        stdout.contains("REPLAY_RC=0"),
+        "{stdout}\n{stderr}\n{}\n{node_err}",
+        read("replay.err")
+    );
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{node_err}");
+    // It wrote several times what the pipe holds: with a blocking stderr it would have
+    // stalled at the first 4 KiB, before the replay's first packet.
+    assert!(node_err.len() > 3 * 4096, "{}: {node_err}", node_err.len());
+    let alerts = alert_history(&state);
+    assert!(
+        alerts.contains(&(
+            "rrs-slender-pillar".to_string(),
+            1,
+            "overturned".to_string()
+        )),
+        "{alerts:?}"
     );
 }

@@ -20,6 +20,13 @@
 //!   preceded by a line saying how many were dropped. A library stuck in a loop (RustDDS logs
 //!   an error every 100 ms while it waits for a lock, or per packet it cannot encode) can
 //!   neither fill a disk nor drown the node's own lines.
+//! - **Never blocked by stderr** ([`init_queued`], for the long-running `node` and `acquire`):
+//!   a record is formatted by the thread that logs and queued (bounded, [`LOG_QUEUE`]); the
+//!   thread `rockwatch-log` writes the queue to stderr. If stderr does not keep up (a pipe
+//!   nobody reads, a stuck log shipper), records are dropped and counted, and the next line
+//!   written says how many: the engine and the DDS threads never wait for stderr (with a
+//!   blocking stderr, a full 64 KiB pipe stalled every thread of the process that logs).
+//!   [`flush`] before the process ends.
 //! - **`/rosout`** ([`enable_rosout`], [`take_rosout`]): rockwatch's own records at or above
 //!   a level are also queued (bounded) for the node's event loop, which publishes them as
 //!   `rcl_interfaces/msg/Log` on its own thread (no record is ever published from a DDS
@@ -152,6 +159,107 @@ fn filter(options: &LogOptions) -> Result<(EnvFilter, Option<String>), String> {
 /// filter.
 pub fn init(options: &LogOptions) -> Result<(), String> {
     init_with_writer(options, std::io::stderr)
+}
+
+/// Records waiting for the thread `rockwatch-log` at most ([`init_queued`]); beyond, records
+/// are dropped and counted.
+pub const LOG_QUEUE: usize = 8192;
+
+/// Records queued for and written by `rockwatch-log`, and dropped (queue full).
+static QUEUED: AtomicU64 = AtomicU64::new(0);
+static WRITTEN: AtomicU64 = AtomicU64::new(0);
+static DROPPED: AtomicU64 = AtomicU64::new(0);
+static QUEUE: std::sync::OnceLock<std::sync::mpsc::SyncSender<Vec<u8>>> =
+    std::sync::OnceLock::new();
+
+/// As [`init`], with stderr written by the thread `rockwatch-log` from a bounded queue: no
+/// thread that logs ever waits for stderr (see the module documentation). The thread blocks
+/// the stop signals (they are the signal thread's, `crate::signals`).
+pub fn init_queued(options: &LogOptions) -> Result<(), String> {
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(LOG_QUEUE);
+    let spawned = std::thread::Builder::new()
+        .name("rockwatch-log".into())
+        .spawn(move || {
+            use std::io::Write as _;
+            let mut signals = nix::sys::signal::SigSet::empty();
+            for s in crate::signals::STOP_SIGNALS {
+                signals.add(s);
+            }
+            let _ = signals.thread_block();
+            let mut reported = 0;
+            while let Ok(line) = rx.recv() {
+                let mut stderr = std::io::stderr().lock();
+                let dropped = DROPPED.load(Ordering::Relaxed);
+                if dropped > reported {
+                    let _ = writeln!(
+                        stderr,
+                        "rockwatch: warning: {} log records dropped: stderr did not keep up",
+                        dropped - reported
+                    );
+                    reported = dropped;
+                }
+                let _ = stderr.write_all(&line);
+                WRITTEN.fetch_add(1, Ordering::Release);
+            }
+        });
+    match spawned {
+        Ok(_) => {
+            let _ = QUEUE.set(tx);
+            init_with_writer(options, || QueuedLine(Vec::with_capacity(256)))
+        }
+        // No thread: stderr written in place.
+        Err(_) => init(options),
+    }
+}
+
+/// Waits (at most `timeout`) until every record queued for `rockwatch-log` is written.
+pub fn flush(timeout: std::time::Duration) {
+    let deadline = std::time::Instant::now() + timeout;
+    while WRITTEN.load(Ordering::Acquire) < QUEUED.load(Ordering::Acquire)
+        && std::time::Instant::now() < deadline
+    {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+}
+
+/// Records dropped because stderr did not keep up ([`init_queued`]).
+#[must_use]
+pub fn log_records_dropped() -> u64 {
+    DROPPED.load(Ordering::Relaxed)
+}
+
+/// One formatted record, queued for `rockwatch-log` when dropped.
+struct QueuedLine(Vec<u8>);
+
+impl std::io::Write for QueuedLine {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.0.extend_from_slice(bytes);
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Drop for QueuedLine {
+    fn drop(&mut self) {
+        if self.0.is_empty() {
+            return;
+        }
+        let line = std::mem::take(&mut self.0);
+        let Some(queue) = QUEUE.get() else {
+            use std::io::Write as _;
+            let _ = std::io::stderr().write_all(&line);
+            return;
+        };
+        // Counted before it is sent, so that `flush` never sees it written but not queued.
+        QUEUED.fetch_add(1, Ordering::AcqRel);
+        if queue.try_send(line).is_err() {
+            QUEUED.fetch_sub(1, Ordering::AcqRel);
+            DROPPED.fetch_add(1, Ordering::Relaxed);
+        }
+    }
 }
 
 /// As [`init`], writing to `writer` instead of stderr (tests).

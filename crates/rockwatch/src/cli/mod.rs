@@ -238,7 +238,14 @@ pub fn run() -> ExitCode {
             .or_else(|| ros_level.map(|l| l.as_str().to_ascii_lowercase())),
         format: cli.log_format,
     };
-    if let Err(e) = rockwatch::logging::init(&log) {
+    // The long-running services never wait for stderr (a stuck reader must not stall them).
+    let service = matches!(cli.command, Command::Node(_) | Command::Acquire(_));
+    let installed = if service {
+        rockwatch::logging::init_queued(&log)
+    } else {
+        rockwatch::logging::init(&log)
+    };
+    if let Err(e) = installed {
         eprintln!("rockwatch: error: {e}");
         return ExitCode::FAILURE;
     }
@@ -259,6 +266,8 @@ pub fn run() -> ExitCode {
         Command::Fragility(args) => fragility::run(args),
         Command::Geometry(args) => geometry::run(args),
     };
+    // The queued records first (bounded: a stderr nobody reads cannot hold the exit).
+    rockwatch::logging::flush(std::time::Duration::from_secs(2));
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
