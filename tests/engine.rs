@@ -10,38 +10,8 @@ use rockwatch_core::engine::{
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions};
 
-const T0_NS: i64 = 1_700_000_000_000_000_000;
-
-fn rinaldi_f32() -> Record {
-    // Packets carry f32 samples: compare against the simulator on the same rounded values.
-    let mut r = Record::read(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/records/Rinaldi228.AT2"
-    )))
-    .unwrap();
-    r.horizontal_mps2
-        .iter_mut()
-        .for_each(|a| *a = f64::from(*a as f32));
-    r
-}
-
-fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpec {
-    PbrSpec {
-        id: id.into(),
-        station: StationId::parse(station).unwrap(),
-        azimuth: Azimuth::from_degrees(azimuth_deg).unwrap(),
-        nominal: p,
-        members: vec![],
-        more_directions: vec![],
-    }
-}
-
-fn slender() -> BlockParams {
-    BlockParams::from_width_height(0.4, 2.0, 0.8, 0.6, None).unwrap()
-}
-fn stocky() -> BlockParams {
-    BlockParams::from_width_height(1.2, 2.0, 0.8, 0.6, None).unwrap()
-}
+mod engine_fixtures;
+use engine_fixtures::{rinaldi_f32, slender, spec, stocky, T0_NS};
 
 /// Cuts `east` into packets of `len` samples at 1/dt Hz for `station`.
 fn packets(station: &str, east: &[f64], north: &[f64], dt: f64, len: usize) -> Vec<AccelPacket> {

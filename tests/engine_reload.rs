@@ -7,48 +7,15 @@
 //! - a changed block starts at rest, a removed one is dropped, and a bad configuration changes
 //!   nothing.
 
-use std::path::Path;
-
-use rockwatch_core::azimuth::Azimuth;
-use rockwatch_core::dynamics::BlockParams;
-use rockwatch_core::engine::{
-    AccelPacket, Engine, EngineConfig, Output, PbrSpec, ReloadReport, StationId,
-};
+use rockwatch_core::engine::{AccelPacket, Engine, EngineConfig, Output, PbrSpec, ReloadReport};
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions};
 
-const T0_NS: i64 = 1_700_000_000_000_000_000;
+mod engine_fixtures;
+use engine_fixtures::{rinaldi_f32, slender, spec, stocky, T0_NS};
+
+/// Samples per packet.
 const LEN: usize = 100;
-
-fn rinaldi_f32() -> Record {
-    let mut r = Record::read(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/records/Rinaldi228.AT2"
-    )))
-    .unwrap();
-    r.horizontal_mps2
-        .iter_mut()
-        .for_each(|a| *a = f64::from(*a as f32));
-    r
-}
-
-fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpec {
-    PbrSpec {
-        id: id.into(),
-        station: StationId::parse(station).unwrap(),
-        azimuth: Azimuth::from_degrees(azimuth_deg).unwrap(),
-        nominal: p,
-        members: vec![],
-        more_directions: vec![],
-    }
-}
-
-fn slender() -> BlockParams {
-    BlockParams::from_width_height(0.4, 2.0, 0.8, 0.6, None).unwrap()
-}
-fn stocky() -> BlockParams {
-    BlockParams::from_width_height(1.2, 2.0, 0.8, 0.6, None).unwrap()
-}
 
 /// The record as packets of `LEN` samples for `station` (east = the record, north = half of it).
 fn packets(station: &str, record: &Record) -> Vec<AccelPacket> {
