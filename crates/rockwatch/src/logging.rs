@@ -26,7 +26,7 @@
 //!   nobody reads, a stuck log shipper), records are dropped and counted, and the next line
 //!   written says how many: the engine and the DDS threads never wait for stderr (with a
 //!   blocking stderr, a full 64 KiB pipe stalled every thread of the process that logs).
-//!   [`flush`] before the process ends.
+//!   [`flush`] before the process ends (a panic flushes, for at most 1 s, before its message).
 //! - **`/rosout`** ([`enable_rosout`], [`take_rosout`]): rockwatch's own records at or above
 //!   a level are also queued (bounded) for the node's event loop, which publishes them as
 //!   `rcl_interfaces/msg/Log` on its own thread (no record is ever published from a DDS
@@ -205,6 +205,12 @@ pub fn init_queued(options: &LogOptions) -> Result<(), String> {
     match spawned {
         Ok(_) => {
             let _ = QUEUE.set(tx);
+            // A panic's message is written in place: the records queued before it first.
+            let report = std::panic::take_hook();
+            std::panic::set_hook(Box::new(move |info| {
+                flush(std::time::Duration::from_secs(1));
+                report(info);
+            }));
             init_with_writer(options, || QueuedLine(Vec::with_capacity(256)))
         }
         // No thread: stderr written in place.
