@@ -3,7 +3,8 @@
 //! overturning angle, and slide against time, with the response mode shaded (in the manner of
 //! the seed paper's Figures 2 and 3).
 
-use std::path::Path;
+use std::error::Error;
+use std::path::{Path, PathBuf};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -11,6 +12,51 @@ use plotters::prelude::*;
 use rockwatch_core::dynamics::{BlockParams, Mode};
 use rockwatch_core::simulate::Trace;
 use rockwatch_core::STANDARD_GRAVITY_MPS2;
+
+/// A plot could not be drawn or written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot draw {path}: {message}")]
+pub struct PlotError {
+    /// The file.
+    pub path: PathBuf,
+    /// What went wrong.
+    pub message: String,
+}
+
+impl PlotError {
+    /// `error` about the file (or directory) `path`.
+    pub fn new(path: &Path, error: &dyn std::fmt::Display) -> PlotError {
+        PlotError {
+            path: path.to_path_buf(),
+            message: error.to_string(),
+        }
+    }
+}
+
+/// What a drawing function returns (plotters' errors are of several types).
+pub type DrawResult = Result<(), Box<dyn Error>>;
+
+/// Draws one figure of `size` pixels into `<stem>.svg` (with `svg`) and `<stem>.png` (with
+/// `png`: the same drawing on the bitmap backend); returns both paths.
+pub fn both_formats(
+    stem: &Path,
+    size: (u32, u32),
+    svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> DrawResult,
+    png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> DrawResult,
+) -> Result<Vec<PathBuf>, PlotError> {
+    ensure_font();
+    let svg_path = stem.with_extension("svg");
+    let png_path = stem.with_extension("png");
+    {
+        let root = SVGBackend::new(&svg_path, size).into_drawing_area();
+        svg(&root).map_err(|e| PlotError::new(&svg_path, &e))?;
+    }
+    {
+        let root = BitMapBackend::new(&png_path, size).into_drawing_area();
+        png(&root).map_err(|e| PlotError::new(&png_path, &e))?;
+    }
+    Ok(vec![svg_path, png_path])
+}
 
 /// DejaVu Sans, subset (assets/fonts/README.md): compiled in, so text renders on machines
 /// without fonts (plotters' `ab_glyph` backend uses only registered fonts).

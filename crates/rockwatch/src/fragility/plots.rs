@@ -4,21 +4,17 @@
 //! probability levels with the 10, 50 and 90 % contours (marching squares on the grid) and the
 //! observed (record, level) cells coloured by their fraction overturned.
 
-use std::error::Error;
 use std::path::{Path, PathBuf};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::report::{im_slug, stripe_fractions};
-use crate::plot::{ensure_font, short_number};
-use crate::study::plots::PlotError;
+use crate::plot::{both_formats, short_number, DrawResult, PlotError};
 use rockwatch_core::fragility::{
     cell_counts, wilson_interval, FragilityConfig, FragilityResult, ImFragility, Prepared,
     RunResult, Surface, Z_95,
 };
-
-type DrawResult = Result<(), Box<dyn Error>>;
 
 const CURVE: RGBColor = RGBColor(0, 114, 178);
 const POINTS: RGBColor = RGBColor(213, 94, 0);
@@ -314,13 +310,6 @@ where
     Ok(())
 }
 
-fn plot_error(path: &Path, e: &dyn Error) -> PlotError {
-    PlotError {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
-}
-
 /// Writes `fragility_<IM>.svg/.png` for every fitted IM and `surface_<IM1>_<IM2>.svg/.png`
 /// when the surface was fitted; returns the paths.
 pub fn write_plots(
@@ -372,24 +361,12 @@ fn both_formats_curve(
     f: &ImFragility,
     points: &[(f64, f64, f64, f64, f64)],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    ensure_font();
-    let size = (900, 600);
-    let (svg_path, png_path) = (stem.with_extension("svg"), stem.with_extension("png"));
-    draw_curve(
-        &SVGBackend::new(&svg_path, size).into_drawing_area(),
-        title,
-        f,
-        points,
+    both_formats(
+        stem,
+        (900, 600),
+        |root| draw_curve(root, title, f, points),
+        |root| draw_curve(root, title, f, points),
     )
-    .map_err(|e| plot_error(&svg_path, e.as_ref()))?;
-    draw_curve(
-        &BitMapBackend::new(&png_path, size).into_drawing_area(),
-        title,
-        f,
-        points,
-    )
-    .map_err(|e| plot_error(&png_path, e.as_ref()))?;
-    Ok(vec![svg_path, png_path])
 }
 
 fn both_formats_surface(
@@ -399,24 +376,10 @@ fn both_formats_surface(
     s: &Surface,
     cells: &[(f64, f64, f64)],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    ensure_font();
-    let size = (900, 700);
-    let (svg_path, png_path) = (stem.with_extension("svg"), stem.with_extension("png"));
-    draw_surface(
-        &SVGBackend::new(&svg_path, size).into_drawing_area(),
-        title,
-        config,
-        s,
-        cells,
+    both_formats(
+        stem,
+        (900, 700),
+        |root| draw_surface(root, title, config, s, cells),
+        |root| draw_surface(root, title, config, s, cells),
     )
-    .map_err(|e| plot_error(&svg_path, e.as_ref()))?;
-    draw_surface(
-        &BitMapBackend::new(&png_path, size).into_drawing_area(),
-        title,
-        config,
-        s,
-        cells,
-    )
-    .map_err(|e| plot_error(&png_path, e.as_ref()))?;
-    Ok(vec![svg_path, png_path])
 }

@@ -7,14 +7,13 @@
 //! PNG text uses the font bundled with the crate ([`crate::plot::ensure_font`]), so the
 //! plots render on a machine with no fonts installed.
 
-use std::error::Error;
 use std::path::{Path, PathBuf};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::report::display_name;
-use crate::plot::{ensure_font, short_number};
+use crate::plot::{both_formats, short_number, DrawResult, PlotError};
 use rockwatch_core::study::fragility::Z_95;
 use rockwatch_core::study::{BlockAnalysis, Category, StudyAnalysis, StudyConfig, StudyData};
 
@@ -22,18 +21,6 @@ use rockwatch_core::study::{BlockAnalysis, Category, StudyAnalysis, StudyConfig,
 const SCATTER_SIZE: (u32, u32) = (1500, 950);
 /// Size of the fragility figure (pixels).
 const FRAGILITY_SIZE: (u32, u32) = (900, 600);
-
-/// A plot could not be drawn or written.
-#[derive(Debug, thiserror::Error)]
-#[error("cannot draw {path}: {message}")]
-pub struct PlotError {
-    /// The file.
-    pub path: PathBuf,
-    /// What went wrong.
-    pub message: String,
-}
-
-type DrawResult = Result<(), Box<dyn Error>>;
 
 /// Marker colour of a category (the seed's colours: blue response, orange none, yellow
 /// overturned; other exclusions grey).
@@ -376,34 +363,6 @@ where
     Ok(())
 }
 
-fn plot_error(path: &Path, e: &dyn Error) -> PlotError {
-    PlotError {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
-}
-
-/// Draws `draw` into `<stem>.svg` and `<stem>.png`.
-fn both_formats(
-    stem: &Path,
-    size: (u32, u32),
-    svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> DrawResult,
-    png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> DrawResult,
-) -> Result<Vec<PathBuf>, PlotError> {
-    ensure_font();
-    let svg_path = stem.with_extension("svg");
-    let png_path = stem.with_extension("png");
-    {
-        let root = SVGBackend::new(&svg_path, size).into_drawing_area();
-        svg(&root).map_err(|e| plot_error(&svg_path, e.as_ref()))?;
-    }
-    {
-        let root = BitMapBackend::new(&png_path, size).into_drawing_area();
-        png(&root).map_err(|e| plot_error(&png_path, e.as_ref()))?;
-    }
-    Ok(vec![svg_path, png_path])
-}
-
 /// Writes `scatter_<block>.svg/.png` for every block and `fragility_<block>.svg/.png` for
 /// every block with a fragility curve; returns the paths.
 pub fn write_plots(
@@ -412,7 +371,7 @@ pub fn write_plots(
     data: &StudyData,
     analysis: &StudyAnalysis,
 ) -> Result<Vec<PathBuf>, PlotError> {
-    std::fs::create_dir_all(out_dir).map_err(|e| plot_error(out_dir, &e))?;
+    std::fs::create_dir_all(out_dir).map_err(|e| PlotError::new(out_dir, &e))?;
     let mut written = Vec::new();
     for block in &analysis.blocks {
         let stem = out_dir.join(format!("scatter_{}", block.name));
