@@ -133,11 +133,7 @@ pub const MAX_ENSEMBLE: usize = 10_000;
 /// Stable across platforms and versions, and different ids give unrelated ensembles.
 #[must_use]
 pub fn default_seed(id: &str) -> u64 {
-    const OFFSET_BASIS: u64 = 0xcbf2_9ce4_8422_2325;
-    const PRIME: u64 = 0x0000_0100_0000_01b3;
-    id.bytes().fold(OFFSET_BASIS, |hash, byte| {
-        (hash ^ u64::from(byte)).wrapping_mul(PRIME)
-    })
+    crate::partition::fnv1a64(id.as_bytes())
 }
 
 /// A possibly uncertain scalar parameter.

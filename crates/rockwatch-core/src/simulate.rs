@@ -117,35 +117,56 @@ pub enum SimulateError {
     Advance { t_s: f64, reason: AdvanceError },
 }
 
+/// The bounds every simulation checks first: a record of at least 2 samples, `t_extra_s`
+/// finite and ≥ 0, at most [`MAX_SIMULATION_STEPS`] steps. Returns the number of zero-input
+/// samples after the record (`t_extra_s` rounded up to whole samples).
+fn extra_samples(record: &Record, t_extra_s: f64) -> Result<usize, SimulateError> {
+    if record.len() < 2 {
+        return Err(SimulateError::TooShort);
+    }
+    if !(t_extra_s.is_finite() && t_extra_s >= 0.0) {
+        return Err(SimulateError::BadExtra(t_extra_s));
+    }
+    let dt = record.dt_s;
+    // In f64: a tiny dt or a huge t_extra must not wrap or saturate before the check.
+    let steps = record.len() as f64 + (t_extra_s / dt).ceil();
+    if !(dt > 0.0 && steps <= MAX_SIMULATION_STEPS as f64) {
+        return Err(SimulateError::TooManySteps { steps, dt_s: dt });
+    }
+    Ok((t_extra_s / dt).ceil() as usize)
+}
+
+/// Ground acceleration at sample `i` of `record`, its horizontal component scaled by
+/// `horizontal_factor` and its vertical one by `vertical_factor` (m/s²); zero after the
+/// record's end.
+fn ground_sample(
+    record: &Record,
+    i: usize,
+    horizontal_factor: f64,
+    vertical_factor: f64,
+) -> GroundAccel {
+    if i < record.len() {
+        GroundAccel {
+            horizontal_mps2: horizontal_factor * record.horizontal_mps2[i],
+            vertical_mps2: record
+                .vertical_mps2
+                .as_ref()
+                .map_or(0.0, |v| vertical_factor * v[i]),
+        }
+    } else {
+        GroundAccel::default()
+    }
+}
+
 /// Simulates `params` under `record` (horizontal and optional vertical components).
 pub fn simulate(
     params: BlockParams,
     record: &Record,
     options: &SimulationOptions,
 ) -> Result<Simulation, SimulateError> {
-    if record.len() < 2 {
-        return Err(SimulateError::TooShort);
-    }
-    if !(options.t_extra_s.is_finite() && options.t_extra_s >= 0.0) {
-        return Err(SimulateError::BadExtra(options.t_extra_s));
-    }
+    let n_extra = extra_samples(record, options.t_extra_s)?;
     let dt = record.dt_s;
-    // In f64: a tiny dt or a huge t_extra must not wrap or saturate before the check.
-    let steps = record.len() as f64 + (options.t_extra_s / dt).ceil();
-    if !(dt > 0.0 && steps <= MAX_SIMULATION_STEPS as f64) {
-        return Err(SimulateError::TooManySteps { steps, dt_s: dt });
-    }
-    let n_extra = (options.t_extra_s / dt).ceil() as usize;
-    let ground_at = |i: usize| -> GroundAccel {
-        if i < record.len() {
-            GroundAccel {
-                horizontal_mps2: record.horizontal_mps2[i],
-                vertical_mps2: record.vertical_mps2.as_ref().map_or(0.0, |v| v[i]),
-            }
-        } else {
-            GroundAccel::default()
-        }
-    };
+    let ground_at = |i: usize| ground_sample(record, i, 1.0, 1.0);
 
     let mut block = RigidBlock::new(params, options.block);
     let mut events = Vec::new();
@@ -244,30 +265,11 @@ pub fn simulate_outcome(
     t_extra_s: f64,
     block_options: BlockOptions,
 ) -> Result<Outcome, SimulateError> {
-    if record.len() < 2 {
-        return Err(SimulateError::TooShort);
-    }
-    if !(t_extra_s.is_finite() && t_extra_s >= 0.0) {
-        return Err(SimulateError::BadExtra(t_extra_s));
-    }
+    let n_extra = extra_samples(record, t_extra_s)?;
     let dt = record.dt_s;
-    let steps = record.len() as f64 + (t_extra_s / dt).ceil();
-    if !(dt > 0.0 && steps <= MAX_SIMULATION_STEPS as f64) {
-        return Err(SimulateError::TooManySteps { steps, dt_s: dt });
-    }
     let n = record.len();
-    let n_intervals = n - 1 + (t_extra_s / dt).ceil() as usize;
-    let vertical = record.vertical_mps2.as_deref();
-    let ground_at = |i: usize| -> GroundAccel {
-        if i < n {
-            GroundAccel {
-                horizontal_mps2: horizontal_factor * record.horizontal_mps2[i],
-                vertical_mps2: vertical.map_or(0.0, |v| vertical_factor * v[i]),
-            }
-        } else {
-            GroundAccel::default()
-        }
-    };
+    let n_intervals = n - 1 + n_extra;
+    let ground_at = |i: usize| ground_sample(record, i, horizontal_factor, vertical_factor);
     let mut block = RigidBlock::new(params, block_options);
     for i in 0..n_intervals {
         if i + 1 >= n && block.mode() == Mode::Rest {

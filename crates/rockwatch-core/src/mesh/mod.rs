@@ -156,6 +156,28 @@ impl MeshBuilder {
         self.vertices.len()
     }
 
+    /// The three coordinates of a text vertex statement (OBJ `v`, ASCII STL `vertex`) from
+    /// `words`, at `line`.
+    pub(crate) fn coordinates<'w>(
+        &self,
+        words: &mut impl Iterator<Item = &'w str>,
+        line: usize,
+    ) -> Result<[f64; 3], MeshError> {
+        let mut p = [0.0; 3];
+        for (k, c) in p.iter_mut().enumerate() {
+            let word = words.next().ok_or_else(|| {
+                self.syntax(Some(line), format!("vertex needs 3 coordinates, got {k}"))
+            })?;
+            *c = word.parse().map_err(|_| {
+                self.syntax(
+                    Some(line),
+                    format!("vertex coordinate {word:?} is not a number"),
+                )
+            })?;
+        }
+        Ok(p)
+    }
+
     /// Adds a vertex; refuses non-finite coordinates and too many vertices.
     pub(crate) fn vertex(&mut self, p: [f64; 3], line: Option<usize>) -> Result<(), MeshError> {
         if !p.iter().all(|c| c.is_finite()) {

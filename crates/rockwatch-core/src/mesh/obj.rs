@@ -43,18 +43,7 @@ pub(super) fn parse(bytes: &[u8], source: &str) -> Result<TriMesh, MeshError> {
         };
         match keyword {
             "v" => {
-                let mut p = [0.0; 3];
-                for (k, c) in p.iter_mut().enumerate() {
-                    let word = words.next().ok_or_else(|| {
-                        b.syntax(Some(line), format!("vertex needs 3 coordinates, got {k}"))
-                    })?;
-                    *c = word.parse().map_err(|_| {
-                        b.syntax(
-                            Some(line),
-                            format!("vertex coordinate {word:?} is not a number"),
-                        )
-                    })?;
-                }
+                let mut p = b.coordinates(&mut words, line)?;
                 if let Some(w) = words.next() {
                     let w: f64 = w.parse().map_err(|_| {
                         b.syntax(Some(line), format!("vertex weight {w:?} is not a number"))

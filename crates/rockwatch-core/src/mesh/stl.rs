@@ -104,18 +104,7 @@ fn parse_ascii(mut b: MeshBuilder, bytes: &[u8]) -> Result<TriMesh, MeshError> {
                 let Some((_, ref mut loop_vertices)) = in_facet else {
                     return Err(b.syntax(Some(line), "`vertex` outside a facet"));
                 };
-                let mut p = [0.0; 3];
-                for (k, c) in p.iter_mut().enumerate() {
-                    let word = words.next().ok_or_else(|| {
-                        b.syntax(Some(line), format!("vertex needs 3 coordinates, got {k}"))
-                    })?;
-                    *c = word.parse().map_err(|_| {
-                        b.syntax(
-                            Some(line),
-                            format!("vertex coordinate {word:?} is not a number"),
-                        )
-                    })?;
-                }
+                let p = b.coordinates(&mut words, line)?;
                 loop_vertices.push(b.vertex_count());
                 b.vertex(p, Some(line))?;
             }
