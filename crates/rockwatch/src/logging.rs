@@ -228,12 +228,6 @@ pub fn flush(timeout: std::time::Duration) {
     }
 }
 
-/// Records dropped because stderr did not keep up ([`init_queued`]).
-#[must_use]
-pub fn log_records_dropped() -> u64 {
-    DROPPED.load(Ordering::Relaxed)
-}
-
 /// One formatted record, queued for `rockwatch-log` when dropped.
 struct QueuedLine(Vec<u8>);
 

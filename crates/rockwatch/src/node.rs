@@ -161,6 +161,12 @@ impl Default for NodeOptions {
 }
 
 impl NodeOptions {
+    /// The state directory in force: the flag's, else the configuration's (None: none).
+    #[must_use]
+    pub fn state_dir_path(&self) -> Option<PathBuf> {
+        self.state_dir.clone().or(self.config.state_dir.clone())
+    }
+
     /// The catalogue in force: the flag's, else the configuration's.
     pub fn catalogue_path(&self) -> anyhow::Result<PathBuf> {
         self.catalogue
@@ -209,7 +215,7 @@ impl NodeOptions {
     /// Opens the state directory in force (the flag's, else the configuration's), if any,
     /// returning the journal and its records; repairs are reported on stderr.
     pub fn open_state(&self) -> anyhow::Result<Option<(Journal, Vec<JournalRecord>)>> {
-        let Some(dir) = self.state_dir.clone().or(self.config.state_dir.clone()) else {
+        let Some(dir) = self.state_dir_path() else {
             return Ok(None);
         };
         let (journal, records, report) = Journal::open(&dir)?;
@@ -937,6 +943,7 @@ impl NodeRuntime {
         };
         self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
         self.foreign_pbr_ids = foreign_blocks;
+        self.emit.stale_after_s = config.stale_after_s;
         if self.max_ahead_ns.is_some() {
             self.max_ahead_ns = Some((config.plausibility.max_ahead_s * 1e9) as i64);
         }

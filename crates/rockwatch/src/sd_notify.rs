@@ -99,12 +99,6 @@ impl SystemdNotifier {
         self.notify("STOPPING=1\nSTATUS=stopping");
     }
 
-    /// How often the watchdog is pinged (None: no watchdog).
-    #[must_use]
-    pub fn ping_every(&self) -> Option<Duration> {
-        self.ping_every
-    }
-
     /// Sends `WATCHDOG=1` if half the watchdog period has passed since the last ping. Call it
     /// from the event loop on every turn while it is healthy.
     pub fn ping_if_due(&mut self) {

@@ -137,10 +137,7 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
             naming.node_fqn()
         );
     }
-    let state_dir = options
-        .state_dir
-        .clone()
-        .or(options.config.state_dir.clone());
+    let state_dir = options.state_dir_path();
     let journal = match &state_dir {
         Some(dir) => read_journal(dir)?.0,
         None => Vec::new(),
@@ -159,6 +156,12 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         }
         if old.notify != now.notify {
             ignored.push("[[notify]]");
+        }
+        if old.status != now.status {
+            ignored.push("[status]");
+        }
+        if old.metrics != now.metrics {
+            ignored.push("[metrics]");
         }
         if options.state_dir != new.state_dir || old.state_dir != now.state_dir {
             ignored.push("state_dir");

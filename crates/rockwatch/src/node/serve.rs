@@ -202,9 +202,7 @@ impl Reactor {
             engine: config.engine,
             catalogue: options.catalogue_path()?.display().to_string(),
             state_dir: options
-                .state_dir
-                .as_ref()
-                .or(config.state_dir.as_ref())
+                .state_dir_path()
                 .map(|d| d.display().to_string())
                 .unwrap_or_default(),
         };
@@ -256,12 +254,6 @@ impl Reactor {
     #[must_use]
     pub fn epoch(&self) -> std::time::Instant {
         self.runtime.epoch()
-    }
-
-    /// The metrics endpoint's address, when `[metrics] listen` is set.
-    #[must_use]
-    pub fn metrics_address(&self) -> Option<std::net::SocketAddr> {
-        self.metrics.as_ref().map(MetricsServer::address)
     }
 
     /// The intake counters, readable from other threads while the node runs.

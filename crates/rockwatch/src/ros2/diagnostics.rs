@@ -88,7 +88,7 @@ pub struct StatusPublisher {
 impl StatusPublisher {
     /// Creates the `/diagnostics` publisher on `session`'s node and takes its `/rosout` writer
     /// (present when the node was made with `/rosout` enabled).
-    pub(super) fn open(session: &mut Ros2Session, namespace: &str) -> anyhow::Result<Self> {
+    pub(super) fn open(session: &mut Ros2Session) -> anyhow::Result<Self> {
         let qos = output_qos();
         let name =
             Name::parse(DIAGNOSTICS_TOPIC).map_err(|e| anyhow!("{DIAGNOSTICS_TOPIC}: {e:?}"))?;
@@ -104,11 +104,14 @@ impl StatusPublisher {
             .node
             .create_publisher(&topic, Some(qos))
             .map_err(|e| anyhow!("ROS 2 publisher {DIAGNOSTICS_TOPIC}: {e:?}"))?;
-        // rcl's logger name: the namespace's parts and the node name joined by dots.
-        let logger = namespace
+        // rcl's logger name: the namespace's parts and the node name (after remaps) joined
+        // by dots.
+        let naming = session.naming();
+        let logger = naming
+            .namespace()
             .split('/')
             .filter(|p| !p.is_empty())
-            .chain(std::iter::once(NODE_NAME))
+            .chain(std::iter::once(naming.node()))
             .collect::<Vec<_>>()
             .join(".");
         Ok(StatusPublisher {

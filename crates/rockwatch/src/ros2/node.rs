@@ -100,7 +100,7 @@ impl Ros2Node {
         let reset = ResetServer::open(&mut session)?;
         let params = ParamServer::open(&mut session, params.clone(), controls.clone())?;
         let intake = session.publisher(INTAKE_TOPIC, "IntakeReport", intake_qos())?;
-        let status = StatusPublisher::open(&mut session, &config.namespace)?;
+        let status = StatusPublisher::open(&mut session)?;
         Ok((
             Ros2Node {
                 session,
