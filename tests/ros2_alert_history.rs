@@ -11,7 +11,7 @@ use ros2_util::*;
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use rockwatch::journal::read_journal;
 use rockwatch::node::FAULT_ABORT_AFTER_JOURNAL_ENV;
@@ -52,20 +52,6 @@ fn stop(mut node: Child, err: &Path) -> String {
     let stderr = std::fs::read_to_string(err).unwrap_or_default();
     assert!(status.success(), "{status}\n{stderr}");
     stderr
-}
-
-/// Every alert a subscriber receives until none has come for `quiet`.
-fn collect(listener: &mut Ros2AlertListener, quiet: Duration) -> Vec<PbrAlert> {
-    let mut got = Vec::new();
-    let mut last = Instant::now();
-    while last.elapsed() < quiet {
-        let batch = listener.recv(Duration::from_millis(100)).unwrap();
-        if !batch.is_empty() {
-            got.extend(batch);
-            last = Instant::now();
-        }
-    }
-    got
 }
 
 /// A late subscriber's view: opened once the node runs, everything it gets.

@@ -19,7 +19,6 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use rockwatch::ros2::msg::PbrAlert;
 use rockwatch::ros2::{network_plan, NetworkPlan, Ros2AlertListener, Ros2Config};
 
 fn plan() -> NetworkPlan {
@@ -68,20 +67,6 @@ fn replay(config: &Path, ros_args: &[&str]) -> std::process::Output {
         .args(ros_args)
         .output()
         .unwrap()
-}
-
-/// Every alert a listener receives until none has come for `quiet`.
-fn collect(listener: &mut Ros2AlertListener, quiet: Duration) -> Vec<PbrAlert> {
-    let mut got = Vec::new();
-    let mut last = Instant::now();
-    while last.elapsed() < quiet {
-        let batch = listener.recv(Duration::from_millis(100)).unwrap();
-        if !batch.is_empty() {
-            got.extend(batch);
-            last = Instant::now();
-        }
-    }
-    got
 }
 
 /// Waits (≤ 20 s) until `state`'s journal holds an `overturned` alert of `pbr`.

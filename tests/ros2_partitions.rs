@@ -88,20 +88,8 @@ fn packets() -> Vec<AccelPacket> {
 
 /// (pbr_id, level, episode, data time ns) of every alert journaled in `state`.
 fn alerts(state: &Path) -> Vec<(String, String, u64, i64)> {
-    let out = std::process::Command::new(rockwatch())
-        .args(["alerts", "--format", "json", "--state-dir"])
-        .arg(state)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let records: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
-    records
+    journaled_alerts(state)
         .iter()
-        .filter(|r| r["type"] == "alert")
         .map(|a| {
             (
                 a["pbr_id"].as_str().unwrap().to_string(),

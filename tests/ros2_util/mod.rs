@@ -411,9 +411,28 @@ pub fn stop_node(node: LoggedChild) -> (std::process::ExitStatus, String) {
     node.stop(std::time::Duration::from_secs(60))
 }
 
-/// (pbr, episode, level) of every alert journaled in the state directory `state`, in journal
-/// order (`rockwatch alerts --format json`).
-pub fn alert_history(state: &std::path::Path) -> Vec<(String, u64, String)> {
+/// Every alert a listener receives until none has come for `quiet`.
+pub fn collect(
+    listener: &mut rockwatch::ros2::Ros2AlertListener,
+    quiet: std::time::Duration,
+) -> Vec<rockwatch::ros2::msg::PbrAlert> {
+    let mut got = Vec::new();
+    let mut last = std::time::Instant::now();
+    while last.elapsed() < quiet {
+        let batch = listener
+            .recv(std::time::Duration::from_millis(100))
+            .unwrap();
+        if !batch.is_empty() {
+            got.extend(batch);
+            last = std::time::Instant::now();
+        }
+    }
+    got
+}
+
+/// The alert records journaled in the state directory `state`, in journal order, as the
+/// shared alert JSON (`rockwatch alerts --format json`).
+pub fn journaled_alerts(state: &std::path::Path) -> Vec<serde_json::Value> {
     let out = Command::new(rockwatch())
         .args(["alerts", "--format", "json", "--state-dir"])
         .arg(state)
@@ -426,8 +445,16 @@ pub fn alert_history(state: &std::path::Path) -> Vec<(String, u64, String)> {
     );
     let records: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     records
-        .iter()
+        .into_iter()
         .filter(|r| r["type"] == "alert")
+        .collect()
+}
+
+/// (pbr, episode, level) of every alert journaled in the state directory `state`, in journal
+/// order.
+pub fn alert_history(state: &std::path::Path) -> Vec<(String, u64, String)> {
+    journaled_alerts(state)
+        .iter()
         .map(|a| {
             (
                 a["pbr_id"].as_str().unwrap().to_string(),
