@@ -1263,7 +1263,7 @@ lat = 34.28
 lon = -118.48
 station = "CI.RRS.00"
 mesh = "meshes/wedge.obj"
-azimuths = [30.0, 120.0, 250.0]
+azimuths = [30.0, 150.0, 250.0]
 heading_deg = 10.0
 contact_tolerance_m = { min = 0.001, max = 0.01 }
 mu_s = 0.8

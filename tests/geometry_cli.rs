@@ -74,17 +74,46 @@ fn geometry_json_of_a_box_matches_its_closed_forms() {
     assert_eq!(dirs.len(), 8);
     for d in dirs {
         let az = f(&d["azimuth_deg"]).to_radians();
-        let support = a / 2.0 * az.sin().abs() + b / 2.0 * az.cos().abs();
+        // The ray from the centre leaves the base through the nearer side.
+        let exit = (a / 2.0 / az.sin().abs()).min(b / 2.0 / az.cos().abs());
         let rho2 = (az.cos().powi(2) * (b * b + c * c) + az.sin().powi(2) * (a * a + c * c)) / 12.0;
         for key in ["b_plus_m", "b_minus_m"] {
-            assert!((f(&d[key]) - support).abs() < 1e-12, "{key} {d}");
+            assert!((f(&d[key]) - exit).abs() < 1e-12, "{key} {d}");
         }
         assert!((f(&d["h_m"]) - c / 2.0).abs() < 1e-12);
         assert!((f(&d["rho_m"]) - rho2.sqrt()).abs() < 1e-12);
-        let alpha = (support / (c / 2.0)).atan().to_degrees();
+        let alpha = (exit / (c / 2.0)).atan().to_degrees();
         assert!((f(&d["alpha_plus_deg"]) - alpha).abs() < 1e-10);
         assert!((f(&d["alpha_minus_deg"]) - alpha).abs() < 1e-10);
     }
+    // The weakest direction of 0:360:45 tips across the shorter half-width: b/2 = 0.15 m
+    // north-south against a/2 = 0.2 m east-west, so towards 0° or 180°, α = atan(b/c).
+    let weakest = &json["weakest"];
+    let alpha_min = (b / 2.0 / (c / 2.0)).atan().to_degrees();
+    assert!(
+        (f(&weakest["alpha_deg"]) - alpha_min).abs() < 1e-10,
+        "{weakest}"
+    );
+    assert!(
+        [0.0, 180.0].contains(&f(&weakest["azimuth_deg"])),
+        "{weakest}"
+    );
+    assert!(
+        (f(&weakest["uplift_mps2"]) - 9.80665 * b / c).abs() < 1e-10,
+        "{weakest}"
+    );
+    // The sensitivity rows: 0, 1, 2, 5 mm; a box's patch is its base at every tolerance.
+    let rows = json["tolerance_sensitivity"].as_array().unwrap();
+    let tolerances: Vec<f64> = rows.iter().map(|r| f(&r["tolerance_m"])).collect();
+    assert_eq!(tolerances, [0.0, 0.001, 0.002, 0.005]);
+    for r in rows {
+        assert_eq!(r["contact_vertices"], 4, "{r}");
+        assert!((f(&r["b_ratio_max"]) - 1.0).abs() < 1e-12, "{r}");
+    }
+    assert_eq!(
+        json["contact_tolerance_m"], 0.0,
+        "the default is the resting facet alone"
+    );
     // Text output names the units.
     let out = rockwatch(&["geometry", "--mesh", mesh.to_str().unwrap()]);
     assert!(out.status.success());
@@ -96,6 +125,76 @@ fn geometry_json_of_a_box_matches_its_closed_forms() {
             .count(),
         1
     );
+}
+
+#[test]
+fn geometry_shows_how_the_pivots_move_with_the_contact_tolerance() {
+    // A block 0.5 (x, east) × 0.4 (y) × 1.0 (z) whose east bottom edge is chamfered, rising
+    // 3 mm over its last 40 mm: the resting facet ends 40 mm short of the east side; a
+    // tolerance of 3 mm or more takes the chamfer's top into the patch.
+    let (a, w, c, rise, run) = (0.5, 0.4, 1.0, 0.003, 0.04);
+    let profile = [
+        (-a / 2.0, 0.0),
+        (a / 2.0 - run, 0.0),
+        (a / 2.0, rise),
+        (a / 2.0, c),
+        (-a / 2.0, c),
+    ];
+    let mut text = String::new();
+    for y in [-w / 2.0, w / 2.0] {
+        for (x, z) in profile {
+            text += &format!("v {x} {y} {z}\n");
+        }
+    }
+    // Caps: the profile is counter-clockwise in (x, z), so the y = −w/2 cap keeps its order.
+    text += "f 1 2 3 4 5\nf 10 9 8 7 6\n";
+    for i in 0..5 {
+        let j = (i + 1) % 5;
+        text += &format!("f {} {} {} {}\n", i + 1, i + 6, j + 6, j + 1);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("chamfered.obj");
+    std::fs::write(&mesh, text).unwrap();
+    let json = ok_json(&[
+        "geometry",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    // The profile's centroid (shoelace), independent of the library's tetrahedra.
+    let (mut area, mut cx) = (0.0, 0.0);
+    for k in 0..5 {
+        let ((x0, z0), (x1, z1)) = (profile[k], profile[(k + 1) % 5]);
+        let cross = x0 * z1 - x1 * z0;
+        area += cross / 2.0;
+        cx += (x0 + x1) * cross / 6.0;
+    }
+    let gx = cx / area;
+    let grown = (a / 2.0 - gx) / (a / 2.0 - run - gx);
+    let rows = json["tolerance_sensitivity"].as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    for (row, (vertices, ratio)) in rows.iter().zip([(4, 1.0), (4, 1.0), (4, 1.0), (6, grown)]) {
+        assert_eq!(row["contact_vertices"], vertices, "{row}");
+        assert!(
+            (f(&row["b_ratio_max"]) - ratio).abs() < 1e-9,
+            "{row} vs {ratio}"
+        );
+    }
+    // The text says it too, and marks the tolerance in force.
+    let out = rockwatch(&["geometry", "--mesh", mesh.to_str().unwrap()]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("contact tolerance sensitivity"), "{text}");
+    let row_5mm = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("5.0 "))
+        .unwrap_or_else(|| panic!("no 5 mm row:\n{text}"));
+    assert!(row_5mm.contains(&format!("{grown:.3}")), "{row_5mm}");
+    let row_0 = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("0.0 "))
+        .unwrap();
+    assert!(row_0.ends_with("(in force)"), "{row_0}");
 }
 
 #[test]

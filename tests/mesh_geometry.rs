@@ -2,7 +2,9 @@
 //! each direction, verified against closed forms on meshes generated here (boxes, rotated and
 //! translated; prisms; wedges with asymmetric pivots; a chamfered base for the contact
 //! tolerance; faceted cylinders converging to the cylinder with the polygon's error bound),
-//! and round trips through every file format written by independent writers below.
+//! against an independent quasi-static 3-D computation of the uplift (moments about every
+//! edge of the base, in every direction), and round trips through every file format written
+//! by independent writers below.
 
 use rockwatch_core::mesh::contact::{parse_azimuths, RockGeometry, UpAxis};
 use rockwatch_core::mesh::mass::MassProperties;
@@ -127,17 +129,18 @@ fn box_mass_properties_and_every_direction_match_closed_forms() {
     for az in [0.0, 30.0, 45.0, 90.0, 135.0, 200.0, 270.0] {
         let d = rest.direction(az);
         let r = f64::to_radians(az);
-        // Support of the base rectangle along d = (sin az, cos az) in (x = east, y = north).
-        let support = a / 2.0 * r.sin().abs() + b / 2.0 * r.cos().abs();
-        close(d.b_plus_m, support, 1e-12, "b+");
-        close(d.b_minus_m, support, 1e-12, "b-");
+        // The ray from the centre along d = (sin az, cos az) in (x = east, y = north) leaves
+        // the base rectangle through the nearer of its sides: min(a/2 / |sin|, b/2 / |cos|).
+        let exit = (a / 2.0 / r.sin().abs()).min(b / 2.0 / r.cos().abs());
+        close(d.b_plus_m, exit, 1e-12, "b+");
+        close(d.b_minus_m, exit, 1e-12, "b-");
         close(d.h_m, c / 2.0, 1e-12, "h");
         // Axis U × d = (−cos az, sin az, 0): I = cos²·Ixx + sin²·Iyy.
         let rho2 = (r.cos().powi(2) * (b * b + c * c) + r.sin().powi(2) * (a * a + c * c)) / 12.0;
         close(d.rho_m, rho2.sqrt(), 1e-12, "rho");
         close(
             d.alpha_plus_deg,
-            (support / (c / 2.0)).atan().to_degrees(),
+            (exit / (c / 2.0)).atan().to_degrees(),
             1e-12,
             "alpha",
         );
@@ -292,8 +295,11 @@ fn upright_triangular_prism_matches_closed_forms() {
     close(rest.mass.com_m[1], gy, 1e-12, "com y");
     close(rest.h_m, hgt / 2.0, 1e-12, "h");
     let (_, _, (cxx, cyy)) = polygon_moments(&poly);
+    // The ray east from the centroid (ex/3, ny/3) leaves through the hypotenuse
+    // x/ex + y/ny = 1 at x = 2ex/3 (not at the vertex (ex, 0), which is off the ray); west
+    // through the leg x = 0.
     let east = rest.direction(90.0);
-    close(east.b_plus_m, ex - gx, 1e-12, "b+ east");
+    close(east.b_plus_m, ex / 3.0, 1e-12, "b+ east");
     close(east.b_minus_m, gx, 1e-12, "b- east");
     close(
         east.rho_m.powi(2),
@@ -302,7 +308,7 @@ fn upright_triangular_prism_matches_closed_forms() {
         "rho east",
     );
     let north = rest.direction(0.0);
-    close(north.b_plus_m, ny - gy, 1e-12, "b+ north");
+    close(north.b_plus_m, ny / 3.0, 1e-12, "b+ north");
     close(north.b_minus_m, gy, 1e-12, "b- north");
     close(
         north.rho_m.powi(2),
@@ -346,6 +352,163 @@ fn contact_tolerance_widens_the_patch_to_a_chamfer_within_it() {
     );
 }
 
+/// An upright prism: the convex polygon `base` (east, north; m; counter-clockwise seen from
+/// above) from z = 0 to z = `height`, closed and outward.
+fn upright_prism(base: &[(f64, f64)], height: f64) -> TriMesh {
+    let n = base.len();
+    let mut vertices: Vec<P> = base.iter().map(|&(x, y)| [x, y, 0.0]).collect();
+    vertices.extend(base.iter().map(|&(x, y)| [x, y, height]));
+    let mut faces = Vec::new();
+    for k in 1..n - 1 {
+        faces.push([0, k + 1, k]); // bottom, normal −z
+        faces.push([n, n + k, n + k + 1]); // top, normal +z
+    }
+    for i in 0..n {
+        let j = (i + 1) % n;
+        faces.push([i, j, n + j]);
+        faces.push([i, n + j, n + i]);
+    }
+    mesh(vertices, faces)
+}
+
+/// The quasi-static uplift of a rigid upright prism of convex base `base` (counter-clockwise,
+/// centroid inside) and height `height` under a horizontal pseudo-force a along the unit
+/// direction `d` (east, north), by brute force in 3-D, independent of the library's support
+/// polygon: the smallest a ≥ 0 at which the moment of gravity plus the inertial force about
+/// some base edge, taken about the edge's axis in the sense that lifts the base off, reaches
+/// zero. Per unit mass: F = a·d − g·ẑ at the centre of mass C = (centroid, height/2);
+/// M_e(a) = ((C − p_k) × F)·ê_k, ê_k along the edge p_k → p_k+1 (the base lies to its left,
+/// so a positive moment lifts it about the edge). A scan in steps of g/1000 up to 10 g finds
+/// the first bracket, bisection narrows it to 10⁻¹³ g.
+fn brute_force_uplift(base: &[(f64, f64)], height: f64, d: (f64, f64)) -> f64 {
+    let g = 9.80665;
+    let (_, (cx, cy), _) = polygon_moments(base);
+    let com = [cx, cy, height / 2.0];
+    let moment_max = |a: f64| -> f64 {
+        let force = [a * d.0, a * d.1, -g];
+        (0..base.len())
+            .map(|k| {
+                let (p, q) = (base[k], base[(k + 1) % base.len()]);
+                let r = [com[0] - p.0, com[1] - p.1, com[2]];
+                let m = [
+                    r[1] * force[2] - r[2] * force[1],
+                    r[2] * force[0] - r[0] * force[2],
+                    r[0] * force[1] - r[1] * force[0],
+                ];
+                let (ex, ey) = (q.0 - p.0, q.1 - p.1);
+                (m[0] * ex + m[1] * ey) / ex.hypot(ey)
+            })
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    assert!(moment_max(0.0) < 0.0, "the prism must stand at rest");
+    let step = g / 1000.0;
+    let mut hi = step;
+    while moment_max(hi) < 0.0 {
+        hi += step;
+        assert!(hi < 10.0 * g, "no uplift below 10 g");
+    }
+    let mut lo = hi - step;
+    while hi - lo > 1e-13 * g {
+        let mid = 0.5 * (lo + hi);
+        if moment_max(mid) < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// A polygon's vertices (east, north; m).
+type Polygon = Vec<(f64, f64)>;
+
+/// The base polygons of the reduction tests: a box turned about the vertical, a slender
+/// triangle (as on real scans) and an irregular pentagon.
+fn reduction_cases() -> Vec<(&'static str, Polygon, f64)> {
+    let rect = |w: f64, l: f64, turn_deg: f64, shift: (f64, f64)| -> Polygon {
+        let (s, c) = turn_deg.to_radians().sin_cos();
+        [
+            (-w / 2.0, -l / 2.0),
+            (w / 2.0, -l / 2.0),
+            (w / 2.0, l / 2.0),
+            (-w / 2.0, l / 2.0),
+        ]
+        .iter()
+        .map(|&(x, y)| (c * x - s * y + shift.0, s * x + c * y + shift.1))
+        .collect()
+    };
+    vec![
+        ("box", rect(0.6, 0.9, 0.0, (0.0, 0.0)), 1.5),
+        ("box turned 17°", rect(0.6, 0.9, 17.0, (2.0, -1.0)), 1.5),
+        ("box turned 45°", rect(0.6, 0.9, 45.0, (0.0, 0.0)), 1.5),
+        ("box turned 110°", rect(0.3, 1.2, 110.0, (-0.4, 0.7)), 0.8),
+        (
+            "slender triangle",
+            vec![(0.0, 0.0), (1.0, 0.0), (0.15, 0.22)],
+            0.5,
+        ),
+        (
+            "pentagon",
+            vec![
+                (0.0, 0.0),
+                (0.7, -0.1),
+                (0.95, 0.35),
+                (0.5, 0.8),
+                (-0.15, 0.5),
+            ],
+            1.1,
+        ),
+    ]
+}
+
+#[test]
+fn lever_arms_equal_the_quasi_static_3d_uplift_in_every_direction() {
+    for (name, base, height) in reduction_cases() {
+        let rest = RockGeometry::new(&upright_prism(&base, height))
+            .unwrap()
+            .rest(UpAxis::PlusZ, 0.0)
+            .unwrap();
+        close(rest.h_m, height / 2.0, 1e-12, "h");
+        for k in 0..144 {
+            let az = 2.5 * f64::from(k) + 0.3;
+            let body = rest.direction(az);
+            let (s, c) = az.to_radians().sin_cos();
+            let g = 9.80665;
+            // Uplift towards +d needs the pseudo-force along +d: b₊ = h·a*/g; b₋ along −d.
+            let plus = brute_force_uplift(&base, height, (s, c)) * rest.h_m / g;
+            let minus = brute_force_uplift(&base, height, (-s, -c)) * rest.h_m / g;
+            close(body.b_plus_m, plus, 1e-9, &format!("{name} az {az}: b+"));
+            close(body.b_minus_m, minus, 1e-9, &format!("{name} az {az}: b-"));
+        }
+    }
+}
+
+#[test]
+fn box_at_45_degrees_tips_about_the_edge_its_ray_crosses_not_its_corner() {
+    // 0.6 m east × 0.9 m north × 1.5 m: at azimuth 45° the ray from the centre leaves through
+    // the east side at 0.3/sin 45° = 0.4243 m (α = 29.5°); the corner's projection on the
+    // direction, (0.3 + 0.45)/√2 = 0.5303 m (α = 35.3°), overstates the stability.
+    let base = [(-0.3, -0.45), (0.3, -0.45), (0.3, 0.45), (-0.3, 0.45)];
+    let rest = RockGeometry::new(&upright_prism(&base, 1.5))
+        .unwrap()
+        .rest(UpAxis::PlusZ, 0.0)
+        .unwrap();
+    let d = rest.direction(45.0);
+    let want = 0.3 / std::f64::consts::FRAC_1_SQRT_2;
+    close(d.b_plus_m, want, 1e-12, "b+");
+    close(d.b_minus_m, want, 1e-12, "b-");
+    assert!(
+        (d.alpha_plus_deg - 29.5).abs() < 0.05,
+        "{}",
+        d.alpha_plus_deg
+    );
+    assert!(
+        (d.alpha_minus_deg - 29.5).abs() < 0.05,
+        "{}",
+        d.alpha_minus_deg
+    );
+}
+
 /// Regular n-gon of circumradius r, CCW.
 fn ngon(n: usize, r: f64, phase: f64) -> Vec<(f64, f64)> {
     (0..n)
@@ -379,12 +542,15 @@ fn faceted_cylinder_matches_the_polygon_exactly_and_converges_to_the_cylinder() 
         let i_in_plane = radius * radius * (2.0 + (2.0 * pi / n as f64).cos()) / 12.0;
         for az in [0.0, 10.0, 77.0, 90.0] {
             let d = rest.direction(az);
-            // Support of the n-gon (vertex k at angle 2πk/n from +x = east) along az.
+            // The ray from the centre of the n-gon (vertex k at angle 2πk/n from +x = east)
+            // along az leaves through the edge whose outward normal, at (2k + 1)π/n, is
+            // nearest to it: the apothem r cos(π/n) over the cosine of the angle between.
             let dir = (90.0 - az).to_radians(); // angle from east, counter-clockwise
-            let support = (0..n)
-                .map(|k| radius * (2.0 * pi * k as f64 / n as f64 - dir).cos())
+            let nearest = (0..n)
+                .map(|k| ((2 * k + 1) as f64 * pi / n as f64 - dir).cos())
                 .fold(f64::NEG_INFINITY, f64::max);
-            close(d.b_plus_m, support, 1e-12, "b+ polygon");
+            let exit = radius * (pi / n as f64).cos() / nearest;
+            close(d.b_plus_m, exit, 1e-12, "b+ polygon");
             close(
                 d.rho_m.powi(2),
                 i_in_plane + hgt * hgt / 12.0,

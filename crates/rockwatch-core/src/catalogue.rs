@@ -52,7 +52,7 @@
 //!   true azimuths clockwise from north, distinct, at most [`MAX_DIRECTIONS`] — optional
 //!   `up` (the mesh axis pointing up, default `"z"`), `heading_deg` (true azimuth of the mesh's
 //!   north axis, in [−360, 360], default 0) and `contact_tolerance_m` (in [0, 1] m, default
-//!   0.005). `heading_deg` and `contact_tolerance_m` are [`Distribution`]s like the other
+//!   0: the resting hull facet alone; see [`crate::mesh::contact::DEFAULT_CONTACT_TOLERANCE_M`]). `heading_deg` and `contact_tolerance_m` are [`Distribution`]s like the other
 //!   parameters (the mesh's uncertain fields, in that LHS column order). The rock has one
 //!   planar body per direction ([`Pbr::directions`]; direction az is the mesh's azimuth
 //!   az − heading); [`Pbr::nominal`] and [`Pbr::members`] are those of its first direction.
@@ -776,7 +776,7 @@ pub enum Geometry {
     },
     /// A rock from its closed mesh ([`Pbr::mesh`]): the uncertain parameters are its
     /// `heading_deg` (true azimuth of the mesh's north axis, degrees clockwise from north;
-    /// default 0) and its `contact_tolerance_m` (m, default 0.005).
+    /// default 0) and its `contact_tolerance_m` (m, default 0: the resting facet alone).
     Mesh {
         heading_deg: Distribution,
         contact_tolerance_m: Distribution,

@@ -24,16 +24,23 @@
 //! ground acceleration a_x = a_E sin az + a_N cos az ([`crate::azimuth::Azimuth`]).
 //!
 //! # Contact patch and planar body
-//! Real rocks rest on rough patches: the **contact patch** is every mesh vertex within the
-//! contact tolerance of the facet's plane (distance along n). For a direction d, with c the
-//! centre of mass and p the patch vertices:
-//! - `b_plus` = max_p (p − c)·d, `b_minus` = max_p −(p − c)·d: the horizontal distances to the
-//!   extreme contact points along ±d (the pivots of the planar body: the 2-D support polygon of
-//!   the patch projected on the vertical plane of d);
+//! The **contact patch** is every mesh vertex within the contact tolerance of the facet's plane
+//! (distance along n; default 0: the resting facet alone). Its vertices, projected on the
+//! horizontal plane, span the convex **support polygon** P ([`SupportPolygon`]). For a
+//! direction d, with c the centre of mass:
+//! - `b_plus` = r(d), `b_minus` = r(−d): the distance from c's projection to the boundary of P
+//!   along the ray from c towards ±d. It is the exact lever arm of the quasi-static uplift: the
+//!   rock first lifts off under a horizontal pseudo-force m·a along d when a = g·r(d)/h, tipping
+//!   about the edge of P that the ray crosses ([`super::support_polygon`] derives it). The
+//!   extreme contact vertex along d, max_p (p − c)·d, overstates it unless that vertex lies on
+//!   the ray;
 //! - `h` = distance of c above the facet's plane;
 //! - `rho` = √(I_a / m), I_a the moment of inertia about the horizontal axis a = U × d
-//!   (perpendicular to the plane of motion) through c, from the inertia tensor at unit density
-//!   (m = volume); it does not depend on the density;
+//!   through c (perpendicular to the plane of motion), from the inertia tensor at unit density
+//!   (m = volume); it does not depend on the density. It sets the planar body's inertia about
+//!   its pivot, m(ρ² + b² + h²): the rotation about a pivot point at distance b along d. When
+//!   the pivot edge is oblique to d the 3-D rock turns about that edge instead, whose moment of
+//!   inertia differs; the planar model keeps the axis perpendicular to d (docs/meshes.md);
 //! - `alpha±` = atan(b±/h).
 //!
 //! Approximations (docs/meshes.md): the patch's vertices are projected on the facet's plane
@@ -42,10 +49,17 @@
 
 use super::hull::{convex_hull, Facet};
 use super::mass::MassProperties;
+use super::support_polygon::SupportPolygon;
 use super::{cross, dot, norm, normalize, scale3, sub, MeshError, TriMesh};
 
-/// Default contact tolerance (m): 5 mm.
-pub const DEFAULT_CONTACT_TOLERANCE_M: f64 = 0.005;
+/// Default contact tolerance (m): 0, the resting hull facet alone. A wider patch moves the
+/// pivots outwards (by factors of 2–8 on half-metre scanned specimens at 5 mm): an unsafe
+/// overstatement of stability unless the ground really supports those vertices. `geometry`
+/// prints the sensitivity ([`SENSITIVITY_TOLERANCES_M`]).
+pub const DEFAULT_CONTACT_TOLERANCE_M: f64 = 0.0;
+
+/// The contact tolerances (m) whose bodies `geometry` compares: 0, 1, 2 and 5 mm.
+pub const SENSITIVITY_TOLERANCES_M: [f64; 4] = [0.0, 0.001, 0.002, 0.005];
 
 /// Largest contact tolerance (m): 1 m.
 pub const MAX_CONTACT_TOLERANCE_M: f64 = 1.0;
@@ -145,6 +159,8 @@ pub struct RestingContact {
     near: Vec<(f64, f64, f64)>,
     /// Rounding allowance of the depth comparison (10⁻⁹ of the mesh size, m).
     margin_m: f64,
+    /// The support polygon of the resting facet alone (tolerance 0).
+    facet_polygon: SupportPolygon,
 }
 
 /// The planar body of one direction (module doc).
@@ -251,6 +267,10 @@ impl RockGeometry {
             })
             .collect();
         near.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let on_facet = near.partition_point(|p| p.0 <= margin);
+        let facet_polygon =
+            SupportPolygon::hull_of(near[..on_facet].iter().map(|p| (p.1, p.2)), 0.0)
+                .map_err(|e| fail(format!("support polygon of the resting facet: {e}")))?;
         Ok(RestingContact {
             up: u,
             east,
@@ -262,6 +282,7 @@ impl RockGeometry {
             mass: self.mass,
             near,
             margin_m: margin,
+            facet_polygon,
         })
     }
 
@@ -315,18 +336,36 @@ impl RestingContact {
         self.direction_at(azimuth_deg, self.tolerance_m)
     }
 
+    /// The support polygon of the contact patch at the tolerance `tolerance_m` (m, clamped as
+    /// in [`RestingContact::patch`]): the convex hull of the patch projected on the horizontal
+    /// plane, (east, north) relative to the centre of mass.
+    #[must_use]
+    pub fn support_polygon(&self, tolerance_m: f64) -> SupportPolygon {
+        let patch = self.patch(tolerance_m);
+        if patch.len() == self.patch(0.0).len() {
+            return self.facet_polygon.clone();
+        }
+        // The patch contains the resting facet, so its hull contains the facet's polygon and
+        // the centre of mass strictly inside: this cannot fail, and if rounding ever made it,
+        // the facet's polygon (a subset: smaller lever arms, the safe side) stands in.
+        SupportPolygon::hull_of(patch.iter().map(|p| (p.1, p.2)), 0.0)
+            .unwrap_or_else(|_| self.facet_polygon.clone())
+    }
+
     /// The planar body of the direction `azimuth_deg` with the contact patch of another
     /// tolerance (m; the resting facet and frame do not depend on it).
     #[must_use]
     pub fn direction_at(&self, azimuth_deg: f64, tolerance_m: f64) -> DirectionBody {
-        let az = azimuth_deg.to_radians();
-        let (s, co) = az.sin_cos();
-        let (mut b_plus, mut b_minus) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for &(_, e, n) in self.patch(tolerance_m) {
-            let x = e * s + n * co;
-            b_plus = b_plus.max(x);
-            b_minus = b_minus.max(-x);
-        }
+        self.body(&self.support_polygon(tolerance_m), azimuth_deg)
+    }
+
+    /// The planar body of the direction `azimuth_deg` (degrees clockwise from north) on a
+    /// support polygon of this contact ([`RestingContact::support_polygon`]): b± = r(±d).
+    #[must_use]
+    pub fn body(&self, polygon: &SupportPolygon, azimuth_deg: f64) -> DirectionBody {
+        let (s, co) = azimuth_deg.to_radians().sin_cos();
+        let b_plus = polygon.exit_distance(s, co);
+        let b_minus = polygon.exit_distance(-s, -co);
         let d = [
             self.east[0] * s + self.north[0] * co,
             self.east[1] * s + self.north[1] * co,

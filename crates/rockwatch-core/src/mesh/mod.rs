@@ -12,6 +12,7 @@
 //! - [`mass`]: volume, centre of mass and inertia tensor by the divergence theorem.
 //! - [`hull`]: the 3-D convex hull (quickhull) and its planar facets.
 //! - [`contact`]: the resting contact and the planar body of each azimuth.
+//! - [`support_polygon`]: the support polygon and the lever arm b(d) of a direction.
 //!
 //! Work is bounded: files above [`MAX_FILE_BYTES`], meshes above [`MAX_VERTICES`] vertices or
 //! [`MAX_FACES`] triangles are refused before they are processed.
@@ -25,6 +26,7 @@ pub mod mass;
 mod obj;
 mod ply;
 mod stl;
+pub mod support_polygon;
 
 use std::collections::HashMap;
 use std::path::Path;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use rockwatch_core::mesh::contact::{
     parse_azimuths, DirectionBody, RestingContact, RockGeometry, UpAxis,
-    DEFAULT_CONTACT_TOLERANCE_M,
+    DEFAULT_CONTACT_TOLERANCE_M, SENSITIVITY_TOLERANCES_M,
 };
 
 use super::OutputFormat;
@@ -15,12 +15,14 @@ use super::OutputFormat;
 /// (OBJ, PLY ASCII/binary little-endian, STL ASCII/binary; metres).
 ///
 /// Volume, centre of mass and inertia by the divergence theorem (unit density: ρ does not
-/// depend on it); the rock rests on the stable convex-hull facet nearest to --up, widened to
-/// every vertex within --contact-tolerance of its plane. For each azimuth (degrees clockwise
-/// from the mesh's north axis: +y when up is z, see docs/meshes.md for the others): the
-/// horizontal distances b₊, b₋ from the centre of mass to the extreme contact points along
-/// ±direction, the height h of the centre of mass, the radius of gyration ρ about the
-/// horizontal axis perpendicular to the direction, and α± = atan(b±/h).
+/// depend on it); the rock rests on the stable convex-hull facet nearest to --up (widened to
+/// every vertex within --contact-tolerance of its plane, default 0). For each azimuth (degrees
+/// clockwise from the mesh's north axis: +y when up is z, see docs/meshes.md for the others):
+/// the lever arms b₊, b₋ — the distance from the centre of mass's projection to the edge of
+/// the support polygon along ±direction, the edge the rock tips about — the height h of the
+/// centre of mass, the radius of gyration ρ about the horizontal axis perpendicular to the
+/// direction, and α± = atan(b±/h). Then the weakest direction and how the bodies change with
+/// the contact tolerance (0, 1, 2, 5 mm).
 #[derive(Debug, clap::Args)]
 pub struct GeometryArgs {
     /// The closed mesh: .obj, .ply or .stl (coordinates in metres).
@@ -32,7 +34,8 @@ pub struct GeometryArgs {
     /// Directions: FROM:TO:STEP (degrees, TO excluded) or a list A,B,C.
     #[arg(long, default_value = "0:360:15", value_name = "FROM:TO:STEP|LIST")]
     azimuths: String,
-    /// Vertices within this distance of the resting facet's plane touch the ground (m).
+    /// Vertices within this distance of the resting facet's plane touch the ground (m; default
+    /// 0: the resting hull facet alone).
     #[arg(long = "contact-tolerance", default_value_t = DEFAULT_CONTACT_TOLERANCE_M, value_name = "M")]
     contact_tolerance: f64,
     /// Output format on stdout.
@@ -57,6 +60,82 @@ struct GeometryJson<'a> {
     contact_tolerance_m: f64,
     contact_vertices: usize,
     directions: &'a [DirectionBody],
+    /// The smallest α of the directions listed.
+    weakest: Weakest,
+    /// The bodies at each tolerance of [`SENSITIVITY_TOLERANCES_M`] (and the one in force).
+    tolerance_sensitivity: &'a [Sensitivity],
+}
+
+/// The direction and side with the smallest α (the least acceleration to lift off).
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+struct Weakest {
+    /// Azimuth (degrees clockwise from the mesh's north axis) towards which the rock tips.
+    azimuth_deg: f64,
+    alpha_deg: f64,
+    /// The uplift acceleration of that tip, g·tan α (m/s²).
+    uplift_mps2: f64,
+}
+
+/// The directions' bodies at one contact tolerance, against the resting facet alone.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+struct Sensitivity {
+    tolerance_m: f64,
+    contact_vertices: usize,
+    weakest: Weakest,
+    /// The largest ratio b±(tolerance) / b±(0) over the directions and sides.
+    b_ratio_max: f64,
+}
+
+/// The weakest side of the directions `dirs` (non-empty).
+fn weakest(dirs: &[DirectionBody]) -> Weakest {
+    let mut best = (f64::INFINITY, 0.0);
+    for d in dirs {
+        if d.alpha_plus_deg < best.0 {
+            best = (d.alpha_plus_deg, d.azimuth_deg);
+        }
+        if d.alpha_minus_deg < best.0 {
+            best = (d.alpha_minus_deg, (d.azimuth_deg + 180.0).rem_euclid(360.0));
+        }
+    }
+    Weakest {
+        azimuth_deg: best.1,
+        alpha_deg: best.0,
+        uplift_mps2: rockwatch_core::STANDARD_GRAVITY_MPS2 * best.0.to_radians().tan(),
+    }
+}
+
+/// The bodies of `azimuths` at each sensitivity tolerance and at `in_force` (m), in increasing
+/// tolerance.
+fn sensitivity(rest: &RestingContact, azimuths: &[f64], in_force: f64) -> Vec<Sensitivity> {
+    let mut tolerances = SENSITIVITY_TOLERANCES_M.to_vec();
+    if !tolerances.contains(&in_force) {
+        tolerances.push(in_force);
+        tolerances.sort_by(f64::total_cmp);
+    }
+    let bodies = |tol: f64| -> Vec<DirectionBody> {
+        azimuths
+            .iter()
+            .map(|&az| rest.direction_at(az, tol))
+            .collect()
+    };
+    let facet = bodies(0.0);
+    tolerances
+        .into_iter()
+        .map(|tol| {
+            let dirs = bodies(tol);
+            let b_ratio_max = dirs
+                .iter()
+                .zip(&facet)
+                .flat_map(|(d, f)| [d.b_plus_m / f.b_plus_m, d.b_minus_m / f.b_minus_m])
+                .fold(1.0, f64::max);
+            Sensitivity {
+                tolerance_m: tol,
+                contact_vertices: rest.patch(tol).len(),
+                weakest: weakest(&dirs),
+                b_ratio_max,
+            }
+        })
+        .collect()
 }
 
 pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
@@ -74,6 +153,7 @@ pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
         .rest(up, args.contact_tolerance)
         .with_context(|| format!("resting contact of {}", args.mesh.display()))?;
     let directions: Vec<DirectionBody> = azimuths.iter().map(|&az| rest.direction(az)).collect();
+    let sensitivity = sensitivity(&rest, &azimuths, args.contact_tolerance);
     match args.format {
         OutputFormat::Json => {
             let json = GeometryJson {
@@ -89,15 +169,23 @@ pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
                 contact_tolerance_m: rest.tolerance_m,
                 contact_vertices: rest.contact_vertices(),
                 directions: &directions,
+                weakest: weakest(&directions),
+                tolerance_sensitivity: &sensitivity,
             };
             outln!("{}", serde_json::to_string_pretty(&json)?);
         }
-        OutputFormat::Text => out!("{}", text(&args, up, &rest, &directions)),
+        OutputFormat::Text => out!("{}", text(&args, up, &rest, &directions, &sensitivity)),
     }
     Ok(())
 }
 
-fn text(args: &GeometryArgs, up: UpAxis, rest: &RestingContact, dirs: &[DirectionBody]) -> String {
+fn text(
+    args: &GeometryArgs,
+    up: UpAxis,
+    rest: &RestingContact,
+    dirs: &[DirectionBody],
+    sensitivity: &[Sensitivity],
+) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let m = &rest.mass;
@@ -134,6 +222,40 @@ fn text(args: &GeometryArgs, up: UpAxis, rest: &RestingContact, dirs: &[Directio
             d.rho_m,
             d.alpha_plus_deg,
             d.alpha_minus_deg
+        );
+    }
+    let w = weakest(dirs);
+    let _ = writeln!(
+        out,
+        "weakest     towards {:.2}°: α = {:.3}°, uplift at {:.3} m/s² ({:.4} g) (of the directions listed)",
+        w.azimuth_deg,
+        w.alpha_deg,
+        w.uplift_mps2,
+        w.uplift_mps2 / rockwatch_core::STANDARD_GRAVITY_MPS2
+    );
+    let _ = writeln!(
+        out,
+        "contact tolerance sensitivity (b± against the resting facet alone, 0 mm):"
+    );
+    let _ = writeln!(
+        out,
+        "{:>8} {:>9} {:>12} {:>10} {:>9}",
+        "tol(mm)", "vertices", "weakest α(°)", "towards(°)", "max b×"
+    );
+    for s in sensitivity {
+        let _ = writeln!(
+            out,
+            "{:>8.1} {:>9} {:>12.3} {:>10.2} {:>9.3}{}",
+            s.tolerance_m * 1e3,
+            s.contact_vertices,
+            s.weakest.alpha_deg,
+            s.weakest.azimuth_deg,
+            s.b_ratio_max,
+            if s.tolerance_m == rest.tolerance_m {
+                "  (in force)"
+            } else {
+                ""
+            }
         );
     }
     out

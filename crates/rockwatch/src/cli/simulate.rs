@@ -75,7 +75,8 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "AXIS", requires = "mesh", default_value = "z")]
     up: String,
     /// With --mesh: vertices within this distance of the resting facet's plane touch the
-    /// ground (m).
+    /// ground (m; default 0: the resting hull facet alone; a wider patch moves the pivots out,
+    /// see `rockwatch geometry`'s sensitivity table).
     #[arg(long = "contact-tolerance", value_name = "M", requires = "mesh", default_value_t = DEFAULT_CONTACT_TOLERANCE_M)]
     contact_tolerance: f64,
     /// Static friction coefficient μs.
