@@ -143,3 +143,67 @@ fn plot_is_png_for_png_svg_for_svg_and_other_names_are_refused() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.contains(".svg or .png"), "{stderr}");
 }
+
+/// Runs `rockwatch ARGS` and returns (success, stdout, stderr).
+fn rockwatch(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn simulate_and_fragility_share_one_rock_plan_mu_k_defaulting_to_mu_s() {
+    let record = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/records/Rinaldi228.AT2"
+    );
+    let block = ["--width", "0.6", "--height", "2.5", "--format", "json"];
+    let run = |friction: &[&str]| -> serde_json::Value {
+        let mut args = vec!["simulate", "--record", record];
+        args.extend_from_slice(friction);
+        args.extend_from_slice(&block);
+        let (ok, stdout, stderr) = rockwatch(&args);
+        assert!(ok, "{friction:?}: {stderr}");
+        serde_json::from_str(&stdout).unwrap()
+    };
+    // simulate once required --mu-k while fragility defaulted it to --mu-s.
+    let implicit = run(&["--mu-s", "0.9"]);
+    let explicit = run(&["--mu-s", "0.9", "--mu-k", "0.9"]);
+    assert_eq!(implicit, explicit);
+    assert_ne!(implicit, run(&["--mu-s", "0.9", "--mu-k", "0.3"]));
+    // Without friction or geometry, both commands say what to give, in one line.
+    let out = tempfile::tempdir().unwrap();
+    let out = out.path().to_str().unwrap();
+    for command in ["simulate", "fragility"] {
+        let mut args = vec![command, "--width", "0.6", "--height", "2.5"];
+        if command == "simulate" {
+            args.extend(["--record", record]);
+        } else {
+            args.extend([
+                "--records",
+                record,
+                "--im",
+                "PGA",
+                "--scales",
+                "0.5:1:2",
+                "--out",
+                out,
+            ]);
+        }
+        let (ok, _, stderr) = rockwatch(&args);
+        assert!(
+            !ok && stderr.contains("give the friction: --mu-s"),
+            "{command}: {stderr}"
+        );
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    }
+    let (ok, _, stderr) = rockwatch(&["simulate", "--record", record, "--mu-s", "0.9"]);
+    assert!(!ok && stderr.contains("give the geometry"), "{stderr}");
+    assert!(stderr.contains("--mesh"), "{stderr}");
+}

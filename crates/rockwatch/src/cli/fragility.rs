@@ -16,13 +16,12 @@ use rockwatch_core::fragility::{
     Intensity, RockDirection, RockMember, DEFAULT_BOOTSTRAP, DEFAULT_SURFACE_GRID,
     DEFAULT_T_EXTRA_S,
 };
-use rockwatch_core::mesh::contact::{
-    parse_azimuths, RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M,
-};
+use rockwatch_core::mesh::contact::parse_azimuths;
 use rockwatch_core::record::Record;
 use rockwatch_core::STANDARD_GRAVITY_MPS2;
 use serde_json::json;
 
+use super::rock_flags::{Friction, FrictionFlags, GeometryFlags, MeshPlan, RockPlan};
 use super::OutputFormat;
 
 /// Fit the overturning fragility of one rock from a suite of ground-motion records by
@@ -45,41 +44,14 @@ use super::OutputFormat;
 #[derive(Debug, clap::Args)]
 pub struct FragilityArgs {
     /// Catalogue entry to use (with --catalogue): its geometry, friction and uncertain ranges.
-    #[arg(long, value_name = "ID", requires = "catalogue", conflicts_with_all = ["width", "half_diagonal", "b_plus", "mu_s"])]
+    #[arg(long, value_name = "ID", requires = "catalogue", conflicts_with_all = ["width", "half_diagonal", "b_plus", "mesh", "mu_s"])]
     pbr: Option<String>,
     /// Catalogue file (TOML or CSV) holding --pbr.
     #[arg(long, value_name = "FILE", requires = "pbr")]
     catalogue: Option<PathBuf>,
-    /// Base width B of a rectangular block (m); with --height.
-    #[arg(long, value_name = "B", requires = "height")]
-    width: Option<f64>,
-    /// Height H of a rectangular block (m).
-    #[arg(long, value_name = "H", requires = "width")]
-    height: Option<f64>,
-    /// Half-diagonal R of a rectangle (m); with --alpha.
-    #[arg(long = "half-diagonal", value_name = "R", requires = "alpha", conflicts_with_all = ["width", "height"])]
-    half_diagonal: Option<f64>,
-    /// Slenderness α of a rectangle (degrees); with --half-diagonal.
-    #[arg(long, value_name = "DEG", requires = "half_diagonal")]
-    alpha: Option<f64>,
-    /// General body: distance from the centre of mass to the +x pivot (m); with --b-minus,
-    /// --com-height and --rho (docs/general-body.md).
-    #[arg(long = "b-plus", value_name = "M", requires_all = ["b_minus", "com_height", "rho"], conflicts_with_all = ["width", "height", "half_diagonal", "alpha"])]
-    b_plus: Option<f64>,
-    /// General body: distance from the centre of mass to the −x pivot (m).
-    #[arg(long = "b-minus", value_name = "M", requires = "b_plus")]
-    b_minus: Option<f64>,
-    /// General body: height of the centre of mass above the base (m).
-    #[arg(long = "com-height", value_name = "M", requires = "b_plus")]
-    com_height: Option<f64>,
-    /// General body: radius of gyration about the centre of mass (m).
-    #[arg(long, value_name = "M", requires = "b_plus")]
-    rho: Option<f64>,
-    /// A rock from its closed mesh (.obj, .ply, .stl; metres), with --mu-s: analysed in each
-    /// toppling direction of --directions (the planar bodies of `rockwatch geometry`,
-    /// docs/meshes.md); a run overturns when any direction does.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["pbr", "width", "height", "half_diagonal", "alpha", "b_plus"])]
-    mesh: Option<PathBuf>,
+    /// The rock: a rectangle, a general planar body or a mesh (with --mu-s).
+    #[command(flatten)]
+    geometry: GeometryFlags,
     /// With --mesh: the toppling directions, degrees clockwise from the mesh's north axis: a
     /// list, or FROM:TO:STEP (TO excluded). --azimuths are measured from the first one.
     #[arg(
@@ -89,22 +61,9 @@ pub struct FragilityArgs {
         default_value = "0:360:90"
     )]
     directions: String,
-    /// With --mesh: the mesh axis pointing (roughly) up (x, y, z, optionally signed).
-    #[arg(long, value_name = "AXIS", requires = "mesh", default_value = "z")]
-    up: String,
-    /// With --mesh: vertices within this distance of the resting facet's plane touch the
-    /// ground (m).
-    #[arg(long = "contact-tolerance", value_name = "M", requires = "mesh", default_value_t = DEFAULT_CONTACT_TOLERANCE_M)]
-    contact_tolerance: f64,
-    /// Static friction coefficient μs (block flags).
-    #[arg(long = "mu-s", value_name = "MS")]
-    mu_s: Option<f64>,
-    /// Kinetic friction coefficient μk (block flags; default μs).
-    #[arg(long = "mu-k", value_name = "MK")]
-    mu_k: Option<f64>,
-    /// Rocking impact restitution in [0, 1] (block flags; default Housner's).
-    #[arg(long, value_name = "E")]
-    restitution: Option<f64>,
+    /// Friction and impact (with the geometry flags).
+    #[command(flatten)]
+    friction: FrictionFlags,
     /// The records: a directory (every .AT2 and .csv file in it, by name, except those given
     /// as --vertical-records) or a comma-separated list of files.
     #[arg(
@@ -210,35 +169,6 @@ fn range(lo: f64, hi: f64, n: usize, what: &str) -> anyhow::Result<Vec<f64>> {
     Ok(log_spaced(lo, hi, n))
 }
 
-fn block_from_flags(args: &FragilityArgs) -> anyhow::Result<(BlockParams, String)> {
-    let Some(mu_s) = args.mu_s else {
-        bail!("give --pbr ID --catalogue FILE, or the block flags with --mu-s");
-    };
-    let mu_k = args.mu_k.unwrap_or(mu_s);
-    let params = if let (Some(bp), Some(bm), Some(h), Some(rho)) =
-        (args.b_plus, args.b_minus, args.com_height, args.rho)
-    {
-        BlockParams::from_body(bp, bm, h, rho, mu_s, mu_k, args.restitution)
-    } else if let (Some(b), Some(h)) = (args.width, args.height) {
-        BlockParams::from_width_height(b, h, mu_s, mu_k, args.restitution)
-    } else if let (Some(r), Some(a)) = (args.half_diagonal, args.alpha) {
-        BlockParams::from_r_alpha(r, a.to_radians(), mu_s, mu_k, args.restitution)
-    } else {
-        bail!(
-            "give the geometry: --width and --height, --half-diagonal and --alpha, or \
-             --b-plus, --b-minus, --com-height and --rho"
-        );
-    }
-    .context("invalid block")?;
-    let label = format!(
-        "{}, μs = {}, μk = {}",
-        params.geometry_label(),
-        params.mu_s,
-        params.mu_k
-    );
-    Ok((params, label))
-}
-
 /// The rock's members: from the catalogue (ensemble) or the block flags.
 fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_json::Value)> {
     let one = |p: BlockParams| RockMember {
@@ -291,10 +221,16 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
     if args.ensemble.is_some_and(|k| k > 1) {
         bail!("--ensemble needs a catalogue entry with uncertain parameters (--pbr, --catalogue)");
     }
-    if let Some(path) = &args.mesh {
-        return mesh_rock(args, path);
-    }
-    let (params, label) = block_from_flags(args)?;
+    let params = match args.geometry.plan(&args.friction)? {
+        RockPlan::Planar(params) => params,
+        RockPlan::Mesh(mesh) => return mesh_rock(args, &mesh),
+    };
+    let label = format!(
+        "{}, μs = {}, μk = {}",
+        params.geometry_label(),
+        params.mu_s,
+        params.mu_k
+    );
     let info = json!({
         "b_plus_m": params.b_plus_m, "b_minus_m": params.b_minus_m,
         "com_height_m": params.com_height_m, "rho_m": params.rho_m,
@@ -307,46 +243,34 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
 /// the first, the frame of the incidences).
 fn mesh_rock(
     args: &FragilityArgs,
-    path: &Path,
+    mesh: &MeshPlan,
 ) -> anyhow::Result<(Vec<RockMember>, String, serde_json::Value)> {
-    let Some(mu_s) = args.mu_s else {
-        bail!("--mesh needs --mu-s (and optionally --mu-k, --restitution)");
-    };
-    let mu_k = args.mu_k.unwrap_or(mu_s);
     let azimuths =
         parse_azimuths(&args.directions).map_err(|e| anyhow::anyhow!("--directions: {e}"))?;
-    let up = UpAxis::parse(&args.up).map_err(|e| anyhow::anyhow!("--up: {e}"))?;
-    let rest = RockGeometry::read(path)?.rest(up, args.contact_tolerance)?;
     let first_deg = azimuths.first().copied().unwrap_or(0.0);
     let directions = azimuths
         .iter()
         .map(|&azimuth| {
-            let d = rest.direction(azimuth);
-            let params = BlockParams::from_body(
-                d.b_plus_m,
-                d.b_minus_m,
-                d.h_m,
-                d.rho_m,
-                mu_s,
-                mu_k,
-                args.restitution,
-            )
-            .with_context(|| format!("{} at azimuth {azimuth}°", path.display()))?;
             Ok(RockDirection {
                 azimuth_deg: (azimuth - first_deg).rem_euclid(360.0),
-                params,
+                params: mesh.block(azimuth)?,
             })
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
+    let Friction {
+        mu_s,
+        mu_k,
+        restitution,
+    } = mesh.friction;
     let label = format!(
         "{} ({} directions from {first_deg}°), μs = {mu_s}, μk = {mu_k}",
-        path.display(),
+        mesh.path.display(),
         directions.len()
     );
     let info = json!({
-        "mesh": path.display().to_string(), "directions_deg": azimuths, "up": args.up,
-        "contact_tolerance_m": args.contact_tolerance, "mu_s": mu_s, "mu_k": mu_k,
-        "restitution": args.restitution,
+        "mesh": mesh.path.display().to_string(), "directions_deg": azimuths,
+        "up": mesh.up.as_str(), "contact_tolerance_m": mesh.rest.tolerance_m,
+        "mu_s": mu_s, "mu_k": mu_k, "restitution": restitution,
     });
     Ok((vec![RockMember { directions }], label, info))
 }

@@ -46,6 +46,7 @@ mod monitor;
 mod node;
 mod pulses;
 mod replay;
+mod rock_flags;
 mod simulate;
 mod stations;
 mod study;

@@ -5,11 +5,11 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 use rockwatch::plot::{plot_simulation, short_number};
 use rockwatch_core::dynamics::BlockParams;
-use rockwatch_core::mesh::contact::{RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M};
 use rockwatch_core::ode::Tolerance;
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions, Status, Summary, Trace};
 
+use super::rock_flags::{FrictionFlags, GeometryFlags, RockPlan};
 use super::OutputFormat;
 
 /// Simulate one rigid block (rest, slide, rock, slide-rock, overturn) under a recorded or
@@ -30,66 +30,16 @@ pub struct SimulateArgs {
     /// Multiply both components by this factor.
     #[arg(long, default_value_t = 1.0, value_name = "X")]
     scale: f64,
-    /// Base width B of the block (m); with --height. Alternatively give --half-diagonal
-    /// and --alpha, or a general body with --b-plus, --b-minus, --com-height and --rho.
-    #[arg(
-        long,
-        value_name = "B",
-        requires = "height",
-        required_unless_present_any = ["half_diagonal", "b_plus", "mesh"]
-    )]
-    width: Option<f64>,
-    /// Height H of the block (m).
-    #[arg(long, value_name = "H", requires = "width")]
-    height: Option<f64>,
-    /// Half-diagonal R = ½√(B² + H²) of the block (m); with --alpha, instead of --width and
-    /// --height.
-    #[arg(long = "half-diagonal", value_name = "R", requires = "alpha", conflicts_with_all = ["width", "height"])]
-    half_diagonal: Option<f64>,
-    /// Slenderness α = atan(B/H) of the block (degrees), with --half-diagonal.
-    #[arg(long, value_name = "DEG", requires = "half_diagonal", conflicts_with_all = ["width", "height"])]
-    alpha: Option<f64>,
-    /// General body (docs/general-body.md): horizontal distance from the centre of mass to
-    /// the +x pivot (m). With --b-minus, --com-height and --rho, instead of a rectangle.
-    #[arg(long = "b-plus", value_name = "M", requires_all = ["b_minus", "com_height", "rho"], conflicts_with_all = ["width", "height", "half_diagonal", "alpha"])]
-    b_plus: Option<f64>,
-    /// General body: horizontal distance from the centre of mass to the −x pivot (m).
-    #[arg(long = "b-minus", value_name = "M", requires = "b_plus")]
-    b_minus: Option<f64>,
-    /// General body: height of the centre of mass above the base (m).
-    #[arg(long = "com-height", value_name = "M", requires = "b_plus")]
-    com_height: Option<f64>,
-    /// General body: radius of gyration about the centre of mass (m), I_c = m ρ²
-    /// (a B × H rectangle has ρ² = (B² + H²)/12).
-    #[arg(long, value_name = "M", requires = "b_plus")]
-    rho: Option<f64>,
-    /// A rock from its closed mesh (.obj, .ply, .stl; metres): the planar body of the
-    /// direction --azimuth (`rockwatch geometry`, docs/meshes.md), instead of the block flags.
-    #[arg(long, value_name = "FILE", requires = "azimuth", conflicts_with_all = ["width", "height", "half_diagonal", "alpha", "b_plus"])]
-    mesh: Option<PathBuf>,
+    /// The rock: a rectangle, a general planar body or a mesh.
+    #[command(flatten)]
+    geometry: GeometryFlags,
     /// With --mesh: the direction of the block's +x axis (and of the record's horizontal
     /// component), degrees clockwise from the mesh's north axis.
     #[arg(long, value_name = "DEG", requires = "mesh")]
     azimuth: Option<f64>,
-    /// With --mesh: the mesh axis pointing (roughly) up (x, y, z, optionally signed).
-    #[arg(long, value_name = "AXIS", requires = "mesh", default_value = "z")]
-    up: String,
-    /// With --mesh: vertices within this distance of the resting facet's plane touch the
-    /// ground (m; default 0: the resting hull facet alone; a wider patch moves the pivots out,
-    /// see `rockwatch geometry`'s sensitivity table).
-    #[arg(long = "contact-tolerance", value_name = "M", requires = "mesh", default_value_t = DEFAULT_CONTACT_TOLERANCE_M)]
-    contact_tolerance: f64,
-    /// Static friction coefficient μs.
-    #[arg(long = "mu-s", value_name = "MS")]
-    mu_s: f64,
-    /// Kinetic friction coefficient μk (≤ μs, < 4/3).
-    #[arg(long = "mu-k", value_name = "MK")]
-    mu_k: f64,
-    /// Restitution of a pure-rocking impact, in [0, 1]: the angular-velocity ratio for a
-    /// rectangle (kinetic-energy ratio e² for any body); default Housner's η = 1 − 1.5 sin²α
-    /// and its generalisation (ρ² + h² − b_old b_new)/(ρ² + R_new²).
-    #[arg(long, value_name = "E")]
-    restitution: Option<f64>,
+    /// Friction and impact.
+    #[command(flatten)]
+    friction: FrictionFlags,
     /// Seconds of zero ground motion simulated after the record ends (the record plus this
     /// may take at most 2·10⁷ integration steps).
     #[arg(long = "t-extra", default_value_t = 10.0, value_name = "S")]
@@ -124,32 +74,15 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             bail!("--rtol must be in (0, 0.01), got {rtol}");
         }
     }
-    let params = match (args.width, args.height, args.half_diagonal, args.alpha) {
-        _ if args.mesh.is_some() => return run_with(mesh_block(&args)?, args),
-        _ if args.b_plus.is_some() => {
-            match (args.b_plus, args.b_minus, args.com_height, args.rho) {
-                (Some(bp), Some(bm), Some(h), Some(rho)) => {
-                    BlockParams::from_body(bp, bm, h, rho, args.mu_s, args.mu_k, args.restitution)
-                }
-                _ => bail!("--b-plus needs --b-minus, --com-height and --rho"),
-            }
+    let params = match args.geometry.plan(&args.friction)? {
+        RockPlan::Planar(params) => params,
+        RockPlan::Mesh(mesh) => {
+            let Some(azimuth) = args.azimuth else {
+                bail!("--mesh needs --azimuth (the direction to simulate)");
+            };
+            mesh.block(azimuth)?
         }
-        (Some(b), Some(h), _, _) => {
-            BlockParams::from_width_height(b, h, args.mu_s, args.mu_k, args.restitution)
-        }
-        (_, _, Some(r), Some(alpha_deg)) => BlockParams::from_r_alpha(
-            r,
-            alpha_deg.to_radians(),
-            args.mu_s,
-            args.mu_k,
-            args.restitution,
-        ),
-        _ => bail!(
-            "give --width and --height, --half-diagonal and --alpha, or --b-plus, --b-minus, \
-             --com-height and --rho"
-        ),
-    }
-    .context("invalid block")?;
+    };
     run_with(params, args)
 }
 
@@ -193,29 +126,6 @@ fn run_with(params: BlockParams, args: SimulateArgs) -> anyhow::Result<()> {
         OutputFormat::Text => out!("{}", text_summary(&sim.summary, &params, &record)),
     }
     Ok(())
-}
-
-/// The planar body of `--azimuth` of the rock `--mesh`.
-fn mesh_block(args: &SimulateArgs) -> anyhow::Result<BlockParams> {
-    let (Some(path), Some(azimuth)) = (&args.mesh, args.azimuth) else {
-        bail!("--mesh needs --azimuth");
-    };
-    if !azimuth.is_finite() {
-        bail!("--azimuth must be a finite number of degrees, got {azimuth}");
-    }
-    let up = UpAxis::parse(&args.up).map_err(|e| anyhow::anyhow!("--up: {e}"))?;
-    let rest = RockGeometry::read(path)?.rest(up, args.contact_tolerance)?;
-    let d = rest.direction(azimuth);
-    BlockParams::from_body(
-        d.b_plus_m,
-        d.b_minus_m,
-        d.h_m,
-        d.rho_m,
-        args.mu_s,
-        args.mu_k,
-        args.restitution,
-    )
-    .with_context(|| format!("{} at azimuth {azimuth}°", path.display()))
 }
 
 /// Writes the trace CSV of `--trace` (columns in [`SimulateArgs::trace`]).

@@ -1,0 +1,193 @@
+//! The rock of `simulate` and `fragility`: its flags, declared once (clap `flatten`), and the
+//! one typed plan they become ([`RockPlan`]): a planar block, or a rock from its mesh whose
+//! bodies are taken per direction (docs/general-body.md, docs/meshes.md).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use rockwatch_core::dynamics::BlockParams;
+use rockwatch_core::mesh::contact::{
+    RestingContact, RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M,
+};
+
+/// The rock's geometry: a rectangle (--width/--height or --half-diagonal/--alpha), a general
+/// planar body (--b-plus, --b-minus, --com-height, --rho) or a closed mesh (--mesh).
+#[derive(Debug, Clone, clap::Args)]
+pub struct GeometryFlags {
+    /// Base width B of a rectangular block (m); with --height. Alternatively --half-diagonal
+    /// and --alpha, a general body (--b-plus, --b-minus, --com-height, --rho) or --mesh.
+    #[arg(long, value_name = "B", requires = "height")]
+    pub width: Option<f64>,
+    /// Height H of a rectangular block (m).
+    #[arg(long, value_name = "H", requires = "width")]
+    pub height: Option<f64>,
+    /// Half-diagonal R = ½√(B² + H²) of a rectangle (m); with --alpha, instead of --width and
+    /// --height.
+    #[arg(long = "half-diagonal", value_name = "R", requires = "alpha", conflicts_with_all = ["width", "height"])]
+    pub half_diagonal: Option<f64>,
+    /// Slenderness α = atan(B/H) of a rectangle (degrees), with --half-diagonal.
+    #[arg(long, value_name = "DEG", requires = "half_diagonal", conflicts_with_all = ["width", "height"])]
+    pub alpha: Option<f64>,
+    /// General body (docs/general-body.md): horizontal distance from the centre of mass to
+    /// the +x pivot (m). With --b-minus, --com-height and --rho, instead of a rectangle.
+    #[arg(long = "b-plus", value_name = "M", requires_all = ["b_minus", "com_height", "rho"], conflicts_with_all = ["width", "height", "half_diagonal", "alpha"])]
+    pub b_plus: Option<f64>,
+    /// General body: horizontal distance from the centre of mass to the −x pivot (m).
+    #[arg(long = "b-minus", value_name = "M", requires = "b_plus")]
+    pub b_minus: Option<f64>,
+    /// General body: height of the centre of mass above the base (m).
+    #[arg(long = "com-height", value_name = "M", requires = "b_plus")]
+    pub com_height: Option<f64>,
+    /// General body: radius of gyration about the centre of mass (m), I_c = m ρ²
+    /// (a B × H rectangle has ρ² = (B² + H²)/12).
+    #[arg(long, value_name = "M", requires = "b_plus")]
+    pub rho: Option<f64>,
+    /// A rock from its closed mesh (.obj, .ply, .stl; metres): the planar body of each
+    /// direction (`rockwatch geometry`, docs/meshes.md), instead of the block flags.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["width", "height", "half_diagonal", "alpha", "b_plus"])]
+    pub mesh: Option<PathBuf>,
+    /// With --mesh: the mesh axis pointing (roughly) up (x, y, z, optionally signed).
+    #[arg(long, value_name = "AXIS", requires = "mesh", default_value = "z")]
+    pub up: String,
+    /// With --mesh: vertices within this distance of the resting facet's plane touch the
+    /// ground (m; default 0: the resting hull facet alone; a wider patch moves the pivots out,
+    /// see `rockwatch geometry`'s sensitivity table).
+    #[arg(long = "contact-tolerance", value_name = "M", requires = "mesh", default_value_t = DEFAULT_CONTACT_TOLERANCE_M)]
+    pub contact_tolerance: f64,
+}
+
+/// Friction and impact of the rock.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FrictionFlags {
+    /// Static friction coefficient μs.
+    #[arg(long = "mu-s", value_name = "MS")]
+    pub mu_s: Option<f64>,
+    /// Kinetic friction coefficient μk (≤ μs, < 4/3; default μs).
+    #[arg(long = "mu-k", value_name = "MK")]
+    pub mu_k: Option<f64>,
+    /// Restitution of a pure-rocking impact, in [0, 1]: the angular-velocity ratio for a
+    /// rectangle (kinetic-energy ratio e² for any body); default Housner's η = 1 − 1.5 sin²α
+    /// and its generalisation (ρ² + h² − b_old b_new)/(ρ² + R_new²).
+    #[arg(long, value_name = "E")]
+    pub restitution: Option<f64>,
+}
+
+/// The rock's friction, resolved: μk defaults to μs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Friction {
+    pub mu_s: f64,
+    pub mu_k: f64,
+    pub restitution: Option<f64>,
+}
+
+/// What the rock flags describe.
+#[derive(Debug, Clone)]
+pub enum RockPlan {
+    /// A planar block (rectangle or general body).
+    Planar(BlockParams),
+    /// A rock from its mesh: one planar body per direction ([`MeshPlan::block`]).
+    Mesh(MeshPlan),
+}
+
+/// A rock from its closed mesh, resting on its contact, with its friction.
+#[derive(Debug, Clone)]
+pub struct MeshPlan {
+    pub path: PathBuf,
+    pub up: UpAxis,
+    pub rest: RestingContact,
+    pub friction: Friction,
+}
+
+impl MeshPlan {
+    /// The planar block of the direction `azimuth_deg` (degrees clockwise from the mesh's
+    /// north axis).
+    pub fn block(&self, azimuth_deg: f64) -> anyhow::Result<BlockParams> {
+        if !azimuth_deg.is_finite() {
+            bail!("azimuth must be a finite number of degrees, got {azimuth_deg}");
+        }
+        let d = self.rest.direction(azimuth_deg);
+        let Friction {
+            mu_s,
+            mu_k,
+            restitution,
+        } = self.friction;
+        BlockParams::from_body(
+            d.b_plus_m,
+            d.b_minus_m,
+            d.h_m,
+            d.rho_m,
+            mu_s,
+            mu_k,
+            restitution,
+        )
+        .with_context(|| format!("{} at azimuth {azimuth_deg}°", self.path.display()))
+    }
+}
+
+impl FrictionFlags {
+    /// The friction of the flags: --mu-s required, --mu-k defaulting to it.
+    pub fn resolve(&self) -> anyhow::Result<Friction> {
+        let Some(mu_s) = self.mu_s else {
+            bail!("give the friction: --mu-s (and optionally --mu-k, --restitution)");
+        };
+        Ok(Friction {
+            mu_s,
+            mu_k: self.mu_k.unwrap_or(mu_s),
+            restitution: self.restitution,
+        })
+    }
+}
+
+impl GeometryFlags {
+    /// The rock of the flags with `friction`: reads and analyses the mesh, or validates the
+    /// planar block.
+    pub fn plan(&self, friction: &FrictionFlags) -> anyhow::Result<RockPlan> {
+        let friction = friction.resolve()?;
+        let Friction {
+            mu_s,
+            mu_k,
+            restitution,
+        } = friction;
+        if let Some(path) = &self.mesh {
+            let up = UpAxis::parse(&self.up).map_err(|e| anyhow::anyhow!("--up: {e}"))?;
+            if !(self.contact_tolerance.is_finite() && self.contact_tolerance >= 0.0) {
+                bail!(
+                    "--contact-tolerance must be a finite length ≥ 0 (m), got {}",
+                    self.contact_tolerance
+                );
+            }
+            let rest = RockGeometry::read(path)?.rest(up, self.contact_tolerance)?;
+            return Ok(RockPlan::Mesh(MeshPlan {
+                path: path.clone(),
+                up,
+                rest,
+                friction,
+            }));
+        }
+        let params = match self {
+            GeometryFlags {
+                b_plus: Some(bp),
+                b_minus: Some(bm),
+                com_height: Some(h),
+                rho: Some(rho),
+                ..
+            } => BlockParams::from_body(*bp, *bm, *h, *rho, mu_s, mu_k, restitution),
+            GeometryFlags {
+                width: Some(b),
+                height: Some(h),
+                ..
+            } => BlockParams::from_width_height(*b, *h, mu_s, mu_k, restitution),
+            GeometryFlags {
+                half_diagonal: Some(r),
+                alpha: Some(alpha_deg),
+                ..
+            } => BlockParams::from_r_alpha(*r, alpha_deg.to_radians(), mu_s, mu_k, restitution),
+            _ => bail!(
+                "give the geometry: --width and --height, --half-diagonal and --alpha, \
+                 --b-plus, --b-minus, --com-height and --rho, or --mesh"
+            ),
+        }
+        .context("invalid block")?;
+        Ok(RockPlan::Planar(params))
+    }
+}
