@@ -464,3 +464,85 @@ fn a_meshed_catalogue_rock_is_analysed_in_each_of_its_directions() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_meshed_rock_sees_records_from_all_azimuths_whatever_its_first_direction() {
+    // The leaning wedge of tests/data/meshes in four directions, listed from 0° or from 90°:
+    // the same rock. Its incidences are azimuths from the mesh's north (default every 30°),
+    // not angles from the first direction, so both lists give the same runs and fit.
+    let dir = temp_dir("mesh-frame");
+    let mesh = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/meshes/leaning-wedge.obj"
+    );
+    let record = format!("{RECORDS}/Rinaldi228.AT2");
+    let run = |name: &str, directions: &str| {
+        let out = dir.join(name);
+        let (ok, _, stderr) = cli(&[
+            "fragility",
+            "--mesh",
+            mesh,
+            "--directions",
+            directions,
+            "--mu-s",
+            "0.8",
+            "--records",
+            &record,
+            "--im",
+            "PGA",
+            "--scales",
+            "0.3:1.5:3",
+            "--bootstrap",
+            "0",
+            "--no-plots",
+            "--format",
+            "json",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok || stderr.contains("no IM could be fitted"), "{stderr}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+                .unwrap();
+        let mut rows = runs(&out.join("runs.csv"));
+        rows.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        (json, rows)
+    };
+    let (from_0, rows_0) = run("from-0", "0:360:90");
+    let (from_90, rows_90) = run("from-90", "90:450:90");
+    // 3 scales × 12 incidences (0:360:30) of one record.
+    assert_eq!(rows_0.len(), 3 * 12, "{rows_0:?}");
+    assert_eq!(rows_0, rows_90);
+    assert!(rows_0.iter().any(|r| r.3 == "overturned"), "{rows_0:?}");
+    assert!(rows_0.iter().any(|r| r.3 != "overturned"), "{rows_0:?}");
+    assert_eq!(from_0["ims"], from_90["ims"]);
+    // fragility.json names the exact rock: the mesh's SHA-256 (as sha256sum computes it), the
+    // model and each direction's planar body.
+    let sum = Command::new("sha256sum").arg(mesh).output().unwrap();
+    let sum = String::from_utf8(sum.stdout).unwrap();
+    let rock = &from_0["rock"];
+    assert_eq!(
+        rock["mesh_sha256"],
+        sum.split_whitespace().next().unwrap(),
+        "{rock}"
+    );
+    assert_eq!(rock["model"], "2d");
+    let dirs = rock["directions"].as_array().unwrap();
+    let azimuths: Vec<f64> = dirs
+        .iter()
+        .map(|d| d["azimuth_deg"].as_f64().unwrap())
+        .collect();
+    assert_eq!(azimuths, [0.0, 90.0, 180.0, 270.0]);
+    // East (90°): the wedge's base runs 0.6 m east of x = 0 and its centre of mass is at
+    // x = (0 + 0.6 + 0.1)/3, h = 1.4/3: b+ = 0.6 − 0.7/3 (tests/mesh_geometry.rs derives it).
+    let east = &dirs[1];
+    assert!(
+        (east["b_plus_m"].as_f64().unwrap() - (0.6 - 0.7 / 3.0)).abs() < 1e-12,
+        "{east}"
+    );
+    assert!(
+        (east["com_height_m"].as_f64().unwrap() - 1.4 / 3.0).abs() < 1e-12,
+        "{east}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -35,9 +35,12 @@ use super::OutputFormat;
 ///
 /// Records are single horizontal components (AT2 in g, CSV `t,ax` in m/s²). --azimuths gives
 /// the incidence angles φ of each record in the rock's frame: the rock's direction of azimuth
-/// ψ sees the record times cos(φ − ψ); the default 0,180 applies each record along +x and
-/// along −x (both pivots: an asymmetric rock topples more easily one way). A vertical record
-/// is applied as it is (scaled, not projected).
+/// ψ sees the record times cos(φ − ψ). A planar block's frame is its +x axis, and the default
+/// 0,180 applies each record along +x and along −x (both pivots: an asymmetric rock topples
+/// more easily one way). A meshed rock's frame is north (the mesh's north axis with --mesh,
+/// true north with a catalogue entry): its directions and the incidences are azimuths, and
+/// the default 0:360:30 spreads the records over all azimuths, whatever its directions. A
+/// vertical record is applied as it is (scaled, not projected).
 ///
 /// Files written to --out: fragility.json, runs.csv, fragility_<IM>.svg/png and
 /// surface_<IM1>_<IM2>.svg/png. Results are identical for a given --seed whatever --threads.
@@ -53,12 +56,12 @@ pub struct FragilityArgs {
     #[command(flatten)]
     geometry: GeometryFlags,
     /// With --mesh: the toppling directions, degrees clockwise from the mesh's north axis: a
-    /// list, or FROM:TO:STEP (TO excluded). --azimuths are measured from the first one.
+    /// list, or FROM:TO:STEP (TO excluded). Default: every 15°.
     #[arg(
         long,
         value_name = "DEG,…|FROM:TO:STEP",
         requires = "mesh",
-        default_value = "0:360:90"
+        default_value = "0:360:15"
     )]
     directions: String,
     /// Friction and impact (with the geometry flags).
@@ -105,8 +108,10 @@ pub struct FragilityArgs {
     ensemble: Option<usize>,
     /// Incidence angles φ (degrees) of the records in the rock's frame: a list, or
     /// FROM:TO:STEP (TO excluded). The rock's direction ψ sees the record times cos(φ − ψ).
-    #[arg(long, value_name = "DEG,…|FROM:TO:STEP", default_value = "0,180")]
-    azimuths: String,
+    /// Default: 0,180 for a planar block (its +x axis and back); 0:360:30 (azimuths from north)
+    /// for a meshed rock.
+    #[arg(long, value_name = "DEG,…|FROM:TO:STEP")]
+    azimuths: Option<String>,
     /// The two IMs of the surface, IM1,IM2 (of --im); default PGA,PGV/PGA when both are
     /// listed, else the first two IMs.
     #[arg(long, value_name = "IM1,IM2", value_delimiter = ',')]
@@ -169,14 +174,53 @@ fn range(lo: f64, hi: f64, n: usize, what: &str) -> anyhow::Result<Vec<f64>> {
     Ok(log_spaced(lo, hi, n))
 }
 
-/// The rock's members: from the catalogue (ensemble) or the block flags.
-fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_json::Value)> {
-    let one = |p: BlockParams| RockMember {
-        directions: vec![RockDirection {
-            azimuth_deg: 0.0,
-            params: p,
-        }],
-    };
+/// The rock of the analysis: its members, a label for people and its description for
+/// fragility.json.
+struct Rock {
+    members: Vec<RockMember>,
+    label: String,
+    info: serde_json::Value,
+    /// A meshed rock: directions and incidences are azimuths from north (else from the
+    /// block's +x axis).
+    meshed: bool,
+}
+
+impl Rock {
+    /// The default incidences of the rock's frame (see [`FragilityArgs::azimuths`]).
+    fn default_incidences(&self) -> &'static str {
+        if self.meshed {
+            "0:360:30"
+        } else {
+            "0,180"
+        }
+    }
+}
+
+/// One direction's planar body for fragility.json.
+fn direction_json(azimuth_deg: f64, p: &BlockParams) -> serde_json::Value {
+    json!({
+        "azimuth_deg": azimuth_deg, "b_plus_m": p.b_plus_m, "b_minus_m": p.b_minus_m,
+        "com_height_m": p.com_height_m, "rho_m": p.rho_m,
+        "alpha_plus_deg": p.plus.alpha_rad.to_degrees(), "alpha_minus_deg": p.minus.alpha_rad.to_degrees(),
+    })
+}
+
+/// The SHA-256 of a file, lower-case hex: the exact mesh a result used.
+fn file_sha256(path: &Path) -> anyhow::Result<String> {
+    use sha2::{Digest, Sha256};
+    let mut file =
+        std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut hasher = Sha256::new();
+    std::io::copy(&mut file, &mut hasher).with_context(|| format!("reading {}", path.display()))?;
+    Ok(hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
+/// The rock's members: from the catalogue (ensemble) or the rock flags.
+fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
     if let (Some(id), Some(path)) = (&args.pbr, &args.catalogue) {
         let catalogue = Catalogue::load(path)?;
         let pbr = catalogue
@@ -192,17 +236,24 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
                  nominal rock (use --ensemble 1)"
             );
         }
-        // Every toppling direction of the rock (one for a planar entry, one per azimuth of a
-        // meshed rock), at angles measured from its first direction: the incidences
-        // (`--azimuths`) are in that frame. Member i is one rock in every direction.
+        // Every toppling direction of the rock: one for a planar entry, at 0 in its own frame;
+        // one per true azimuth of a meshed rock, in the frame of north. Member i is one rock in
+        // every direction.
         let directions = pbr.directions_sized(k)?;
-        let first_deg = directions.first().map_or(0.0, |d| d.azimuth.degrees());
+        let mesh = pbr.mesh();
+        let frame_deg = |azimuth: f64| {
+            if mesh.is_some() {
+                azimuth.rem_euclid(360.0)
+            } else {
+                0.0
+            }
+        };
         let members: Vec<RockMember> = (0..k)
             .map(|i| RockMember {
                 directions: directions
                     .iter()
                     .map(|d| RockDirection {
-                        azimuth_deg: (d.azimuth.degrees() - first_deg).rem_euclid(360.0),
+                        azimuth_deg: frame_deg(d.azimuth.degrees()),
                         params: if k > 1 { d.members[i] } else { d.nominal },
                     })
                     .collect(),
@@ -215,8 +266,24 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
             k,
             if k == 1 { "" } else { "s (Latin hypercube)" }
         );
-        let info = json!({"pbr": id, "catalogue": path.display().to_string(), "ensemble": k, "seed": pbr.seed()});
-        return Ok((members, label, info));
+        let mut info = json!({
+            "pbr": id, "catalogue": path.display().to_string(), "ensemble": k,
+            "seed": pbr.seed(), "model": "2d",
+            "directions": directions
+                .iter()
+                .map(|d| direction_json(d.azimuth.degrees(), &d.nominal))
+                .collect::<Vec<_>>(),
+        });
+        if let Some(m) = mesh {
+            info["mesh"] = json!(m.path.display().to_string());
+            info["mesh_sha256"] = json!(file_sha256(&m.path)?);
+        }
+        return Ok(Rock {
+            members,
+            label,
+            info,
+            meshed: mesh.is_some(),
+        });
     }
     if args.ensemble.is_some_and(|k| k > 1) {
         bail!("--ensemble needs a catalogue entry with uncertain parameters (--pbr, --catalogue)");
@@ -235,24 +302,31 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<(Vec<RockMember>, String, serde_
         "b_plus_m": params.b_plus_m, "b_minus_m": params.b_minus_m,
         "com_height_m": params.com_height_m, "rho_m": params.rho_m,
         "mu_s": params.mu_s, "mu_k": params.mu_k, "restitution": params.restitution,
+        "model": "2d",
     });
-    Ok((vec![one(params)], label, info))
+    Ok(Rock {
+        members: vec![RockMember {
+            directions: vec![RockDirection {
+                azimuth_deg: 0.0,
+                params,
+            }],
+        }],
+        label,
+        info,
+        meshed: false,
+    })
 }
 
-/// The rock of `--mesh`: one member, one direction per `--directions` azimuth (measured from
-/// the first, the frame of the incidences).
-fn mesh_rock(
-    args: &FragilityArgs,
-    mesh: &MeshPlan,
-) -> anyhow::Result<(Vec<RockMember>, String, serde_json::Value)> {
+/// The rock of `--mesh`: one member, one direction per `--directions` azimuth (from the mesh's
+/// north axis, the frame of the incidences).
+fn mesh_rock(args: &FragilityArgs, mesh: &MeshPlan) -> anyhow::Result<Rock> {
     let azimuths =
         parse_azimuths(&args.directions).map_err(|e| anyhow::anyhow!("--directions: {e}"))?;
-    let first_deg = azimuths.first().copied().unwrap_or(0.0);
     let directions = azimuths
         .iter()
         .map(|&azimuth| {
             Ok(RockDirection {
-                azimuth_deg: (azimuth - first_deg).rem_euclid(360.0),
+                azimuth_deg: azimuth.rem_euclid(360.0),
                 params: mesh.block(azimuth)?,
             })
         })
@@ -263,16 +337,25 @@ fn mesh_rock(
         restitution,
     } = mesh.friction;
     let label = format!(
-        "{} ({} directions from {first_deg}°), μs = {mu_s}, μk = {mu_k}",
+        "{} ({} directions), μs = {mu_s}, μk = {mu_k}",
         mesh.path.display(),
         directions.len()
     );
     let info = json!({
-        "mesh": mesh.path.display().to_string(), "directions_deg": azimuths,
-        "up": mesh.up.as_str(), "contact_tolerance_m": mesh.rest.tolerance_m,
+        "mesh": mesh.path.display().to_string(), "mesh_sha256": file_sha256(&mesh.path)?,
+        "model": "2d", "up": mesh.up.as_str(), "contact_tolerance_m": mesh.rest.tolerance_m,
+        "directions": directions
+            .iter()
+            .map(|d| direction_json(d.azimuth_deg, &d.params))
+            .collect::<Vec<_>>(),
         "mu_s": mu_s, "mu_k": mu_k, "restitution": restitution,
     });
-    Ok((vec![RockMember { directions }], label, info))
+    Ok(Rock {
+        members: vec![RockMember { directions }],
+        label,
+        info,
+        meshed: true,
+    })
 }
 
 fn is_record_file(p: &Path) -> bool {
@@ -353,7 +436,7 @@ fn read_records(args: &FragilityArgs) -> anyhow::Result<Vec<FragilityRecord>> {
     Ok(records)
 }
 
-fn build_config(args: &FragilityArgs, members: Vec<RockMember>) -> anyhow::Result<FragilityConfig> {
+fn build_config(args: &FragilityArgs, rock: &Rock) -> anyhow::Result<FragilityConfig> {
     let ims: Vec<FragilityIm> = args
         .im
         .iter()
@@ -418,9 +501,13 @@ fn build_config(args: &FragilityArgs, members: Vec<RockMember>) -> anyhow::Resul
     let config = FragilityConfig {
         ims,
         intensity,
-        members,
-        incidences_deg: parse_azimuths(&args.azimuths)
-            .map_err(|e| anyhow::anyhow!("--azimuths: {e}"))?,
+        members: rock.members.clone(),
+        incidences_deg: parse_azimuths(
+            args.azimuths
+                .as_deref()
+                .unwrap_or(rock.default_incidences()),
+        )
+        .map_err(|e| anyhow::anyhow!("--azimuths: {e}"))?,
         t_extra_s: args.t_extra,
         block: BlockOptions::default(),
         bootstrap: args.bootstrap,
@@ -434,8 +521,8 @@ fn build_config(args: &FragilityArgs, members: Vec<RockMember>) -> anyhow::Resul
 
 /// Runs the analysis, writes the files, prints the summary.
 pub fn run(args: FragilityArgs) -> anyhow::Result<()> {
-    let (members, rock_label, rock_info) = rock(&args)?;
-    let config = build_config(&args, members)?;
+    let rock = rock(&args)?;
+    let config = build_config(&args, &rock)?;
     let records = read_records(&args)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -480,7 +567,7 @@ pub fn run(args: FragilityArgs) -> anyhow::Result<()> {
             result.n_failed, result.n_flight
         );
     }
-    let doc = fragility_json(rock_info, &config, &records, &prepared, &result);
+    let doc = fragility_json(rock.info, &config, &records, &prepared, &result);
     let json_path = args.out.join("fragility.json");
     std::fs::write(&json_path, serde_json::to_string_pretty(&doc)? + "\n")
         .with_context(|| format!("cannot write {}", json_path.display()))?;
@@ -499,7 +586,7 @@ pub fn run(args: FragilityArgs) -> anyhow::Result<()> {
         OutputFormat::Text => {
             out!(
                 "{}",
-                text_summary(&rock_label, &config, &records, &result, &written)
+                text_summary(&rock.label, &config, &records, &result, &written)
             );
             outln!(
                 "time        {:.1} s on {} threads",
