@@ -58,6 +58,27 @@ pub fn both_formats(
     Ok(vec![svg_path, png_path])
 }
 
+/// Draws one figure of `size` pixels into `path`: PNG if it ends in `.png`, SVG if it ends in
+/// `.svg` (any other extension is an error, so that the content matches the name).
+pub fn by_extension(
+    path: &Path,
+    size: (u32, u32),
+    svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> DrawResult,
+    png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> DrawResult,
+) -> Result<(), PlotError> {
+    ensure_font();
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match extension.as_deref() {
+        Some("svg") => svg(&SVGBackend::new(path, size).into_drawing_area()),
+        Some("png") => png(&BitMapBackend::new(path, size).into_drawing_area()),
+        _ => Err("the plot file must end in .svg or .png".into()),
+    }
+    .map_err(|e| PlotError::new(path, &e))
+}
+
 /// DejaVu Sans, subset (assets/fonts/README.md): compiled in, so text renders on machines
 /// without fonts (plotters' `ab_glyph` backend uses only registered fonts).
 static BUNDLED_FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans-subset.ttf");
@@ -131,41 +152,27 @@ pub fn short_number(x: f64) -> String {
 }
 
 /// Writes the three-panel plot of `trace` to `path`: PNG if it ends in `.png`, SVG if it
-/// ends in `.svg` (any other extension is an error, so that the content matches the name).
+/// ends in `.svg` ([`by_extension`]).
 pub fn plot_simulation(
     path: &Path,
     trace: &Trace,
     params: &BlockParams,
     title: &str,
-) -> Result<(), Box<dyn std::error::Error>> {
-    ensure_font();
-    let extension = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match extension.as_deref() {
-        Some("svg") => draw(
-            SVGBackend::new(path, SIZE).into_drawing_area(),
-            trace,
-            params,
-            title,
-        ),
-        Some("png") => draw(
-            BitMapBackend::new(path, SIZE).into_drawing_area(),
-            trace,
-            params,
-            title,
-        ),
-        _ => Err(format!("{}: the plot file must end in .svg or .png", path.display()).into()),
-    }
+) -> Result<(), PlotError> {
+    by_extension(
+        path,
+        SIZE,
+        |root| draw(root, trace, params, title),
+        |root| draw(root, trace, params, title),
+    )
 }
 
 fn draw<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
+    root: &DrawingArea<DB, Shift>,
     trace: &Trace,
     params: &BlockParams,
     title: &str,
-) -> Result<(), Box<dyn std::error::Error>>
+) -> DrawResult
 where
     DB::ErrorType: 'static,
 {

@@ -132,6 +132,8 @@ pub struct RockGeometry {
     mass: MassProperties,
     facets: Vec<Facet>,
     vertices: Vec<[f64; 3]>,
+    /// The mesh's triangles (outward), for sections.
+    faces: Vec<[usize; 3]>,
     scale_m: f64,
 }
 
@@ -190,6 +192,7 @@ impl RockGeometry {
             mass,
             facets,
             vertices: mesh.vertices.clone(),
+            faces: mesh.faces.clone(),
             scale_m: mesh.bounding_diagonal(),
         })
     }
@@ -209,6 +212,52 @@ impl RockGeometry {
     #[must_use]
     pub fn facets(&self) -> &[Facet] {
         &self.facets
+    }
+
+    /// The rock's outline in the vertical plane of the direction `azimuth_deg` (degrees
+    /// clockwise from north) through the centre of mass, resting on `rest`: one segment per
+    /// mesh triangle the plane cuts, as ((s, z), (s, z)) with s the horizontal distance from
+    /// the centre of mass along the direction and z the height above the resting plane (m).
+    #[must_use]
+    pub fn section(&self, rest: &RestingContact, azimuth_deg: f64) -> Vec<[(f64, f64); 2]> {
+        let (sin, cos) = azimuth_deg.to_radians().sin_cos();
+        let d = [
+            rest.east[0] * sin + rest.north[0] * cos,
+            rest.east[1] * sin + rest.north[1] * cos,
+            rest.east[2] * sin + rest.north[2] * cos,
+        ];
+        let across = cross(rest.up, d);
+        let c = self.mass.com_m;
+        let local = |p: [f64; 3]| {
+            let r = sub(p, c);
+            (dot(r, d), dot(r, rest.up) + rest.h_m)
+        };
+        let mut segments = Vec::new();
+        for face in &self.faces {
+            let p = face.map(|i| self.vertices[i]);
+            let side = p.map(|v| dot(sub(v, c), across));
+            // The points where the plane cuts the edges whose ends lie on opposite sides (a
+            // vertex on the plane counts on the + side, so each crossing is found once).
+            let mut cuts = [(0.0, 0.0); 2];
+            let mut n = 0;
+            for k in 0..3 {
+                let (a, b) = (k, (k + 1) % 3);
+                if (side[a] >= 0.0) != (side[b] >= 0.0) && n < 2 {
+                    let t = side[a] / (side[a] - side[b]);
+                    let q = [
+                        p[a][0] + t * (p[b][0] - p[a][0]),
+                        p[a][1] + t * (p[b][1] - p[a][1]),
+                        p[a][2] + t * (p[b][2] - p[a][2]),
+                    ];
+                    cuts[n] = local(q);
+                    n += 1;
+                }
+            }
+            if n == 2 {
+                segments.push(cuts);
+            }
+        }
+        segments
     }
 
     /// The resting contact for the approximate up axis `up` and the contact tolerance

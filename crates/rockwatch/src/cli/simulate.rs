@@ -115,8 +115,7 @@ fn run_with(params: BlockParams, args: SimulateArgs) -> anyhow::Result<()> {
         } else {
             format!("{} × {}", record.source, short_number(args.scale))
         };
-        plot_simulation(path, trace, &params, &title)
-            .map_err(|e| anyhow::anyhow!("writing plot {}: {e}", path.display()))?;
+        plot_simulation(path, trace, &params, &title)?;
     }
     if let (Some(path), Some(trace)) = (&args.trace, &sim.trace) {
         write_trace(path, trace).with_context(|| format!("writing trace {}", path.display()))?;
