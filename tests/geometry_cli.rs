@@ -198,6 +198,74 @@ fn geometry_shows_how_the_pivots_move_with_the_contact_tolerance() {
 }
 
 #[test]
+fn geometry_draws_the_alpha_rose_and_a_section() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, c) = (0.4, 0.3, 1.2);
+    let mesh = box_obj(dir.path(), a, b, c);
+    let rose = dir.path().join("rose.svg");
+    let section = dir.path().join("section.png");
+    let out = rockwatch(&[
+        "geometry",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--polar-plot",
+        rose.to_str().unwrap(),
+        "--section-plot",
+        section.to_str().unwrap(),
+        "--section",
+        "90",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The rose marks the weakest direction: across the 0.3 m side, α = atan(0.15/0.6).
+    let svg = std::fs::read_to_string(&rose).unwrap();
+    assert!(svg.starts_with("<svg"), "not an SVG");
+    let alpha = (b / 2.0 / (c / 2.0)).atan().to_degrees();
+    assert!(
+        svg.contains(&format!("weakest {alpha:.2}"))
+            || svg.contains(&format!("weakest {alpha:.3}")),
+        "{alpha}"
+    );
+    let png = std::fs::read(&section).unwrap();
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
+    // Towards 90° (east) the section names b± = a/2 in its title (SVG text).
+    let section_svg = dir.path().join("section.svg");
+    let out = rockwatch(&[
+        "geometry",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--section-plot",
+        section_svg.to_str().unwrap(),
+        "--section",
+        "90",
+    ]);
+    assert!(out.status.success());
+    let svg = std::fs::read_to_string(&section_svg).unwrap();
+    assert!(
+        svg.contains("towards 90°: b+ = 0.2 m, b− = 0.2 m, h = 0.6 m"),
+        "{svg}"
+    );
+    // A plot name that says neither format is refused in one line.
+    let bad = dir.path().join("rose.jpg");
+    let out = rockwatch(&[
+        "geometry",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--polar-plot",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("must end in .svg or .png") && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
+}
+
+#[test]
 fn bad_meshes_and_flags_fail_with_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let hole = dir.path().join("hole.obj");

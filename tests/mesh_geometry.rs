@@ -509,6 +509,36 @@ fn box_at_45_degrees_tips_about_the_edge_its_ray_crosses_not_its_corner() {
     );
 }
 
+#[test]
+fn section_of_a_box_along_its_diagonal_is_the_rectangle_of_its_chord() {
+    // 0.6 × 0.9 × 1.5 box, vertical plane at azimuth 45° through its centre: the base chord
+    // runs from −r to r with r = 0.3/sin 45° (the exit of the ray through the east and west
+    // sides), so the section is a 2r × 1.5 rectangle: perimeter 2(2r + 1.5), every point
+    // within |s| ≤ r, 0 ≤ z ≤ 1.5, and the four corners present.
+    let base = [(-0.3, -0.45), (0.3, -0.45), (0.3, 0.45), (-0.3, 0.45)];
+    let rock = RockGeometry::new(&upright_prism(&base, 1.5)).unwrap();
+    let rest = rock.rest(UpAxis::PlusZ, 0.0).unwrap();
+    let r = 0.3 / std::f64::consts::FRAC_1_SQRT_2;
+    let segments = rock.section(&rest, 45.0);
+    let length: f64 = segments
+        .iter()
+        .map(|[a, b]| (b.0 - a.0).hypot(b.1 - a.1))
+        .sum();
+    close(length, 2.0 * (2.0 * r + 1.5), 1e-12, "perimeter");
+    for &(s, z) in segments.iter().flatten() {
+        assert!(s.abs() <= r * (1.0 + 1e-12) && (-1e-12..=1.5 + 1e-12).contains(&z));
+    }
+    for corner in [(-r, 0.0), (r, 0.0), (-r, 1.5), (r, 1.5)] {
+        assert!(
+            segments
+                .iter()
+                .flatten()
+                .any(|p| (p.0 - corner.0).abs() < 1e-12 && (p.1 - corner.1).abs() < 1e-12),
+            "corner {corner:?}"
+        );
+    }
+}
+
 /// Regular n-gon of circumradius r, CCW.
 fn ngon(n: usize, r: f64, phase: f64) -> Vec<(f64, f64)> {
     (0..n)

@@ -19,6 +19,7 @@ pub mod notify;
 pub mod plot;
 pub mod ports;
 pub mod replay;
+pub mod rock_plots;
 pub mod ros2;
 pub mod sd_notify;
 pub mod seedlink;

@@ -9,6 +9,8 @@ use rockwatch_core::mesh::contact::{
     DEFAULT_CONTACT_TOLERANCE_M, SENSITIVITY_TOLERANCES_M,
 };
 
+use rockwatch::rock_plots::{plot_alpha_rose, plot_section};
+
 use super::OutputFormat;
 
 /// The planar rigid body of each toppling direction of a rock from its closed triangle mesh
@@ -41,6 +43,18 @@ pub struct GeometryArgs {
     /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     format: OutputFormat,
+    /// Draw α against azimuth (every degree; polar, north up, the weakest direction marked):
+    /// PNG if OUT ends in .png, SVG if it ends in .svg.
+    #[arg(long = "polar-plot", value_name = "OUT.svg|OUT.png")]
+    polar_plot: Option<PathBuf>,
+    /// Draw the rock's section in the vertical plane of --section through its centre of mass,
+    /// with the contact chord, the pivots and the centre of mass (.svg or .png).
+    #[arg(long = "section-plot", value_name = "OUT.svg|OUT.png")]
+    section_plot: Option<PathBuf>,
+    /// The direction of --section-plot (degrees clockwise from the mesh's north axis);
+    /// default: the weakest direction of --azimuths.
+    #[arg(long, value_name = "DEG", requires = "section_plot")]
+    section: Option<f64>,
 }
 
 /// The JSON of `rockwatch geometry --format json`.
@@ -154,6 +168,22 @@ pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
         .with_context(|| format!("resting contact of {}", args.mesh.display()))?;
     let directions: Vec<DirectionBody> = azimuths.iter().map(|&az| rest.direction(az)).collect();
     let sensitivity = sensitivity(&rest, &azimuths, args.contact_tolerance);
+    let weakest_listed = weakest(&directions);
+    let name = args.mesh.display().to_string();
+    if let Some(path) = &args.polar_plot {
+        // Every degree; the weakest of that rose is marked (it may fall between --azimuths).
+        let rose: Vec<DirectionBody> = (0..360).map(|k| rest.direction(f64::from(k))).collect();
+        let w = weakest(&rose);
+        plot_alpha_rose(path, &name, &rose, (w.azimuth_deg, w.alpha_deg))?;
+    }
+    if let Some(path) = &args.section_plot {
+        let az = args.section.unwrap_or(weakest_listed.azimuth_deg);
+        if !az.is_finite() {
+            anyhow::bail!("--section must be a finite number of degrees, got {az}");
+        }
+        let body = rest.direction(az);
+        plot_section(path, &name, &rock.section(&rest, az), &body)?;
+    }
     match args.format {
         OutputFormat::Json => {
             let json = GeometryJson {
@@ -169,7 +199,7 @@ pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
                 contact_tolerance_m: rest.tolerance_m,
                 contact_vertices: rest.contact_vertices(),
                 directions: &directions,
-                weakest: weakest(&directions),
+                weakest: weakest_listed,
                 tolerance_sensitivity: &sensitivity,
             };
             outln!("{}", serde_json::to_string_pretty(&json)?);
