@@ -266,6 +266,59 @@ fn geometry_draws_the_alpha_rose_and_a_section() {
 }
 
 #[test]
+fn an_open_scan_is_refused_unless_capped_and_capping_says_so() {
+    // The box of box_obj without its bottom face (`f 1 4 3 2`): a scan seen from above.
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, c) = (0.4, 0.3, 1.2);
+    let closed = box_obj(dir.path(), a, b, c);
+    let text = std::fs::read_to_string(&closed)
+        .unwrap()
+        .replace("f 1 4 3 2\n", "");
+    let open = dir.path().join("open.obj");
+    std::fs::write(&open, text).unwrap();
+    let out = rockwatch(&["geometry", "--mesh", open.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("not a closed") && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
+    let capped = ok_json(&[
+        "geometry",
+        "--mesh",
+        open.to_str().unwrap(),
+        "--cap",
+        "--format",
+        "json",
+    ]);
+    let reference = ok_json(&[
+        "geometry",
+        "--mesh",
+        closed.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert_eq!(capped["cap"]["loop_vertices"], 4, "{}", capped["cap"]);
+    assert!((f(&capped["cap"]["area_m2"]) - a * b).abs() < 1e-12);
+    assert!((f(&capped["volume_m3"]) - a * b * c).abs() < 1e-12);
+    assert_eq!(capped["directions"], reference["directions"]);
+    assert_eq!(reference["cap"], serde_json::Value::Null);
+    // The text and stderr say it.
+    let out = rockwatch(&["geometry", "--mesh", open.to_str().unwrap(), "--cap"]);
+    assert!(out.status.success());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stdout.contains("capped      open scan closed by its lowest boundary loop (4 vertices"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.contains("warning") && stderr.contains("open scan closed"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn bad_meshes_and_flags_fail_with_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let hole = dir.path().join("hole.obj");

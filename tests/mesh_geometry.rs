@@ -539,6 +539,81 @@ fn section_of_a_box_along_its_diagonal_is_the_rectangle_of_its_chord() {
     }
 }
 
+/// The upright prism of `upright_prism` without the faces whose normals point along `open`
+/// (−1: the bottom, +1: the top), as a scanner that saw it from one side leaves it.
+fn open_prism(base: &[(f64, f64)], height: f64, open: &[i32]) -> TriMesh {
+    let closed = upright_prism(base, height);
+    let n = base.len();
+    let faces: Vec<[usize; 3]> = closed
+        .faces
+        .iter()
+        .copied()
+        .filter(|f| {
+            let bottom = f.iter().all(|&v| v < n);
+            let top = f.iter().all(|&v| v >= n);
+            !(bottom && open.contains(&-1) || top && open.contains(&1))
+        })
+        .collect();
+    TriMesh {
+        source: "open".into(),
+        face_lines: vec![0; faces.len()],
+        vertices: closed.vertices,
+        faces,
+    }
+}
+
+#[test]
+fn an_open_scan_is_closed_by_its_lowest_boundary_loop() {
+    // A pentagonal prism scanned from above: no base. Capping closes the base loop (planar,
+    // level), so the rock is the closed prism: same volume, centre and resting bodies.
+    let base = [
+        (0.0, 0.0),
+        (0.7, -0.1),
+        (0.95, 0.35),
+        (0.5, 0.8),
+        (-0.15, 0.5),
+    ];
+    let closed = upright_prism(&base, 1.1);
+    let mut open = open_prism(&base, 1.1, &[-1]);
+    assert!(open.clone().validate().is_err(), "an open scan is refused");
+    let cap = open.cap([0.0, 0.0, 1.0]).unwrap().expect("a boundary");
+    assert_eq!((cap.loop_vertices, cap.loops), (5, 1));
+    close(cap.mean_height_m, 0.0, 1e-15, "loop height");
+    close(cap.height_spread_m, 0.0, 1e-15, "planar loop");
+    let (area, _, _) = polygon_moments(&base);
+    close(cap.area_m2, area, 1e-12, "cap area");
+    open.validate().expect("capped mesh is closed");
+    let (a, b) = (MassProperties::of(&open), MassProperties::of(&closed));
+    close(a.volume_m3, b.volume_m3, 1e-12, "volume");
+    for k in 0..3 {
+        close(a.com_m[k], b.com_m[k], 1e-12, "com");
+    }
+    let rest_open = RockGeometry::new(&open)
+        .unwrap()
+        .rest(UpAxis::PlusZ, 0.0)
+        .unwrap();
+    let rest_closed = RockGeometry::new(&closed)
+        .unwrap()
+        .rest(UpAxis::PlusZ, 0.0)
+        .unwrap();
+    for az in [0.0, 73.0, 200.0] {
+        let (p, q) = (rest_open.direction(az), rest_closed.direction(az));
+        close(p.b_plus_m, q.b_plus_m, 1e-12, "b+");
+        close(p.rho_m, q.rho_m, 1e-12, "rho");
+    }
+    // Open at both ends: the lower loop is capped, the top stays open and is refused.
+    let mut both = open_prism(&base, 1.1, &[-1, 1]);
+    let cap = both.cap([0.0, 0.0, 1.0]).unwrap().expect("a boundary");
+    assert_eq!(cap.loops, 2);
+    close(cap.mean_height_m, 0.0, 1e-15, "the lowest loop");
+    assert!(matches!(both.validate(), Err(MeshError::NotClosed { .. })));
+    // A closed mesh has nothing to cap.
+    assert_eq!(
+        upright_prism(&base, 1.1).cap([0.0, 0.0, 1.0]).unwrap(),
+        None
+    );
+}
+
 /// Regular n-gon of circumradius r, CCW.
 fn ngon(n: usize, r: f64, phase: f64) -> Vec<(f64, f64)> {
     (0..n)

@@ -202,6 +202,16 @@ impl RockGeometry {
         RockGeometry::new(&TriMesh::read(path)?)
     }
 
+    /// [`RockGeometry::read`], closing an open scan's lowest boundary loop along `cap` first
+    /// when given ([`super::cap`]); says what was capped (`None`: the mesh was closed).
+    pub fn read_with(
+        path: impl AsRef<std::path::Path>,
+        cap: Option<UpAxis>,
+    ) -> Result<(RockGeometry, Option<super::cap::Cap>), MeshError> {
+        let (mesh, capped) = TriMesh::read_with(path, cap.map(|up| up.frame().0))?;
+        Ok((RockGeometry::new(&mesh)?, capped))
+    }
+
     /// Unit-density mass properties.
     #[must_use]
     pub fn mass(&self) -> &MassProperties {

@@ -11,6 +11,7 @@
 //!   oriented mesh is accepted and turned outward (its signed volume tells).
 //! - [`mass`]: volume, centre of mass and inertia tensor by the divergence theorem.
 //! - [`hull`]: the 3-D convex hull (quickhull) and its planar facets.
+//! - [`cap`]: closing an open scan by its lowest boundary loop (`--cap`).
 //! - [`contact`]: the resting contact and the planar body of each azimuth.
 //! - [`support_polygon`]: the support polygon and the lever arm b(d) of a direction.
 //!
@@ -20,6 +21,7 @@
 //! Errors never panic and name the file and, for text formats, the line
 //! (`rock.obj:12: face refers to vertex 9, the file has 8`), for binary ones the face index.
 
+pub mod cap;
 pub mod contact;
 pub mod hull;
 pub mod mass;
@@ -247,6 +249,15 @@ impl TriMesh {
     /// Reads a mesh file (format by extension), merges duplicate vertices and validates it
     /// ([`TriMesh::validate`]).
     pub fn read(path: impl AsRef<Path>) -> Result<TriMesh, MeshError> {
+        Ok(TriMesh::read_with(path, None)?.0)
+    }
+
+    /// [`TriMesh::read`], first closing the lowest boundary loop along `cap_up` (a unit
+    /// vector, mesh coordinates) when given ([`TriMesh::cap`]); says what was capped.
+    pub fn read_with(
+        path: impl AsRef<Path>,
+        cap_up: Option<[f64; 3]>,
+    ) -> Result<(TriMesh, Option<cap::Cap>), MeshError> {
         let path = path.as_ref();
         let source = path.display().to_string();
         let format = MeshFormat::from_path(path).ok_or_else(|| MeshError::UnknownFormat {
@@ -264,20 +275,34 @@ impl TriMesh {
             });
         }
         let bytes = std::fs::read(path).map_err(io)?;
-        TriMesh::parse(&bytes, format, &source)
+        TriMesh::parse_with(&bytes, format, &source, cap_up)
     }
 
     /// Parses the bytes of a mesh file of `format` (`source` names it in messages), merges
     /// duplicate vertices and validates the surface.
     pub fn parse(bytes: &[u8], format: MeshFormat, source: &str) -> Result<TriMesh, MeshError> {
+        Ok(TriMesh::parse_with(bytes, format, source, None)?.0)
+    }
+
+    /// [`TriMesh::parse`], capping first as [`TriMesh::read_with`] does.
+    pub fn parse_with(
+        bytes: &[u8],
+        format: MeshFormat,
+        source: &str,
+        cap_up: Option<[f64; 3]>,
+    ) -> Result<(TriMesh, Option<cap::Cap>), MeshError> {
         let mut mesh = match format {
             MeshFormat::Obj => obj::parse(bytes, source)?,
             MeshFormat::Ply => ply::parse(bytes, source)?,
             MeshFormat::Stl => stl::parse(bytes, source)?,
         };
         mesh.merge_duplicate_vertices();
+        let capped = match cap_up {
+            Some(up) => mesh.cap(up)?,
+            None => None,
+        };
         mesh.validate()?;
-        Ok(mesh)
+        Ok((mesh, capped))
     }
 
     /// Merges vertices with bit-identical coordinates (−0 and +0 alike) and drops the vertices

@@ -336,14 +336,16 @@ fn mesh_rock(args: &FragilityArgs, mesh: &MeshPlan) -> anyhow::Result<Rock> {
         mu_k,
         restitution,
     } = mesh.friction;
+    let loaded = &mesh.mesh;
     let label = format!(
         "{} ({} directions), μs = {mu_s}, μk = {mu_k}",
-        mesh.path.display(),
+        loaded.path.display(),
         directions.len()
     );
     let info = json!({
-        "mesh": mesh.path.display().to_string(), "mesh_sha256": file_sha256(&mesh.path)?,
-        "model": "2d", "up": mesh.up.as_str(), "contact_tolerance_m": mesh.rest.tolerance_m,
+        "mesh": loaded.path.display().to_string(), "mesh_sha256": file_sha256(&loaded.path)?,
+        "cap": loaded.cap,
+        "model": "2d", "up": loaded.up.as_str(), "contact_tolerance_m": loaded.rest.tolerance_m,
         "directions": directions
             .iter()
             .map(|d| direction_json(d.azimuth_deg, &d.params))

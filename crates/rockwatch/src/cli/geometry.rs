@@ -3,14 +3,14 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
+use rockwatch_core::mesh::cap::Cap;
 use rockwatch_core::mesh::contact::{
-    parse_azimuths, DirectionBody, RestingContact, RockGeometry, UpAxis,
-    DEFAULT_CONTACT_TOLERANCE_M, SENSITIVITY_TOLERANCES_M,
+    parse_azimuths, DirectionBody, RestingContact, SENSITIVITY_TOLERANCES_M,
 };
 
 use rockwatch::rock_plots::{plot_alpha_rose, plot_section};
 
+use super::rock_flags::{describe_cap, LoadedMesh, MeshFlags};
 use super::OutputFormat;
 
 /// The planar rigid body of each toppling direction of a rock from its closed triangle mesh
@@ -26,20 +26,14 @@ use super::OutputFormat;
 /// direction, and α± = atan(b±/h). Then the weakest direction and how the bodies change with
 /// the contact tolerance (0, 1, 2, 5 mm).
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("mesh", |a| a.required(true)))]
 pub struct GeometryArgs {
-    /// The closed mesh: .obj, .ply or .stl (coordinates in metres).
-    #[arg(long, value_name = "FILE")]
-    mesh: PathBuf,
-    /// The mesh axis pointing (roughly) up: x, y or z, optionally signed (-z).
-    #[arg(long, default_value = "z", value_name = "AXIS")]
-    up: String,
+    /// The mesh and how it rests (--mesh, --up, --contact-tolerance, --cap).
+    #[command(flatten)]
+    mesh: MeshFlags,
     /// Directions: FROM:TO:STEP (degrees, TO excluded) or a list A,B,C.
     #[arg(long, default_value = "0:360:15", value_name = "FROM:TO:STEP|LIST")]
     azimuths: String,
-    /// Vertices within this distance of the resting facet's plane touch the ground (m; default
-    /// 0: the resting hull facet alone).
-    #[arg(long = "contact-tolerance", default_value_t = DEFAULT_CONTACT_TOLERANCE_M, value_name = "M")]
-    contact_tolerance: f64,
     /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     format: OutputFormat,
@@ -61,6 +55,8 @@ pub struct GeometryArgs {
 #[derive(Debug, serde::Serialize)]
 struct GeometryJson<'a> {
     mesh: String,
+    /// What --cap closed (null: the mesh was closed).
+    cap: Option<&'a Cap>,
     volume_m3: f64,
     com_m: [f64; 3],
     /// Inertia tensor about the centre of mass, mesh axes, unit density (m⁵ = kg·m² per kg/m³).
@@ -153,23 +149,16 @@ fn sensitivity(rest: &RestingContact, azimuths: &[f64], in_force: f64) -> Vec<Se
 }
 
 pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
-    let up = UpAxis::parse(&args.up).map_err(|e| anyhow::anyhow!("--up: {e}"))?;
     let azimuths =
         parse_azimuths(&args.azimuths).map_err(|e| anyhow::anyhow!("--azimuths: {e}"))?;
-    if !(args.contact_tolerance.is_finite() && args.contact_tolerance >= 0.0) {
-        anyhow::bail!(
-            "--contact-tolerance must be a finite length ≥ 0 (m), got {}",
-            args.contact_tolerance
-        );
-    }
-    let rock = RockGeometry::read(&args.mesh)?;
-    let rest = rock
-        .rest(up, args.contact_tolerance)
-        .with_context(|| format!("resting contact of {}", args.mesh.display()))?;
+    let Some(mesh) = args.mesh.load()? else {
+        anyhow::bail!("give --mesh FILE");
+    };
+    let (rock, rest, up) = (&mesh.rock, &mesh.rest, mesh.up);
     let directions: Vec<DirectionBody> = azimuths.iter().map(|&az| rest.direction(az)).collect();
-    let sensitivity = sensitivity(&rest, &azimuths, args.contact_tolerance);
+    let sensitivity = sensitivity(rest, &azimuths, rest.tolerance_m);
     let weakest_listed = weakest(&directions);
-    let name = args.mesh.display().to_string();
+    let name = mesh.path.display().to_string();
     if let Some(path) = &args.polar_plot {
         // Every degree; the weakest of that rose is marked (it may fall between --azimuths).
         let rose: Vec<DirectionBody> = (0..360).map(|k| rest.direction(f64::from(k))).collect();
@@ -182,12 +171,13 @@ pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
             anyhow::bail!("--section must be a finite number of degrees, got {az}");
         }
         let body = rest.direction(az);
-        plot_section(path, &name, &rock.section(&rest, az), &body)?;
+        plot_section(path, &name, &rock.section(rest, az), &body)?;
     }
     match args.format {
         OutputFormat::Json => {
             let json = GeometryJson {
-                mesh: args.mesh.display().to_string(),
+                mesh: name.clone(),
+                cap: mesh.cap.as_ref(),
                 volume_m3: rest.mass.volume_m3,
                 com_m: rest.mass.com_m,
                 inertia_unit_density: rest.mass.inertia_com,
@@ -204,23 +194,21 @@ pub fn run(args: GeometryArgs) -> anyhow::Result<()> {
             };
             outln!("{}", serde_json::to_string_pretty(&json)?);
         }
-        OutputFormat::Text => out!("{}", text(&args, up, &rest, &directions, &sensitivity)),
+        OutputFormat::Text => out!("{}", text(&mesh, &directions, &sensitivity)),
     }
     Ok(())
 }
 
-fn text(
-    args: &GeometryArgs,
-    up: UpAxis,
-    rest: &RestingContact,
-    dirs: &[DirectionBody],
-    sensitivity: &[Sensitivity],
-) -> String {
+fn text(mesh: &LoadedMesh, dirs: &[DirectionBody], sensitivity: &[Sensitivity]) -> String {
     use std::fmt::Write;
     let mut out = String::new();
+    let (rest, up) = (&mesh.rest, mesh.up);
     let m = &rest.mass;
     let v3 = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
-    let _ = writeln!(out, "mesh        {}", args.mesh.display());
+    let _ = writeln!(out, "mesh        {}", mesh.path.display());
+    if let Some(cap) = &mesh.cap {
+        let _ = writeln!(out, "capped      {}", describe_cap(cap));
+    }
     let _ = writeln!(out, "volume      {:.6} m³", m.volume_m3);
     let _ = writeln!(out, "com         {} m", v3(m.com_m));
     let _ = writeln!(

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use rockwatch_core::dynamics::BlockParams;
+use rockwatch_core::mesh::cap::Cap;
 use rockwatch_core::mesh::contact::{
     RestingContact, RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M,
 };
@@ -16,21 +17,21 @@ use rockwatch_core::mesh::contact::{
 pub struct GeometryFlags {
     /// Base width B of a rectangular block (m); with --height. Alternatively --half-diagonal
     /// and --alpha, a general body (--b-plus, --b-minus, --com-height, --rho) or --mesh.
-    #[arg(long, value_name = "B", requires = "height")]
+    #[arg(long, value_name = "B", requires = "height", conflicts_with = "mesh")]
     pub width: Option<f64>,
     /// Height H of a rectangular block (m).
     #[arg(long, value_name = "H", requires = "width")]
     pub height: Option<f64>,
     /// Half-diagonal R = ½√(B² + H²) of a rectangle (m); with --alpha, instead of --width and
     /// --height.
-    #[arg(long = "half-diagonal", value_name = "R", requires = "alpha", conflicts_with_all = ["width", "height"])]
+    #[arg(long = "half-diagonal", value_name = "R", requires = "alpha", conflicts_with_all = ["width", "height", "mesh"])]
     pub half_diagonal: Option<f64>,
     /// Slenderness α = atan(B/H) of a rectangle (degrees), with --half-diagonal.
     #[arg(long, value_name = "DEG", requires = "half_diagonal", conflicts_with_all = ["width", "height"])]
     pub alpha: Option<f64>,
     /// General body (docs/general-body.md): horizontal distance from the centre of mass to
     /// the +x pivot (m). With --b-minus, --com-height and --rho, instead of a rectangle.
-    #[arg(long = "b-plus", value_name = "M", requires_all = ["b_minus", "com_height", "rho"], conflicts_with_all = ["width", "height", "half_diagonal", "alpha"])]
+    #[arg(long = "b-plus", value_name = "M", requires_all = ["b_minus", "com_height", "rho"], conflicts_with_all = ["width", "height", "half_diagonal", "alpha", "mesh"])]
     pub b_plus: Option<f64>,
     /// General body: horizontal distance from the centre of mass to the −x pivot (m).
     #[arg(long = "b-minus", value_name = "M", requires = "b_plus")]
@@ -42,9 +43,18 @@ pub struct GeometryFlags {
     /// (a B × H rectangle has ρ² = (B² + H²)/12).
     #[arg(long, value_name = "M", requires = "b_plus")]
     pub rho: Option<f64>,
+    /// A rock from its mesh.
+    #[command(flatten)]
+    pub mesh: MeshFlags,
+}
+
+/// A rock from its closed mesh: the file, its up axis, the contact tolerance and whether to
+/// close an open scan (`simulate`, `fragility` and `geometry` declare them here, once).
+#[derive(Debug, Clone, clap::Args)]
+pub struct MeshFlags {
     /// A rock from its closed mesh (.obj, .ply, .stl; metres): the planar body of each
     /// direction (`rockwatch geometry`, docs/meshes.md), instead of the block flags.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["width", "height", "half_diagonal", "alpha", "b_plus"])]
+    #[arg(long, value_name = "FILE")]
     pub mesh: Option<PathBuf>,
     /// With --mesh: the mesh axis pointing (roughly) up (x, y, z, optionally signed).
     #[arg(long, value_name = "AXIS", requires = "mesh", default_value = "z")]
@@ -54,6 +64,73 @@ pub struct GeometryFlags {
     /// see `rockwatch geometry`'s sensitivity table).
     #[arg(long = "contact-tolerance", value_name = "M", requires = "mesh", default_value_t = DEFAULT_CONTACT_TOLERANCE_M)]
     pub contact_tolerance: f64,
+    /// With --mesh: close an open scan (a boulder scanned from above has no base) by its
+    /// lowest boundary loop along --up, with a fan from the loop's centroid (docs/meshes.md);
+    /// without it an open mesh is refused.
+    #[arg(long, requires = "mesh")]
+    pub cap: bool,
+}
+
+/// A mesh read and analysed: its rock, resting contact and what was capped.
+#[derive(Debug, Clone)]
+pub struct LoadedMesh {
+    pub path: PathBuf,
+    pub up: UpAxis,
+    pub rock: RockGeometry,
+    pub rest: RestingContact,
+    /// The loop closed by --cap (None: the mesh was closed).
+    pub cap: Option<Cap>,
+}
+
+impl MeshFlags {
+    /// Reads and analyses --mesh (`None` without it); says on stderr what --cap closed.
+    pub fn load(&self) -> anyhow::Result<Option<LoadedMesh>> {
+        let Some(path) = &self.mesh else {
+            return Ok(None);
+        };
+        let up = UpAxis::parse(&self.up).map_err(|e| anyhow::anyhow!("--up: {e}"))?;
+        if !(self.contact_tolerance.is_finite() && self.contact_tolerance >= 0.0) {
+            bail!(
+                "--contact-tolerance must be a finite length ≥ 0 (m), got {}",
+                self.contact_tolerance
+            );
+        }
+        let (rock, cap) = RockGeometry::read_with(path, self.cap.then_some(up))?;
+        let rest = rock.rest(up, self.contact_tolerance)?;
+        if let Some(c) = &cap {
+            eprintln!(
+                "rockwatch: warning: {}: {}",
+                path.display(),
+                describe_cap(c)
+            );
+        } else if self.cap {
+            eprintln!(
+                "rockwatch: {}: --cap: the mesh is closed, nothing to cap",
+                path.display()
+            );
+        }
+        Ok(Some(LoadedMesh {
+            path: path.clone(),
+            up,
+            rock,
+            rest,
+            cap,
+        }))
+    }
+}
+
+/// One line saying what --cap did.
+#[must_use]
+pub fn describe_cap(c: &Cap) -> String {
+    format!(
+        "open scan closed by its lowest boundary loop ({} vertices, {} loop{} in all; cap {:.4} m², \
+         loop heights within {:.4} m of their mean)",
+        c.loop_vertices,
+        c.loops,
+        if c.loops == 1 { "" } else { "s" },
+        c.area_m2,
+        c.height_spread_m
+    )
 }
 
 /// Friction and impact of the rock.
@@ -81,6 +158,8 @@ pub struct Friction {
 }
 
 /// What the rock flags describe.
+// One plan per command run: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 pub enum RockPlan {
     /// A planar block (rectangle or general body).
@@ -92,9 +171,7 @@ pub enum RockPlan {
 /// A rock from its closed mesh, resting on its contact, with its friction.
 #[derive(Debug, Clone)]
 pub struct MeshPlan {
-    pub path: PathBuf,
-    pub up: UpAxis,
-    pub rest: RestingContact,
+    pub mesh: LoadedMesh,
     pub friction: Friction,
 }
 
@@ -105,7 +182,7 @@ impl MeshPlan {
         if !azimuth_deg.is_finite() {
             bail!("azimuth must be a finite number of degrees, got {azimuth_deg}");
         }
-        let d = self.rest.direction(azimuth_deg);
+        let d = self.mesh.rest.direction(azimuth_deg);
         let Friction {
             mu_s,
             mu_k,
@@ -120,7 +197,7 @@ impl MeshPlan {
             mu_k,
             restitution,
         )
-        .with_context(|| format!("{} at azimuth {azimuth_deg}°", self.path.display()))
+        .with_context(|| format!("{} at azimuth {azimuth_deg}°", self.mesh.path.display()))
     }
 }
 
@@ -148,21 +225,8 @@ impl GeometryFlags {
             mu_k,
             restitution,
         } = friction;
-        if let Some(path) = &self.mesh {
-            let up = UpAxis::parse(&self.up).map_err(|e| anyhow::anyhow!("--up: {e}"))?;
-            if !(self.contact_tolerance.is_finite() && self.contact_tolerance >= 0.0) {
-                bail!(
-                    "--contact-tolerance must be a finite length ≥ 0 (m), got {}",
-                    self.contact_tolerance
-                );
-            }
-            let rest = RockGeometry::read(path)?.rest(up, self.contact_tolerance)?;
-            return Ok(RockPlan::Mesh(MeshPlan {
-                path: path.clone(),
-                up,
-                rest,
-                friction,
-            }));
+        if let Some(mesh) = self.mesh.load()? {
+            return Ok(RockPlan::Mesh(MeshPlan { mesh, friction }));
         }
         let params = match self {
             GeometryFlags {
