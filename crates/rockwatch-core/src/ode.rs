@@ -197,13 +197,30 @@ impl<const N: usize> Dopri5<N> {
             return Err(OdeError::NonFinite { t });
         }
         let remaining = t_end - t;
+        let underflow = 4.0 * f64::EPSILON * t.abs().max(t_end.abs()).max(1e-300);
+        if remaining > 0.0 && remaining <= underflow {
+            // What is left of the interval is a rounding sliver (an event located within the
+            // root tolerance of t_end leaves one): cross it with one Euler step, whose error,
+            // O(remaining²) ≲ 10⁻³⁰, is below any tolerance, instead of failing on a step
+            // smaller than t can resolve. The stored derivative is dropped (recomputed next).
+            let ydiff = k1 * remaining;
+            let y1 = y + ydiff;
+            self.fsal = None;
+            let zero = SVector::<f64, M>::zeros();
+            return Ok(DenseStep {
+                t0: t,
+                h: remaining,
+                y1,
+                coefficients: [*y, ydiff, zero, zero, zero],
+            });
+        }
         let mut h = self.h_next.min(remaining);
         loop {
             // A step that would leave a sliver shorter than 1 % of h is stretched to t_end.
             if remaining - h < 0.01 * h {
                 h = remaining;
             }
-            if h <= 4.0 * f64::EPSILON * t.abs().max(t_end.abs()).max(1e-300) {
+            if h <= underflow {
                 return Err(OdeError::StepSizeUnderflow { t, h });
             }
             let k2 = system.derivative(t + C2 * h, &(y + k1 * (h * A21)));
