@@ -8,16 +8,17 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use rockwatch::study::report;
+use rockwatch_core::fragility::fit::FitError;
 use rockwatch_core::ims::{STUDY_IM_COUNT, STUDY_IM_NAMES};
 use rockwatch_core::lhs::{rng_from_seed, uniform_open01};
 use rockwatch_core::pulse::PulseParameters;
-use rockwatch_core::study::fragility::{fit_lognormal, FragilityError, Z_95};
-use rockwatch_core::study::regression::{
-    linear_fit, log_log_fit, multiple_fit, residual_dependence_p,
-};
-use rockwatch_core::study::special::{
+use rockwatch_core::stats::{
     ln_gamma, ln_normal_cdf, normal_cdf, regularized_incomplete_beta, student_t_cdf,
     student_t_two_sided_p,
+};
+use rockwatch_core::study::fragility::{fit_lognormal, Z_95};
+use rockwatch_core::study::regression::{
+    linear_fit, log_log_fit, multiple_fit, residual_dependence_p,
 };
 use rockwatch_core::study::{
     analyse, analyse_block, run_study, BlockResponse, DemandMeasure, PulseCase, ResponseStatus,
@@ -341,19 +342,19 @@ fn fragility_fit_reports_unidentifiable_data() {
     let im = [0.1, 0.2, 0.3, 0.4];
     assert_eq!(
         fit_lognormal("x", "-", &im, &[false; 4]),
-        Err(FragilityError::NoEvents)
+        Err(FitError::NoEvents)
     );
     assert_eq!(
         fit_lognormal("x", "-", &im, &[true; 4]),
-        Err(FragilityError::AllEvents)
+        Err(FitError::AllEvents)
     );
     assert_eq!(
         fit_lognormal("x", "-", &im, &[false, false, true, true]),
-        Err(FragilityError::Separated)
+        Err(FitError::Separated)
     );
     assert_eq!(
         fit_lognormal("x", "-", &[0.0, -1.0, 0.5], &[true, false, true]),
-        Err(FragilityError::TooFewPoints)
+        Err(FitError::TooFewGroups)
     );
 }
 

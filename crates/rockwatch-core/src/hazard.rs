@@ -430,7 +430,7 @@ impl Lognormal {
     #[must_use]
     pub fn probability(&self, im: f64) -> f64 {
         if im > 0.0 {
-            crate::study::special::normal_cdf((im / self.median).ln() / self.beta)
+            crate::stats::normal_cdf((im / self.median).ln() / self.beta)
         } else {
             0.0
         }

@@ -25,6 +25,7 @@ pub mod record;
 pub mod seedlink;
 pub mod simulate;
 pub mod station_id;
+pub mod stats;
 pub mod study;
 pub mod utc;
 

@@ -15,7 +15,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::lhs::standard_normal_quantile;
-use crate::study::special::{ln_normal_cdf, normal_pdf};
+use crate::stats::{ln_normal_cdf, normal_pdf};
 
 /// Why a fit has no finite maximum-likelihood estimate.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -288,15 +288,19 @@ pub fn fit_probit<const P: usize>(
     })
 }
 
-/// A lognormal fragility `P(overturn | im) = Φ(ln(im/θ)/β)`.
+/// A lognormal fragility `P(overturn | im) = Φ(ln(im/θ)/β) = Φ(a + b ln im)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LognormalFit {
-    /// Median θ (units of the IM).
+    /// Median θ = e^{−a/b} (units of the IM).
     pub median: f64,
-    /// Logarithmic standard deviation β.
+    /// Logarithmic standard deviation β = 1/b.
     pub beta: f64,
     /// Maximised log-likelihood.
     pub log_likelihood: f64,
+    /// The probit coefficients [a, b] (b per unit ln IM) and their covariance (inverse observed
+    /// information).
+    pub coef: [f64; 2],
+    pub covariance: [[f64; 2]; 2],
 }
 
 /// Fits a lognormal fragility to groups `(ln im, trials, events)`. Besides the probit fit's
@@ -339,6 +343,8 @@ pub fn fit_lognormal_groups(
         median: (-a / b).exp(),
         beta: 1.0 / b,
         log_likelihood: fit.log_likelihood,
+        coef: fit.coef,
+        covariance: fit.covariance,
     })
 }
 
@@ -362,7 +368,7 @@ impl SurfaceFit {
             return 0.0;
         }
         let [c0, c1, c2] = self.coef;
-        crate::study::special::normal_cdf(c0 + c1 * im1.ln() + c2 * im2.ln())
+        crate::stats::normal_cdf(c0 + c1 * im1.ln() + c2 * im2.ln())
     }
 
     /// β₁ = 1/c₁, the dispersion in ln im₁ at fixed im₂ (NaN if c₁ ≤ 0).

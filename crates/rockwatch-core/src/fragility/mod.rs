@@ -32,7 +32,7 @@ use crate::ims::{compute_ims, ImError, ImOptions};
 use crate::lhs::{rng_from_seed, uniform_below};
 use crate::record::{Record, MAX_ABS_ACCEL_MPS2};
 use crate::simulate::{simulate_outcome, SimulateError, Status};
-use crate::study::special::normal_cdf;
+use crate::stats::normal_cdf;
 use fit::{fit_lognormal_groups, fit_surface, FitError, LognormalFit, SurfaceFit};
 pub use im::FragilityIm;
 

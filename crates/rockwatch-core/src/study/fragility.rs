@@ -2,38 +2,21 @@
 //!
 //! Model: `P(overturn | IM = im) = Φ(a + b·ln im) = Φ(ln(im/θ)/β)`, with median `θ = e^{−a/b}`
 //! (units of the IM) and logarithmic standard deviation `β = 1/b`. The parameters maximise the
-//! Bernoulli log-likelihood `Σ yᵢ ln Φ(ηᵢ) + (1 − yᵢ) ln Φ(−ηᵢ)` (Newton's method with step
-//! halving; the probit log-likelihood is concave). Their covariance is the inverse of the
-//! observed information (the negative Hessian at the optimum).
+//! Bernoulli log-likelihood `Σ yᵢ ln Φ(ηᵢ) + (1 − yᵢ) ln Φ(−ηᵢ)` by the project's one probit
+//! fit ([`crate::fragility::fit::fit_lognormal_groups`], every case a group of one trial: the
+//! binomial likelihood is then the Bernoulli one). Their covariance is the inverse of the
+//! observed information (the negative Hessian at the optimum). Data that do not identify the
+//! curve (no event, all events, perfect separation, a slope ≤ 0) are a [`FitError`].
 //!
 //! Confidence band: pointwise, by the delta method on the linear predictor
 //! `η(im) = a + b·ln im`: `Var η = V_aa + 2 ln(im) V_ab + ln(im)² V_bb`, and the band is
 //! `Φ(η ± z·√Var η)` (z = 1.96 for 95 %), which stays inside [0, 1].
 
-use super::special::{ln_normal_cdf, normal_cdf, normal_pdf};
+use crate::fragility::fit::{fit_lognormal_groups, FitError};
+use crate::stats::normal_cdf;
 
 /// z of a two-sided 95 % normal interval.
 pub const Z_95: f64 = 1.959_963_984_540_054;
-
-/// Why a fragility curve could not be fitted.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum FragilityError {
-    /// Fewer than 2 usable points (IM > 0 and finite).
-    #[error("fewer than 2 cases with a positive, finite IM")]
-    TooFewPoints,
-    /// No case has the event (e.g. no block overturned).
-    #[error("no case reached the damage state: the curve is not identifiable")]
-    NoEvents,
-    /// Every case has the event.
-    #[error("every case reached the damage state: the curve is not identifiable")]
-    AllEvents,
-    /// The events are perfectly separated by an IM threshold: the MLE of β is 0.
-    #[error("the IM separates the cases perfectly (beta -> 0): no finite maximum-likelihood fit")]
-    Separated,
-    /// Newton's method did not converge.
-    #[error("maximum-likelihood iteration did not converge")]
-    NotConverged,
-}
 
 /// A fitted lognormal fragility curve, small enough to be evaluated by the live node.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -97,162 +80,34 @@ impl LognormalFragility {
     }
 }
 
-/// Log-likelihood, gradient and negative Hessian of the probit model at (a, b), x centred.
-fn probit_terms(x: &[f64], y: &[bool], a: f64, b: f64) -> (f64, [f64; 2], [[f64; 2]; 2]) {
-    let mut ll = 0.0;
-    let mut g = [0.0; 2];
-    let mut info = [[0.0; 2]; 2];
-    for (&xi, &yi) in x.iter().zip(y) {
-        let eta = a + b * xi;
-        // s = +η for an event, −η otherwise: the contribution is ln Φ(s).
-        let s = if yi { eta } else { -eta };
-        let ln_cdf = ln_normal_cdf(s);
-        ll += ln_cdf;
-        // Inverse Mills ratio λ(s) = φ(s)/Φ(s), computed in logs for the far tail.
-        let lambda = (normal_pdf(s).ln() - ln_cdf).exp();
-        let score = if yi { lambda } else { -lambda };
-        let h = lambda * (s + lambda);
-        g[0] += score;
-        g[1] += score * xi;
-        info[0][0] += h;
-        info[0][1] += h * xi;
-        info[1][1] += h * xi * xi;
-    }
-    info[1][0] = info[0][1];
-    (ll, g, info)
-}
-
-fn invert_2x2(m: &[[f64; 2]; 2]) -> Option<[[f64; 2]; 2]> {
-    let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-    if !(det.is_finite() && det > 0.0) {
-        return None;
-    }
-    Some([
-        [m[1][1] / det, -m[0][1] / det],
-        [-m[1][0] / det, m[0][0] / det],
-    ])
-}
-
 /// Fits a lognormal fragility curve to `(im, event)` pairs by maximum likelihood (see the
-/// module doc). Points with a non-positive or non-finite IM are ignored.
+/// module doc): the one probit fit of [`crate::fragility::fit`], every case a group of one
+/// trial. Points with a non-positive or non-finite IM are ignored.
 pub fn fit_lognormal(
     im_name: &str,
     im_unit: &str,
     im: &[f64],
     event: &[bool],
-) -> Result<LognormalFragility, FragilityError> {
-    let (x, y): (Vec<f64>, Vec<bool>) = im
+) -> Result<LognormalFragility, FitError> {
+    let (ln_im, events): (Vec<f64>, Vec<f64>) = im
         .iter()
         .zip(event)
         .filter(|(v, _)| v.is_finite() && **v > 0.0)
-        .map(|(v, e)| (v.ln(), *e))
+        .map(|(v, e)| (v.ln(), if *e { 1.0 } else { 0.0 }))
         .unzip();
-    let n = x.len();
-    if n < 2 {
-        return Err(FragilityError::TooFewPoints);
-    }
-    let n_events = y.iter().filter(|&&e| e).count();
-    if n_events == 0 {
-        return Err(FragilityError::NoEvents);
-    }
-    if n_events == n {
-        return Err(FragilityError::AllEvents);
-    }
-    // Centre and scale x for conditioning: η = ac + bc·(x − m)/s.
-    let m = x.iter().sum::<f64>() / n as f64;
-    let s = (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n as f64).sqrt();
-    if s.is_nan() || s <= 0.0 {
-        // A constant IM cannot explain the events.
-        return Err(FragilityError::Separated);
-    }
-    let xc: Vec<f64> = x.iter().map(|v| (v - m) / s).collect();
-    // (Quasi-)complete separation: the events lie on one side of an IM threshold (ties
-    // included), where the likelihood keeps growing as β → 0.
-    let range = |event: bool| {
-        x.iter()
-            .zip(&y)
-            .filter(|(_, e)| **e == event)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (v, _)| {
-                (lo.min(*v), hi.max(*v))
-            })
-    };
-    let ((ev_lo, ev_hi), (non_lo, non_hi)) = (range(true), range(false));
-    if ev_lo >= non_hi || ev_hi <= non_lo {
-        return Err(FragilityError::Separated);
-    }
-
-    let p0 = n_events as f64 / n as f64;
-    let mut theta = [crate::lhs::standard_normal_quantile(p0), 0.0];
-    let (mut ll, mut g, mut info) = probit_terms(&xc, &y, theta[0], theta[1]);
-    let mut converged = false;
-    for _ in 0..200 {
-        let inv = invert_2x2(&info).ok_or(FragilityError::NotConverged)?;
-        let step = [
-            inv[0][0] * g[0] + inv[0][1] * g[1],
-            inv[1][0] * g[0] + inv[1][1] * g[1],
-        ];
-        let mut t = 1.0;
-        let mut accepted = false;
-        for _ in 0..60 {
-            let cand = [theta[0] + t * step[0], theta[1] + t * step[1]];
-            let (ll_c, g_c, info_c) = probit_terms(&xc, &y, cand[0], cand[1]);
-            if ll_c.is_finite() && ll_c >= ll - 1e-12 * ll.abs() {
-                theta = cand;
-                ll = ll_c;
-                g = g_c;
-                info = info_c;
-                accepted = true;
-                break;
-            }
-            t *= 0.5;
-        }
-        if !accepted {
-            return Err(FragilityError::NotConverged);
-        }
-        if theta[1].abs() > 1e6 {
-            return Err(FragilityError::Separated);
-        }
-        if (step[0] * t).abs() < 1e-12 && (step[1] * t).abs() < 1e-12 {
-            converged = true;
-            break;
-        }
-    }
-    if !converged {
-        return Err(FragilityError::NotConverged);
-    }
-    let cov_c = invert_2x2(&info).ok_or(FragilityError::NotConverged)?;
-    // Back to the original scale: b = bc/s, a = ac − bc·m/s, i.e. (a, b) = J·(ac, bc) with
-    // J = [[1, −m/s], [0, 1/s]]; Cov = J Cov_c Jᵀ.
-    let j = [[1.0, -m / s], [0.0, 1.0 / s]];
-    let a = theta[0] + j[0][1] * theta[1];
-    let b = theta[1] / s;
-    let mut cov = [[0.0; 2]; 2];
-    for (r, row) in cov.iter_mut().enumerate() {
-        for (c, cell) in row.iter_mut().enumerate() {
-            let mut acc = 0.0;
-            for k in 0..2 {
-                for l in 0..2 {
-                    acc += j[r][k] * cov_c[k][l] * j[c][l];
-                }
-            }
-            *cell = acc;
-        }
-    }
-    let (median, beta) = if b > 0.0 {
-        ((-a / b).exp(), 1.0 / b)
-    } else {
-        (f64::NAN, f64::NAN)
-    };
+    let trials = vec![1.0; ln_im.len()];
+    let fit = fit_lognormal_groups(&ln_im, &trials, &events)?;
+    let [a, b] = fit.coef;
     Ok(LognormalFragility {
         im: im_name.to_string(),
         im_unit: im_unit.to_string(),
         a,
         b,
-        covariance: cov,
-        median,
-        beta,
-        n,
-        n_events,
-        log_likelihood: ll,
+        covariance: fit.covariance,
+        median: fit.median,
+        beta: fit.beta,
+        n: ln_im.len(),
+        n_events: events.iter().filter(|&&e| e > 0.0).count(),
+        log_likelihood: fit.log_likelihood,
     })
 }

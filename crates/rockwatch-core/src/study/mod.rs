@@ -21,16 +21,15 @@ pub mod fragility;
 
 pub mod regression;
 
-pub mod special;
-
 use rayon::prelude::*;
 
 use crate::dynamics::{BlockParams, Mode, ParamError};
+use crate::fragility::fit::FitError;
 pub use crate::ims::STUDY_IM_UNITS;
 use crate::ims::{compute_ims, study_ims, ImError, ImOptions, STUDY_IM_COUNT, STUDY_IM_NAMES};
 use crate::pulse::{sample_pulses, PulseError, PulseParameters, PulseScenario};
 use crate::simulate::{simulate, SimulationOptions, Status};
-use fragility::{fit_lognormal, FragilityError, LognormalFragility};
+use fragility::{fit_lognormal, LognormalFragility};
 use regression::{
     linear_fit, log_log_fit, multiple_fit, residual_dependence_p, residuals, LinearFit, MultipleFit,
 };
@@ -858,7 +857,7 @@ pub struct FragilityAnalysis {
     /// Overturned runs among them.
     pub n_overturned: usize,
     /// Fit for every IM, in the order of [`STUDY_IM_NAMES`].
-    pub fits: Vec<Result<LognormalFragility, FragilityError>>,
+    pub fits: Vec<Result<LognormalFragility, FitError>>,
     /// The selected curve (`None`: no IM gave a fit; see `note`).
     pub selected: Option<LognormalFragility>,
     /// How the curve was selected, or why there is none.

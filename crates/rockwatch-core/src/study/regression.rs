@@ -12,7 +12,7 @@
 //! * p-values are two-sided, from the Student-t distribution with n − 2 (simple) or
 //!   n − k − 1 (k regressors) degrees of freedom.
 
-use super::special::student_t_two_sided_p;
+use crate::stats::student_t_two_sided_p;
 use nalgebra::{DMatrix, DVector};
 
 /// An ordinary least-squares fit `y = intercept + slope·x` (units: those of y and y/x).

@@ -129,7 +129,7 @@ where
                 Rectangle::new([(x, y - 5), (x + 20, y + 5)], CURVE.mix(0.2).filled())
             });
     }
-    let phi = |x: f64| rockwatch_core::study::special::normal_cdf((x / fit.median).ln() / fit.beta);
+    let phi = |x: f64| rockwatch_core::stats::normal_cdf((x / fit.median).ln() / fit.beta);
     chart
         .draw_series(LineSeries::new(
             grid.iter().map(|&x| (x, phi(x))),
