@@ -135,7 +135,8 @@ struct ImsListener {
 impl ImsListener {
     fn open() -> ImsListener {
         let plan = network_plan(&Ros2Config::loopback_only(), None, None).unwrap();
-        let mut session = Ros2Session::open_client(&plan, &"/".into(), "e2e_ims_listener").unwrap();
+        let mut session =
+            Ros2Session::open_client(&plan, &"/".try_into().unwrap(), "e2e_ims_listener").unwrap();
         let subscription = session
             .subscription("/pbr/ims", msg::PACKAGE, "StationIntensity", output_qos())
             .unwrap();

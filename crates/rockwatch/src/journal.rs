@@ -484,8 +484,8 @@ impl JournalWriter {
     fn compact_if_due(&mut self) {
         match self.journal.compact_if_due() {
             Ok(None) => {}
-            Ok(Some(c)) => eprintln!(
-                "rockwatch: journal {} compacted: {} records ({} bytes) -> {} records ({} bytes) kept for restarts",
+            Ok(Some(c)) => tracing::info!(
+                "journal {} compacted: {} records ({} bytes) -> {} records ({} bytes) kept for restarts",
                 self.journal.path.display(),
                 c.records_before,
                 c.bytes_before,
@@ -494,9 +494,9 @@ impl JournalWriter {
             ),
             Err(e) => {
                 self.failures += 1;
-                eprintln!(
-                    "rockwatch: error: journal compaction failed ({e}): the journal is kept whole \
-                     and grows on; compaction is tried again once it has doubled"
+                tracing::error!(
+                    "journal compaction failed ({e}): the journal is kept whole and grows on; \
+                     compaction is tried again once it has doubled"
                 );
             }
         }

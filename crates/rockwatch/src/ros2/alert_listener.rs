@@ -8,7 +8,7 @@ use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::Subscription;
 
 use super::msg;
-use super::names::{Naming, ALERTS_TOPIC};
+use super::names::{IntoNaming, ALERTS_TOPIC};
 use super::network::NetworkPlan;
 use super::qos::alerts_qos;
 use super::session::Ros2Session;
@@ -25,11 +25,9 @@ pub struct Ros2AlertListener {
 impl Ros2AlertListener {
     /// Subscribes `pbr/alerts` as the node `rockwatch_listener` in `naming`'s namespace (the
     /// node's: the topic resolves there, then its remaps).
-    pub fn open(
-        plan: &NetworkPlan,
-        naming: impl Into<Naming>,
-    ) -> anyhow::Result<Ros2AlertListener> {
-        let mut session = Ros2Session::open_client(plan, &naming.into(), "rockwatch_listener")?;
+    pub fn open(plan: &NetworkPlan, naming: impl IntoNaming) -> anyhow::Result<Ros2AlertListener> {
+        let mut session =
+            Ros2Session::open_client(plan, &naming.into_naming()?, "rockwatch_listener")?;
         let mut subscription =
             session.subscription(ALERTS_TOPIC, msg::PACKAGE, "PbrAlert", alerts_qos())?;
         let poll = Poll::new().context("alert listener poller")?;

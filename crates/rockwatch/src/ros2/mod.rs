@@ -53,8 +53,8 @@ pub use input::IntakeCounters;
 pub use intake_report::{IntakeWatch, WriterCounts, MAX_WRITERS, REPORT_EVERY, REPORT_PERIOD};
 pub use liveness::DdsThreads;
 pub use names::{
-    accel_topic, Naming, Remap, ACCEL_TOPIC, ALERTS_TOPIC, DIAGNOSTICS_TOPIC, IMS_TOPIC,
-    INTAKE_TOPIC, NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING, STATE_TOPIC,
+    accel_topic, IntoNaming, Naming, Remap, ACCEL_TOPIC, ALERTS_TOPIC, DIAGNOSTICS_TOPIC,
+    IMS_TOPIC, INTAKE_TOPIC, NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING, STATE_TOPIC,
 };
 pub use network::{network_plan, network_plan_from_env, NetworkPlan, NetworkPlanError};
 pub use node::Ros2Node;

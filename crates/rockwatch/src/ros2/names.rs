@@ -82,14 +82,29 @@ impl Default for Naming {
     }
 }
 
-/// The namespace alone (the node name [`NODE_NAME`], no remaps); panics on an invalid
-/// namespace, so for literals (tests, tools): use [`Naming::new`] for input.
-impl From<&str> for Naming {
-    fn from(namespace: &str) -> Naming {
-        match Naming::new(namespace, NODE_NAME, Vec::new()) {
-            Ok(n) => n,
-            Err(e) => panic!("{e:#}"),
-        }
+/// The namespace alone (the node name [`NODE_NAME`], no remaps); an invalid namespace is
+/// an error, as [`Naming::new`] says.
+impl TryFrom<&str> for Naming {
+    type Error = anyhow::Error;
+
+    fn try_from(namespace: &str) -> anyhow::Result<Naming> {
+        Naming::new(namespace, NODE_NAME, Vec::new())
+    }
+}
+
+/// What the ROS 2 clients take as their naming: a [`Naming`] (or `&Naming`), or a namespace
+/// (`&str`, checked).
+pub trait IntoNaming {
+    /// The naming, or why the namespace is invalid.
+    fn into_naming(self) -> anyhow::Result<Naming>;
+}
+
+impl<T: TryInto<Naming>> IntoNaming for T
+where
+    T::Error: Into<anyhow::Error>,
+{
+    fn into_naming(self) -> anyhow::Result<Naming> {
+        self.try_into().map_err(Into::into)
     }
 }
 

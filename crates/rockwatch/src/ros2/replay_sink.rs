@@ -14,7 +14,7 @@ use ros2_client::Gid;
 use super::intake_report::IntakeWatch;
 use super::msg;
 use super::msg::IntakeReport;
-use super::names::{accel_topic, Naming, INTAKE_TOPIC};
+use super::names::{accel_topic, IntoNaming, Naming, INTAKE_TOPIC};
 use super::network::NetworkPlan;
 use super::qos::{intake_qos, replay_qos, REPLAY_HISTORY};
 use super::session::Ros2Session;
@@ -152,7 +152,7 @@ impl Ros2PacketSink {
     /// Publishes on `pbr/accel` as the node `rockwatch_replay` in `naming`'s namespace (the
     /// node's: the topics resolve there, then its remaps): a replay to one node (or nodes
     /// without partitions).
-    pub fn open(plan: &NetworkPlan, naming: impl Into<Naming>) -> anyhow::Result<Ros2PacketSink> {
+    pub fn open(plan: &NetworkPlan, naming: impl IntoNaming) -> anyhow::Result<Ros2PacketSink> {
         Self::open_partitioned(plan, naming, None)
     }
 
@@ -161,10 +161,10 @@ impl Ros2PacketSink {
     /// `naming` as the nodes resolve theirs.
     pub fn open_partitioned(
         plan: &NetworkPlan,
-        naming: impl Into<Naming>,
+        naming: impl IntoNaming,
         map: Option<PartitionMap>,
     ) -> anyhow::Result<Ros2PacketSink> {
-        let naming = naming.into();
+        let naming = naming.into_naming()?;
         let topics = Self::topics(map.as_ref())?;
         let (session, reports, writers) = Self::open_parts(plan, &naming, &topics)?;
         let lanes = topics

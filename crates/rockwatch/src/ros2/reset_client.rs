@@ -8,7 +8,7 @@ use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::{Client, Name, ServiceTypeName};
 
 use super::msg;
-use super::names::{Naming, RESET_SERVICE, RESET_SERVICE_MAPPING};
+use super::names::{IntoNaming, RESET_SERVICE, RESET_SERVICE_MAPPING};
 use super::network::NetworkPlan;
 use super::qos::service_qos;
 use super::security::pad_for_protection;
@@ -60,8 +60,9 @@ pub struct Ros2ResetClient {
 impl Ros2ResetClient {
     /// Joins the graph following `plan`, as the node `rockwatch_reset` in `naming`'s
     /// namespace (the node's: the service name `pbr/reset` resolves there, then its remaps).
-    pub fn open(plan: &NetworkPlan, naming: impl Into<Naming>) -> anyhow::Result<Ros2ResetClient> {
-        let mut session = Ros2Session::open_client(plan, &naming.into(), "rockwatch_reset")?;
+    pub fn open(plan: &NetworkPlan, naming: impl IntoNaming) -> anyhow::Result<Ros2ResetClient> {
+        let mut session =
+            Ros2Session::open_client(plan, &naming.into_naming()?, "rockwatch_reset")?;
         let service = session.resolve(RESET_SERVICE)?;
         let name = Name::parse(&service).map_err(|e| anyhow!("service {service}: {e:?}"))?;
         let mut client = session
