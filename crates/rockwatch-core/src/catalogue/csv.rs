@@ -8,7 +8,7 @@ use std::path::Path;
 
 use super::distribution::Distribution;
 use super::validate::{Integer, RawAzimuths, RawPbr};
-use super::{Catalogue, CatalogueError, EntryContext};
+use super::{Catalogue, CatalogueError, EntryContext, LoadWork};
 
 impl Catalogue {
     /// Parses a CSV catalogue (format in the module doc); `source_name` names it in errors.
@@ -22,6 +22,16 @@ impl Catalogue {
         text: &str,
         source_name: &str,
         base_dir: Option<&Path>,
+    ) -> Result<Catalogue, CatalogueError> {
+        Catalogue::from_csv_counted(text, source_name, base_dir, &mut LoadWork::default())
+    }
+
+    /// [`Catalogue::from_csv_str_in`], adding its work to `work`.
+    pub(super) fn from_csv_counted(
+        text: &str,
+        source_name: &str,
+        base_dir: Option<&Path>,
+        work: &mut LoadWork,
     ) -> Result<Catalogue, CatalogueError> {
         let mut reader = csv::ReaderBuilder::new()
             .comment(Some(b'#'))
@@ -64,7 +74,7 @@ impl Catalogue {
                 .map_err(|(field, message)| context.error(Some(field), message))?;
             entries.push((context, raw));
         }
-        Catalogue::build(source_name, entries, base_dir)
+        Catalogue::build(source_name, entries, base_dir, work)
     }
 }
 

@@ -137,6 +137,7 @@ mod pbr;
 mod toml;
 mod validate;
 
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 pub use self::distribution::Distribution;
@@ -148,6 +149,7 @@ pub use self::validate::{MAX_DIRECTIONS, MAX_ENSEMBLE};
 pub use crate::station_id::StationId;
 
 use self::validate::{validate, RawPbr};
+use crate::partition::fnv1a64;
 
 /// Why a catalogue could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -225,11 +227,14 @@ impl Catalogue {
         }
     }
 
-    /// Validates the parsed entries and checks that the ids are unique.
+    /// Validates the parsed entries and checks that the ids are unique, in file order (the
+    /// first problem is reported). Linear: an id is compared only with the earlier ids of
+    /// the same FNV-1a hash (none, but for a duplicate or a 64-bit collision).
     fn build(
         source_name: &str,
         entries: Vec<(EntryContext<'_>, RawPbr)>,
         base_dir: Option<&Path>,
+        work: &mut LoadWork,
     ) -> Result<Catalogue, CatalogueError> {
         if entries.is_empty() {
             return Err(CatalogueError::Empty {
@@ -238,16 +243,23 @@ impl Catalogue {
         }
         let mut pbrs: Vec<Pbr> = Vec::with_capacity(entries.len());
         let mut lines: Vec<Option<usize>> = Vec::with_capacity(entries.len());
+        let mut by_hash: HashMap<u64, Vec<usize>> = HashMap::with_capacity(entries.len());
         for (context, raw) in entries {
             let pbr = validate(raw, context.sub_separator, base_dir)
                 .map_err(|(field, message)| context.error(Some(field), message))?;
-            if let Some(first) = pbrs.iter().position(|p| p.id == pbr.id) {
+            let same_hash = by_hash.entry(fnv1a64(pbr.id.as_bytes())).or_default();
+            let earlier = same_hash.iter().copied().find(|&i| {
+                work.id_comparisons += 1;
+                pbrs[i].id == pbr.id
+            });
+            if let Some(first) = earlier {
                 let at = lines[first]
                     .map(|l| format!(" (line {l})"))
                     .unwrap_or_default();
                 let message = format!("id {:?} is already used by pbr[{first}]{at}", pbr.id);
                 return Err(context.error(Some("id".to_owned()), message));
             }
+            same_hash.push(pbrs.len());
             lines.push(context.line);
             pbrs.push(pbr);
         }
@@ -298,14 +310,23 @@ impl Catalogue {
     /// The distinct stations of the catalogue, in order of first appearance.
     #[must_use]
     pub fn stations(&self) -> Vec<&StationId> {
-        let mut stations: Vec<&StationId> = Vec::new();
-        for pbr in &self.pbrs {
-            if !stations.contains(&&pbr.station) {
-                stations.push(&pbr.station);
-            }
-        }
-        stations
+        let mut seen: HashSet<&str> = HashSet::new();
+        self.pbrs
+            .iter()
+            .map(|p| &p.station)
+            .filter(|s| seen.insert(s.as_str()))
+            .collect()
     }
+}
+
+/// The work of one load, counted where it grows with the catalogue (the unit tests check that
+/// it grows linearly: a deterministic measure, unlike a time).
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct LoadWork {
+    /// Bytes of the text read to find the lines where entries start.
+    line_bytes_scanned: usize,
+    /// Id equality comparisons of the uniqueness check.
+    id_comparisons: usize,
 }
 
 /// Where an entry came from, to name it in errors.
@@ -334,6 +355,71 @@ impl EntryContext<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `n` planar entries, 50 per station, as TOML and as CSV.
+    fn generated(n: usize) -> (String, String) {
+        let mut toml = String::new();
+        let mut csv =
+            String::from("id,name,lat,lon,station,azimuth_deg,width_m,height_m,mu_s,mu_k,source\n");
+        for i in 0..n {
+            let station = format!("XB.S{:04}.", i / 50);
+            toml.push_str(&format!(
+                "[[pbr]]\nid = \"b{i:06}\"\nname = \"b\"\nlat = 34\nlon = -118\n\
+                 station = \"{station}\"\nazimuth_deg = 0\nwidth_m = 0.3\nheight_m = 1.5\n\
+                 mu_s = 0.7\nmu_k = 0.5\nsource = \"t\"\n"
+            ));
+            csv.push_str(&format!(
+                "b{i:06},b,34,-118,{station},0,0.3,1.5,0.7,0.5,t\n"
+            ));
+        }
+        (toml, csv)
+    }
+
+    /// Issue 24: loading was quadratic (every entry's line counted from the top of the file,
+    /// every id compared with all earlier ones: 100 000 TOML blocks took minutes). Counted
+    /// work rather than time, so that a loaded machine cannot make it flake: at N and 2N
+    /// entries the text is read at most once to place the entries, an id is compared with at
+    /// most one other (the same hash), and 2N entries cost at most ~2× the work of N.
+    #[test]
+    fn loading_work_is_linear_in_the_entries() {
+        let load = |n: usize| {
+            let (toml, csv) = generated(n);
+            let (mut of_toml, mut of_csv) = (LoadWork::default(), LoadWork::default());
+            let a = Catalogue::from_toml_counted(&toml, "t.toml", None, &mut of_toml)
+                .expect("the TOML loads");
+            let b = Catalogue::from_csv_counted(&csv, "t.csv", None, &mut of_csv)
+                .expect("the CSV loads");
+            assert_eq!((a.len(), a.pbrs()), (n, b.pbrs()));
+            (toml.len(), of_toml, of_csv)
+        };
+        let total = |w: LoadWork| w.line_bytes_scanned + w.id_comparisons;
+        let mut by_size = Vec::new();
+        for n in [1000, 2000] {
+            let (toml_len, of_toml, of_csv) = load(n);
+            assert!(
+                of_toml.line_bytes_scanned <= toml_len,
+                "{n} entries: {} bytes read to place entries in {toml_len} bytes of TOML",
+                of_toml.line_bytes_scanned
+            );
+            for (format, work) in [("TOML", of_toml), ("CSV", of_csv)] {
+                assert!(
+                    work.id_comparisons <= n,
+                    "{format}, {n} entries: {} id comparisons",
+                    work.id_comparisons
+                );
+            }
+            by_size.push((total(of_toml), total(of_csv)));
+        }
+        let ((toml_1, csv_1), (toml_2, csv_2)) = (by_size[0], by_size[1]);
+        assert!(
+            toml_2 <= 2 * toml_1 + toml_1 / 20,
+            "TOML: work {toml_1} at 1000 entries, {toml_2} at 2000"
+        );
+        assert!(
+            csv_2 <= 2 * csv_1 + csv_1 / 20 + 10,
+            "CSV: work {csv_1} at 1000 entries, {csv_2} at 2000"
+        );
+    }
 
     #[test]
     fn station_id_splits_into_seed_codes() {

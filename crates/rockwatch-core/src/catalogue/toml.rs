@@ -7,7 +7,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use super::validate::RawPbr;
-use super::{Catalogue, CatalogueError, EntryContext};
+use super::{Catalogue, CatalogueError, EntryContext, LoadWork};
 
 impl Catalogue {
     /// Parses a TOML catalogue; `source_name` names it in error messages. Relative `mesh`
@@ -23,6 +23,16 @@ impl Catalogue {
         source_name: &str,
         base_dir: Option<&Path>,
     ) -> Result<Catalogue, CatalogueError> {
+        Catalogue::from_toml_counted(text, source_name, base_dir, &mut LoadWork::default())
+    }
+
+    /// [`Catalogue::from_toml_str_in`], adding its work to `work`.
+    pub(super) fn from_toml_counted(
+        text: &str,
+        source_name: &str,
+        base_dir: Option<&Path>,
+        work: &mut LoadWork,
+    ) -> Result<Catalogue, CatalogueError> {
         #[derive(Deserialize)]
         #[serde(deny_unknown_fields)]
         struct Document {
@@ -34,8 +44,10 @@ impl Catalogue {
             message: toml_error_line(text, &e),
         })?;
         let mut entries = Vec::with_capacity(document.pbr.len());
+        // The entries come in file order: each one's line is counted on from the previous one.
+        let mut lines = LineCursor::new(text);
         for (index, spanned) in document.pbr.into_iter().enumerate() {
-            let line = Some(line_of_offset(text, spanned.span().start));
+            let line = Some(lines.line_at(spanned.span().start));
             let table = spanned.into_inner();
             let id = table
                 .get("id")
@@ -64,7 +76,8 @@ impl Catalogue {
             })?;
             entries.push((context, raw));
         }
-        Catalogue::build(source_name, entries, base_dir)
+        work.line_bytes_scanned += lines.scanned;
+        Catalogue::build(source_name, entries, base_dir, work)
     }
 }
 
@@ -77,11 +90,47 @@ pub fn toml_error_line(text: &str, error: &toml::de::Error) -> String {
     }
 }
 
+/// The 1-based line of a byte offset of `text`.
 fn line_of_offset(text: &str, offset: usize) -> usize {
-    let end = offset.min(text.len());
-    text.as_bytes()[..end]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
+    LineCursor::new(text).line_at(offset)
+}
+
+/// Lines of increasing byte offsets of one text, each counted on from the previous offset, so
+/// that placing every entry of a file reads it once (counting from the top for each entry
+/// made loading quadratic: issue 24).
+struct LineCursor<'a> {
+    text: &'a [u8],
+    /// The offset reached and its 1-based line.
+    offset: usize,
+    line: usize,
+    /// Bytes read so far (the work the unit tests count).
+    scanned: usize,
+}
+
+impl<'a> LineCursor<'a> {
+    fn new(text: &'a str) -> LineCursor<'a> {
+        LineCursor {
+            text: text.as_bytes(),
+            offset: 0,
+            line: 1,
+            scanned: 0,
+        }
+    }
+
+    /// The 1-based line of `offset` (clamped to the text); an offset before the last one
+    /// starts again from the top.
+    fn line_at(&mut self, offset: usize) -> usize {
+        let offset = offset.min(self.text.len());
+        if offset < self.offset {
+            (self.offset, self.line) = (0, 1);
+        }
+        let newlines = self.text[self.offset..offset]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        self.scanned += offset - self.offset;
+        self.line += newlines;
+        self.offset = offset;
+        self.line
+    }
 }
