@@ -1,0 +1,530 @@
+//! One entry as written ([`RawPbr`], shared by the TOML and CSV readers) → a validated
+//! [`Pbr`]: every rule of the catalogue format (module doc of [`crate::catalogue`]), each
+//! failure as (field, message) for the reader to place (file, line, entry, id).
+//!
+//! Units as written: degrees for `lat`, `lon`, `azimuth_deg`, `alpha_deg`, `heading_deg`;
+//! metres for sizes and `contact_tolerance_m`; μs, μk, e dimensionless. A field's sub-fields
+//! are named with the reader's separator: `width_m.min` (TOML), `width_m_min` (CSV).
+
+use std::fmt;
+use std::path::Path;
+
+use serde::de::{self, Deserializer, Visitor};
+use serde::Deserialize;
+
+use super::distribution::{Distribution, Domain, MU_K_DOMAIN, MU_S_DOMAIN, RESTITUTION_DOMAIN};
+use super::ensemble::default_seed;
+use super::geometry::{domain_of, Geometry, MeshRock, GEOMETRY_FORMS};
+use super::pbr::Pbr;
+use super::StationId;
+use crate::azimuth::Azimuth;
+use crate::mesh::contact::{
+    azimuth_steps, parse_azimuths, RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M,
+};
+
+/// Largest ensemble size K accepted in a catalogue.
+pub const MAX_ENSEMBLE: usize = 10_000;
+
+/// One entry as written, before validation (shared by the TOML and CSV readers).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawPbr {
+    pub(super) id: String,
+    pub(super) name: String,
+    pub(super) lat: f64,
+    pub(super) lon: f64,
+    pub(super) station: String,
+    #[serde(default)]
+    pub(super) azimuth_deg: Option<f64>,
+    #[serde(default)]
+    pub(super) mesh: Option<String>,
+    #[serde(default)]
+    pub(super) up: Option<String>,
+    #[serde(default)]
+    pub(super) azimuths: Option<RawAzimuths>,
+    #[serde(default)]
+    pub(super) heading_deg: Option<Distribution>,
+    #[serde(default)]
+    pub(super) contact_tolerance_m: Option<Distribution>,
+    #[serde(default)]
+    pub(super) width_m: Option<Distribution>,
+    #[serde(default)]
+    pub(super) height_m: Option<Distribution>,
+    #[serde(default)]
+    pub(super) half_diagonal_m: Option<Distribution>,
+    #[serde(default)]
+    pub(super) alpha_deg: Option<Distribution>,
+    #[serde(default)]
+    pub(super) b_plus_m: Option<Distribution>,
+    #[serde(default)]
+    pub(super) b_minus_m: Option<Distribution>,
+    #[serde(default)]
+    pub(super) h_m: Option<Distribution>,
+    #[serde(default)]
+    pub(super) rho_m: Option<Distribution>,
+    pub(super) mu_s: Distribution,
+    pub(super) mu_k: Distribution,
+    #[serde(default)]
+    pub(super) restitution: Option<Distribution>,
+    pub(super) source: String,
+    #[serde(default)]
+    pub(super) ensemble: Option<Integer>,
+    #[serde(default)]
+    pub(super) seed: Option<Integer>,
+}
+
+/// The directions of a meshed rock as written: a list of degrees, a step form
+/// `{ from, to, step }` (TO excluded), or (CSV) the text `FROM:TO:STEP` or `A,B,C`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub(super) enum RawAzimuths {
+    List(Vec<f64>),
+    Steps(AzimuthSteps),
+    Text(String),
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct AzimuthSteps {
+    from: f64,
+    to: f64,
+    step: f64,
+}
+
+/// Most directions of one catalogued rock.
+pub const MAX_DIRECTIONS: usize = 360;
+
+/// An integer of either sign up to the `u64` range (TOML integers are `i64`, CSV seeds `u64`);
+/// range checks happen in validation, with the field's own message.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Integer(pub(super) i128);
+
+impl<'de> Deserialize<'de> for Integer {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct IntegerVisitor;
+        impl Visitor<'_> for IntegerVisitor {
+            type Value = Integer;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an integer")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Integer, E> {
+                Ok(Integer(i128::from(v)))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Integer, E> {
+                Ok(Integer(i128::from(v)))
+            }
+        }
+        deserializer.deserialize_any(IntegerVisitor)
+    }
+}
+
+/// Validates one entry; the error is (field, message).
+pub(super) fn validate(
+    raw: RawPbr,
+    sep: char,
+    base_dir: Option<&Path>,
+) -> Result<Pbr, (String, String)> {
+    let fail = |field: &str, message: String| Err((field.to_owned(), message));
+
+    if raw.id.is_empty() {
+        return fail("id", "id must not be empty".to_owned());
+    }
+    if raw.id.chars().any(|c| c.is_whitespace() || c.is_control()) {
+        return fail(
+            "id",
+            format!(
+                "id {:?} must not contain whitespace or control characters",
+                raw.id
+            ),
+        );
+    }
+    for (field, text) in [("name", &raw.name), ("source", &raw.source)] {
+        if text.trim().is_empty() {
+            let why = if field == "source" {
+                " (say where the numbers come from)"
+            } else {
+                ""
+            };
+            return fail(field, format!("{field} must not be blank{why}"));
+        }
+    }
+    if !(raw.lat.is_finite() && (-90.0..=90.0).contains(&raw.lat)) {
+        return fail(
+            "lat",
+            format!("lat = {} must be in [-90, 90] degrees", raw.lat),
+        );
+    }
+    if !(raw.lon.is_finite() && (-180.0..=180.0).contains(&raw.lon)) {
+        return fail(
+            "lon",
+            format!("lon = {} must be in [-180, 180] degrees", raw.lon),
+        );
+    }
+    let station = StationId::parse(&raw.station)
+        .map_err(|why| ("station".to_owned(), format!("station {why}")))?;
+    let geometry = raw_geometry(&raw)?;
+    let azimuths: Vec<Azimuth> = match (&raw.mesh, raw.azimuth_deg, &raw.azimuths) {
+        (Some(_), Some(_), _) => {
+            return fail(
+                "azimuth_deg",
+                "azimuth_deg cannot be combined with mesh: give the directions as azimuths = \
+                 [...] or azimuths = { from, to, step }"
+                    .to_owned(),
+            )
+        }
+        (Some(_), None, None) => {
+            return fail(
+                "azimuths",
+                "azimuths is missing: a mesh rock needs its directions, azimuths = [...] or \
+                 { from = 0, to = 360, step = 15 } (degrees clockwise from north)"
+                    .to_owned(),
+            )
+        }
+        (Some(_), None, Some(written)) => directions(written)?,
+        (None, _, Some(_)) => {
+            return fail(
+                "azimuths",
+                "azimuths needs mesh (a planar block has azimuth_deg)".to_owned(),
+            )
+        }
+        (None, None, None) => return fail("azimuth_deg", "azimuth_deg is missing".to_owned()),
+        (None, Some(degrees), None) => match Azimuth::from_degrees(degrees) {
+            Ok(azimuth) if (0.0..360.0).contains(&degrees) => vec![azimuth],
+            _ => {
+                return fail(
+                    "azimuth_deg",
+                    format!(
+                        "azimuth_deg = {degrees} must be in [0, 360) degrees clockwise from north"
+                    ),
+                )
+            }
+        },
+    };
+    let azimuth = azimuths[0];
+    for (field, d) in geometry.fields() {
+        check_distribution(field, &d, domain_of(field), sep)?;
+    }
+    check_distribution("mu_s", &raw.mu_s, MU_S_DOMAIN, sep)?;
+    check_distribution("mu_k", &raw.mu_k, MU_K_DOMAIN, sep)?;
+    if let Some(e) = &raw.restitution {
+        check_distribution("restitution", e, RESTITUTION_DOMAIN, sep)?;
+    }
+    let (mu_s, mu_k) = (raw.mu_s.nominal(), raw.mu_k.nominal());
+    // A midpoint such as (0.4 + 0.8)/2 = 0.6000000000000001 must not count as exceeding 0.6:
+    // an excess of a few ulps is rounding, and the nominal μk is then taken equal to μs.
+    if mu_k > mu_s * (1.0 + 4.0 * f64::EPSILON) {
+        let nominal = if raw.mu_s.is_fixed() && raw.mu_k.is_fixed() {
+            ""
+        } else {
+            "nominal "
+        };
+        return fail(
+            "mu_k",
+            format!("{nominal}mu_k = {mu_k} exceeds {nominal}mu_s = {mu_s}"),
+        );
+    }
+    let n_uncertain = geometry
+        .fields()
+        .iter()
+        .map(|(_, d)| d)
+        .chain([raw.mu_s, raw.mu_k].iter())
+        .chain(raw.restitution.iter())
+        .filter(|d| !d.is_fixed())
+        .count();
+    let ensemble = match raw.ensemble.map(|k| k.0) {
+        None => 1,
+        Some(k) if (1..=MAX_ENSEMBLE as i128).contains(&k) => k as usize,
+        Some(k) => {
+            return fail(
+                "ensemble",
+                format!("ensemble = {k} must be an integer from 1 to {MAX_ENSEMBLE}"),
+            )
+        }
+    };
+    if ensemble > 1 && n_uncertain == 0 {
+        return fail(
+            "ensemble",
+            format!(
+                "ensemble = {ensemble} but no parameter is uncertain: give a range or a normal \
+                 for at least one of {}, mu_s, mu_k, restitution, or drop ensemble",
+                geometry
+                    .fields()
+                    .iter()
+                    .map(|(name, _)| *name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        );
+    }
+    let seed = match raw.seed.map(|s| s.0) {
+        None => default_seed(&raw.id),
+        Some(s) => match u64::try_from(s) {
+            Ok(s) => s,
+            Err(_) => {
+                return fail(
+                    "seed",
+                    format!("seed = {s} must be an integer from 0 to {}", u64::MAX),
+                )
+            }
+        },
+    };
+    let fields = geometry.fields();
+    let nominal_geometry: Vec<f64> = fields.iter().map(|(_, d)| d.nominal()).collect();
+    let mesh = match &raw.mesh {
+        Some(file) => Some(load_mesh(
+            file,
+            raw.up.as_deref(),
+            azimuths,
+            nominal_geometry[1],
+            base_dir,
+        )?),
+        None => None,
+    };
+    let nominal = match &mesh {
+        // Every direction's nominal block must be valid; the first is the entry's nominal.
+        Some(m) => m
+            .blocks(
+                nominal_geometry[0],
+                nominal_geometry[1],
+                mu_s,
+                mu_k.min(mu_s),
+                raw.restitution.map(|d| d.nominal()),
+            )
+            .map(|blocks| blocks[0]),
+        None => geometry.block(
+            &nominal_geometry,
+            mu_s,
+            mu_k.min(mu_s),
+            raw.restitution.map(|d| d.nominal()),
+        ),
+    }
+    .map_err(|e| {
+        (
+            fields[0].0.to_owned(),
+            format!("nominal block rejected: {e}"),
+        )
+    })?;
+    Ok(Pbr {
+        id: raw.id,
+        name: raw.name,
+        lat_deg: raw.lat,
+        lon_deg: raw.lon,
+        station,
+        azimuth,
+        geometry,
+        mu_s: raw.mu_s,
+        mu_k: raw.mu_k,
+        restitution: raw.restitution,
+        source: raw.source,
+        ensemble,
+        seed,
+        nominal,
+        mesh,
+    })
+}
+
+/// The directions of a mesh entry: each a finite azimuth, taken modulo 360, distinct, at most
+/// [`MAX_DIRECTIONS`].
+fn directions(written: &RawAzimuths) -> Result<Vec<Azimuth>, (String, String)> {
+    let fail = |message: String| Err(("azimuths".to_owned(), format!("azimuths: {message}")));
+    let degrees = match written {
+        RawAzimuths::List(list) => list.clone(),
+        RawAzimuths::Steps(AzimuthSteps { from, to, step }) => {
+            match azimuth_steps(*from, *to, *step) {
+                Ok(list) => list,
+                Err(e) => return fail(e),
+            }
+        }
+        RawAzimuths::Text(text) => match parse_azimuths(text) {
+            Ok(list) => list,
+            Err(e) => return fail(e),
+        },
+    };
+    if degrees.is_empty() || degrees.len() > MAX_DIRECTIONS {
+        return fail(format!(
+            "give 1 to {MAX_DIRECTIONS} directions, got {}",
+            degrees.len()
+        ));
+    }
+    let mut azimuths: Vec<Azimuth> = Vec::with_capacity(degrees.len());
+    for d in degrees {
+        let normalised = d.rem_euclid(360.0);
+        let Ok(azimuth) = Azimuth::from_degrees(normalised) else {
+            return fail(format!("{d} is not a finite number of degrees"));
+        };
+        if azimuths.iter().any(|a| a.degrees() == normalised) {
+            return fail(format!("the direction {normalised}° is given twice"));
+        }
+        azimuths.push(azimuth);
+    }
+    Ok(azimuths)
+}
+
+/// Reads and analyses the mesh of an entry (relative paths from `base_dir`).
+fn load_mesh(
+    file: &str,
+    up: Option<&str>,
+    azimuths: Vec<Azimuth>,
+    tolerance_m: f64,
+    base_dir: Option<&Path>,
+) -> Result<MeshRock, (String, String)> {
+    let up = match up {
+        Some(text) => UpAxis::parse(text).map_err(|e| ("up".to_owned(), format!("up: {e}")))?,
+        None => UpAxis::PlusZ,
+    };
+    let written = Path::new(file);
+    let path = match base_dir {
+        Some(dir) if written.is_relative() => dir.join(written),
+        _ => written.to_owned(),
+    };
+    let mesh_error = |e: crate::mesh::MeshError| ("mesh".to_owned(), format!("mesh: {e}"));
+    let rock = RockGeometry::read(&path).map_err(mesh_error)?;
+    let rest = rock.rest(up, tolerance_m).map_err(mesh_error)?;
+    Ok(MeshRock {
+        path,
+        up,
+        azimuths,
+        rock,
+        rest,
+    })
+}
+
+/// The entry's geometry: exactly one complete form of [`GEOMETRY_FORMS`]; the error names the
+/// first field that conflicts or is missing.
+fn raw_geometry(raw: &RawPbr) -> Result<Geometry, (String, String)> {
+    let planar = [
+        ("width_m", raw.width_m),
+        ("height_m", raw.height_m),
+        ("half_diagonal_m", raw.half_diagonal_m),
+        ("alpha_deg", raw.alpha_deg),
+        ("b_plus_m", raw.b_plus_m),
+        ("b_minus_m", raw.b_minus_m),
+        ("h_m", raw.h_m),
+        ("rho_m", raw.rho_m),
+    ];
+    if raw.mesh.is_some() {
+        if let Some((field, _)) = planar.iter().find(|(_, d)| d.is_some()) {
+            return Err((
+                (*field).to_owned(),
+                format!("{field} cannot be combined with mesh: the mesh gives the geometry"),
+            ));
+        }
+        return Ok(Geometry::Mesh {
+            heading_deg: raw.heading_deg.unwrap_or(Distribution::Fixed(0.0)),
+            contact_tolerance_m: raw
+                .contact_tolerance_m
+                .unwrap_or(Distribution::Fixed(DEFAULT_CONTACT_TOLERANCE_M)),
+        });
+    }
+    for (field, given) in [
+        ("heading_deg", raw.heading_deg.is_some()),
+        ("contact_tolerance_m", raw.contact_tolerance_m.is_some()),
+        ("up", raw.up.is_some()),
+    ] {
+        if given {
+            return Err((field.to_owned(), format!("{field} needs mesh")));
+        }
+    }
+    let value = |field: &str| match field {
+        "width_m" => raw.width_m,
+        "height_m" => raw.height_m,
+        "half_diagonal_m" => raw.half_diagonal_m,
+        "alpha_deg" => raw.alpha_deg,
+        "b_plus_m" => raw.b_plus_m,
+        "b_minus_m" => raw.b_minus_m,
+        "h_m" => raw.h_m,
+        _ => raw.rho_m,
+    };
+    let forms_text = "width_m + height_m, half_diagonal_m + alpha_deg, b_plus_m + b_minus_m \
+                      + h_m + rho_m, or mesh";
+    let used: Vec<usize> = (0..GEOMETRY_FORMS.len())
+        .filter(|&i| GEOMETRY_FORMS[i].iter().any(|f| value(f).is_some()))
+        .collect();
+    match used[..] {
+        [] => Err((
+            "width_m".to_owned(),
+            format!("the geometry is missing: give {forms_text}"),
+        )),
+        [form] => {
+            let fields = GEOMETRY_FORMS[form];
+            let mut distributions = Vec::with_capacity(fields.len());
+            for field in fields {
+                match value(field) {
+                    Some(d) => distributions.push(d),
+                    None => {
+                        return Err((
+                            (*field).to_owned(),
+                            format!(
+                                "{field} is missing: this geometry needs {}",
+                                fields.join(" + ")
+                            ),
+                        ))
+                    }
+                }
+            }
+            Ok(Geometry::from_form(form, &distributions))
+        }
+        [first, second, ..] => {
+            let given = |i: usize| {
+                GEOMETRY_FORMS[i]
+                    .iter()
+                    .copied()
+                    .find(|f| value(f).is_some())
+                    .unwrap_or(GEOMETRY_FORMS[i][0])
+            };
+            let (a, b) = (given(first), given(second));
+            Err((
+                b.to_owned(),
+                format!("{b} cannot be combined with {a}: give one geometry, {forms_text}"),
+            ))
+        }
+    }
+}
+
+/// Checks one distribution against its parameter's domain; errors name `field` or
+/// `field{sep}min` etc.
+fn check_distribution(
+    field: &str,
+    distribution: &Distribution,
+    domain: Domain,
+    sep: char,
+) -> Result<(), (String, String)> {
+    let need = |name: String, value: f64| -> Result<(), (String, String)> {
+        if domain.contains(value) {
+            Ok(())
+        } else {
+            let message = format!("{name} = {value} must be {}", domain.requirement);
+            Err((name, message))
+        }
+    };
+    match *distribution {
+        Distribution::Fixed(v) => need(field.to_owned(), v),
+        Distribution::Uniform { min, max } => {
+            need(format!("{field}{sep}min"), min)?;
+            need(format!("{field}{sep}max"), max)?;
+            if min < max {
+                Ok(())
+            } else {
+                let name = format!("{field}{sep}min");
+                let message = format!(
+                    "{name} = {min} must be less than {field}{sep}max = {max} (use a plain number \
+                     for a known value)"
+                );
+                Err((name, message))
+            }
+        }
+        Distribution::Normal { mean, sd } => {
+            need(format!("{field}{sep}mean"), mean)?;
+            if sd.is_finite() && sd > 0.0 {
+                Ok(())
+            } else {
+                let name = format!("{field}{sep}sd");
+                let message = format!(
+                    "{name} = {sd} must be a finite number > 0 (use a plain number for a known \
+                     value)"
+                );
+                Err((name, message))
+            }
+        }
+    }
+}
