@@ -426,7 +426,7 @@ fn csv_header_problems_are_reported() {
     assert_eq!(
         csv_error(&format!("{CSV_HEADER},colour\n{CSV_ROW},red\n")),
         "test.csv:1: unknown column \"colour\" in the CSV header (known: id, name, lat, lon, \
-         station, source, azimuth_deg, ensemble, seed, mesh, up, azimuths, and for P in width_m, \
+         station, source, azimuth_deg, ensemble, seed, mesh, up, azimuths, cap, and for P in width_m, \
          height_m, half_diagonal_m, alpha_deg, b_plus_m, b_minus_m, h_m, rho_m, heading_deg, \
          contact_tolerance_m, mu_s, mu_k, restitution: P, P_min + P_max, or P_mean + P_sd)"
     );
@@ -1194,10 +1194,58 @@ fn mesh_heading_and_contact_tolerance_are_sampled_like_the_other_parameters() {
 }
 
 #[test]
+fn a_mesh_entry_without_azimuths_falls_in_every_direction_and_an_open_scan_can_be_capped() {
+    let dir = tempfile::tempdir().unwrap();
+    // No `azimuths`: every 15° (issue 18 §3), true azimuths from north.
+    let path = mesh_catalogue(dir.path(), "");
+    let pbr = Catalogue::load(&path).unwrap().pbrs()[0].clone();
+    let azimuths: Vec<f64> = pbr
+        .directions()
+        .unwrap()
+        .iter()
+        .map(|d| d.azimuth.degrees())
+        .collect();
+    let every_15: Vec<f64> = (0..24).map(|k| 15.0 * f64::from(k)).collect();
+    assert_eq!(azimuths, every_15);
+    // The box without its base (a scan from above) is refused, and with cap = true it is the
+    // closed box: the same bodies in every direction.
+    let open_box = BOX_OBJ.replace("f 1 4 3 2\n", "");
+    std::fs::write(dir.path().join("rocks/open.obj"), open_box).unwrap();
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("rocks/box.obj", "rocks/open.obj");
+    std::fs::write(&path, &text).unwrap();
+    assert!(
+        load_error(&path).contains("not a closed"),
+        "{}",
+        load_error(&path)
+    );
+    std::fs::write(&path, format!("{text}cap = true\n")).unwrap();
+    let capped = Catalogue::load(&path).unwrap().pbrs()[0].clone();
+    let cap = capped.mesh().unwrap().cap.clone().expect("capped");
+    assert_eq!(cap.loop_vertices, 4);
+    assert_eq!(capped.directions().unwrap(), pbr.directions().unwrap());
+    // cap on a planar block is refused by name.
+    let planar = dir.path().join("planar.toml");
+    std::fs::write(
+        &planar,
+        "[[pbr]]\nid = \"p\"\nname = \"P\"\nlat = 34.28\nlon = -118.48\nstation = \"CI.RRS.00\"\n\
+         azimuth_deg = 0.0\nwidth_m = 0.4\nheight_m = 1.2\nmu_s = 0.8\nmu_k = 0.6\n\
+         source = \"test\"\ncap = true\n",
+    )
+    .unwrap();
+    assert!(
+        load_error(&planar).contains("cap needs mesh"),
+        "{}",
+        load_error(&planar)
+    );
+}
+
+#[test]
 fn mesh_entry_problems_are_reported_by_field() {
     let dir = tempfile::tempdir().unwrap();
     let cases = [
-        ("", "azimuths is missing"),
+        ("cap = 1\n", "cap"),
         (
             "azimuths = [0]\nazimuth_deg = 10.0\n",
             "azimuth_deg cannot be combined with mesh",

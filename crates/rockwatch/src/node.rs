@@ -185,7 +185,22 @@ impl NodeOptions {
     /// partitions own (empty without a partition). Logs the partition's share.
     pub fn load_partitioned_blocks(&self) -> anyhow::Result<(Vec<PbrSpec>, HashSet<String>)> {
         let path = self.catalogue_path()?;
-        let specs = Catalogue::load(&path)?
+        let catalogue = Catalogue::load(&path)?;
+        for pbr in catalogue.pbrs() {
+            if let Some(cap) = pbr.mesh().and_then(|m| m.cap.as_ref()) {
+                tracing::warn!(
+                    "{}: pbr {}: {}: open scan closed by its lowest boundary loop ({} vertices, \
+                     cap {:.4} m²): cap = true",
+                    path.display(),
+                    pbr.id(),
+                    pbr.mesh()
+                        .map_or_else(String::new, |m| m.path.display().to_string()),
+                    cap.loop_vertices,
+                    cap.area_m2
+                );
+            }
+        }
+        let specs = catalogue
             .pbrs()
             .iter()
             .map(PbrSpec::from_catalogue)

@@ -97,9 +97,16 @@ const UNCERTAIN_FIELDS: [&str; 13] = [
 /// Scalar CSV columns that must be present.
 const REQUIRED_SCALAR_COLUMNS: [&str; 6] = ["id", "name", "lat", "lon", "station", "source"];
 /// Scalar CSV columns that may be absent (`azimuth_deg` for planar blocks; `mesh`, `up`,
-/// `azimuths` for meshed rocks).
-const OPTIONAL_SCALAR_COLUMNS: [&str; 6] =
-    ["azimuth_deg", "ensemble", "seed", "mesh", "up", "azimuths"];
+/// `azimuths`, `cap` for meshed rocks).
+const OPTIONAL_SCALAR_COLUMNS: [&str; 7] = [
+    "azimuth_deg",
+    "ensemble",
+    "seed",
+    "mesh",
+    "up",
+    "azimuths",
+    "cap",
+];
 /// Suffixes of the columns of an uncertain parameter `P`: `P`, `P_min`, `P_max`, `P_mean`,
 /// `P_sd`.
 const DISTRIBUTION_SUFFIXES: [&str; 5] = ["", "_min", "_max", "_mean", "_sd"];
@@ -273,6 +280,10 @@ impl CsvColumns {
             azimuths: self
                 .value(record, "azimuths")
                 .map(|text| RawAzimuths::Text(text.to_owned())),
+            cap: self
+                .value(record, "cap")
+                .map(|text| parse_bool("cap", text))
+                .transpose()?,
             heading_deg: self.distribution(record, "heading_deg")?,
             contact_tolerance_m: self.distribution(record, "contact_tolerance_m")?,
             width_m: self.distribution(record, "width_m")?,
@@ -290,6 +301,17 @@ impl CsvColumns {
             ensemble: self.integer(record, "ensemble")?,
             seed: self.integer(record, "seed")?,
         })
+    }
+}
+
+fn parse_bool(column: &str, text: &str) -> Result<bool, (String, String)> {
+    match text.trim() {
+        "true" => Ok(true),
+        "false" => Ok(false),
+        other => Err((
+            column.to_owned(),
+            format!("{column} = {other:?} must be true or false"),
+        )),
     }
 }
 

@@ -170,6 +170,8 @@ pub struct MeshRock {
     pub(super) rock: RockGeometry,
     /// The resting contact at the nominal contact tolerance.
     pub(super) rest: RestingContact,
+    /// The open scan's boundary loop closed by `cap = true` (None: the mesh was closed).
+    pub cap: Option<crate::mesh::cap::Cap>,
 }
 
 impl MeshRock {

@@ -49,10 +49,13 @@
 //!   .stl, metres; a relative path is relative to the catalogue file's directory when loaded
 //!   by [`Catalogue::load`]), `azimuths` instead of `azimuth_deg` — a list `[0, 90, 200]` or
 //!   `{ from = 0, to = 360, step = 15 }` (TO excluded; in CSV the text `0:360:15` or `"0,90"`),
-//!   true azimuths clockwise from north, distinct, at most [`MAX_DIRECTIONS`] — optional
-//!   `up` (the mesh axis pointing up, default `"z"`), `heading_deg` (true azimuth of the mesh's
-//!   north axis, in [−360, 360], default 0) and `contact_tolerance_m` (in [0, 1] m, default
-//!   0: the resting hull facet alone; see [`crate::mesh::contact::DEFAULT_CONTACT_TOLERANCE_M`]). `heading_deg` and `contact_tolerance_m` are [`Distribution`]s like the other
+//!   true azimuths clockwise from north, distinct, at most [`MAX_DIRECTIONS`]; default every
+//!   15° (a rock may fall any way) — optional `up` (the mesh axis pointing up, default `"z"`),
+//!   `cap` (`true` closes an open scan by its lowest boundary loop, [`crate::mesh::cap`]),
+//!   `heading_deg` (true azimuth of the mesh's north axis, in [−360, 360], default 0) and
+//!   `contact_tolerance_m` (in [0, 1] m, default 0: the resting hull facet alone; see
+//!   [`crate::mesh::contact::DEFAULT_CONTACT_TOLERANCE_M`]). `heading_deg` and
+//!   `contact_tolerance_m` are [`Distribution`]s like the other
 //!   parameters (the mesh's uncertain fields, in that LHS column order). The rock has one
 //!   planar body per direction ([`Pbr::directions`]; direction az is the mesh's azimuth
 //!   az − heading); [`Pbr::nominal`] and [`Pbr::members`] are those of its first direction.

@@ -25,6 +25,13 @@ use crate::mesh::contact::{
 /// Largest ensemble size K accepted in a catalogue.
 pub const MAX_ENSEMBLE: usize = 10_000;
 
+/// The directions of a mesh entry without `azimuths`: every 15° (true azimuths).
+pub(super) const DEFAULT_MESH_DIRECTIONS: AzimuthSteps = AzimuthSteps {
+    from: 0.0,
+    to: 360.0,
+    step: 15.0,
+};
+
 /// One entry as written, before validation (shared by the TOML and CSV readers).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -42,6 +49,8 @@ pub(super) struct RawPbr {
     pub(super) up: Option<String>,
     #[serde(default)]
     pub(super) azimuths: Option<RawAzimuths>,
+    #[serde(default)]
+    pub(super) cap: Option<bool>,
     #[serde(default)]
     pub(super) heading_deg: Option<Distribution>,
     #[serde(default)]
@@ -172,14 +181,8 @@ pub(super) fn validate(
                     .to_owned(),
             )
         }
-        (Some(_), None, None) => {
-            return fail(
-                "azimuths",
-                "azimuths is missing: a mesh rock needs its directions, azimuths = [...] or \
-                 { from = 0, to = 360, step = 15 } (degrees clockwise from north)"
-                    .to_owned(),
-            )
-        }
+        // A mesh rock may fall in any direction: every 15° unless the entry says otherwise.
+        (Some(_), None, None) => directions(&RawAzimuths::Steps(DEFAULT_MESH_DIRECTIONS))?,
         (Some(_), None, Some(written)) => directions(written)?,
         (None, _, Some(_)) => {
             return fail(
@@ -270,10 +273,14 @@ pub(super) fn validate(
     };
     let fields = geometry.fields();
     let nominal_geometry: Vec<f64> = fields.iter().map(|(_, d)| d.nominal()).collect();
+    if raw.cap.is_some() && raw.mesh.is_none() {
+        return fail("cap", "cap needs mesh (it closes an open scan)".to_owned());
+    }
     let mesh = match &raw.mesh {
         Some(file) => Some(load_mesh(
             file,
             raw.up.as_deref(),
+            raw.cap.unwrap_or(false),
             azimuths,
             nominal_geometry[1],
             base_dir,
@@ -364,6 +371,7 @@ fn directions(written: &RawAzimuths) -> Result<Vec<Azimuth>, (String, String)> {
 fn load_mesh(
     file: &str,
     up: Option<&str>,
+    cap: bool,
     azimuths: Vec<Azimuth>,
     tolerance_m: f64,
     base_dir: Option<&Path>,
@@ -378,7 +386,7 @@ fn load_mesh(
         _ => written.to_owned(),
     };
     let mesh_error = |e: crate::mesh::MeshError| ("mesh".to_owned(), format!("mesh: {e}"));
-    let rock = RockGeometry::read(&path).map_err(mesh_error)?;
+    let (rock, cap) = RockGeometry::read_with(&path, cap.then_some(up)).map_err(mesh_error)?;
     let rest = rock.rest(up, tolerance_m).map_err(mesh_error)?;
     Ok(MeshRock {
         path,
@@ -386,6 +394,7 @@ fn load_mesh(
         azimuths,
         rock,
         rest,
+        cap,
     })
 }
 

@@ -277,6 +277,7 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
         if let Some(m) = mesh {
             info["mesh"] = json!(m.path.display().to_string());
             info["mesh_sha256"] = json!(file_sha256(&m.path)?);
+            info["cap"] = json!(m.cap);
         }
         return Ok(Rock {
             members,
