@@ -11,6 +11,9 @@
 //! - Grid: the earliest record before the first packet is index 0; a record whose start is
 //!   more than
 //!   [`MAX_ALIGNMENT_OFFSET_SAMPLES`] of a sample off the grid, or at another rate, is refused.
+//! - Values: a record holding a sample that is not finite or beyond ±100 g once calibrated
+//!   ([`MAX_ABS_ACCEL_MPS2`]) is refused whole (corrupt, not clipped). A refused record is
+//!   never placed: it costs its own span at most, and its stream's other records go on.
 //! - Overlaps with what was emitted are trimmed (counted); gaps stay gaps (the engine bridges
 //!   or breaks them).
 //! - A component that lags: after `max_wait_ns` (caller's clock: wall time in `acquire`,
@@ -30,6 +33,7 @@ use crate::differentiate::Differentiator;
 use crate::engine::{AccelPacket, StationId};
 use crate::inventory::{Calibration, ChannelEpoch, Inventory, LookupError, SensorInput};
 use crate::record::mseed::{Channel, MAX_ALIGNMENT_OFFSET_SAMPLES, NS_PER_S};
+use crate::record::MAX_ABS_ACCEL_MPS2;
 
 /// Assembly settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -78,6 +82,13 @@ pub struct AssemblyCounters {
     /// all moved there (an outage longer than `max_buffer_s`).
     pub far_ahead_records: u64,
     pub grid_restarts: u64,
+    /// Records refused for claiming another sampling rate than their station's (or their
+    /// inventory epoch's); included in `refused_records`.
+    pub other_rate_records: u64,
+    /// Records refused for impossible values: a sample not finite, or beyond ±100 g once
+    /// calibrated ([`MAX_ABS_ACCEL_MPS2`]); included in `refused_records`. Never used, never
+    /// counted as clipping.
+    pub implausible_records: u64,
 }
 
 /// Why a record was refused (the caller logs it once per stream).
@@ -97,6 +108,30 @@ pub enum RecordIssue {
     FarAhead { channel: String, ahead_s: f64 },
     #[error("{0}")]
     Orientation(String),
+    #[error("{channel}: {record_hz} Hz, but the station is assembled at {station_hz} Hz; refused")]
+    OtherRate {
+        channel: String,
+        record_hz: f64,
+        station_hz: f64,
+    },
+    #[error("{channel}: impossible sample values ({value:e} counts, {mps2:e} m/s² calibrated; the limit is ±{MAX_ABS_ACCEL_MPS2} m/s², 100 g): corrupt data; refused, not used")]
+    Implausible {
+        channel: String,
+        value: f64,
+        mps2: f64,
+    },
+}
+
+impl RecordIssue {
+    /// Whether the record claims another sampling rate than its station or its epoch.
+    #[must_use]
+    pub fn is_other_rate(&self) -> bool {
+        matches!(
+            self,
+            RecordIssue::OtherRate { .. }
+                | RecordIssue::Inventory(LookupError::RateMismatch { .. })
+        )
+    }
 }
 
 /// One component of a station.
@@ -212,8 +247,14 @@ impl Assembler {
                 result = self.place(record, now_ns);
             }
         }
-        if result.is_err() {
+        if let Err(issue) = &result {
             self.counters.refused_records += 1;
+            if issue.is_other_rate() {
+                self.counters.other_rate_records += 1;
+            }
+            if matches!(issue, RecordIssue::Implausible { .. }) {
+                self.counters.implausible_records += 1;
+            }
         }
         if let Some(station) = self.stations.get_mut(&key) {
             emit_ready(station, &self.config, &mut self.counters, now_ns, out);
@@ -301,10 +342,25 @@ impl Assembler {
                 .map_err(|e| RecordIssue::Orientation(format!("station {key}: {e}")))?;
         }
         if (record.sample_rate_hz - station.rate_hz).abs() > 1e-9 * station.rate_hz {
-            return Err(RecordIssue::Grid(format!(
-                "{id}: {} Hz, but the station is assembled at {} Hz",
-                record.sample_rate_hz, station.rate_hz
-            )));
+            return Err(RecordIssue::OtherRate {
+                channel: id,
+                record_hz: record.sample_rate_hz,
+                station_hz: station.rate_hz,
+            });
+        }
+        // Impossible values are refused whole (a record with one is corrupt), never placed.
+        let gain = station.components[slot].calibration.gain_mps2_per_count;
+        let impossible = record
+            .segments
+            .iter()
+            .flat_map(|s| &s.samples)
+            .find(|x| !(x.is_finite() && (*x * gain).abs() <= MAX_ABS_ACCEL_MPS2));
+        if let Some(&value) = impossible {
+            return Err(RecordIssue::Implausible {
+                channel: id,
+                value,
+                mps2: value * gain,
+            });
         }
         let limit = (self.config.max_buffer_s * station.rate_hz) as i64;
         let ahead = record
@@ -887,5 +943,48 @@ mod tests {
             "{e}"
         );
         assert_eq!(asm.counters().refused_records, 3);
+    }
+
+    #[test]
+    fn records_at_another_rate_or_with_impossible_values_are_refused_and_cost_nothing_else() {
+        let mut asm = Assembler::new(inventory(), AssemblyConfig::default());
+        let x = [1.0; 4];
+        let mut out = Vec::new();
+        let mut sink = |p: AccelPacket| out.push(p);
+        for cha in ["HN1", "HN2", "HN3"] {
+            asm.push(&record(cha, 0, &x), 0, &mut sink).unwrap();
+        }
+        // Copies of the next HN1 record: at 200× the rate, with 1e30, with a NaN, and with
+        // 101 g once calibrated (1000 counts per m/s²): each refused, none placed.
+        let mut fast = record("HN1", 4, &x);
+        fast.sample_rate_hz *= 200.0;
+        let e = asm.push(&fast, 0, &mut sink).unwrap_err();
+        assert!(e.is_other_rate(), "{e}");
+        for bad in [1e30, f64::NAN, 1000.0 * 101.0 * 9.80665] {
+            let e = asm
+                .push(&record("HN1", 4, &[1.0, bad, 1.0, 1.0]), 0, &mut sink)
+                .unwrap_err();
+            assert!(matches!(e, RecordIssue::Implausible { .. }), "{e}");
+        }
+        // The clean records of that span go through as if nothing had happened.
+        for cha in ["HN1", "HN2", "HN3"] {
+            asm.push(&record(cha, 4, &x), 0, &mut sink).unwrap();
+        }
+        let c = asm.counters();
+        assert_eq!(
+            (
+                c.refused_records,
+                c.other_rate_records,
+                c.implausible_records
+            ),
+            (4, 1, 3)
+        );
+        assert_eq!(
+            (c.samples, c.overlap_samples, c.missing_component_samples),
+            (8, 0, 0)
+        );
+        assert!(out
+            .iter()
+            .all(|p| p.east.iter().all(|v| (v - 1e-3).abs() < 1e-9)));
     }
 }

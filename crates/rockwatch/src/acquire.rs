@@ -17,7 +17,7 @@ use crate::log_text::{printable, STATION_CHARS};
 use crate::node::RateLimitedLog;
 use crate::ports::PacketSink;
 use crate::ros2::Ros2Config;
-use crate::seedlink::{RecordSink, SeedLinkConfig, LOG_INTERVAL};
+use crate::seedlink::{RecordSink, SeedLinkConfig, Taken, LOG_INTERVAL};
 
 /// The acquisition configuration file.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
@@ -283,7 +283,24 @@ fn send_all<'s>(
 }
 
 impl RecordSink for PacketPublisher<'_> {
-    fn record(&mut self, record: &Channel) -> bool {
+    fn record(&mut self, record: &Channel) -> Taken {
+        let now = self.now_ns();
+        let mut send = send_all(&mut *self.sink, &mut self.counters);
+        let result = self.assembler.push(record, now, &mut send);
+        drop(send);
+        if let Err(issue) = result {
+            let station = format!("{}.{}.{}", record.net, record.sta, record.loc);
+            self.log.log(
+                &record.id(),
+                "refused",
+                &format!(
+                    "acquire: station {}: {issue} (record dropped; counted, logged at most once a minute)",
+                    printable(&station, STATION_CHARS)
+                ),
+            );
+            return Taken::Refused;
+        }
+        // Clipping is counted on records taken (impossible values were refused above).
         let full_scale = self.clipping.full_scale(&record.id());
         let clipped = record
             .segments
@@ -302,27 +319,19 @@ impl RecordSink for PacketPublisher<'_> {
                 ),
             );
         }
-        let now = self.now_ns();
-        let mut send = send_all(&mut *self.sink, &mut self.counters);
-        let result = self.assembler.push(record, now, &mut send);
-        drop(send);
-        if let Err(issue) = result {
-            self.log.log(
-                &record.id(),
-                "refused",
-                &format!(
-                    "acquire: {issue} (record dropped; counted, logged at most once a minute)"
-                ),
-            );
-            return false;
-        }
         let station = format!("{}.{}.{}", record.net, record.sta, record.loc);
         let end = record.segments.last().map_or(0, |s| {
             s.start_time_ns + (s.samples.len() as f64 * 1e9 / record.sample_rate_hz).round() as i64
         });
-        self.assembler
+        if self
+            .assembler
             .emitted_until_ns(&station)
             .is_none_or(|t| t < end)
+        {
+            Taken::Held
+        } else {
+            Taken::Done
+        }
     }
 
     fn published_until_ns(&self, station: &str) -> Option<i64> {
@@ -424,7 +433,7 @@ mod tests {
                 let mut other = original.clone();
                 other.sta = sta.into();
                 other.cha = cha.into();
-                assert!(!publisher.record(&other));
+                assert_eq!(publisher.record(&other), Taken::Refused);
             }
         }
         assert!(

@@ -10,7 +10,7 @@ use rockwatch::iox::IoxPacketSink;
 use rockwatch::ports::PacketSink;
 use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
 use rockwatch::sd_notify::SystemdNotifier;
-use rockwatch::seedlink::{RecordSink, SeedLinkClient};
+use rockwatch::seedlink::{RecordSink, SeedLinkClient, Taken};
 use rockwatch::signals::stop_on_signals;
 use rockwatch_core::inventory::Inventory;
 
@@ -58,7 +58,7 @@ struct Watched<'a, 's> {
 }
 
 impl RecordSink for Watched<'_, '_> {
-    fn record(&mut self, record: &rockwatch_core::record::mseed::Channel) -> bool {
+    fn record(&mut self, record: &rockwatch_core::record::mseed::Channel) -> Taken {
         self.inner.record(record)
     }
 
@@ -146,17 +146,24 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     let (published, assembled) = publisher.inner.counters();
     let link = client.counters();
     tracing::info!(
-        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} server resets, {} server restarts, {} reconnections); {} refused by the inventory or grid ({} far ahead of their station's data, {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
+        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} server resets, {} sequence numbers out of line, {} server restarts, {} resumes by number that yielded nothing (resumed by time), {} reconnections); {} records refused ({} at another sampling rate, {} with impossible values, {} far ahead of their station's data, {} other: not in the inventory, off the grid, another band; {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
         link.packets,
         link.delivered,
         link.duplicates,
         link.malformed,
         link.unselected,
         link.server_resets,
+        link.sequence_outliers,
         link.server_restarts,
+        link.resume_fallbacks,
         link.disconnects,
         assembled.refused_records,
+        assembled.other_rate_records,
+        assembled.implausible_records,
         assembled.far_ahead_records,
+        assembled
+            .refused_records
+            .saturating_sub(assembled.other_rate_records + assembled.implausible_records + assembled.far_ahead_records),
         assembled.grid_restarts,
         published.clipped_samples,
         published.clipped_records,

@@ -13,7 +13,7 @@
 pub mod connection;
 pub mod state;
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -22,7 +22,7 @@ use rockwatch_core::record::mseed::{parse_mseed, Channel};
 use rockwatch_core::seedlink::frame::Frame;
 use rockwatch_core::seedlink::info::expand;
 use rockwatch_core::seedlink::select::StreamPattern;
-use rockwatch_core::seedlink::sequence::{judge, DeliveredStarts, Verdict};
+use rockwatch_core::seedlink::sequence::{judge, DeliveredStarts, StationSequence, Verdict};
 use rockwatch_core::seedlink::Protocol;
 
 use crate::log_text::{printable, STATION_CHARS};
@@ -168,6 +168,15 @@ pub struct LinkCounters {
     /// resumed by time, not by sequence number.
     pub server_restarts: u64,
     pub reordered: u64,
+    /// Records the sink refused (another rate, impossible values, far ahead, unknown, …):
+    /// never marked delivered, never a resume point (time or number).
+    pub refused: u64,
+    /// Sequence numbers found out of line (a jump followed by new data numbered on from
+    /// before it): one odd number, not a server restart.
+    pub sequence_outliers: u64,
+    /// Stations whose resume by sequence number yielded nothing for `idle_timeout_s`: their
+    /// number was dropped and they resumed by time.
+    pub resume_fallbacks: u64,
     /// Packets that are not MiniSEED data (INFO, JSON, …).
     pub other_packets: u64,
     /// Records that could not be decoded.
@@ -176,10 +185,23 @@ pub struct LinkCounters {
     pub unselected: u64,
 }
 
+/// What the sink did with a record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Taken {
+    /// Refused (the sink logged and counted why): the record is not delivered — its start
+    /// time is not remembered (a clean copy is still taken), its number and time are never
+    /// saved as a resume point.
+    Refused,
+    /// Taken, nothing of it held.
+    Done,
+    /// Taken, some of its samples held to publish later.
+    Held,
+}
+
 /// Where the client's records go.
 ///
 /// Resume state is saved only for what the sink has finished with: a record is *committed*
-/// when [`RecordSink::record`] returns `false` (nothing held), or once
+/// when [`RecordSink::record`] returns [`Taken::Done`] (nothing held), or once
 /// [`RecordSink::published_until_ns`] of its station passes the record's end. A station's
 /// saved sequence number never passes a record that is not committed, so a record held when
 /// `acquire` is killed is fetched again on restart.
@@ -188,9 +210,8 @@ pub struct LinkCounters {
 /// the compiler says so (a wrapper that silently dropped `link` left the assembler's clock
 /// stopped, so a component missing after a restart was waited for forever).
 pub trait RecordSink {
-    /// A new record of a selected stream (decoded: one channel, one record). `true` when the
-    /// sink holds some of its samples to publish later.
-    fn record(&mut self, record: &Channel) -> bool;
+    /// A new record of a selected stream (decoded: one channel, one record).
+    fn record(&mut self, record: &Channel) -> Taken;
     /// Time before which every sample of station `NET.STA.LOC` has been published (ns);
     /// `None` if the sink holds nothing of it.
     fn published_until_ns(&self, station: &str) -> Option<i64>;
@@ -206,9 +227,9 @@ pub trait RecordSink {
 pub struct EachRecord<F: FnMut(&Channel)>(pub F);
 
 impl<F: FnMut(&Channel)> RecordSink for EachRecord<F> {
-    fn record(&mut self, record: &Channel) -> bool {
+    fn record(&mut self, record: &Channel) -> Taken {
         (self.0)(record);
-        false
+        Taken::Done
     }
 
     fn published_until_ns(&self, _station: &str) -> Option<i64> {
@@ -228,9 +249,10 @@ struct Pending {
     /// `NET.STA.LOC` of the sink.
     station: String,
     stream: String,
-    sequence: u64,
+    /// The station's resume point once this record is committed (its confirmed number),
+    /// if the record moves it.
+    resume: Option<u64>,
     protocol: Protocol,
-    advances: bool,
     start_ns: i64,
     /// End of the record (ns), when the sink holds some of it; `None`: nothing held.
     held_until_ns: Option<i64>,
@@ -260,6 +282,12 @@ pub struct SeedLinkClient {
     /// saved, they start from the oldest data the server holds for them (nothing is lost
     /// between their appearance and the next look at the station list).
     late_stations: BTreeSet<String>,
+    /// `NET_STA` → the numbers received this run (protocol `sequences_protocol`), judged
+    /// against; started from the saved resume point.
+    sequences: HashMap<String, StationSequence>,
+    sequences_protocol: Option<Protocol>,
+    /// `NET_STA` of the stations of which a record arrived on the current connection.
+    heard: BTreeSet<String>,
 }
 
 impl SeedLinkClient {
@@ -284,6 +312,9 @@ impl SeedLinkClient {
             counters: LinkCounters::default(),
             log: RateLimitedLog::with_interval(LOG_INTERVAL),
             late_stations: BTreeSet::new(),
+            sequences: HashMap::new(),
+            sequences_protocol: None,
+            heard: BTreeSet::new(),
         })
     }
 
@@ -363,11 +394,11 @@ impl SeedLinkClient {
             .entry(p.stream.clone())
             .or_insert(p.start_ns);
         *latest = (*latest).max(p.start_ns);
-        if p.advances {
+        if let Some(sequence) = p.resume {
             self.state.stations.insert(
                 p.station_key.clone(),
                 StationResume {
-                    sequence: p.sequence,
+                    sequence,
                     protocol: p.protocol,
                 },
             );
@@ -394,6 +425,11 @@ impl SeedLinkClient {
             );
             // The old numbers mean nothing now.
             self.state.stations.clear();
+            self.sequences.clear();
+        }
+        if self.sequences_protocol != Some(protocol) {
+            self.sequences.clear();
+            self.sequences_protocol = Some(protocol);
         }
         if conn.server_started.is_some() {
             self.state.server_started.clone_from(&conn.server_started);
@@ -426,6 +462,16 @@ impl SeedLinkClient {
                 (None, _) => Resume::Next,
             }
         };
+        let by_sequence: BTreeMap<String, u64> = patterns
+            .iter()
+            .filter_map(|p| {
+                let key = p.exact_station()?;
+                match resume(p) {
+                    Resume::After(seq) => Some((key, seq)),
+                    _ => None,
+                }
+            })
+            .collect();
         let refused = conn.request(&patterns, &resume, timeout)?;
         sink.link(true);
         for refused in refused {
@@ -441,6 +487,9 @@ impl SeedLinkClient {
         let mut last_refresh = Instant::now();
         let mut last_packet = Instant::now();
         let mut last_durable = Instant::now();
+        let connected = Instant::now();
+        self.heard.clear();
+        let mut resumes_checked = by_sequence.is_empty();
         loop {
             if stop.load(Ordering::Relaxed) {
                 conn.close();
@@ -458,6 +507,13 @@ impl SeedLinkClient {
             let before = self.counters.packets;
             let got = conn.poll_frames(TICK, &mut |frame| self.on_frame(protocol, frame, sink))?;
             sink.tick();
+            if !resumes_checked && connected.elapsed() > idle {
+                resumes_checked = true;
+                if let Some(e) = self.fall_back_to_time(&by_sequence) {
+                    conn.close();
+                    return Err(e);
+                }
+            }
             if got {
                 last_packet = Instant::now();
             } else if last_packet.elapsed() > idle {
@@ -475,6 +531,37 @@ impl SeedLinkClient {
                 }
             }
         }
+    }
+
+    /// Stations resumed by sequence number (`by_sequence`) of which nothing arrived within
+    /// `idle_timeout_s`: the number is one the server does not hold (a far-ahead number saved
+    /// before, a renumbered ring). Their number is dropped, so the next connection resumes
+    /// them by time (duplicates dropped); logged per station, counted. Returns the error that
+    /// ends the connection when there are any.
+    fn fall_back_to_time(&mut self, by_sequence: &BTreeMap<String, u64>) -> Option<LinkError> {
+        let silent: Vec<(&String, &u64)> = by_sequence
+            .iter()
+            .filter(|(key, _)| !self.heard.contains(*key))
+            .collect();
+        if silent.is_empty() {
+            return None;
+        }
+        for (key, seq) in &silent {
+            self.counters.resume_fallbacks += 1;
+            self.state.stations.remove(*key);
+            self.sequences.remove(*key);
+            tracing::warn!(
+                "seedlink {}: station {}: nothing after sequence number {seq} for {} s: resuming it by time from its latest record (counted)",
+                self.config.server,
+                printable(key, STATION_CHARS),
+                self.config.idle_timeout_s
+            );
+        }
+        let names: Vec<&str> = silent.iter().map(|(k, _)| k.as_str()).collect();
+        Some(LinkError::Resubscribe(format!(
+            "resuming {} by time",
+            printable(&names.join(", "), SERVER_TEXT_CHARS)
+        )))
     }
 
     /// The configured patterns with wildcard stations expanded over the server's station
@@ -592,23 +679,43 @@ impl SeedLinkClient {
                 continue;
             };
             let key = format!("{}_{}", channel.net, channel.sta);
-            let last = self
+            if !self.heard.contains(&key) {
+                self.heard.insert(key.clone());
+            }
+            let saved = self
                 .state
                 .stations
                 .get(&key)
                 .filter(|s| s.protocol == protocol)
                 .map(|s| s.sequence);
-            let saved = self.state.streams.get(&id).copied();
+            let station = *self
+                .sequences
+                .entry(key.clone())
+                .or_insert_with(|| StationSequence::resumed(saved));
+            let latest = self.state.streams.get(&id).copied();
             let delivered = self
                 .delivered
                 .entry(id.clone())
-                .or_insert_with(|| DeliveredStarts::from_latest(saved));
-            let verdict = judge(protocol, last, sequence, delivered, start_ns);
+                .or_insert_with(|| DeliveredStarts::from_latest(latest));
+            let verdict = judge(protocol, &station, sequence, delivered, start_ns);
+            if verdict == Verdict::Duplicate {
+                self.counters.duplicates += 1;
+                continue;
+            }
+            let taken = sink.record(channel);
+            if taken == Taken::Refused {
+                // Not delivered: its start time is not remembered (a clean copy is still
+                // taken), and neither its number nor its time becomes a resume point.
+                self.counters.refused += 1;
+                continue;
+            }
+            delivered.insert(start_ns);
+            self.counters.delivered += 1;
+            let tracker = self.sequences.entry(key.clone()).or_default();
+            let undone = tracker.accept(protocol, sequence, verdict);
+            let resume = tracker.resume_point();
             match verdict {
-                Verdict::Duplicate => {
-                    self.counters.duplicates += 1;
-                    continue;
-                }
+                Verdict::Duplicate => {}
                 Verdict::Deliver { missing } => self.counters.missing_sequences += missing,
                 Verdict::DeliverAfterReset => {
                     self.counters.server_resets += 1;
@@ -616,22 +723,31 @@ impl SeedLinkClient {
                         "seedlink {}: station {}: sequence {sequence} after {} with new data: the server restarted its numbering",
                         self.config.server,
                         printable(&key, STATION_CHARS),
-                        last.unwrap_or(0)
+                        station.last().unwrap_or(0)
                     );
+                }
+                Verdict::DeliverAfterOutlier { odd } => {
+                    self.counters.sequence_outliers += 1;
+                    self.counters.missing_sequences =
+                        self.counters.missing_sequences.saturating_sub(undone);
+                    let line = format!(
+                        "seedlink {}: station {}: sequence number {odd} was out of line (new data numbered {sequence} follows {}): one odd number, not a server restart; never a resume point (counted; logged at most once a minute)",
+                        self.config.server,
+                        printable(&key, STATION_CHARS),
+                        station.resume_point().unwrap_or(0)
+                    );
+                    self.log.log(&key, "sequence outlier", &line);
                 }
                 Verdict::DeliverReordered => self.counters.reordered += 1,
             }
-            let held = sink.record(channel);
-            delivered.insert(start_ns);
-            self.counters.delivered += 1;
             let samples: usize = channel.segments.iter().map(|s| s.samples.len()).sum();
+            let held = taken == Taken::Held;
             let pending = Pending {
                 station_key: key,
                 station: format!("{}.{}.{}", channel.net, channel.sta, channel.loc),
                 stream: id,
-                sequence,
+                resume: verdict.advances_sequence().then_some(resume).flatten(),
                 protocol,
-                advances: verdict.advances_sequence(),
                 start_ns,
                 held_until_ns: held.then(|| {
                     start_ns

@@ -1,0 +1,511 @@
+//! Issue 23 and issue 24 item 1: one bad record, or one odd sequence number, must not stall a
+//! station. A hostile SeedLink server (`seedlink_server::hostile`, loopback) streams the K2
+//! station's clean records with one fault put among them; `rockwatch acquire` → `rockwatch
+//! node`, and the node's alerts and final station intensity must equal `rockwatch monitor` on
+//! the clean data (`acquire_util::Rig`, the comparison of tests/acquire_e2e.rs) — every fault
+//! alone, and with `acquire` SIGKILLed and restarted after the fault. The faults are
+//! additions: every clean record is still sent, so nothing may be lost.
+//!
+//! - `OtherRate`: a copy of the next record claiming 200× its rate, just before it;
+//! - `ResentFarAheadThenHang`: the last record sent again under a number 500 000 ahead, then
+//!   the connection hangs (alone only: a duplicate);
+//! - `NextFarAheadThenHang`, `NextFarAheadThenClose`: the next record sent first under a
+//!   number 500 000 ahead, then the connection hangs or closes (the clean copy follows,
+//!   numbered on, and the server resends the copy too on a resume before its number);
+//! - `HugeValuesFarAhead`: a FLOAT32 record of 1e30 at the next record's time, numbered 500 000
+//!   ahead;
+//! - `FarFuture`: a copy of the next record stamped in the year 2100 (a GPS glitch).
+//!
+//! Each test also checks acquire's log line naming the station and the fault, and (without a
+//! restart, where acquire sees the fault and runs to its end) its end-of-run summary. The
+//! client alone is tested below against the same server: a jump is never the resume point,
+//! a resume by number that yields nothing falls back to time, refused records are never
+//! delivered or saved. Tests run one at a time (each in its own network namespace), so the
+//! scenarios do not compete for the 2 cores.
+
+mod acquire_util;
+mod ros2_util;
+mod seedlink_server;
+
+use std::collections::BTreeSet;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use rockwatch::acquire::{ClippingSection, PacketPublisher};
+use rockwatch::ports::PacketSink;
+use rockwatch::seedlink::{
+    LinkCounters, ProtocolChoice, RecordSink, SeedLinkClient, SeedLinkConfig, Taken,
+};
+use rockwatch_core::assembly::AssemblyConfig;
+use rockwatch_core::engine::AccelPacket;
+use rockwatch_core::inventory::Inventory;
+use rockwatch_core::record::mseed::{parse_mseed, Channel};
+
+use acquire_util::{latest_starts, Rig};
+use ros2_util::reexec_in_netns;
+use seedlink_server::hostile::{at_other_rate, in_year, with_values, Conn, Hostile};
+use seedlink_server::records_in_time_order;
+
+/// One scenario at a time (the outer test processes wait here for their namespace's run).
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Fault {
+    OtherRate,
+    ResentFarAheadThenHang,
+    NextFarAheadThenHang,
+    NextFarAheadThenClose,
+    HugeValuesFarAhead,
+    FarFuture,
+}
+
+/// Where the fault goes: before record 30 of the 104 (about 3 s into the data).
+const AT: usize = 30;
+/// "Far ahead" for a sequence number.
+const FAR: u64 = 500_000;
+
+/// What acquire's log must say: a line naming the station and the fault, and (when acquire
+/// ran to its end with the fault in its run) its end-of-run summary.
+fn expected_lines(fault: Fault) -> (&'static str, &'static str) {
+    match fault {
+        Fault::OtherRate => (
+            "station XX.STN.: XX.STN..HN3: 50000 Hz, but the station is assembled at 250 Hz",
+            "records refused (1 at another sampling rate",
+        ),
+        Fault::ResentFarAheadThenHang => ("timeout: no packet for 2 s", "104 records delivered ("),
+        Fault::NextFarAheadThenHang | Fault::NextFarAheadThenClose => (
+            "station XX_STN: sequence number",
+            "1 sequence numbers out of line",
+        ),
+        Fault::HugeValuesFarAhead => (
+            "station XX.STN.: XX.STN..HN3: impossible sample values",
+            "records refused (0 at another sampling rate, 1 with impossible values",
+        ),
+        Fault::FarFuture => (
+            "station XX.STN.: XX.STN..HN3: record starts",
+            "1 far ahead of their station's data",
+        ),
+    }
+}
+
+fn run(fault: Fault, restart: bool) {
+    let server = Hostile::start();
+    let mut rig = Rig::start(server.addr, "idle_timeout_s = 2.0");
+    let records = records_in_time_order();
+    server.push(&records[..AT]);
+    let far = server.next_seq() + FAR;
+    match fault {
+        Fault::OtherRate => server.push(&[at_other_rate(&records[AT], 200)]),
+        Fault::ResentFarAheadThenHang => {
+            server.push_with_seq(&records[AT - 1], far);
+            server.plan(&[Conn::HangAfter(AT + 1)]);
+        }
+        Fault::NextFarAheadThenHang => {
+            server.push_with_seq(&records[AT], far);
+            server.plan(&[Conn::HangAfter(AT + 1)]);
+        }
+        Fault::NextFarAheadThenClose => {
+            server.push_with_seq(&records[AT], far);
+            server.plan(&[Conn::CloseAfter(AT + 1)]);
+        }
+        Fault::HugeValuesFarAhead => server.push_with_seq(&with_values(&records[AT], 1e30), far),
+        Fault::FarFuture => server.push(&[in_year(&records[AT], 2100)]),
+    }
+    let scenario = format!("{fault:?}{}", if restart { " + restart" } else { "" });
+    let mut running;
+    if restart {
+        // The ring up to a little after the fault; once records past it are committed,
+        // SIGKILL; the rest of the data; acquire again.
+        server.push(&records[AT..AT + 12]);
+        running = rig.acquire("iceoryx2");
+        let want = latest_starts(&records[..AT + 9]);
+        rig.wait("acquire did not commit past the fault", &|rig| {
+            let got = rig.committed();
+            want.iter().all(|(k, t)| got.get(k).is_some_and(|g| g >= t))
+        });
+        running.kill();
+        server.push(&records[AT + 12..]);
+        running = rig.acquire("iceoryx2");
+    } else {
+        server.push(&records[AT..]);
+        running = rig.acquire("iceoryx2");
+    }
+    let logs = rig.finish(running, Duration::from_secs(60), &scenario);
+    server.stop();
+    let (line, summary) = expected_lines(fault);
+    assert!(
+        logs.contains(line),
+        "{scenario}: acquire's log must say {line:?}:\n{logs}"
+    );
+    if !restart {
+        assert!(
+            logs.contains(summary),
+            "{scenario}: acquire's summary must say {summary:?}:\n{logs}"
+        );
+    }
+}
+
+fn scenario(name: &str, fault: Fault, restart: bool) {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    if reexec_in_netns(name, 240) {
+        run(fault, restart);
+    }
+}
+
+#[test]
+fn a_record_at_another_rate_costs_nothing_of_the_clean_data() {
+    scenario(
+        "a_record_at_another_rate_costs_nothing_of_the_clean_data",
+        Fault::OtherRate,
+        false,
+    );
+}
+
+#[test]
+fn a_record_at_another_rate_then_a_restart_of_acquire_costs_nothing() {
+    scenario(
+        "a_record_at_another_rate_then_a_restart_of_acquire_costs_nothing",
+        Fault::OtherRate,
+        true,
+    );
+}
+
+#[test]
+fn a_duplicate_numbered_far_ahead_then_a_hang_does_not_move_the_resume_point() {
+    scenario(
+        "a_duplicate_numbered_far_ahead_then_a_hang_does_not_move_the_resume_point",
+        Fault::ResentFarAheadThenHang,
+        false,
+    );
+}
+
+#[test]
+fn a_record_numbered_far_ahead_then_a_hang_is_one_odd_number_not_a_resume_point() {
+    scenario(
+        "a_record_numbered_far_ahead_then_a_hang_is_one_odd_number_not_a_resume_point",
+        Fault::NextFarAheadThenHang,
+        false,
+    );
+}
+
+#[test]
+fn a_record_numbered_far_ahead_then_a_hang_and_a_restart_of_acquire() {
+    scenario(
+        "a_record_numbered_far_ahead_then_a_hang_and_a_restart_of_acquire",
+        Fault::NextFarAheadThenHang,
+        true,
+    );
+}
+
+#[test]
+fn a_record_numbered_far_ahead_then_a_close_is_one_odd_number_not_a_resume_point() {
+    scenario(
+        "a_record_numbered_far_ahead_then_a_close_is_one_odd_number_not_a_resume_point",
+        Fault::NextFarAheadThenClose,
+        false,
+    );
+}
+
+#[test]
+fn a_record_numbered_far_ahead_then_a_close_and_a_restart_of_acquire() {
+    scenario(
+        "a_record_numbered_far_ahead_then_a_close_and_a_restart_of_acquire",
+        Fault::NextFarAheadThenClose,
+        true,
+    );
+}
+
+#[test]
+fn impossible_values_numbered_far_ahead_are_refused_and_not_a_server_restart() {
+    scenario(
+        "impossible_values_numbered_far_ahead_are_refused_and_not_a_server_restart",
+        Fault::HugeValuesFarAhead,
+        false,
+    );
+}
+
+#[test]
+fn impossible_values_numbered_far_ahead_then_a_restart_of_acquire() {
+    scenario(
+        "impossible_values_numbered_far_ahead_then_a_restart_of_acquire",
+        Fault::HugeValuesFarAhead,
+        true,
+    );
+}
+
+#[test]
+fn a_far_future_record_costs_nothing() {
+    scenario("a_far_future_record_costs_nothing", Fault::FarFuture, false);
+}
+
+#[test]
+fn a_far_future_record_is_never_a_resume_point_across_a_restart_of_acquire() {
+    scenario(
+        "a_far_future_record_is_never_a_resume_point_across_a_restart_of_acquire",
+        Fault::FarFuture,
+        true,
+    );
+}
+
+// ---- The SeedLink client alone against the hostile server (loopback, no node) ----
+
+/// A client of `server` for XX.STN..HN? (v3, idle timeout 2 s, reconnecting after 0.2 s).
+fn client(server: &Hostile, state: &Path) -> SeedLinkClient {
+    let config = SeedLinkConfig {
+        server: server.addr.to_string(),
+        streams: vec!["XX.STN..HN?".into()],
+        protocol: ProtocolChoice::V3,
+        connect_timeout_s: 5.0,
+        idle_timeout_s: 2.0,
+        reconnect_initial_s: 0.2,
+        reconnect_max_s: 0.5,
+        station_refresh_s: 300.0,
+    };
+    SeedLinkClient::new(config, Some(state)).unwrap()
+}
+
+/// The (stream, start) of every record.
+fn keys(records: &[Vec<u8>]) -> BTreeSet<(String, i64)> {
+    records
+        .iter()
+        .map(|r| {
+            let c = parse_mseed(r, Path::new("r")).unwrap().channels.remove(0);
+            (c.id(), c.start_time_ns)
+        })
+        .collect()
+}
+
+/// Takes every record (nothing held, so each is committed at once) and stops the client
+/// once `want` has arrived, or after 30 s.
+struct Until<'a> {
+    want: BTreeSet<(String, i64)>,
+    got: Vec<(String, i64)>,
+    stop: &'a AtomicBool,
+    deadline: Instant,
+}
+
+impl RecordSink for Until<'_> {
+    fn record(&mut self, record: &Channel) -> Taken {
+        self.got.push((record.id(), record.start_time_ns));
+        if self.want.iter().all(|k| self.got.contains(k)) {
+            self.stop.store(true, Ordering::Relaxed);
+        }
+        Taken::Done
+    }
+    fn published_until_ns(&self, _: &str) -> Option<i64> {
+        None
+    }
+    fn tick(&mut self) {
+        if Instant::now() > self.deadline {
+            self.stop.store(true, Ordering::Relaxed);
+        }
+    }
+    fn link(&mut self, _: bool) {}
+}
+
+fn run_until(
+    client: &mut SeedLinkClient,
+    want: BTreeSet<(String, i64)>,
+) -> (Vec<(String, i64)>, LinkCounters) {
+    let stop = AtomicBool::new(false);
+    let mut sink = Until {
+        want,
+        got: Vec::new(),
+        stop: &stop,
+        deadline: Instant::now() + Duration::from_secs(30),
+    };
+    client.run(&stop, &mut sink).unwrap();
+    (sink.got, client.counters())
+}
+
+fn client_scenario(name: &str, body: fn()) {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    if reexec_in_netns(name, 120) {
+        body();
+    }
+}
+
+#[test]
+fn a_number_far_ahead_that_nothing_followed_is_never_the_resume_point() {
+    client_scenario(
+        "a_number_far_ahead_that_nothing_followed_is_never_the_resume_point",
+        || {
+            let server = Hostile::start();
+            let records = records_in_time_order();
+            server.push(&records[..10]);
+            // The next record first under a number far ahead, then the connection closes;
+            // the clean copy comes next, numbered on (11, 12, …).
+            server.push_with_seq(&records[10], server.next_seq() + FAR);
+            server.plan(&[Conn::CloseAfter(11)]);
+            server.push(&records[10..]);
+            let dir = tempfile::tempdir().unwrap();
+            let mut c = client(&server, dir.path());
+            let (got, counters) = run_until(&mut c, keys(&records));
+            let unique: BTreeSet<_> = got.iter().cloned().collect();
+            assert_eq!(
+                (unique.len(), got.len()),
+                (104, 104),
+                "every record once; commands {:?}; {counters:?}",
+                server.commands()
+            );
+            // The second connection resumed from the last number in line, not the jump.
+            assert!(
+                server.commands().contains(&"DATA 00000A".to_string()),
+                "{:?}",
+                server.commands()
+            );
+            assert_eq!(counters.sequence_outliers, 1, "{counters:?}");
+            assert_eq!(counters.server_resets, 0, "{counters:?}");
+            // The resume point is the last real number (104 records numbered 1..=104).
+            assert_eq!(c.state().stations["XX_STN"].sequence, 104);
+        },
+    );
+}
+
+#[test]
+fn a_resume_by_number_that_yields_nothing_falls_back_to_time() {
+    client_scenario(
+        "a_resume_by_number_that_yields_nothing_falls_back_to_time",
+        || {
+            let server = Hostile::start();
+            let records = records_in_time_order();
+            server.push(&records);
+            // A state saved with a number the server does not hold (as a jump saved by an
+            // older acquire would be), the streams delivered up to record 20.
+            let dir = tempfile::tempdir().unwrap();
+            let latest = acquire_util::latest_starts(&records[..21]);
+            let state = serde_json::json!({
+                "server": server.addr.to_string(),
+                "server_started": null,
+                "stations": {"XX_STN": {"sequence": 600_000, "protocol": "V3"}},
+                "streams": latest,
+            });
+            std::fs::write(
+                dir.path().join(format!(
+                    "seedlink-{}.json",
+                    server.addr.to_string().replace(':', "_")
+                )),
+                state.to_string(),
+            )
+            .unwrap();
+            let mut c = client(&server, dir.path());
+            let (got, counters) = run_until(&mut c, keys(&records[21..]));
+            let unique: BTreeSet<_> = got.iter().cloned().collect();
+            assert!(
+                keys(&records[21..]).is_subset(&unique) && unique.len() == got.len(),
+                "everything after the saved times, once; commands {:?}; {counters:?}",
+                server.commands()
+            );
+            assert_eq!(counters.resume_fallbacks, 1, "{counters:?}");
+            assert!(
+                server.commands().iter().any(|c| c.starts_with("TIME ")),
+                "{:?}",
+                server.commands()
+            );
+        },
+    );
+}
+
+/// Publishes nowhere (the assembler's decisions are what is tested).
+struct Nowhere;
+
+impl PacketSink for Nowhere {
+    fn wait_for_subscriber(&mut self, _: Duration) -> anyhow::Result<bool> {
+        Ok(true)
+    }
+    fn send(&mut self, _: &AccelPacket) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn refused_records_are_never_delivered_nor_saved_and_their_clean_copies_go_through() {
+    client_scenario(
+        "refused_records_are_never_delivered_nor_saved_and_their_clean_copies_go_through",
+        || {
+            let server = Hostile::start();
+            let records = records_in_time_order();
+            server.push(&records[..30]);
+            // Before the clean record 30: a copy at 200× the rate, one of 1e30, one in 2100.
+            server.push(&[
+                at_other_rate(&records[30], 200),
+                with_values(&records[30], 1e30),
+                in_year(&records[30], 2100),
+            ]);
+            server.push(&records[30..]);
+            let dir = tempfile::tempdir().unwrap();
+            let xml = ros2_util::repo().join("tests/data/stationxml/obspy_XX.STN_k2.xml");
+            let mut out = Nowhere;
+            let mut publisher = PacketPublisher::new(
+                Inventory::read(&xml).unwrap(),
+                AssemblyConfig::default(),
+                ClippingSection::default(),
+                &mut out,
+            );
+            let mut c = client(&server, dir.path());
+            let stop = AtomicBool::new(false);
+            let deadline = Instant::now() + Duration::from_secs(30);
+            // Until the client has delivered every clean record.
+            struct Watch<'a, 'p> {
+                inner: &'a mut PacketPublisher<'p>,
+                delivered: usize,
+                stop: &'a AtomicBool,
+                deadline: Instant,
+            }
+            impl RecordSink for Watch<'_, '_> {
+                fn record(&mut self, r: &Channel) -> Taken {
+                    let t = self.inner.record(r);
+                    if t != Taken::Refused {
+                        self.delivered += 1;
+                    }
+                    if self.delivered == 104 {
+                        self.stop.store(true, Ordering::Relaxed);
+                    }
+                    t
+                }
+                fn published_until_ns(&self, s: &str) -> Option<i64> {
+                    self.inner.published_until_ns(s)
+                }
+                fn tick(&mut self) {
+                    self.inner.tick();
+                    if Instant::now() > self.deadline {
+                        self.stop.store(true, Ordering::Relaxed);
+                    }
+                }
+                fn link(&mut self, up: bool) {
+                    self.inner.link(up);
+                }
+            }
+            let mut watch = Watch {
+                inner: &mut publisher,
+                delivered: 0,
+                stop: &stop,
+                deadline,
+            };
+            c.run(&stop, &mut watch).unwrap();
+            let counters = c.counters();
+            let (_, assembled) = publisher.counters();
+            assert_eq!(
+                (counters.delivered, counters.refused, counters.duplicates),
+                (104, 3, 0),
+                "{counters:?} {assembled:?}"
+            );
+            assert_eq!(
+                (
+                    assembled.other_rate_records,
+                    assembled.implausible_records,
+                    assembled.far_ahead_records
+                ),
+                (1, 1, 1),
+                "{assembled:?}"
+            );
+            // No refused time is a resume point: every stream's latest is a clean record's.
+            let latest = acquire_util::latest_starts(&records);
+            for (stream, t) in &c.state().streams {
+                assert!(latest[stream] >= *t, "{stream}: {t} saved");
+            }
+        },
+    );
+}
