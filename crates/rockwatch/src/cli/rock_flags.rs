@@ -54,6 +54,22 @@ pub struct GeometryFlags {
     /// see `rockwatch geometry`'s sensitivity table).
     #[arg(long = "contact-tolerance", value_name = "M", requires = "mesh", default_value_t = DEFAULT_CONTACT_TOLERANCE_M)]
     pub contact_tolerance: f64,
+    /// The dynamics: `2d`, the planar body of one direction (default), or `3d`, the mesh
+    /// rock as one rigid body driven by every ground-motion component (docs/rocking-3d.md;
+    /// only with --mesh).
+    #[arg(long, value_enum, default_value_t = Model::TwoD)]
+    pub model: Model,
+}
+
+/// The dynamics of a rock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Model {
+    /// The planar body of one direction (docs/general-body.md, docs/meshes.md).
+    #[value(name = "2d")]
+    TwoD,
+    /// 3-D rigid-body rocking of a mesh rock (docs/rocking-3d.md).
+    #[value(name = "3d")]
+    ThreeD,
 }
 
 /// Friction and impact of the rock.
@@ -82,6 +98,7 @@ pub struct Friction {
 
 /// What the rock flags describe.
 #[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // one plan per command: the size does not matter
 pub enum RockPlan {
     /// A planar block (rectangle or general body).
     Planar(BlockParams),
@@ -94,8 +111,10 @@ pub enum RockPlan {
 pub struct MeshPlan {
     pub path: PathBuf,
     pub up: UpAxis,
+    pub geometry: RockGeometry,
     pub rest: RestingContact,
     pub friction: Friction,
+    pub model: Model,
 }
 
 impl MeshPlan {
@@ -121,6 +140,15 @@ impl MeshPlan {
             restitution,
         )
         .with_context(|| format!("{} at azimuth {azimuth_deg}°", self.path.display()))
+    }
+}
+
+impl MeshPlan {
+    /// The rigid body of the 3-D model (its dynamics do not depend on the density; 2500
+    /// kg/m³, granite-like, sets the reported mass only).
+    pub fn body_3d(&self) -> anyhow::Result<rockwatch_core::rocking3d::RockBody> {
+        rockwatch_core::rocking3d::RockBody::from_mesh(&self.geometry, &self.rest, 2500.0)
+            .with_context(|| format!("{}: the 3-D body", self.path.display()))
     }
 }
 
@@ -156,13 +184,19 @@ impl GeometryFlags {
                     self.contact_tolerance
                 );
             }
-            let rest = RockGeometry::read(path)?.rest(up, self.contact_tolerance)?;
+            let geometry = RockGeometry::read(path)?;
+            let rest = geometry.rest(up, self.contact_tolerance)?;
             return Ok(RockPlan::Mesh(MeshPlan {
                 path: path.clone(),
                 up,
+                geometry,
                 rest,
                 friction,
+                model: self.model,
             }));
+        }
+        if self.model == Model::ThreeD {
+            bail!("--model 3d needs a mesh rock (--mesh FILE)");
         }
         let params = match self {
             GeometryFlags {
