@@ -22,6 +22,7 @@ pub mod ode;
 pub mod partition;
 pub mod pulse;
 pub mod record;
+pub mod rocking3d;
 pub mod seedlink;
 pub mod simulate;
 pub mod station_id;

@@ -224,6 +224,20 @@ impl RockGeometry {
         &self.facets
     }
 
+    /// The vertices of the convex hull (mesh coordinates, m), each once, in increasing order
+    /// of their mesh index: the contact shape of the 3-D dynamics ([`crate::rocking3d`]).
+    #[must_use]
+    pub fn hull_vertices(&self) -> Vec<[f64; 3]> {
+        let mut indices: Vec<usize> = self
+            .facets
+            .iter()
+            .flat_map(|f| f.polygon.iter().copied())
+            .collect();
+        indices.sort_unstable();
+        indices.dedup();
+        indices.into_iter().map(|i| self.vertices[i]).collect()
+    }
+
     /// The rock's outline in the vertical plane of the direction `azimuth_deg` (degrees
     /// clockwise from north) through the centre of mass, resting on `rest`: one segment per
     /// mesh triangle the plane cuts, as ((s, z), (s, z)) with s the horizontal distance from

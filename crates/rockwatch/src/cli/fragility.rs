@@ -291,7 +291,12 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
     }
     let params = match args.geometry.plan(&args.friction)? {
         RockPlan::Planar(params) => params,
-        RockPlan::Mesh(mesh) => return mesh_rock(args, &mesh),
+        RockPlan::Mesh(mesh) => {
+            if mesh.model == super::rock_flags::Model::ThreeD {
+                bail!("fragility --model 3d is not implemented yet (docs/rocking-3d.md); use simulate --model 3d");
+            }
+            return mesh_rock(args, &mesh);
+        }
     };
     let label = format!(
         "{}, μs = {}, μk = {}",

@@ -46,6 +46,11 @@ pub struct GeometryFlags {
     /// A rock from its mesh.
     #[command(flatten)]
     pub mesh: MeshFlags,
+    /// The dynamics: `2d`, the planar body of one direction (default), or `3d`, the mesh
+    /// rock as one rigid body driven by every ground-motion component (docs/rocking-3d.md;
+    /// only with --mesh).
+    #[arg(long, value_enum, default_value_t = Model::TwoD)]
+    pub model: Model,
 }
 
 /// A rock from its closed mesh: the file, its up axis, the contact tolerance and whether to
@@ -133,6 +138,17 @@ pub fn describe_cap(c: &Cap) -> String {
     )
 }
 
+/// The dynamics of a rock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Model {
+    /// The planar body of one direction (docs/general-body.md, docs/meshes.md).
+    #[value(name = "2d")]
+    TwoD,
+    /// 3-D rigid-body rocking of a mesh rock (docs/rocking-3d.md).
+    #[value(name = "3d")]
+    ThreeD,
+}
+
 /// Friction and impact of the rock.
 #[derive(Debug, Clone, clap::Args)]
 pub struct FrictionFlags {
@@ -173,6 +189,7 @@ pub enum RockPlan {
 pub struct MeshPlan {
     pub mesh: LoadedMesh,
     pub friction: Friction,
+    pub model: Model,
 }
 
 impl MeshPlan {
@@ -201,6 +218,15 @@ impl MeshPlan {
     }
 }
 
+impl MeshPlan {
+    /// The rigid body of the 3-D model (its dynamics do not depend on the density; 2500
+    /// kg/m³, granite-like, sets the reported mass only).
+    pub fn body_3d(&self) -> anyhow::Result<rockwatch_core::rocking3d::RockBody> {
+        rockwatch_core::rocking3d::RockBody::from_mesh(&self.mesh.rock, &self.mesh.rest, 2500.0)
+            .with_context(|| format!("{}: the 3-D body", self.mesh.path.display()))
+    }
+}
+
 impl FrictionFlags {
     /// The friction of the flags: --mu-s required, --mu-k defaulting to it.
     pub fn resolve(&self) -> anyhow::Result<Friction> {
@@ -226,7 +252,14 @@ impl GeometryFlags {
             restitution,
         } = friction;
         if let Some(mesh) = self.mesh.load()? {
-            return Ok(RockPlan::Mesh(MeshPlan { mesh, friction }));
+            return Ok(RockPlan::Mesh(MeshPlan {
+                mesh,
+                friction,
+                model: self.model,
+            }));
+        }
+        if self.model == Model::ThreeD {
+            bail!("--model 3d needs a mesh rock (--mesh FILE)");
         }
         let params = match self {
             GeometryFlags {

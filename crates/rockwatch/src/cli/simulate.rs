@@ -7,9 +7,10 @@ use rockwatch::plot::{plot_simulation, short_number};
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::ode::Tolerance;
 use rockwatch_core::record::Record;
+use rockwatch_core::rocking3d::{simulate_3d, GroundMotion3d, Simulation3dOptions};
 use rockwatch_core::simulate::{simulate, SimulationOptions, Status, Summary, Trace};
 
-use super::rock_flags::{FrictionFlags, GeometryFlags, RockPlan};
+use super::rock_flags::{FrictionFlags, GeometryFlags, MeshPlan, Model, RockPlan};
 use super::OutputFormat;
 
 /// Simulate one rigid block (rest, slide, rock, slide-rock, overturn) under a recorded or
@@ -34,9 +35,18 @@ pub struct SimulateArgs {
     #[command(flatten)]
     geometry: GeometryFlags,
     /// With --mesh: the direction of the block's +x axis (and of the record's horizontal
-    /// component), degrees clockwise from the mesh's north axis.
+    /// component), degrees clockwise from the mesh's north axis. With --model 3d: the azimuth
+    /// of the record's horizontal component (positive values accelerate the ground towards
+    /// it).
     #[arg(long, value_name = "DEG", requires = "mesh")]
     azimuth: Option<f64>,
+    /// With --model 3d: a second horizontal component (AT2 or CSV, same sampling interval as
+    /// --record), with --azimuth2.
+    #[arg(long, value_name = "FILE", requires_all = ["azimuth2", "mesh"])]
+    record2: Option<PathBuf>,
+    /// The azimuth of --record2's component (degrees clockwise from the mesh's north).
+    #[arg(long, value_name = "DEG", requires = "record2")]
+    azimuth2: Option<f64>,
     /// Friction and impact.
     #[command(flatten)]
     friction: FrictionFlags,
@@ -76,7 +86,11 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     }
     let params = match args.geometry.plan(&args.friction)? {
         RockPlan::Planar(params) => params,
+        RockPlan::Mesh(mesh) if mesh.model == Model::ThreeD => return run_3d(&mesh, args),
         RockPlan::Mesh(mesh) => {
+            if args.record2.is_some() {
+                bail!("--record2 needs --model 3d (the planar model takes one direction)");
+            }
             let Some(azimuth) = args.azimuth else {
                 bail!("--mesh needs --azimuth (the direction to simulate)");
             };
@@ -84,6 +98,135 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         }
     };
     run_with(params, args)
+}
+
+/// Simulates a mesh rock in 3-D (docs/rocking-3d.md) as the flags say.
+fn run_3d(mesh: &MeshPlan, args: SimulateArgs) -> anyhow::Result<()> {
+    if args.plot.is_some() || args.trace.is_some() || args.rtol.is_some() {
+        bail!("--plot, --trace and --rtol are not available with --model 3d yet");
+    }
+    if mesh.friction.restitution.is_some() {
+        bail!("--restitution is not available with --model 3d (impacts are plastic, docs/rocking-3d.md)");
+    }
+    let Some(azimuth) = args.azimuth else {
+        bail!("--model 3d needs --azimuth (the azimuth of the record's horizontal component)");
+    };
+    let read = |path: &std::path::Path| -> anyhow::Result<Record> {
+        let mut r = Record::read(path)?;
+        r.scale(args.scale);
+        r.check_bounds()
+            .map_err(|e| anyhow::anyhow!("{} scaled by {:?}: {e}", path.display(), args.scale))?;
+        Ok(r)
+    };
+    let first = read(&args.record)?;
+    let second = match &args.record2 {
+        Some(path) => Some(read(path)?),
+        None => None,
+    };
+    let vertical = match &args.vertical {
+        Some(path) => Some(read(path)?),
+        None => None,
+    };
+    let mut horizontal = vec![(&first, azimuth)];
+    if let (Some(r), Some(az)) = (&second, args.azimuth2) {
+        horizontal.push((r, az));
+    }
+    let motion = GroundMotion3d::from_records(&horizontal, vertical.as_ref())?;
+    let options = Simulation3dOptions {
+        t_extra_s: args.t_extra,
+        ..Simulation3dOptions::default()
+    };
+    let friction = mesh.friction;
+    let summary = simulate_3d(
+        mesh.body_3d()?,
+        friction.mu_s,
+        friction.mu_k,
+        &motion,
+        &options,
+    )
+    .with_context(|| format!("simulating {} in 3-D", args.record.display()))?;
+    match args.format {
+        OutputFormat::Json => outln!("{}", serde_json::to_string_pretty(&summary)?),
+        OutputFormat::Text => {
+            let mut out = String::new();
+            use std::fmt::Write;
+            let _ = writeln!(
+                out,
+                "record      {} ({} samples, dt {} s) at azimuth {azimuth}°{}{}",
+                first.source,
+                first.len(),
+                first.dt_s,
+                match (&second, args.azimuth2) {
+                    (Some(r), Some(az)) => format!(", {} at azimuth {az}°", r.source),
+                    _ => String::new(),
+                },
+                vertical
+                    .as_ref()
+                    .map(|v| format!(", vertical {}", v.source))
+                    .unwrap_or_default()
+            );
+            let _ = writeln!(
+                out,
+                "rock        {} (3-D rigid body, resting facet h = {:.4} m, weakest α = {:.3}°), μs = {}, μk = {}",
+                mesh.mesh.path.display(),
+                mesh.mesh.rest.h_m,
+                summary.alpha_min.to_degrees(),
+                friction.mu_s,
+                friction.mu_k
+            );
+            let status = if summary.overturned {
+                format!(
+                    "OVERTURNED (tilt last passed α at t = {:.3} s)",
+                    summary.overturn_time.unwrap_or(f64::NAN)
+                )
+            } else {
+                "standing".to_string()
+            };
+            let _ = writeln!(out, "result      {status}");
+            let _ =
+                writeln!(
+                out,
+                "max tilt    {:.6} rad towards azimuth {:.1}°; max tilt/α {:.4} (azimuth {:.1}°){}",
+                summary.max_tilt,
+                summary.max_tilt_azimuth_deg,
+                summary.max_tilt_over_alpha,
+                summary.max_tilt_over_alpha_azimuth_deg,
+                if summary.exceeded_alpha { " (exceeded α)" } else { "" }
+            );
+            let _ = writeln!(
+                out,
+                "max slide   {:.6} m (centre of mass, horizontal), residual {:.6} m",
+                summary.max_slide, summary.residual_slide
+            );
+            let _ = writeln!(
+                out,
+                "twist       {:.6} rad at the end, max |twist| {:.6} rad",
+                summary.twist, summary.max_abs_twist
+            );
+            let p = summary.final_position;
+            let q = summary.final_rotation;
+            let _ = writeln!(
+                out,
+                "final pose  centre of mass ({:.6}, {:.6}, {:.6}) m (east, north, up), rotation (w, x, y, z) ({:.6}, {:.6}, {:.6}, {:.6})",
+                p[0], p[1], p[2], q[0], q[1], q[2], q[3]
+            );
+            let _ = writeln!(
+                out,
+                "flight      {}",
+                match summary.first_flight_time {
+                    Some(t) => format!("yes, first at t = {t:.4} s"),
+                    None => "no".to_string(),
+                }
+            );
+            let _ = writeln!(
+                out,
+                "simulated   {:.2} s, {} time steps, {} returns to rest",
+                summary.duration, summary.n_steps, summary.n_rest_entries
+            );
+            out!("{out}");
+        }
+    }
+    Ok(())
 }
 
 /// Simulates the block `params` as the flags say.

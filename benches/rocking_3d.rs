@@ -1,0 +1,116 @@
+//! Cost of the 3-D rigid-body rock (crates/rockwatch-core/src/rocking3d) per rock per input
+//! sample at 100 Hz: (a) at rest under weak motion (the closed-form rest test), (b) rocking
+//! (a 0.4 × 0.6 × 2.0 m box under a 1 Hz sine above its uplift threshold, released tilted so
+//! that it rocks throughout). Prints the number of 3-D rocks one core runs at 2× real time
+//! while all of them rock. Run: `cargo bench --bench rocking_3d` (compare benches/block_step.rs
+//! for the planar block).
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::{UnitQuaternion, Vector3};
+use rockwatch_core::mesh::contact::{RockGeometry, UpAxis};
+use rockwatch_core::mesh::TriMesh;
+use rockwatch_core::rocking3d::{GroundAccel3d, Rock3d, Rock3dOptions, RockBody};
+use std::hint::black_box;
+
+const DT: f64 = 0.01; // 100 Hz
+
+fn box_body() -> RockBody {
+    let (b, d, h) = (0.2, 0.3, 2.0);
+    let base = [(-b, -d), (b, -d), (b, d), (-b, d)];
+    let mut vertices: Vec<[f64; 3]> = base.iter().map(|&(x, y)| [x, y, 0.0]).collect();
+    vertices.extend(base.iter().map(|&(x, y)| [x, y, h]));
+    let faces = vec![
+        [0, 2, 1],
+        [0, 3, 2],
+        [4, 5, 6],
+        [4, 6, 7],
+        [0, 1, 5],
+        [0, 5, 4],
+        [1, 2, 6],
+        [1, 6, 5],
+        [2, 3, 7],
+        [2, 7, 6],
+        [3, 0, 4],
+        [3, 4, 7],
+    ];
+    let mut mesh = TriMesh {
+        source: "bench box".into(),
+        face_lines: vec![0; faces.len()],
+        vertices,
+        faces,
+    };
+    mesh.validate().expect("box");
+    let geometry = RockGeometry::new(&mesh).expect("geometry");
+    let rest = geometry.rest(UpAxis::PlusZ, 0.0).expect("rest");
+    RockBody::from_mesh(&geometry, &rest, 2500.0).expect("body")
+}
+
+fn sine(amp: f64, f_hz: f64, n: usize) -> Vec<GroundAccel3d> {
+    (0..=n)
+        .map(|i| {
+            let t = i as f64 * DT;
+            GroundAccel3d::horizontal(amp * (2.0 * std::f64::consts::PI * f_hz * t).sin(), 90.0)
+        })
+        .collect()
+}
+
+fn bench(c: &mut Criterion) {
+    let body = box_body();
+    let weak = sine(0.5, 2.0, 1000);
+    let strong = sine(2.3, 1.0, 1000);
+    let mut group = c.benchmark_group("rocking_3d");
+    group.bench_function("at rest, per sample", |bch| {
+        let mut rock = Rock3d::new(body.clone(), 0.8, 0.8, Rock3dOptions::default()).unwrap();
+        let mut i = 0;
+        bch.iter(|| {
+            let k = i % 1000;
+            rock.advance(DT, weak[k], weak[k + 1]).unwrap();
+            i += 1;
+            black_box(rock.mode());
+        });
+    });
+    // Rocking: released at a tilt of 0.05 rad about the west edge.
+    let released = || {
+        let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -0.05);
+        let x = Vector3::new(-0.2, 0.0, 0.0) - q * Vector3::new(-0.2, 0.0, -1.0);
+        Rock3d::released(
+            body.clone(),
+            0.8,
+            0.8,
+            Rock3dOptions::default(),
+            (x, q, Vector3::zeros(), Vector3::zeros()),
+        )
+        .unwrap()
+    };
+    let mut rocking_ns = 0.0;
+    group.bench_function("rocking, per sample", |bch| {
+        bch.iter_custom(|iters| {
+            let mut total = std::time::Duration::ZERO;
+            let mut done = 0u64;
+            while done < iters {
+                let mut rock = released();
+                let n = (iters - done).min(300);
+                let start = std::time::Instant::now();
+                for k in 0..n as usize {
+                    rock.advance(DT, strong[k], strong[k + 1]).unwrap();
+                }
+                total += start.elapsed();
+                done += n;
+            }
+            rocking_ns = total.as_nanos() as f64 / iters as f64;
+            total
+        });
+    });
+    group.finish();
+    if rocking_ns > 0.0 {
+        // One rock costs rocking_ns per 10 ms of data: at 2× real time a core has 5 ms.
+        println!(
+            "rocking: {:.1} µs per rock per 100 Hz sample → {:.0} rocks on one core at 2× real time",
+            rocking_ns / 1e3,
+            5e6 / rocking_ns
+        );
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,177 @@
+//! Offline 3-D simulation of a whole record through exactly the real-time API
+//! ([`Rock3d::advance`], one call per input interval), followed by `t_extra_s` of zero ground
+//! motion (stopped early once the rock is back at rest or has overturned: with no input a
+//! rock at rest stays so).
+
+use super::body::RockBody;
+use super::ground::{GroundAccel3d, GroundMotion3d};
+use super::rock::{Advance3dError, Mode3d, Rock3d, Rock3dOptions};
+use crate::simulate::MAX_SIMULATION_STEPS;
+
+/// Options of an offline 3-D simulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Simulation3dOptions {
+    /// Seconds of zero ground acceleration after the last sample.
+    pub t_extra_s: f64,
+    pub rock: Rock3dOptions,
+}
+
+impl Default for Simulation3dOptions {
+    fn default() -> Self {
+        Simulation3dOptions {
+            t_extra_s: 10.0,
+            rock: Rock3dOptions::default(),
+        }
+    }
+}
+
+/// How a 3-D simulation ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Status3d {
+    /// Standing at the end (at rest or still moving).
+    Ok,
+    Overturned,
+}
+
+/// The response summary of one 3-D simulation (SI units; angles in rad unless named `_deg`;
+/// azimuths in degrees clockwise from north; positions in the ground frame east, north, up
+/// relative to the ground point below the initial centre of mass).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Summary3d {
+    pub model: &'static str,
+    pub status: Status3d,
+    pub overturned: bool,
+    /// Last upward crossing of tilt/α = 1 before the fall (s).
+    pub overturn_time: Option<f64>,
+    /// Largest tilt (rad) and the azimuth towards which the top had moved then.
+    pub max_tilt: f64,
+    pub max_tilt_azimuth_deg: f64,
+    /// Largest tilt/α(d) (d the tilt azimuth, α(d) = atan(r(d)/h)) and its azimuth.
+    pub max_tilt_over_alpha: f64,
+    pub max_tilt_over_alpha_azimuth_deg: f64,
+    pub exceeded_alpha: bool,
+    /// Largest horizontal displacement of the centre of mass relative to the ground (m;
+    /// includes the rocking excursion h·sin(tilt)).
+    pub max_slide: f64,
+    /// Horizontal displacement of the centre of mass at the end (m).
+    pub residual_slide: f64,
+    /// Rotation about the vertical at the end (rad, counter-clockwise seen from above) and
+    /// its largest magnitude.
+    pub twist: f64,
+    pub max_abs_twist: f64,
+    /// Final centre of mass (m) and rotation body → ground (quaternion w, x, y, z; the body
+    /// frame is the resting pose's east, north, up).
+    pub final_position: [f64; 3],
+    pub final_rotation: [f64; 4],
+    /// The rock was in free flight at some time, and when first.
+    pub flight: bool,
+    pub first_flight_time: Option<f64>,
+    /// When rest first broke (s).
+    pub first_motion_time: Option<f64>,
+    /// Uplift angle (rad) of the weakest direction: min over d of atan(r(d)/h).
+    pub alpha_min: f64,
+    /// Simulated duration (s).
+    pub duration: f64,
+    pub n_steps: u64,
+    pub n_rest_entries: u32,
+    /// Contact solves that hit the sweep limit (should stay 0) and the most sweeps used.
+    pub n_unconverged: u64,
+    pub max_sweeps: u32,
+}
+
+/// Why a 3-D simulation failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Simulate3dError {
+    #[error("the ground motion has fewer than two samples")]
+    TooShort,
+    #[error("t_extra must be a finite number of seconds ≥ 0, got {0}")]
+    BadExtra(f64),
+    #[error(
+        "{steps} input intervals (record plus t_extra at dt = {dt_s} s) exceed the limit of \
+         {MAX_SIMULATION_STEPS}"
+    )]
+    TooManySteps { steps: f64, dt_s: f64 },
+    #[error("at t = {t_s} s: {reason}")]
+    Advance { t_s: f64, reason: Advance3dError },
+}
+
+/// Simulates `body` (friction `mu_s`, `mu_k`) under `motion`.
+pub fn simulate_3d(
+    body: RockBody,
+    mu_s: f64,
+    mu_k: f64,
+    motion: &GroundMotion3d,
+    options: &Simulation3dOptions,
+) -> Result<Summary3d, Simulate3dError> {
+    let n = motion.len();
+    if n < 2 {
+        return Err(Simulate3dError::TooShort);
+    }
+    if !(options.t_extra_s.is_finite() && options.t_extra_s >= 0.0) {
+        return Err(Simulate3dError::BadExtra(options.t_extra_s));
+    }
+    let dt = motion.dt_s;
+    let steps = n as f64 + (options.t_extra_s / dt).ceil();
+    if !(dt > 0.0 && steps <= MAX_SIMULATION_STEPS as f64) {
+        return Err(Simulate3dError::TooManySteps { steps, dt_s: dt });
+    }
+    let n_extra = (options.t_extra_s / dt).ceil() as usize;
+    let alpha_min = {
+        let edges = body.edges();
+        let dist = edges.iter().map(|e| e.2).fold(f64::INFINITY, f64::min);
+        (dist / body.h_m()).atan()
+    };
+    let mut rock = Rock3d::new(body, mu_s, mu_k, options.rock)
+        .map_err(|reason| Simulate3dError::Advance { t_s: 0.0, reason })?;
+    let at = |i: usize| motion.samples.get(i).copied().unwrap_or_default();
+    for i in 0..n - 1 + n_extra {
+        if i + 1 >= n && rock.mode() == Mode3d::Rest {
+            break;
+        }
+        let (from, to): (GroundAccel3d, GroundAccel3d) = (at(i), at(i + 1));
+        rock.advance(dt, from, to)
+            .map_err(|reason| Simulate3dError::Advance {
+                t_s: rock.time_s(),
+                reason,
+            })?;
+        if rock.mode() == Mode3d::Overturned {
+            break;
+        }
+    }
+    let s = *rock.stats();
+    let overturned = rock.mode() == Mode3d::Overturned;
+    let x = rock.position();
+    let q = rock.rotation();
+    let q = q.quaternion();
+    Ok(Summary3d {
+        model: "3d",
+        status: if overturned {
+            Status3d::Overturned
+        } else {
+            Status3d::Ok
+        },
+        overturned,
+        overturn_time: s.overturn_time_s,
+        max_tilt: s.max_tilt_rad,
+        max_tilt_azimuth_deg: s.max_tilt_azimuth_deg,
+        max_tilt_over_alpha: s.max_tilt_over_alpha,
+        max_tilt_over_alpha_azimuth_deg: s.max_tilt_over_alpha_azimuth_deg,
+        exceeded_alpha: s.exceeded_alpha,
+        max_slide: s.max_slide_m,
+        residual_slide: x.x.hypot(x.y),
+        twist: rock.twist_rad(),
+        max_abs_twist: s.max_abs_twist_rad,
+        final_position: [x.x, x.y, x.z],
+        final_rotation: [q.w, q.i, q.j, q.k],
+        flight: s.flight,
+        first_flight_time: s.first_flight_s,
+        first_motion_time: s.first_motion_s,
+        alpha_min,
+        duration: rock.time_s(),
+        n_steps: s.n_steps,
+        n_rest_entries: s.n_rest_entries,
+        n_unconverged: s.n_unconverged,
+        max_sweeps: s.max_sweeps,
+    })
+}
