@@ -90,6 +90,38 @@ fn expected_lines(fault: Fault) -> (&'static str, &'static str) {
     }
 }
 
+/// The line of acquire's `/metrics` that counts the fault (`None`: the fault has no counter of
+/// its own: a re-sent record is a duplicate like any other).
+fn expected_metric(fault: Fault) -> Option<&'static str> {
+    match fault {
+        Fault::OtherRate => {
+            Some("rockwatch_acquire_records_refused_total{reason=\"other_rate\"} 1\n")
+        }
+        Fault::HugeValuesFarAhead => {
+            Some("rockwatch_acquire_records_refused_total{reason=\"impossible_values\"} 1\n")
+        }
+        Fault::FarFuture => {
+            Some("rockwatch_acquire_records_refused_total{reason=\"far_ahead\"} 1\n")
+        }
+        Fault::NextFarAheadThenHang | Fault::NextFarAheadThenClose => {
+            Some("rockwatch_acquire_link_sequence_outliers_total 1\n")
+        }
+        Fault::ResentFarAheadThenHang => None,
+    }
+}
+
+/// `GET /metrics` of acquire (its `[metrics]` listen address in the Rig's configuration).
+fn scrape() -> String {
+    use std::io::{Read, Write};
+    let Ok(mut s) = std::net::TcpStream::connect(acquire_util::ACQUIRE_METRICS) else {
+        return String::new();
+    };
+    let _ = s.write_all(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n");
+    let mut reply = String::new();
+    let _ = s.read_to_string(&mut reply);
+    reply
+}
+
 fn run(fault: Fault, restart: bool) {
     let server = Hostile::start();
     let mut rig = Rig::start(server.addr, "idle_timeout_s = 2.0");
@@ -131,6 +163,13 @@ fn run(fault: Fault, restart: bool) {
     } else {
         server.push(&records[AT..]);
         running = rig.acquire("iceoryx2");
+        // The fault is counted on acquire's /metrics while it runs.
+        if let Some(metric) = expected_metric(fault) {
+            rig.wait(
+                &format!("acquire's /metrics never said {metric:?}"),
+                &|_| scrape().contains(metric),
+            );
+        }
     }
     let logs = rig.finish(running, Duration::from_secs(60), &scenario);
     server.stop();
@@ -297,7 +336,7 @@ impl RecordSink for Until<'_> {
     fn published_until_ns(&self, _: &str) -> Option<i64> {
         None
     }
-    fn tick(&mut self) {
+    fn tick(&mut self, _: &LinkCounters) {
         if Instant::now() > self.deadline {
             self.stop.store(true, Ordering::Relaxed);
         }
@@ -468,8 +507,8 @@ fn refused_records_are_never_delivered_nor_saved_and_their_clean_copies_go_throu
                 fn published_until_ns(&self, s: &str) -> Option<i64> {
                     self.inner.published_until_ns(s)
                 }
-                fn tick(&mut self) {
-                    self.inner.tick();
+                fn tick(&mut self, link: &LinkCounters) {
+                    self.inner.tick(link);
                     if Instant::now() > self.deadline {
                         self.stop.store(true, Ordering::Relaxed);
                     }

@@ -231,6 +231,10 @@ impl Drop for Process {
 }
 
 /// The latest record start per stream in `records`.
+/// Where every Rig's acquire serves `/metrics` (each test runs in its own network namespace,
+/// and one acquire runs at a time).
+pub const ACQUIRE_METRICS: &str = "127.0.0.1:9465";
+
 pub fn latest_starts(records: &[Vec<u8>]) -> BTreeMap<String, i64> {
     let mut out = BTreeMap::new();
     for r in records {
@@ -295,7 +299,8 @@ impl Rig {
             format!(
                 "[seedlink]\nserver = \"{server}\"\nstreams = [\"XX.STN..HN?\"]\nprotocol = 3\n\
                  reconnect_initial_s = 0.2\nreconnect_max_s = 0.5\n{extra_seedlink}\n\
-                 [inventory]\nstationxml = [\"{}\"]\n[assembly]\nmax_wait_s = 3.0\n{ros2_section}{iox_section}",
+                 [inventory]\nstationxml = [\"{}\"]\n[assembly]\nmax_wait_s = 3.0\n\
+                 [metrics]\nlisten = \"{ACQUIRE_METRICS}\"\n{ros2_section}{iox_section}",
                 xml.display()
             ),
         )

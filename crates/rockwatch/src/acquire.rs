@@ -17,7 +17,7 @@ use crate::log_text::{printable, STATION_CHARS};
 use crate::node::RateLimitedLog;
 use crate::ports::PacketSink;
 use crate::ros2::Ros2Config;
-use crate::seedlink::{RecordSink, SeedLinkConfig, Taken, LOG_INTERVAL};
+use crate::seedlink::{LinkCounters, RecordSink, SeedLinkConfig, Taken, LOG_INTERVAL};
 
 /// The acquisition configuration file.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
@@ -46,6 +46,122 @@ pub struct AcquireConfig {
     /// Stations assigned to a partition explicitly, as in the nodes' configurations.
     #[serde(default)]
     pub partition_assign: BTreeMap<String, u32>,
+    /// `[metrics] listen = "127.0.0.1:9465"`: acquire's counters as Prometheus text on
+    /// `GET /metrics` ([`acquire_prometheus`]); none by default.
+    #[serde(default)]
+    pub metrics: crate::metrics::MetricsConfig,
+}
+
+/// Acquire's counters in the Prometheus text exposition format (served on `/metrics`): the
+/// link (`rockwatch_acquire_link_*`), the records refused by reason, the assembly and the
+/// publication. Counters are totals since acquire started.
+#[must_use]
+pub fn acquire_prometheus(
+    link: &LinkCounters,
+    published: &PublishCounters,
+    assembled: &AssemblyCounters,
+) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let mut counter = |name: &str, help: &str, values: &[(&str, u64)]| {
+        let _ = writeln!(out, "# HELP rockwatch_acquire_{name} {help}");
+        let _ = writeln!(out, "# TYPE rockwatch_acquire_{name} counter");
+        for (labels, v) in values {
+            let _ = writeln!(out, "rockwatch_acquire_{name}{labels} {v}");
+        }
+    };
+    let other = assembled.refused_records.saturating_sub(
+        assembled.other_rate_records + assembled.implausible_records + assembled.far_ahead_records,
+    );
+    counter(
+        "link_connections_total",
+        "SeedLink connections made.",
+        &[("", link.connections)],
+    );
+    counter(
+        "link_disconnects_total",
+        "SeedLink connections lost or closed.",
+        &[("", link.disconnects)],
+    );
+    counter(
+        "link_packets_total",
+        "SeedLink packets received.",
+        &[("", link.packets)],
+    );
+    counter(
+        "link_records_delivered_total",
+        "Records delivered to the assembler.",
+        &[("", link.delivered)],
+    );
+    counter(
+        "link_duplicates_total",
+        "Records dropped as already delivered.",
+        &[("", link.duplicates)],
+    );
+    counter(
+        "link_malformed_total",
+        "Packets that could not be decoded.",
+        &[("", link.malformed)],
+    );
+    counter(
+        "link_missing_sequences_total",
+        "Sequence numbers skipped by the server.",
+        &[("", link.missing_sequences)],
+    );
+    counter(
+        "link_sequence_outliers_total",
+        "Sequence numbers out of line (one odd number, not a server restart).",
+        &[("", link.sequence_outliers)],
+    );
+    counter(
+        "link_server_restarts_total",
+        "Connections on which the server had restarted.",
+        &[("", link.server_restarts)],
+    );
+    counter(
+        "link_resume_fallbacks_total",
+        "Resumes by sequence number that yielded nothing and fell back to time.",
+        &[("", link.resume_fallbacks)],
+    );
+    counter(
+        "records_refused_total",
+        "Records refused (never used, never a resume point), by reason.",
+        &[
+            ("{reason=\"other_rate\"}", assembled.other_rate_records),
+            (
+                "{reason=\"impossible_values\"}",
+                assembled.implausible_records,
+            ),
+            ("{reason=\"far_ahead\"}", assembled.far_ahead_records),
+            ("{reason=\"other\"}", other),
+        ],
+    );
+    counter(
+        "clipped_samples_total",
+        "Samples at or beyond their stream's full scale (used, flagged).",
+        &[("", published.clipped_samples)],
+    );
+    counter(
+        "overlap_samples_total",
+        "Samples trimmed as overlapping data already assembled.",
+        &[("", assembled.overlap_samples)],
+    );
+    counter(
+        "missing_component_samples_total",
+        "Samples of a missing component zero-filled.",
+        &[("", assembled.missing_component_samples)],
+    );
+    counter(
+        "packets_published_total",
+        "Packets published to the node.",
+        &[("", published.packets_sent)],
+    );
+    counter(
+        "send_errors_total",
+        "Packets the output transport refused.",
+        &[("", published.send_errors)],
+    );
+    out
 }
 
 /// `[inventory]`.
@@ -349,7 +465,7 @@ impl RecordSink for PacketPublisher<'_> {
         }
     }
 
-    fn tick(&mut self) {
+    fn tick(&mut self, _link: &LinkCounters) {
         if let Err(e) = self.sink.tick() {
             self.log.log(
                 "output",
@@ -447,6 +563,44 @@ mod tests {
         drop(publisher);
         let samples: usize = sink.0.iter().map(AccelPacket::len).sum();
         assert_eq!(samples, 8250, "every XX.STN. sample published");
+    }
+
+    #[test]
+    fn prometheus_text_names_each_refusal_reason_and_the_link_counters() {
+        let link = LinkCounters {
+            sequence_outliers: 2,
+            resume_fallbacks: 1,
+            ..LinkCounters::default()
+        };
+        let published = PublishCounters {
+            packets_sent: 7,
+            ..PublishCounters::default()
+        };
+        let assembled = AssemblyCounters {
+            refused_records: 6,
+            other_rate_records: 1,
+            implausible_records: 2,
+            far_ahead_records: 1,
+            ..AssemblyCounters::default()
+        };
+        let text = acquire_prometheus(&link, &published, &assembled);
+        for line in [
+            "rockwatch_acquire_records_refused_total{reason=\"other_rate\"} 1\n",
+            "rockwatch_acquire_records_refused_total{reason=\"impossible_values\"} 2\n",
+            "rockwatch_acquire_records_refused_total{reason=\"far_ahead\"} 1\n",
+            "rockwatch_acquire_records_refused_total{reason=\"other\"} 2\n",
+            "rockwatch_acquire_link_sequence_outliers_total 2\n",
+            "rockwatch_acquire_link_resume_fallbacks_total 1\n",
+            "rockwatch_acquire_packets_published_total 7\n",
+            "# TYPE rockwatch_acquire_records_refused_total counter\n",
+        ] {
+            assert!(text.contains(line), "{line:?} missing from:\n{text}");
+        }
+        // Every sample line belongs to a declared metric.
+        for l in text.lines().filter(|l| !l.starts_with('#')) {
+            let name = l.split(['{', ' ']).next().unwrap_or("");
+            assert!(text.contains(&format!("# TYPE {name} counter")), "{l}");
+        }
     }
 
     #[test]

@@ -2,15 +2,16 @@
 
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _};
-use rockwatch::acquire::{AcquireConfig, PacketPublisher};
+use rockwatch::acquire::{acquire_prometheus, AcquireConfig, PacketPublisher};
 use rockwatch::iox::IoxPacketSink;
+use rockwatch::metrics::MetricsServer;
 use rockwatch::ports::PacketSink;
 use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
 use rockwatch::sd_notify::SystemdNotifier;
-use rockwatch::seedlink::{RecordSink, SeedLinkClient, Taken};
+use rockwatch::seedlink::{LinkCounters, RecordSink, SeedLinkClient, Taken};
 use rockwatch::signals::stop_on_signals;
 use rockwatch_core::inventory::Inventory;
 
@@ -50,11 +51,16 @@ pub struct AcquireArgs {
     to: Output,
 }
 
+/// How often `[metrics]` gets acquire's counters (s).
+const METRICS_PERIOD: Duration = Duration::from_secs(1);
+
 /// The publisher, pinging systemd's watchdog on the receive loop's ticks (about every
-/// 100 ms while connected): a loop that stops turning stops the pings.
+/// 100 ms while connected): a loop that stops turning stops the pings. With `[metrics]`, it
+/// hands the endpoint the counters once per [`METRICS_PERIOD`].
 struct Watched<'a, 's> {
     inner: PacketPublisher<'s>,
     systemd: Option<&'a mut SystemdNotifier>,
+    metrics: Option<(MetricsServer, Instant)>,
 }
 
 impl RecordSink for Watched<'_, '_> {
@@ -66,10 +72,19 @@ impl RecordSink for Watched<'_, '_> {
         self.inner.published_until_ns(station)
     }
 
-    fn tick(&mut self) {
-        self.inner.tick();
+    fn tick(&mut self, link: &LinkCounters) {
+        self.inner.tick(link);
         if let Some(systemd) = &mut self.systemd {
             systemd.ping_if_due();
+        }
+        if let Some(metrics) = &mut self.metrics {
+            if metrics.1.elapsed() >= METRICS_PERIOD {
+                let (published, assembled) = self.inner.counters();
+                metrics
+                    .0
+                    .update(acquire_prometheus(link, &published, &assembled));
+                metrics.1 = Instant::now();
+            }
         }
     }
 
@@ -90,6 +105,10 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot create the state directory {}", dir.display()))?;
     }
     let inventory = Inventory::read_all(&config.inventory.stationxml)?;
+    let metrics = match &config.metrics.listen {
+        Some(listen) => Some((MetricsServer::start(listen)?, Instant::now())),
+        None => None,
+    };
     let mut client = SeedLinkClient::new(config.seedlink.clone(), state_dir.as_deref())
         .map_err(anyhow::Error::msg)?;
     let mut sink: Box<dyn PacketSink> = match args.to {
@@ -138,10 +157,19 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
             sink.as_mut(),
         ),
         systemd: systemd.as_mut(),
+        metrics,
     };
     let result = client.run(&stop, &mut publisher);
     if let Some(systemd) = publisher.systemd.take() {
         systemd.stopping();
+    }
+    if let Some((metrics, _)) = &publisher.metrics {
+        let (published, assembled) = publisher.inner.counters();
+        metrics.update(acquire_prometheus(
+            &client.counters(),
+            &published,
+            &assembled,
+        ));
     }
     let (published, assembled) = publisher.inner.counters();
     let link = client.counters();

@@ -215,8 +215,9 @@ pub trait RecordSink {
     /// Time before which every sample of station `NET.STA.LOC` has been published (ns);
     /// `None` if the sink holds nothing of it.
     fn published_until_ns(&self, station: &str) -> Option<i64>;
-    /// Called about every 100 ms while connected (bounded waits, housekeeping).
-    fn tick(&mut self);
+    /// Called about every 100 ms while connected (bounded waits, housekeeping), with the
+    /// link's counters so far (for a sink that reports them, e.g. acquire's /metrics).
+    fn tick(&mut self, link: &LinkCounters);
     /// The link came up (`true`: streams requested, data may flow) or went down. A sink that
     /// waits for data (a missing component) should not count the time the link is down:
     /// the data is not missing, it has not been fetched yet.
@@ -236,7 +237,7 @@ impl<F: FnMut(&Channel)> RecordSink for EachRecord<F> {
         None
     }
 
-    fn tick(&mut self) {}
+    fn tick(&mut self, _link: &LinkCounters) {}
 
     fn link(&mut self, _up: bool) {}
 }
@@ -506,7 +507,7 @@ impl SeedLinkClient {
             }
             let before = self.counters.packets;
             let got = conn.poll_frames(TICK, &mut |frame| self.on_frame(protocol, frame, sink))?;
-            sink.tick();
+            sink.tick(&self.counters);
             if !resumes_checked && connected.elapsed() > idle {
                 resumes_checked = true;
                 if let Some(e) = self.fall_back_to_time(&by_sequence) {
