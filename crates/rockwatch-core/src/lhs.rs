@@ -26,6 +26,17 @@ use rand::{Rng, SeedableRng};
 /// The random generator used for all reproducible sampling in rockwatch: ChaCha8.
 pub type SampleRng = ChaCha8Rng;
 
+/// The seed of stream `index` derived from `seed`: SplitMix64 of `seed + (index + 1)·γ`
+/// (γ = 0x9E3779B97F4A7C15), so streams (the study's pulse pairs, the fragility's bootstrap
+/// replicates) get unrelated, reproducible random sequences.
+#[must_use]
+pub fn derived_seed(seed: u64, index: usize) -> u64 {
+    let mut z = seed.wrapping_add((index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
 /// A [`SampleRng`] keyed by `seed`: the 256-bit ChaCha key is `seed` in little-endian order in
 /// bytes 0–7 followed by 24 zero bytes, stream 0, position 0. Fully specified by the ChaCha
 /// algorithm, so stable across platforms and `rand` versions.

@@ -200,18 +200,9 @@ impl MeshRock {
         self.azimuths
             .iter()
             .map(|az| {
-                let d = self
-                    .rest
-                    .direction_at(az.degrees() - heading_deg, tolerance_m);
-                BlockParams::from_body(
-                    d.b_plus_m,
-                    d.b_minus_m,
-                    d.h_m,
-                    d.rho_m,
-                    mu_s,
-                    mu_k,
-                    restitution,
-                )
+                self.rest
+                    .direction_at(az.degrees() - heading_deg, tolerance_m)
+                    .block(mu_s, mu_k, restitution)
             })
             .collect()
     }

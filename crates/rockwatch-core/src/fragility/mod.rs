@@ -11,7 +11,7 @@
 //! 3. [`analyse`]: per IM, a lognormal fragility by maximum likelihood ([`fit`]: binomial
 //!    over stripes for the stripe IM, over (record, scale) groups otherwise), percentile
 //!    bootstrap confidence intervals from resampling records (seeded: replicate b uses the
-//!    seed [`crate::study::pair_seed`]`(seed, b)`), the IMs ranked by β, and a two-IM probit
+//!    seed [`crate::lhs::derived_seed`]`(seed, b)`), the IMs ranked by β, and a two-IM probit
 //!    surface evaluated on a grid.
 //!
 //! Rock input: a list of [`RockMember`]s (ensemble members), each a list of
@@ -619,10 +619,10 @@ pub fn percentile_interval(values: &[f64]) -> Option<[f64; 2]> {
 }
 
 /// The bootstrap weights of replicate `b`: how many times each of `n_records` records is
-/// drawn in `n_records` draws with replacement, from the seed `pair_seed(seed, b)`.
+/// drawn in `n_records` draws with replacement, from the seed `derived_seed(seed, b)`.
 #[must_use]
 pub fn bootstrap_weights(seed: u64, b: usize, n_records: usize) -> Vec<f64> {
-    let mut rng = rng_from_seed(crate::study::pair_seed(seed, b));
+    let mut rng = rng_from_seed(crate::lhs::derived_seed(seed, b));
     let mut w = vec![0.0; n_records];
     for _ in 0..n_records {
         w[uniform_below(&mut rng, n_records as u64) as usize] += 1.0;

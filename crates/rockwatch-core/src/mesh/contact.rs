@@ -51,6 +51,7 @@ use super::hull::{convex_hull, Facet};
 use super::mass::MassProperties;
 use super::support_polygon::SupportPolygon;
 use super::{cross, dot, norm, normalize, scale3, sub, MeshError, TriMesh};
+use crate::dynamics::{BlockParams, ParamError};
 
 /// Default contact tolerance (m): 0, the resting hull facet alone. A wider patch moves the
 /// pivots outwards (by factors of 2–8 on half-metre scanned specimens at 5 mm): an unsafe
@@ -176,6 +177,27 @@ pub struct DirectionBody {
     pub rho_m: f64,
     pub alpha_plus_deg: f64,
     pub alpha_minus_deg: f64,
+}
+
+impl DirectionBody {
+    /// The planar block of this direction with its friction and impact
+    /// ([`BlockParams::from_body`], docs/general-body.md).
+    pub fn block(
+        &self,
+        mu_s: f64,
+        mu_k: f64,
+        restitution: Option<f64>,
+    ) -> Result<BlockParams, ParamError> {
+        BlockParams::from_body(
+            self.b_plus_m,
+            self.b_minus_m,
+            self.h_m,
+            self.rho_m,
+            mu_s,
+            mu_k,
+            restitution,
+        )
+    }
 }
 
 impl RockGeometry {

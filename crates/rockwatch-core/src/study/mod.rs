@@ -6,7 +6,7 @@
 //! Pipeline (pure; the writers of its reports and plots are in the shell, `rockwatch::study`):
 //! 1. [`run_study`]: for each Mw–R pair, `pulses_per_pair` Mavroeidis–Papageorgiou pulses by
 //!    Latin hypercube ([`crate::pulse::sample_pulses`], seed derived from the study seed and
-//!    the pair's index by [`pair_seed`]); for every pulse the 37 study IMs
+//!    the pair's index by [`crate::lhs::derived_seed`]); for every pulse the 37 study IMs
 //!    ([`crate::ims::study_ims`]) of the pulse followed by `im_pad_s` of zeros, and the response
 //!    of every block ([`crate::simulate::simulate`], the pulse alone followed by `t_extra_s` of
 //!    free vibration). Pulses run in parallel (rayon); results are collected in pulse order, so
@@ -27,6 +27,7 @@ use crate::dynamics::{BlockParams, Mode, ParamError};
 use crate::fragility::fit::FitError;
 pub use crate::ims::STUDY_IM_UNITS;
 use crate::ims::{compute_ims, study_ims, ImError, ImOptions, STUDY_IM_COUNT, STUDY_IM_NAMES};
+use crate::lhs::derived_seed;
 use crate::pulse::{sample_pulses, PulseError, PulseParameters, PulseScenario};
 use crate::simulate::{simulate, SimulationOptions, Status};
 use fragility::{fit_lognormal, LognormalFragility};
@@ -461,17 +462,6 @@ impl Pair {
     }
 }
 
-/// The pulse seed of pair `pair_index`: SplitMix64 of `study_seed + (pair_index + 1)·γ`
-/// (γ = 0x9E3779B97F4A7C15), so pairs get unrelated, reproducible Latin hypercubes.
-#[must_use]
-pub fn pair_seed(study_seed: u64, pair_index: usize) -> u64 {
-    let mut z =
-        study_seed.wrapping_add((pair_index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// One pulse of the study and its IMs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PulseCase {
@@ -621,7 +611,7 @@ pub fn run_study(
         let sampled = sample_pulses(
             &scenario,
             config.pulses_per_pair,
-            pair_seed(config.seed, pair_index),
+            derived_seed(config.seed, pair_index),
         )
         .map_err(pulse_error)?;
         drawn.extend(sampled.into_iter().map(|s| (pair_index, s)));

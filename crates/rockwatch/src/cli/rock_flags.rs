@@ -199,26 +199,18 @@ impl MeshPlan {
         if !azimuth_deg.is_finite() {
             bail!("azimuth must be a finite number of degrees, got {azimuth_deg}");
         }
-        let d = self.mesh.rest.direction(azimuth_deg);
         let Friction {
             mu_s,
             mu_k,
             restitution,
         } = self.friction;
-        BlockParams::from_body(
-            d.b_plus_m,
-            d.b_minus_m,
-            d.h_m,
-            d.rho_m,
-            mu_s,
-            mu_k,
-            restitution,
-        )
-        .with_context(|| format!("{} at azimuth {azimuth_deg}°", self.mesh.path.display()))
+        self.mesh
+            .rest
+            .direction(azimuth_deg)
+            .block(mu_s, mu_k, restitution)
+            .with_context(|| format!("{} at azimuth {azimuth_deg}°", self.mesh.path.display()))
     }
-}
 
-impl MeshPlan {
     /// The rigid body of the 3-D model (its dynamics do not depend on the density; 2500
     /// kg/m³, granite-like, sets the reported mass only).
     pub fn body_3d(&self) -> anyhow::Result<rockwatch_core::rocking3d::RockBody> {
