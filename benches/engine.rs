@@ -66,6 +66,7 @@ fn pbrs(case: Case) -> Vec<PbrSpec> {
                         .expect("valid block"),
                     members: vec![],
                     more_directions: vec![],
+                    rock_3d: None,
                 }
             })
         })

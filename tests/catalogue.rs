@@ -426,7 +426,7 @@ fn csv_header_problems_are_reported() {
     assert_eq!(
         csv_error(&format!("{CSV_HEADER},colour\n{CSV_ROW},red\n")),
         "test.csv:1: unknown column \"colour\" in the CSV header (known: id, name, lat, lon, \
-         station, source, azimuth_deg, ensemble, seed, mesh, up, azimuths, cap, and for P in width_m, \
+         station, source, azimuth_deg, ensemble, seed, mesh, up, azimuths, cap, model, and for P in width_m, \
          height_m, half_diagonal_m, alpha_deg, b_plus_m, b_minus_m, h_m, rho_m, heading_deg, \
          contact_tolerance_m, mu_s, mu_k, restitution: P, P_min + P_max, or P_mean + P_sd)"
     );
@@ -1285,4 +1285,103 @@ fn mesh_entry_problems_are_reported_by_field() {
     assert!(toml_error(&planar).contains("heading_deg needs mesh"));
     let no_azimuth = entry(&[("azimuth_deg", None)]);
     assert!(toml_error(&no_azimuth).contains("azimuth_deg is missing"));
+}
+
+#[test]
+fn a_mesh_rock_may_be_integrated_in_3d_and_what_the_3d_model_cannot_take_is_refused() {
+    use rockwatch_core::catalogue::RockModel;
+    let dir = tempfile::tempdir().unwrap();
+    // The default is the planar reduction; model = "2d" says so explicitly.
+    for extra in ["", "model = \"2d\"\n"] {
+        let cat = Catalogue::load(mesh_catalogue(dir.path(), extra)).unwrap();
+        assert_eq!(cat.pbrs()[0].model(), RockModel::Planar);
+        assert!(cat.pbrs()[0].rigid_members(1).is_none());
+    }
+    // model = "3d": the rigid body of the mesh, and the heading and friction of each member
+    // drawn as in the planar model (same hypercube: member i has the same heading).
+    let path = mesh_catalogue(
+        dir.path(),
+        "model = \"3d\"\nheading_deg = { min = -10, max = 10 }\nensemble = 5\n",
+    );
+    let cat = Catalogue::load(&path).unwrap();
+    let pbr = &cat.pbrs()[0];
+    assert_eq!(pbr.model(), RockModel::Rigid3d);
+    let body = pbr.mesh().unwrap().body().expect("a 3-D body");
+    // BOX_OBJ's centre of mass is half its height above the resting facet.
+    let hull_top = body
+        .vertices()
+        .iter()
+        .map(|v| v.z)
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!((hull_top - body.h_m()).abs() < 1e-12);
+    let (nominal, members) = pbr.rigid_members(5).unwrap();
+    assert_eq!(
+        (nominal.heading_deg, nominal.mu_s, nominal.mu_k),
+        (0.0, 0.8, 0.6)
+    );
+    assert_eq!(members.len(), 5);
+    let planar = Catalogue::load(mesh_catalogue(
+        dir.path(),
+        "heading_deg = { min = -10, max = 10 }\nensemble = 5\nazimuths = [0]\n",
+    ))
+    .unwrap();
+    let planar_directions = planar.pbrs()[0].directions().unwrap();
+    for (i, m) in members.iter().enumerate() {
+        assert!((-10.0..=10.0).contains(&m.heading_deg));
+        // Planar member i of heading h has its direction 0 at mesh azimuth −h: the same draw.
+        let expected = planar.pbrs()[0]
+            .mesh()
+            .unwrap()
+            .rest()
+            .direction_at(-m.heading_deg, 0.0);
+        assert_eq!(
+            planar_directions[0].members[i],
+            expected.block(m.mu_s, m.mu_k, None).unwrap()
+        );
+    }
+    // The engine integrates it as one 3-D rock.
+    let spec = rockwatch_core::engine::PbrSpec::from_catalogue(pbr).unwrap();
+    let rock = spec.rock_3d.as_ref().expect("3-D spec");
+    assert_eq!((rock.nominal, rock.members.len()), (nominal, 5));
+    assert!(spec.members.is_empty() && spec.more_directions.is_empty());
+    // Refused, by field, with the reason.
+    let cases = [
+        (
+            "model = \"4d\"\n",
+            "model = \"4d\": expected \"2d\" or \"3d\"",
+        ),
+        (
+            "model = \"3d\"\nrestitution = 0.9\n",
+            "restitution is not a parameter of model = \"3d\"",
+        ),
+        (
+            "model = \"3d\"\ncontact_tolerance_m = 0.002\n",
+            "contact_tolerance_m belongs to the planar reduction",
+        ),
+        (
+            "model = \"3d\"\nazimuths = [0, 90]\n",
+            "azimuths belongs to the planar reduction",
+        ),
+    ];
+    for (extra, expected) in cases {
+        let e = load_error(&mesh_catalogue(dir.path(), extra));
+        assert!(
+            e.contains("pbr[0] (id \"box\")") && e.contains(expected),
+            "{extra:?}: {e}"
+        );
+    }
+    let planar = entry(&[("model", Some("\"3d\""))]);
+    assert!(
+        toml_error(&planar).contains("model = \"3d\" needs mesh"),
+        "{}",
+        toml_error(&planar)
+    );
+    // CSV takes the same column.
+    let csv = format!(
+        "id,name,lat,lon,station,mesh,model,mu_s,mu_k,source\n\
+         box,Box,34.28,-118.48,CI.RRS.00,{},3d,0.8,0.6,test\n",
+        dir.path().join("rocks/box.obj").display()
+    );
+    let from_csv = Catalogue::from_csv_str(&csv, "x.csv").unwrap();
+    assert_eq!(from_csv.pbrs()[0].model(), RockModel::Rigid3d);
 }

@@ -1491,3 +1491,241 @@ fn a_compacted_journal_restores_the_same_engine_and_the_same_history() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Mesh rocks integrated in 3-D (`model = "3d"`, docs/rocking-3d.md).
+
+/// A box `b` (mesh east) × `d` (mesh north) × `h` m as an OBJ (up z, north y), base at z = 0.
+fn box_obj(b: f64, d: f64, h: f64) -> String {
+    let mut text = String::new();
+    for z in [0.0, h] {
+        for (x, y) in [(0.0, 0.0), (b, 0.0), (b, d), (0.0, d)] {
+            text += &format!("v {x} {y} {z}\n");
+        }
+    }
+    // Bottom (seen from below), top, then the four sides, each counter-clockwise from outside.
+    text += "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    text
+}
+
+/// A catalogue of one 3-D box rock 0.4 × 0.6 × 2.0 m on CI.RRS.00 turned to heading 30°
+/// (its mesh-east face normal points to true azimuth 120°), with `extra` TOML lines.
+fn box_3d_catalogue(dir: &Path, extra: &str) -> rockwatch_core::catalogue::Catalogue {
+    std::fs::write(dir.join("box.obj"), box_obj(0.4, 0.6, 2.0)).unwrap();
+    let path = dir.join("catalogue.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"
+[[pbr]]
+id = "box3d"
+name = "Box in 3-D"
+lat = 34.28
+lon = -118.48
+station = "CI.RRS.00"
+mesh = "box.obj"
+model = "3d"
+mu_k = 0.8
+source = "test"
+{extra}
+"#
+        ),
+    )
+    .unwrap();
+    rockwatch_core::catalogue::Catalogue::load(&path).unwrap()
+}
+
+/// Sampling interval of the 3-D engine tests (s).
+const DT_3D: f64 = 0.005;
+
+/// A one-cycle sine of `amplitude` m/s² at 1 Hz sampled at 200 Hz (f32-rounded, as packets
+/// carry it), 1 s of quiet before and 6 s after.
+fn one_sine_1hz(amplitude: f64) -> Vec<f64> {
+    let n = (1.0 / DT_3D).round() as usize;
+    let mut a = vec![0.0; n];
+    a.extend((0..=n).map(|i| {
+        f64::from((amplitude * (2.0 * std::f64::consts::PI * i as f64 * DT_3D).sin()) as f32)
+    }));
+    a.extend(vec![0.0; 6 * n]);
+    a
+}
+
+/// Packets of `a` along the true azimuth `azimuth_deg` (east, north) and no vertical.
+fn along(a: &[f64], azimuth_deg: f64, len: usize) -> Vec<AccelPacket> {
+    let axis = Azimuth::from_degrees(azimuth_deg).unwrap();
+    let (east, north): (Vec<f64>, Vec<f64>) = a.iter().map(|&x| axis.to_east_north(x)).unzip();
+    packets("CI.RRS.00", &east, &north, DT_3D, len)
+}
+
+#[test]
+fn a_3d_rock_in_the_engine_matches_the_2d_engine_along_its_face_normal_whatever_its_heading() {
+    // The box shaken along its face normal (true azimuth 120° at heading 30°) rocks in the
+    // plane of that normal: the planar block B × H = 0.4 × 2.0 m of the 2-D engine is an
+    // independent formulation of the same motion (tests/rocking_3d.rs, check (a)). 2.481 m/s²
+    // is the 2-D engine's smallest overturning amplitude of a 1 Hz one-sine at 200 Hz for this
+    // block; 0.9× rocks and stands, 1.1× overturns.
+    let dir = tempfile::tempdir().unwrap();
+    let cat = box_3d_catalogue(dir.path(), "heading_deg = 30.0\nmu_s = 0.8");
+    let spec = PbrSpec::from_catalogue(&cat.pbrs()[0]).unwrap();
+    assert!(spec.rock_3d.is_some());
+    let block = BlockParams::from_width_height(0.4, 2.0, 0.8, 0.8, None).unwrap();
+    for (factor, falls) in [(0.9, false), (1.1, true)] {
+        let a = one_sine_1hz(factor * 2.481);
+        let mut record = rinaldi_f32();
+        record.horizontal_mps2 = a.clone();
+        record.dt_s = DT_3D;
+        let options = SimulationOptions {
+            t_extra_s: 0.0,
+            ..SimulationOptions::default()
+        };
+        let two = simulate(block, &record, &options).unwrap().summary;
+        assert_eq!(two.overturned, falls, "the 2-D reference at {factor}×");
+        for azimuth in [120.0, 300.0] {
+            let mut engine =
+                Engine::new(EngineConfig::default(), vec![], std::slice::from_ref(&spec)).unwrap();
+            let out = run(&mut engine, along(&a, azimuth, 50));
+            let got = &engine.summaries()[0];
+            let what = format!("{factor}× along {azimuth}°: 3-D {got:?}, 2-D {two:?}");
+            eprintln!(
+                "{factor}× along {azimuth}°: 3-D overturned {} tilt/α {:.5}; 2-D overturned {} θ/α {:.5}",
+                got.overturned, got.max_theta_over_alpha, two.overturned, two.max_abs_theta_over_alpha
+            );
+            assert_eq!(got.overturned, falls, "{what}");
+            if !falls {
+                let rel = (got.max_theta_over_alpha - two.max_abs_theta_over_alpha).abs()
+                    / two.max_abs_theta_over_alpha;
+                assert!(rel < 0.02, "{what}");
+            }
+            // The rock tilts in the plane of the shaking: every state and alert of a tilted
+            // rock names 120° or 300° (true azimuths, the heading applied).
+            let mut tilted = 0;
+            for o in &out {
+                let (mode, theta, direction) = match o {
+                    Output::State(s) => (s.mode, s.theta_rad, s.direction_deg),
+                    Output::Alert(a) => (a.mode, a.theta_over_alpha, a.direction_deg),
+                    _ => continue,
+                };
+                if theta > 1e-3 && mode != rockwatch_core::dynamics::Mode::Overturned {
+                    tilted += 1;
+                    let off = [120.0, 300.0]
+                        .iter()
+                        .map(|d: &f64| (direction - d).abs())
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(off < 0.5, "{what}: {o:?}");
+                }
+            }
+            assert!(tilted > 0, "{what}: no tilted state");
+            let levels: Vec<AlertLevel> = alert_keys(&out).into_iter().map(|k| k.2).collect();
+            let expected = if falls {
+                vec![
+                    AlertLevel::MotionOnset,
+                    AlertLevel::OverturnImminent,
+                    AlertLevel::Overturned,
+                ]
+            } else {
+                levels.iter().copied().take(1).collect()
+            };
+            assert_eq!(levels, expected, "{what}");
+            assert_eq!(levels.first(), Some(&AlertLevel::MotionOnset), "{what}");
+        }
+    }
+}
+
+#[test]
+fn a_3d_rock_rests_in_its_station_rest_group_without_changing_any_output() {
+    // The shared rest check parks a 3-D rock at rest (it costs nothing while the station is
+    // quiet) and must not change one bit of its outputs: quiet, a pulse that rocks it, quiet
+    // again (it settles and parks), a second pulse, with and without the check.
+    let dir = tempfile::tempdir().unwrap();
+    let cat = box_3d_catalogue(
+        dir.path(),
+        "heading_deg = 30.0\nmu_s = { min = 0.75, max = 0.85 }\nensemble = 3",
+    );
+    let spec = PbrSpec::from_catalogue(&cat.pbrs()[0]).unwrap();
+    let mut a = one_sine_1hz(0.9 * 2.481);
+    a.extend(one_sine_1hz(0.7 * 2.481));
+    let mut runs = Vec::new();
+    for shared in [true, false] {
+        let mut engine =
+            Engine::new(EngineConfig::default(), vec![], std::slice::from_ref(&spec)).unwrap();
+        engine.set_shared_rest_check(shared);
+        let mut out = Vec::new();
+        let mut parked_while_quiet = 0;
+        for (i, p) in along(&a, 100.0, 10).into_iter().enumerate() {
+            engine.process(p, 0, &mut out);
+            if i == 15 {
+                parked_while_quiet = engine.parked_blocks();
+            }
+        }
+        engine.flush(0, &mut out);
+        assert_eq!(parked_while_quiet, usize::from(shared));
+        runs.push(format!("{out:?}\n{:?}", engine.summaries()));
+    }
+    assert!(runs[0].contains("MotionOnset"), "the rock never moved");
+    assert_eq!(runs[0], runs[1]);
+}
+
+#[test]
+fn each_3d_ensemble_member_falls_as_the_same_rock_run_alone() {
+    // Member i of a 3-D ensemble (heading and μs drawn) is one rock: the ensemble's
+    // P(overturn) is the fraction of members that fall when each is run alone as a nominal
+    // rock with the member's heading and friction.
+    let dir = tempfile::tempdir().unwrap();
+    let cat = box_3d_catalogue(
+        dir.path(),
+        "heading_deg = { min = 0.0, max = 60.0 }\nmu_s = { min = 0.8, max = 0.9 }\nensemble = 4\nseed = 5",
+    );
+    let pbr = &cat.pbrs()[0];
+    let spec = PbrSpec::from_catalogue(pbr).unwrap();
+    let (_, members) = pbr.rigid_members(4).unwrap();
+    let a = one_sine_1hz(1.08 * 2.481);
+    let mut engine =
+        Engine::new(EngineConfig::default(), vec![], std::slice::from_ref(&spec)).unwrap();
+    run(&mut engine, along(&a, 120.0, 50));
+    let p = engine.summaries()[0].overturn_probability;
+    let mut fell = 0;
+    for m in &members {
+        let mut alone = spec.clone();
+        let rock = alone.rock_3d.as_mut().unwrap();
+        rock.nominal = *m;
+        rock.members.clear();
+        let mut e = Engine::new(EngineConfig::default(), vec![], &[alone]).unwrap();
+        run(&mut e, along(&a, 120.0, 50));
+        fell += usize::from(e.summaries()[0].overturned);
+        eprintln!("member {m:?}: overturned {}", e.summaries()[0].overturned);
+    }
+    assert_eq!(p, fell as f64 / 4.0);
+    // The draw straddles the threshold: a real test of per-member bookkeeping.
+    assert!(0 < fell && fell < 4, "{fell} of 4 fell");
+}
+
+#[test]
+fn a_fallen_3d_rock_stays_fallen_after_restart_until_reset() {
+    use rockwatch_core::engine::JournalRecord;
+    let dir = tempfile::tempdir().unwrap();
+    let cat = box_3d_catalogue(dir.path(), "mu_s = 0.8");
+    let pbrs = [PbrSpec::from_catalogue(&cat.pbrs()[0]).unwrap()];
+    let a = one_sine_1hz(1.1 * 2.481);
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    let mut journal = journal_of(&run(&mut engine, along(&a, 90.0, 50)));
+    assert!(engine.summaries()[0].overturned);
+    let mut restored = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    restored.restore(&journal);
+    assert!(restored.summaries()[0].overturned);
+    assert!(alert_keys(&run(&mut restored, along(&vec![0.0; 300], 90.0, 50))).is_empty());
+    assert!(restored.summaries()[0].overturned);
+    journal.push(JournalRecord::Reset {
+        pbr_id: "box3d".into(),
+    });
+    let mut reset = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    reset.restore(&journal);
+    assert!(!reset.summaries()[0].overturned);
+    // A live reset too: it stands, and the pulse throws it over again in episode 2.
+    assert!(engine.reset_pbr("box3d"));
+    assert!(!engine.summaries()[0].overturned);
+    let again = alert_keys(&run(&mut reset, along(&a, 90.0, 50)));
+    assert_eq!(
+        again.last(),
+        Some(&("box3d".to_string(), 2, AlertLevel::Overturned))
+    );
+}

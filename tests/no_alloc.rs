@@ -90,8 +90,10 @@ fn advance_does_not_allocate_in_any_mode() {
 #[test]
 fn a_quiet_station_with_resting_blocks_does_not_allocate() {
     use rockwatch_core::azimuth::Azimuth;
-    use rockwatch_core::catalogue::DirectionBlocks;
-    use rockwatch_core::engine::{AccelPacket, Engine, EngineConfig, PbrSpec, StationId};
+    use rockwatch_core::catalogue::{DirectionBlocks, RigidMember};
+    use rockwatch_core::engine::{
+        AccelPacket, Engine, EngineConfig, PbrSpec, Rock3dSpec, StationId,
+    };
     let station = StationId::parse("XX.Q.00").unwrap();
     let pbrs: Vec<PbrSpec> = (0..20)
         .map(|k| PbrSpec {
@@ -123,6 +125,23 @@ fn a_quiet_station_with_resting_blocks_does_not_allocate() {
             } else {
                 vec![]
             },
+            // Every fifth is a mesh rock integrated in 3-D, with two members.
+            rock_3d: (k % 5 == 2).then(|| Rock3dSpec {
+                body: box_body(),
+                nominal: RigidMember {
+                    heading_deg: 7.0 * k as f64,
+                    mu_s: 0.7,
+                    mu_k: 0.5,
+                },
+                members: vec![
+                    RigidMember {
+                        heading_deg: 3.0,
+                        mu_s: 0.6,
+                        mu_k: 0.6,
+                    };
+                    2
+                ],
+            }),
         })
         .collect();
     let packet = |i: usize| AccelPacket {
@@ -203,4 +222,95 @@ fn a_fragility_run_does_not_allocate() {
         statuses.iter().any(|s| s.0 == Status::Ok && s.1 > 0.0),
         "{statuses:?}"
     );
+}
+
+/// Architecture invariant: `Rock3d::advance` (3-D rocking, docs/rocking-3d.md) never
+/// allocates, at rest, moving, coming back to rest and overturning.
+#[test]
+fn a_3d_rock_advances_without_allocating_in_any_mode() {
+    use rockwatch_core::rocking3d::{GroundAccel3d, Mode3d, Rock3d, Rock3dOptions};
+    let body = box_body();
+    // One-cycle 1 Hz sines along a diagonal at 200 Hz, 4 s of quiet after: 1.05 of the planar
+    // overturning amplitude along a face normal (the diagonal is 1.25 times stronger) rocks
+    // and settles, 1.6 overturns.
+    let pulse = |amplitude: f64| -> Vec<GroundAccel3d> {
+        (0..1000)
+            .map(|i| {
+                let t = i as f64 * 0.005;
+                let a = if t < 1.0 {
+                    amplitude * (2.0 * std::f64::consts::PI * t).sin()
+                } else {
+                    0.0
+                };
+                GroundAccel3d {
+                    east_mps2: 0.8 * a,
+                    north_mps2: 0.6 * a,
+                    up_mps2: 0.1 * a,
+                }
+            })
+            .collect()
+    };
+    let mut cases: Vec<(Rock3d, Vec<GroundAccel3d>)> = [1.05, 1.6]
+        .iter()
+        .map(|&k| {
+            let rock = Rock3d::new(body.clone(), 0.8, 0.7, Rock3dOptions::default()).unwrap();
+            (rock, pulse(k * 2.481))
+        })
+        .collect();
+    let mut seen = Vec::with_capacity(16);
+    let info = allocation_counter::measure(|| {
+        for (rock, input) in &mut cases {
+            for w in input.windows(2) {
+                rock.advance(0.005, w[0], w[1]).unwrap();
+                seen.push(rock.mode());
+                if seen.len() == seen.capacity() {
+                    seen.dedup();
+                }
+            }
+        }
+    });
+    assert_eq!(info.count_total, 0, "allocated {} times", info.count_total);
+    seen.dedup();
+    for mode in [Mode3d::Rest, Mode3d::Moving, Mode3d::Overturned] {
+        assert!(seen.contains(&mode), "the test must exercise {mode:?}");
+    }
+    assert_eq!(cases[0].0.mode(), Mode3d::Rest, "the 1.05× rock settles");
+    assert!(cases[0].0.stats().n_rest_entries > 0);
+}
+
+/// The rigid body of a 0.4 × 0.6 × 2.0 m box standing on its base.
+fn box_body() -> rockwatch_core::rocking3d::RockBody {
+    use rockwatch_core::mesh::contact::{RockGeometry, UpAxis};
+    use rockwatch_core::mesh::TriMesh;
+    use rockwatch_core::rocking3d::RockBody;
+    let (b, d, h) = (0.4, 0.6, 2.0);
+    let mut vertices = Vec::new();
+    for z in [0.0, h] {
+        for (x, y) in [(0.0, 0.0), (b, 0.0), (b, d), (0.0, d)] {
+            vertices.push([x, y, z]);
+        }
+    }
+    let faces = vec![
+        [0, 2, 1],
+        [0, 3, 2],
+        [4, 5, 6],
+        [4, 6, 7],
+        [0, 1, 5],
+        [0, 5, 4],
+        [1, 2, 6],
+        [1, 6, 5],
+        [2, 3, 7],
+        [2, 7, 6],
+        [3, 0, 4],
+        [3, 4, 7],
+    ];
+    let mesh = TriMesh {
+        source: "generated".into(),
+        face_lines: vec![0; faces.len()],
+        vertices,
+        faces,
+    };
+    let geometry = RockGeometry::new(&mesh).unwrap();
+    let rest = geometry.rest(UpAxis::PlusZ, 0.0).unwrap();
+    RockBody::from_mesh(&geometry, &rest, 2500.0).unwrap()
 }

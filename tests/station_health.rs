@@ -22,6 +22,7 @@ fn spec(id: &str, station: &str) -> PbrSpec {
         nominal: BlockParams::from_width_height(0.4, 2.0, 0.8, 0.6, None).unwrap(),
         members: vec![],
         more_directions: vec![],
+        rock_3d: None,
     }
 }
 

@@ -36,6 +36,7 @@ pub fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpe
         nominal: p,
         members: vec![],
         more_directions: vec![],
+        rock_3d: None,
     }
 }
 

@@ -97,8 +97,8 @@ const UNCERTAIN_FIELDS: [&str; 13] = [
 /// Scalar CSV columns that must be present.
 const REQUIRED_SCALAR_COLUMNS: [&str; 6] = ["id", "name", "lat", "lon", "station", "source"];
 /// Scalar CSV columns that may be absent (`azimuth_deg` for planar blocks; `mesh`, `up`,
-/// `azimuths`, `cap` for meshed rocks).
-const OPTIONAL_SCALAR_COLUMNS: [&str; 7] = [
+/// `azimuths`, `cap`, `model` for meshed rocks).
+const OPTIONAL_SCALAR_COLUMNS: [&str; 8] = [
     "azimuth_deg",
     "ensemble",
     "seed",
@@ -106,6 +106,7 @@ const OPTIONAL_SCALAR_COLUMNS: [&str; 7] = [
     "up",
     "azimuths",
     "cap",
+    "model",
 ];
 /// Suffixes of the columns of an uncertain parameter `P`: `P`, `P_min`, `P_max`, `P_mean`,
 /// `P_sd`.
@@ -284,6 +285,7 @@ impl CsvColumns {
                 .value(record, "cap")
                 .map(|text| parse_bool("cap", text))
                 .transpose()?,
+            model: self.value(record, "model").map(str::to_owned),
             heading_deg: self.distribution(record, "heading_deg")?,
             contact_tolerance_m: self.distribution(record, "contact_tolerance_m")?,
             width_m: self.distribution(record, "width_m")?,

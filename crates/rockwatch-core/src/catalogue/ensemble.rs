@@ -33,6 +33,17 @@ pub struct DirectionBlocks {
     pub members: Vec<BlockParams>,
 }
 
+/// One rock of a `model = "3d"` entry: the parameters that vary between its members (the
+/// body is the mesh's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigidMember {
+    /// True azimuth of the mesh's north axis (degrees clockwise from north).
+    pub heading_deg: f64,
+    /// Static and kinetic friction coefficients (μk ≤ μs).
+    pub mu_s: f64,
+    pub mu_k: f64,
+}
+
 /// Why an ensemble member could not be built (cannot happen for a validated entry; reported
 /// rather than panicking).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -92,6 +103,34 @@ impl Pbr {
             }
         }
         Ok(directions)
+    }
+
+    /// The nominal rock and, for K = `ensemble` > 1, the K members of a `model = "3d"` entry
+    /// (the same Latin hypercube as [`Pbr::directions_sized`]: member i is the same draw of
+    /// heading, μs and μk); None for an entry integrated as planar bodies.
+    #[must_use]
+    pub fn rigid_members(&self, ensemble: usize) -> Option<(RigidMember, Vec<RigidMember>)> {
+        self.mesh.as_ref()?.body()?;
+        // Columns: heading, contact tolerance (not used in 3-D), μs, μk, e (refused in 3-D).
+        let member = |values: &[f64]| RigidMember {
+            heading_deg: values[0],
+            mu_s: values[2],
+            mu_k: values[3].min(values[2]),
+        };
+        let nominal_values: Vec<f64> = self
+            .sampled_parameters()
+            .iter()
+            .map(|p| p.map_or(f64::NAN, |(d, _)| d.nominal()))
+            .collect();
+        let members = if ensemble > 1 {
+            self.member_values(ensemble)
+                .iter()
+                .map(|v| member(v))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Some((member(&nominal_values), members))
     }
 
     /// The blocks of every direction of a meshed rock for one row of parameter values

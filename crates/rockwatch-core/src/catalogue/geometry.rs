@@ -158,6 +158,37 @@ pub(super) fn domain_of(field: &str) -> Domain {
     }
 }
 
+/// How a mesh rock is integrated (`model`, docs/rocking-3d.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RockModel {
+    /// `"2d"` (the default): the planar body of each toppling direction (docs/meshes.md).
+    #[default]
+    Planar,
+    /// `"3d"`: one rigid body driven by all three ground-motion components
+    /// ([`crate::rocking3d`]).
+    Rigid3d,
+}
+
+impl RockModel {
+    /// `"2d"` or `"3d"`, as written in a catalogue.
+    pub fn parse(text: &str) -> Result<RockModel, String> {
+        match text.trim() {
+            "2d" => Ok(RockModel::Planar),
+            "3d" => Ok(RockModel::Rigid3d),
+            other => Err(format!("model = {other:?}: expected \"2d\" or \"3d\"")),
+        }
+    }
+
+    /// The name written in a catalogue and in `fragility.json`.
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RockModel::Planar => "2d",
+            RockModel::Rigid3d => "3d",
+        }
+    }
+}
+
 /// A rock given by its closed mesh (`mesh = "file"`): the analysed mesh, its up axis and
 /// the toppling directions to integrate (docs/meshes.md).
 #[derive(Debug, Clone, PartialEq)]
@@ -172,6 +203,8 @@ pub struct MeshRock {
     pub(super) rest: RestingContact,
     /// The open scan's boundary loop closed by `cap = true` (None: the mesh was closed).
     pub cap: Option<crate::mesh::cap::Cap>,
+    /// The rigid body of `model = "3d"` (None for the planar model).
+    pub(super) body: Option<crate::rocking3d::RockBody>,
 }
 
 impl MeshRock {
@@ -185,6 +218,13 @@ impl MeshRock {
     #[must_use]
     pub fn rest(&self) -> &RestingContact {
         &self.rest
+    }
+
+    /// The rigid body of a `model = "3d"` entry (body frame: the resting pose's east, north,
+    /// up in the mesh's axes, i.e. for heading 0).
+    #[must_use]
+    pub fn body(&self) -> Option<&crate::rocking3d::RockBody> {
+        self.body.as_ref()
     }
 
     /// One block per direction for a heading (degrees, the true azimuth of the mesh's north

@@ -144,8 +144,8 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 pub use self::distribution::Distribution;
-pub use self::ensemble::{default_seed, DirectionBlocks, EnsembleError};
-pub use self::geometry::{Geometry, MeshRock};
+pub use self::ensemble::{default_seed, DirectionBlocks, EnsembleError, RigidMember};
+pub use self::geometry::{Geometry, MeshRock, RockModel};
 pub use self::pbr::Pbr;
 pub use self::toml::toml_error_line;
 pub use self::validate::{MAX_DIRECTIONS, MAX_ENSEMBLE};

@@ -4,7 +4,7 @@
 //! block. Only `validate.rs` builds one; the ensembles are in `ensemble.rs`.
 
 use super::distribution::Distribution;
-use super::geometry::{Geometry, MeshRock};
+use super::geometry::{Geometry, MeshRock, RockModel};
 use super::StationId;
 use crate::azimuth::Azimuth;
 use crate::dynamics::BlockParams;
@@ -145,6 +145,16 @@ impl Pbr {
     #[must_use]
     pub fn mesh(&self) -> Option<&MeshRock> {
         self.mesh.as_ref()
+    }
+
+    /// How the entry is integrated: planar bodies (every entry but a mesh rock with
+    /// `model = "3d"`) or one 3-D rigid body.
+    #[must_use]
+    pub fn model(&self) -> RockModel {
+        match self.mesh.as_ref().and_then(MeshRock::body) {
+            Some(_) => RockModel::Rigid3d,
+            None => RockModel::Planar,
+        }
     }
 
     /// The horizontal ground acceleration along this block's +x axis from the east and north

@@ -14,13 +14,15 @@ use serde::Deserialize;
 
 use super::distribution::{Distribution, Domain, MU_K_DOMAIN, MU_S_DOMAIN, RESTITUTION_DOMAIN};
 use super::ensemble::default_seed;
-use super::geometry::{domain_of, Geometry, MeshRock, GEOMETRY_FORMS};
+use super::geometry::{domain_of, Geometry, MeshRock, RockModel, GEOMETRY_FORMS};
 use super::pbr::Pbr;
 use super::StationId;
 use crate::azimuth::Azimuth;
 use crate::mesh::contact::{
     azimuth_steps, parse_azimuths, RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M,
 };
+use crate::rocking3d::body::NOMINAL_DENSITY_KG_M3;
+use crate::rocking3d::RockBody;
 
 /// Largest ensemble size K accepted in a catalogue.
 pub const MAX_ENSEMBLE: usize = 10_000;
@@ -51,6 +53,8 @@ pub(super) struct RawPbr {
     pub(super) azimuths: Option<RawAzimuths>,
     #[serde(default)]
     pub(super) cap: Option<bool>,
+    #[serde(default)]
+    pub(super) model: Option<String>,
     #[serde(default)]
     pub(super) heading_deg: Option<Distribution>,
     #[serde(default)]
@@ -172,6 +176,7 @@ pub(super) fn validate(
     let station = StationId::parse(&raw.station)
         .map_err(|why| ("station".to_owned(), format!("station {why}")))?;
     let geometry = raw_geometry(&raw)?;
+    let model = rock_model(&raw)?;
     let azimuths: Vec<Azimuth> = match (&raw.mesh, raw.azimuth_deg, &raw.azimuths) {
         (Some(_), Some(_), _) => {
             return fail(
@@ -283,6 +288,7 @@ pub(super) fn validate(
             raw.cap.unwrap_or(false),
             azimuths,
             nominal_geometry[1],
+            model,
             base_dir,
         )?),
         None => None,
@@ -367,13 +373,36 @@ fn directions(written: &RawAzimuths) -> Result<Vec<Azimuth>, (String, String)> {
     Ok(azimuths)
 }
 
-/// Reads and analyses the mesh of an entry (relative paths from `base_dir`).
+/// The entry's `model` (default planar), with what the 3-D model cannot take refused.
+fn rock_model(raw: &RawPbr) -> Result<RockModel, (String, String)> {
+    let model = match &raw.model {
+        None => return Ok(RockModel::Planar),
+        Some(text) => RockModel::parse(text).map_err(|e| ("model".to_owned(), e))?,
+    };
+    if model == RockModel::Rigid3d {
+        let refused = [
+            (raw.mesh.is_none(), "model", "model = \"3d\" needs mesh: the 3-D model integrates a rock from its closed mesh"),
+            (raw.restitution.is_some(), "restitution", "restitution is not a parameter of model = \"3d\": impacts are plastic and what each one dissipates follows from the rock's geometry (docs/rocking-3d.md)"),
+            (raw.contact_tolerance_m.is_some(), "contact_tolerance_m", "contact_tolerance_m belongs to the planar reduction (model = \"2d\"): the 3-D model's contact is the hull itself"),
+            (raw.azimuths.is_some(), "azimuths", "azimuths belongs to the planar reduction (model = \"2d\"): the 3-D rock falls in whatever direction the ground motion takes it"),
+        ];
+        if let Some((_, field, message)) = refused.iter().find(|(given, _, _)| *given) {
+            return Err(((*field).to_owned(), (*message).to_owned()));
+        }
+    }
+    Ok(model)
+}
+
+/// Reads and analyses the mesh of an entry (relative paths from `base_dir`); for
+/// `model = "3d"` also its rigid body.
+#[allow(clippy::too_many_arguments)]
 fn load_mesh(
     file: &str,
     up: Option<&str>,
     cap: bool,
     azimuths: Vec<Azimuth>,
     tolerance_m: f64,
+    model: RockModel,
     base_dir: Option<&Path>,
 ) -> Result<MeshRock, (String, String)> {
     let up = match up {
@@ -388,6 +417,17 @@ fn load_mesh(
     let mesh_error = |e: crate::mesh::MeshError| ("mesh".to_owned(), format!("mesh: {e}"));
     let (rock, cap) = RockGeometry::read_with(&path, cap.then_some(up)).map_err(mesh_error)?;
     let rest = rock.rest(up, tolerance_m).map_err(mesh_error)?;
+    let body = match model {
+        RockModel::Planar => None,
+        RockModel::Rigid3d => Some(
+            RockBody::from_mesh(&rock, &rest, NOMINAL_DENSITY_KG_M3).map_err(|e| {
+                (
+                    "model".to_owned(),
+                    format!("model = \"3d\": the mesh gives no rigid body: {e}"),
+                )
+            })?,
+        ),
+    };
     Ok(MeshRock {
         path,
         up,
@@ -395,6 +435,7 @@ fn load_mesh(
         rock,
         rest,
         cap,
+        body,
     })
 }
 

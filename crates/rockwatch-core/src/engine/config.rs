@@ -27,6 +27,12 @@ pub enum ConfigError {
         value: f64,
         range: &'static str,
     },
+    /// A 3-D rock whose parameters the dynamics refuse.
+    #[error("pbr {pbr:?}: 3-D rock: {error}")]
+    Rock3d {
+        pbr: String,
+        error: crate::rocking3d::Advance3dError,
+    },
     /// A catalogue entry whose ensemble cannot be drawn.
     #[error("pbr {pbr:?}: ensemble: {error}")]
     Ensemble {
@@ -317,12 +323,44 @@ pub struct PbrSpec {
     /// integrated in every direction under the ground motion projected on it; it overturns
     /// when any direction does.
     pub more_directions: Vec<crate::catalogue::DirectionBlocks>,
+    /// A mesh rock integrated in 3-D (`model = "3d"`): when set, it is the rock, and the
+    /// planar fields above only describe it (`azimuth`, `nominal`: its first planar
+    /// direction; `members`, `more_directions` empty) and are not integrated.
+    pub rock_3d: Option<Rock3dSpec>,
+}
+
+/// A mesh rock integrated in 3-D (docs/rocking-3d.md): its rigid body (body frame: the
+/// mesh's east, north, up at rest) and the heading and friction of its nominal rock and of
+/// each ensemble member (empty: nominal only).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rock3dSpec {
+    pub body: crate::rocking3d::RockBody,
+    pub nominal: crate::catalogue::RigidMember,
+    pub members: Vec<crate::catalogue::RigidMember>,
 }
 
 impl PbrSpec {
     /// The engine's view of a catalogue entry: its nominal block, and its Latin-hypercube
     /// members when it declares an ensemble of more than one.
     pub fn from_catalogue(pbr: &crate::catalogue::Pbr) -> Result<PbrSpec, ConfigError> {
+        let body = pbr.mesh().and_then(crate::catalogue::MeshRock::body);
+        if let (Some(body), Some((nominal, members))) =
+            (body, pbr.rigid_members(pbr.ensemble_size()))
+        {
+            return Ok(PbrSpec {
+                id: pbr.id().to_string(),
+                station: pbr.station().clone(),
+                azimuth: pbr.azimuth(),
+                nominal: pbr.nominal(),
+                members: Vec::new(),
+                more_directions: Vec::new(),
+                rock_3d: Some(Rock3dSpec {
+                    body: body.clone(),
+                    nominal,
+                    members,
+                }),
+            });
+        }
         let mut directions = pbr
             .directions()
             .map_err(|error| ConfigError::Ensemble {
@@ -345,6 +383,7 @@ impl PbrSpec {
             nominal: first.nominal,
             members: first.members,
             more_directions: directions.collect(),
+            rock_3d: None,
         })
     }
 }

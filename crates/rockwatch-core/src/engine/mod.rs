@@ -26,7 +26,9 @@ pub mod config;
 pub mod health;
 pub mod output;
 pub mod packet;
+mod pbr;
 mod rest_group;
+mod rigid_rock;
 pub mod sensor_frame;
 pub mod sharded;
 mod station;
@@ -35,7 +37,8 @@ pub mod stream;
 use std::collections::{BTreeMap, HashMap, HashSet};
 
 pub use config::{
-    AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, StationConfig,
+    AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, Rock3dSpec,
+    StationConfig,
 };
 pub use health::{HealthChange, StationHealth};
 pub use output::{
@@ -43,11 +46,13 @@ pub use output::{
     Notice, Output, OutputSink, PbrState, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
+pub use pbr::{DirectionSummary, PbrSummary};
 pub use sharded::{EngineHandle, ShardedEngine};
-pub use station::{DirectionSummary, PbrSummary, StationCounters};
+pub use station::StationCounters;
 pub use stream::{StreamConfig, StreamCounters};
 
-use station::{PacketContext, StationRuntime};
+use pbr::PacketContext;
+use station::StationRuntime;
 
 /// Engine-wide counters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -130,9 +135,9 @@ impl Engine {
             .into_iter()
             .map(|(id, c)| {
                 let mine = bound.remove(&id).unwrap_or_default();
-                (id, StationRuntime::new(c, &mine, config.stream))
+                Ok((id, StationRuntime::new(c, &mine, config.stream)?))
             })
-            .collect::<BTreeMap<StationId, StationRuntime>>();
+            .collect::<Result<BTreeMap<StationId, StationRuntime>, ConfigError>>()?;
         Ok(Engine {
             config,
             ids: stations
@@ -165,7 +170,7 @@ impl Engine {
             .values()
             .flat_map(|s| s.pbrs.iter().map(|p| p.id().to_string()))
             .collect();
-        let mut previous: HashMap<String, station::PbrRuntime> = self
+        let mut previous: HashMap<String, pbr::PbrRuntime> = self
             .stations
             .values_mut()
             .flat_map(StationRuntime::take_blocks)

@@ -1,20 +1,15 @@
 //! One station's runtime: its stream sequencer, running intensity measures, and the blocks
 //! bound to it, advanced sample by sample.
 
-use super::config::{AlertConfig, Orientation, PbrSpec, StationConfig};
 use std::collections::HashSet;
 
+use super::config::{ConfigError, Orientation, PbrSpec, StationConfig};
 use super::health::{HealthChange, Liveness, StationHealth};
-use super::output::{
-    Alert, AlertKey, AlertLevel, JournalRecord, Notice, Output, OutputSink, PbrState, RaisedLevels,
-    StationIntensity,
-};
+use super::output::{JournalRecord, Notice, Output, OutputSink, StationIntensity};
+
+use super::pbr::{BlockStep, PacketContext, PbrRuntime, SampleContext};
 use super::rest_group::{GroundSample as Sample, RestGroup};
 use super::stream::{Gap, Released, Sequencer, StreamConfig};
-use crate::azimuth::Azimuth;
-use crate::dynamics::{
-    BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RestLimit, RigidBlock,
-};
 use crate::ims::{RunningConfig, RunningIms};
 
 /// Longest intensity window (s): a station that never goes quiet restarts its running IMs
@@ -41,440 +36,6 @@ pub struct StationCounters {
     pub flights: u64,
 }
 
-/// A block's response summary (the last line of `rockwatch monitor`).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct PbrSummary {
-    pub pbr_id: String,
-    pub station: String,
-    pub max_theta_over_alpha: f64,
-    pub max_slide_m: f64,
-    pub overturned: bool,
-    pub overturn_probability: f64,
-    pub data_gap: bool,
-    pub episodes: u32,
-    /// Each direction's nominal response (one for a planar block; a rock from a mesh has
-    /// one per azimuth, in catalogue order). The fields above are the largest over them.
-    pub directions: Vec<DirectionSummary>,
-}
-
-/// One direction's nominal response in a [`PbrSummary`].
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct DirectionSummary {
-    /// Azimuth of the direction's +x axis, degrees clockwise from north.
-    pub direction_deg: f64,
-    pub max_theta_over_alpha: f64,
-    pub max_slide_m: f64,
-    pub overturned: bool,
-}
-
-/// One toppling direction of a catalogued rock: its blocks under the ground motion projected
-/// on its azimuth.
-#[derive(Debug, Clone)]
-struct Direction {
-    /// Direction of the blocks' +x axis.
-    axis: Azimuth,
-    nominal: RigidBlock,
-    members: Vec<RigidBlock>,
-}
-
-impl Direction {
-    fn new(axis: Azimuth, nominal: &BlockParams, members: &[BlockParams]) -> Self {
-        let options = BlockOptions::default();
-        Direction {
-            axis,
-            nominal: RigidBlock::new(*nominal, options),
-            members: members
-                .iter()
-                .map(|p| RigidBlock::new(*p, options))
-                .collect(),
-        }
-    }
-
-    fn theta_over_alpha(&self) -> f64 {
-        self.nominal
-            .params()
-            .theta_over_alpha(self.nominal.theta_rad())
-    }
-}
-
-/// One catalogued block in the engine: a planar block (one direction) or a rock from a mesh
-/// integrated in each of its directions. Its outputs follow the **governing** direction: the
-/// first whose nominal block overturned, else the one with the largest |θ/α| (moving before
-/// resting on a tie, then the first); a member counts as overturned when it has in any
-/// direction.
-#[derive(Debug, Clone)]
-pub(crate) struct PbrRuntime {
-    id: String,
-    /// At least one.
-    directions: Vec<Direction>,
-    /// The governing direction (index into `directions`), updated after every step.
-    governing: usize,
-    members_overturned: usize,
-    episode: u32,
-    in_episode: bool,
-    raised: RaisedLevels,
-    data_gap: bool,
-    last_state_ns: Option<i64>,
-}
-
-impl PbrRuntime {
-    fn new(spec: &PbrSpec) -> Self {
-        let mut directions = vec![Direction::new(spec.azimuth, &spec.nominal, &spec.members)];
-        directions.extend(
-            spec.more_directions
-                .iter()
-                .map(|d| Direction::new(d.azimuth, &d.nominal, &d.members)),
-        );
-        PbrRuntime {
-            id: spec.id.clone(),
-            directions,
-            governing: 0,
-            members_overturned: 0,
-            episode: 0,
-            in_episode: false,
-            raised: RaisedLevels::default(),
-            data_gap: false,
-            last_state_ns: None,
-        }
-    }
-
-    /// The governing direction (see the type's doc).
-    fn gov(&self) -> &Direction {
-        &self.directions[self.governing]
-    }
-
-    /// The governing direction's nominal block.
-    fn nominal(&self) -> &RigidBlock {
-        &self.directions[self.governing].nominal
-    }
-
-    /// Every block of the rock, nominal and members, in every direction.
-    fn blocks(&self) -> impl Iterator<Item = &RigidBlock> {
-        self.directions
-            .iter()
-            .flat_map(|d| std::iter::once(&d.nominal).chain(d.members.iter()))
-    }
-
-    fn blocks_mut(&mut self) -> impl Iterator<Item = &mut RigidBlock> {
-        self.directions
-            .iter_mut()
-            .flat_map(|d| std::iter::once(&mut d.nominal).chain(d.members.iter_mut()))
-    }
-
-    /// Chooses the governing direction (no allocation).
-    fn update_governing(&mut self) {
-        if self.directions.len() == 1 {
-            return;
-        }
-        let key = |d: &Direction| {
-            (
-                d.nominal.mode() == Mode::Overturned,
-                d.theta_over_alpha().abs(),
-                d.nominal.mode() != Mode::Rest,
-            )
-        };
-        let mut best = 0;
-        for (i, d) in self.directions.iter().enumerate().skip(1) {
-            let (a, b) = (key(d), key(&self.directions[best]));
-            let better =
-                (a.0 && !b.0) || (a.0 == b.0 && (a.1 > b.1 || (a.1 == b.1 && a.2 && !b.2)));
-            if better {
-                best = i;
-            }
-        }
-        self.governing = best;
-    }
-
-    fn any_nominal_overturned(&self) -> bool {
-        self.directions
-            .iter()
-            .any(|d| d.nominal.mode() == Mode::Overturned)
-    }
-
-    fn theta_over_alpha(&self) -> f64 {
-        self.gov().theta_over_alpha().abs()
-    }
-
-    fn members_len(&self) -> usize {
-        self.directions[0].members.len()
-    }
-
-    fn overturn_probability(&self) -> f64 {
-        if self.members_len() == 0 {
-            f64::from(u8::from(self.any_nominal_overturned()))
-        } else {
-            self.members_overturned as f64 / self.members_len() as f64
-        }
-    }
-
-    /// The most demanding rest limit among every block of the rock (the componentwise
-    /// minimum: every block's own limit is at least this one).
-    fn rest_limit(&self) -> RestLimit {
-        let mut blocks = self.blocks();
-        let first = blocks.next().map_or(
-            RestLimit {
-                friction_limit: 0.0,
-                gravity_mps2: 0.0,
-            },
-            RigidBlock::rest_limit,
-        );
-        blocks.fold(first, |acc, m| {
-            let l = m.rest_limit();
-            RestLimit {
-                friction_limit: acc.friction_limit.min(l.friction_limit),
-                gravity_mps2: acc.gravity_mps2.min(l.gravity_mps2),
-            }
-        })
-    }
-
-    /// The block may join its station's rest group (`rest_group`): every integrated block at
-    /// rest at time `clock_s`, no episode open (nothing to end), no member fallen, and no
-    /// alert that could be raised at rest (θ = 0 there and the overturn probability is 0, so
-    /// only thresholds ≤ 0 could raise one; `EngineConfig::validate` rejects those, this
-    /// guards a config set without validation).
-    fn may_rest_in_group(&self, clock_s: f64, alerts: &AlertConfig) -> bool {
-        let resting = |b: &RigidBlock| b.mode() == Mode::Rest && b.time_s() == clock_s;
-        !self.in_episode
-            && self.members_overturned == 0
-            && alerts.imminent_theta_ratio > 0.0
-            && alerts.imminent_probability > 0.0
-            && self.directions.iter().all(|d| d.nominal.theta_rad() == 0.0)
-            && self.blocks().all(resting)
-    }
-
-    /// The same block: id, and in every direction the axis, nominal body and ensemble members
-    /// (a reload keeps its state).
-    fn same_block(&self, other: &PbrRuntime) -> bool {
-        self.id == other.id
-            && self.directions.len() == other.directions.len()
-            && self.directions.iter().zip(&other.directions).all(|(a, b)| {
-                a.axis == b.axis
-                    && a.nominal.params() == b.nominal.params()
-                    && a.members.len() == b.members.len()
-                    && a.members
-                        .iter()
-                        .zip(&b.members)
-                        .all(|(x, y)| x.params() == y.params())
-            })
-    }
-
-    pub(crate) fn id(&self) -> &str {
-        &self.id
-    }
-
-    /// Episodes of this block before (a block new to a reload, back in the catalogue: its
-    /// next episode comes after its journaled ones).
-    pub(crate) fn continue_episodes_after(&mut self, episode: u32) {
-        self.episode = self.episode.max(episode);
-    }
-
-    /// Leaves the rest group: the blocks' clocks are set to the group's.
-    fn leave_rest_group(&mut self, clock_s: f64) {
-        for b in self.blocks_mut() {
-            b.stay_at_rest_until(clock_s);
-        }
-    }
-
-    fn at_rest(&self) -> bool {
-        self.blocks()
-            .all(|b| matches!(b.mode(), Mode::Rest | Mode::Overturned))
-    }
-
-    fn state(&self, station: &str, data_time_ns: i64) -> PbrState {
-        self.state_monitored(station, data_time_ns, false)
-    }
-
-    /// The block's state, flagged `not_monitored` as given (a stale station's blocks).
-    fn state_monitored(&self, station: &str, data_time_ns: i64, not_monitored: bool) -> PbrState {
-        let d = self.gov();
-        PbrState {
-            pbr_id: self.id.clone(),
-            station: station.to_string(),
-            mode: d.nominal.mode(),
-            theta_rad: d.nominal.theta_rad(),
-            theta_over_alpha: d.theta_over_alpha(),
-            slide_m: d.nominal.slide_m(),
-            overturned: d.nominal.mode() == Mode::Overturned,
-            overturn_probability: self.overturn_probability(),
-            data_gap: self.data_gap,
-            data_time_ns,
-            not_monitored,
-            direction_deg: d.axis.degrees(),
-        }
-    }
-
-    /// Advances the nominal block and the ensemble members over one sample interval of
-    /// `dt_s` seconds, from the ground sample `prev` (at data time `t_prev_ns`) to `next`.
-    /// Every direction is stepped under the ground motion projected on its azimuth; the
-    /// step's first mode change is the earliest among the directions' nominal blocks.
-    fn advance(&mut self, prev: Sample, next: Sample, dt_s: f64, t_prev_ns: i64) -> BlockStep {
-        let mut first_change_ns: Option<i64> = None;
-        let mut landed_after_flight = false;
-        let mut failed = false;
-        for d in &mut self.directions {
-            let project = |x: Sample| GroundAccel {
-                horizontal_mps2: d.axis.component(x.east, x.north),
-                vertical_mps2: x.up,
-            };
-            let (from, to) = (project(prev), project(next));
-            let t_before = d.nominal.time_s();
-            let mut change_ns: Option<i64> = None;
-            let result = d.nominal.advance(dt_s, from, to, |e| {
-                if let BlockEvent::ModeChange { t_s, .. } = e {
-                    change_ns.get_or_insert(t_prev_ns + ((t_s - t_before) * 1e9).round() as i64);
-                }
-            });
-            if let Some(t) = change_ns {
-                first_change_ns = Some(first_change_ns.map_or(t, |f: i64| f.min(t)));
-            }
-            failed |= result.is_err();
-            // A lift-off is reported (state, notice); the block is put down again as soon
-            // as the effective gravity is positive (flight is not modelled, spec §10).
-            if d.nominal.mode() == Mode::Flight {
-                landed_after_flight |= d.nominal.land_after_flight(to);
-            }
-            for m in &mut d.members {
-                failed |= m.advance(dt_s, from, to, |_| {}).is_err();
-                m.land_after_flight(to);
-            }
-        }
-        // Member i is one rock: fallen when it has fallen in any direction.
-        self.members_overturned = (0..self.members_len())
-            .filter(|&i| {
-                self.directions.iter().any(|d| {
-                    d.members
-                        .get(i)
-                        .is_some_and(|m| m.mode() == Mode::Overturned)
-                })
-            })
-            .count();
-        self.update_governing();
-        BlockStep {
-            first_change_ns,
-            failed,
-            landed_after_flight,
-        }
-    }
-
-    /// Raises each alert whose condition holds, once per episode (an alert journaled before
-    /// a restart is not emitted again). The onset is dated at the step's first mode change
-    /// (`first_change_ns`), the others at the sample.
-    fn raise_alerts(
-        &mut self,
-        at: &SampleContext<'_>,
-        first_change_ns: Option<i64>,
-        ctx: &PacketContext<'_>,
-        out: &mut dyn OutputSink,
-    ) {
-        let ratio = self.theta_over_alpha();
-        let probability = self.overturn_probability();
-        let mode = self.nominal().mode();
-        let conditions = [
-            (AlertLevel::MotionOnset, mode != Mode::Rest),
-            (
-                AlertLevel::OverturnImminent,
-                ratio >= ctx.alerts.imminent_theta_ratio
-                    || (self.members_len() > 0 && probability >= ctx.alerts.imminent_probability),
-            ),
-            (AlertLevel::Overturned, mode == Mode::Overturned),
-        ];
-        for (level, holds) in conditions {
-            if holds && !self.raised.contains(level) {
-                if !self.in_episode {
-                    self.in_episode = true;
-                    self.episode += 1;
-                }
-                self.raised.insert(level);
-                if ctx
-                    .journaled
-                    .contains(&(self.id.clone(), self.episode, level))
-                {
-                    continue; // published before a restart
-                }
-                let data_time_ns = if level == AlertLevel::MotionOnset {
-                    first_change_ns.unwrap_or(at.t_ns)
-                } else {
-                    at.t_ns
-                };
-                out.push(Output::Alert(Alert {
-                    pbr_id: self.id.clone(),
-                    station: at.station.to_string(),
-                    level,
-                    episode: self.episode,
-                    mode,
-                    theta_over_alpha: self.gov().theta_over_alpha(),
-                    slide_m: self.nominal().slide_m(),
-                    overturn_probability: probability,
-                    pga_mps2: at.pga_mps2,
-                    pgv_mps: at.pgv_mps,
-                    data_time_ns,
-                    arrival_ns: ctx.arrival_ns,
-                    direction_deg: self.gov().axis.degrees(),
-                }));
-            }
-        }
-    }
-
-    /// Episode end: back at rest on a quiet station (a fallen block stays fallen).
-    fn end_episode_if_settled(&mut self, at: &SampleContext<'_>, out: &mut dyn OutputSink) {
-        if self.in_episode && at.quiet_long && self.at_rest() && !self.any_nominal_overturned() {
-            self.in_episode = false;
-            self.raised = RaisedLevels::default();
-            out.push(Output::EpisodeEnd {
-                pbr_id: self.id.clone(),
-                episode: self.episode,
-            });
-        }
-    }
-
-    /// The block's state, on a mode change (`mode_changed`) and at the state rate.
-    fn emit_state_if_due(
-        &mut self,
-        at: &SampleContext<'_>,
-        mode_changed: bool,
-        ctx: &PacketContext<'_>,
-        out: &mut dyn OutputSink,
-    ) {
-        let due = self
-            .last_state_ns
-            .is_none_or(|last| (at.t_ns - last) as f64 * 1e-9 >= ctx.state_interval_s);
-        if mode_changed || due {
-            self.last_state_ns = Some(at.t_ns);
-            out.push(Output::State(self.state(at.station, at.t_ns)));
-        }
-    }
-
-    /// The rock's summary: the largest responses over its directions.
-    pub(crate) fn summary(&self, station: &str) -> PbrSummary {
-        let (mut max_theta_over_alpha, mut max_slide_m) = (0.0f64, 0.0f64);
-        for d in &self.directions {
-            let stats = d.nominal.stats();
-            max_theta_over_alpha = max_theta_over_alpha.max(stats.max_abs_theta_over_alpha);
-            max_slide_m = max_slide_m.max(stats.max_abs_slide_m);
-        }
-        PbrSummary {
-            pbr_id: self.id.clone(),
-            station: station.to_string(),
-            max_theta_over_alpha,
-            max_slide_m,
-            overturned: self.any_nominal_overturned(),
-            directions: self
-                .directions
-                .iter()
-                .map(|d| DirectionSummary {
-                    direction_deg: d.axis.degrees(),
-                    max_theta_over_alpha: d.nominal.stats().max_abs_theta_over_alpha,
-                    max_slide_m: d.nominal.stats().max_abs_slide_m,
-                    overturned: d.nominal.mode() == Mode::Overturned,
-                })
-                .collect(),
-            overturn_probability: self.overturn_probability(),
-            data_gap: self.data_gap,
-            episodes: self.episode,
-        }
-    }
-}
-
 /// Everything the engine keeps for one station.
 #[derive(Debug)]
 pub(crate) struct StationRuntime {
@@ -495,38 +56,6 @@ pub(crate) struct StationRuntime {
     pub(crate) liveness: Liveness,
 }
 
-/// Context of one released packet, shared by its samples.
-pub(crate) struct PacketContext<'a> {
-    pub(crate) alerts: &'a AlertConfig,
-    /// Alerts already in the journal (published before a restart): not emitted again.
-    pub(crate) journaled: &'a HashSet<AlertKey>,
-    pub(crate) state_interval_s: f64,
-    pub(crate) arrival_ns: i64,
-}
-
-/// One sample of a station, as its blocks see it.
-struct SampleContext<'a> {
-    station: &'a str,
-    /// Data time of the sample (ns).
-    t_ns: i64,
-    /// The station's running PGA and PGV, larger horizontal component (m/s², m/s).
-    pga_mps2: f64,
-    pgv_mps: f64,
-    /// The station has been quiet for `quiet_s`.
-    quiet_long: bool,
-}
-
-/// What one step of a block's integrators did.
-#[derive(Debug, Clone, Copy, Default)]
-struct BlockStep {
-    /// Data time of the nominal block's first mode change during the step (ns).
-    first_change_ns: Option<i64>,
-    /// An integrator could not complete the step.
-    failed: bool,
-    /// The nominal block lifted off and was put down again.
-    landed_after_flight: bool,
-}
-
 /// Hands `out` a notice about `station`.
 fn notice(station: &str, kind: &'static str, message: String, out: &mut dyn OutputSink) {
     out.push(Output::Notice(Notice {
@@ -537,9 +66,18 @@ fn notice(station: &str, kind: &'static str, message: String, out: &mut dyn Outp
 }
 
 impl StationRuntime {
-    pub(crate) fn new(config: StationConfig, pbrs: &[&PbrSpec], stream: StreamConfig) -> Self {
-        let pbrs: Vec<PbrRuntime> = pbrs.iter().map(|s| PbrRuntime::new(s)).collect();
-        StationRuntime {
+    pub(crate) fn new(
+        config: StationConfig,
+        pbrs: &[&PbrSpec],
+        stream: StreamConfig,
+    ) -> Result<Self, ConfigError> {
+        // Exactly as many as bound (collecting through `Result` would not size the vector).
+        let mut runtimes = Vec::with_capacity(pbrs.len());
+        for spec in pbrs {
+            runtimes.push(PbrRuntime::new(spec)?);
+        }
+        let pbrs = runtimes;
+        Ok(StationRuntime {
             rest: RestGroup::new(pbrs.iter().map(PbrRuntime::rest_limit).collect()),
             name: config.id.to_string(),
             config,
@@ -551,7 +89,7 @@ impl StationRuntime {
             last_intensity_ns: None,
             counters: StationCounters::default(),
             liveness: Liveness::default(),
-        }
+        })
     }
 
     /// An accepted packet (validated, plausible) of `samples` samples at `rate_hz` starting at
@@ -684,12 +222,7 @@ impl StationRuntime {
                 }
             }
             if fallen.contains(&pbr.id) {
-                // Which direction fell is not journaled: the rock is fallen in every one.
-                pbr.blocks_mut().for_each(RigidBlock::set_overturned);
-                pbr.members_overturned = pbr.members_len();
-                pbr.episode = last_episode;
-                pbr.in_episode = true;
-                pbr.raised = RaisedLevels::all();
+                pbr.restore_fallen(last_episode);
             } else {
                 // An open episode is re-entered under its own number, so that its journaled
                 // alerts are recognised and not emitted twice.
@@ -758,14 +291,7 @@ impl StationRuntime {
         let Some(pbr) = self.pbrs.iter_mut().find(|p| p.id == id) else {
             return false;
         };
-        let options = BlockOptions::default();
-        for b in pbr.blocks_mut() {
-            *b = RigidBlock::new(*b.params(), options);
-        }
-        pbr.members_overturned = 0;
-        pbr.governing = 0;
-        pbr.in_episode = false;
-        pbr.raised = RaisedLevels::default();
+        pbr.reset();
         true
     }
 
@@ -782,18 +308,7 @@ impl StationRuntime {
     /// inline), ids, member lists and rest-group entries (allocator overhead excluded).
     pub(crate) fn block_bytes(&self) -> usize {
         self.pbrs.capacity() * std::mem::size_of::<PbrRuntime>()
-            + self
-                .pbrs
-                .iter()
-                .map(|p| {
-                    p.id.capacity()
-                        + p.directions.capacity() * std::mem::size_of::<Direction>()
-                        + p.directions
-                            .iter()
-                            .map(|d| d.members.capacity() * std::mem::size_of::<RigidBlock>())
-                            .sum::<usize>()
-                })
-                .sum::<usize>()
+            + self.pbrs.iter().map(PbrRuntime::heap_bytes).sum::<usize>()
             + self.rest.heap_bytes()
     }
 
@@ -812,7 +327,7 @@ impl StationRuntime {
     fn input_discontinuity(&mut self) {
         self.last = None;
         for p in &mut self.pbrs {
-            p.blocks_mut().for_each(RigidBlock::input_discontinuity);
+            p.input_discontinuity();
         }
     }
 
@@ -1013,7 +528,7 @@ impl StationRuntime {
             pbr.raise_alerts(&at, step.first_change_ns, ctx, out);
             pbr.end_episode_if_settled(&at, out);
             pbr.emit_state_if_due(&at, step.first_change_ns.is_some(), ctx, out);
-            if self.rest.may_park(i, pbr.nominal().time_s())
+            if self.rest.may_park(i, pbr.time_s())
                 && pbr.may_rest_in_group(self.rest.clock_s(), ctx.alerts)
             {
                 self.rest.park(i, pbr.last_state_ns, ctx.state_interval_s);

@@ -6,6 +6,11 @@ use nalgebra::{Matrix3, Vector3};
 use crate::mesh::contact::{RestingContact, RockGeometry};
 use crate::mesh::support_polygon::SupportPolygon;
 
+/// The density given to a rock whose density is not known (kg/m³, a granite's 2500–2700):
+/// the dynamics do not depend on it (every force is proportional to the mass), only the
+/// reported mass and impulses do.
+pub const NOMINAL_DENSITY_KG_M3: f64 = 2500.0;
+
 /// Why a body could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum BodyError {

@@ -47,6 +47,20 @@ impl RestCondition {
         }
     }
 
+    /// k = min(μs, min_e dist_e/h) (dimensionless): a horizontal ground acceleration of
+    /// magnitude at most k·(g + a_U), with g + a_U > 0, keeps the rock at rest whatever its
+    /// direction (it neither slips nor lifts off about any edge).
+    #[must_use]
+    pub fn sufficient_ratio(&self) -> f64 {
+        self.quick
+    }
+
+    /// Gravity g (m/s²) of the condition.
+    #[must_use]
+    pub fn gravity_mps2(&self) -> f64 {
+        self.gravity_mps2
+    }
+
     /// True when rest is consistent under the ground acceleration `a`.
     #[inline]
     #[must_use]

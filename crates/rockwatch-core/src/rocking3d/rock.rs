@@ -132,6 +132,8 @@ pub struct Stats3d {
     pub first_flight_s: Option<f64>,
     /// When rest first broke (s).
     pub first_motion_s: Option<f64>,
+    /// When rest last broke (s).
+    pub last_motion_s: Option<f64>,
     /// Time steps taken.
     pub n_steps: u64,
     /// Returns to rest.
@@ -282,6 +284,40 @@ impl Rock3d {
         }
     }
 
+    /// Static friction μs and kinetic friction μk.
+    #[must_use]
+    pub fn friction(&self) -> (f64, f64) {
+        (self.mu_s, self.mu_k)
+    }
+
+    /// Stands the body up again at rest on its resting facet, at time 0, with fresh
+    /// statistics (an operator's reset; no allocation).
+    pub fn reset(&mut self) {
+        self.mode = Mode3d::Rest;
+        self.time_s = 0.0;
+        self.x = Vector3::new(0.0, 0.0, self.body.h_m());
+        self.q = UnitQuaternion::identity();
+        self.v = Vector3::zeros();
+        self.w = Vector3::zeros();
+        for p in &mut self.solver.impulse {
+            *p = Vector3::zeros();
+        }
+        self.solver.contacts.clear();
+        self.above_alpha = false;
+        self.stats = Stats3d::default();
+    }
+
+    /// Sets the clock of a body at rest to `time_s` (s) and returns true; a body not at rest
+    /// is left alone (false). For a caller that skipped intervals in which rest provably held
+    /// (the engine's station-wide rest check): resting for them changes nothing but the time.
+    pub fn stay_at_rest_until(&mut self, time_s: f64) -> bool {
+        let at_rest = self.mode == Mode3d::Rest;
+        if at_rest {
+            self.time_s = time_s;
+        }
+        at_rest
+    }
+
     /// Marks the body overturned (e.g. by an outside decision); terminal.
     pub fn set_overturned(&mut self) {
         self.mode = Mode3d::Overturned;
@@ -318,9 +354,9 @@ impl Rock3d {
                     }
                     w = self.leave_rest(from, to, w);
                     self.mode = Mode3d::Moving;
-                    if self.stats.first_motion_s.is_none() {
-                        self.stats.first_motion_s = Some(t0 + w * dt_s);
-                    }
+                    let t = t0 + w * dt_s;
+                    self.stats.first_motion_s.get_or_insert(t);
+                    self.stats.last_motion_s = Some(t);
                 }
                 Mode3d::Moving => {
                     w = self.integrate(t0, dt_s, from, to, w);

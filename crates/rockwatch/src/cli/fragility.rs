@@ -226,6 +226,13 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
         let pbr = catalogue
             .get(id)
             .with_context(|| format!("{}: no pbr {id:?}", path.display()))?;
+        if pbr.model() == rockwatch_core::catalogue::RockModel::Rigid3d {
+            bail!(
+                "pbr {id:?} is integrated in 3-D (model = \"3d\"): fragility --model 3d is not \
+                 implemented yet (docs/rocking-3d.md); remove model = \"3d\" from a copy of the \
+                 entry for the planar reduction's fragility"
+            );
+        }
         let k = args.ensemble.unwrap_or(pbr.ensemble_size());
         if k == 0 {
             bail!("--ensemble must be at least 1");

@@ -211,11 +211,16 @@ impl MeshPlan {
             .with_context(|| format!("{} at azimuth {azimuth_deg}°", self.mesh.path.display()))
     }
 
-    /// The rigid body of the 3-D model (its dynamics do not depend on the density; 2500
-    /// kg/m³, granite-like, sets the reported mass only).
+    /// The rigid body of the 3-D model (its dynamics do not depend on the density:
+    /// [`NOMINAL_DENSITY_KG_M3`](rockwatch_core::rocking3d::body::NOMINAL_DENSITY_KG_M3) sets
+    /// the reported mass only).
     pub fn body_3d(&self) -> anyhow::Result<rockwatch_core::rocking3d::RockBody> {
-        rockwatch_core::rocking3d::RockBody::from_mesh(&self.mesh.rock, &self.mesh.rest, 2500.0)
-            .with_context(|| format!("{}: the 3-D body", self.mesh.path.display()))
+        rockwatch_core::rocking3d::RockBody::from_mesh(
+            &self.mesh.rock,
+            &self.mesh.rest,
+            rockwatch_core::rocking3d::body::NOMINAL_DENSITY_KG_M3,
+        )
+        .with_context(|| format!("{}: the 3-D body", self.mesh.path.display()))
     }
 }
 
