@@ -70,7 +70,7 @@ fn main() {
         samples
     );
     // A slender rock (B = 0.4 m, H = 1.6 m, α = 14°, μ = 0.7) and a stocky one (α = 34°).
-    let rock = |b: f64, h: f64| RockMember {
+    let rock = |b: f64, h: f64| RockMember::Planar {
         directions: vec![RockDirection {
             azimuth_deg: 0.0,
             params: BlockParams::from_width_height(b, h, 0.7, 0.6, None).expect("valid block"),

@@ -2,8 +2,9 @@
 //! sample at 100 Hz: (a) at rest under weak motion (the closed-form rest test), (b) rocking
 //! (a 0.4 × 0.6 × 2.0 m box under a 1 Hz sine above its uplift threshold, released tilted so
 //! that it rocks throughout). Prints the number of 3-D rocks one core runs at 2× real time
-//! while all of them rock. Run: `cargo bench --bench rocking_3d` (compare benches/block_step.rs
-//! for the planar block).
+//! while all of them rock; and (c) in the engine, a quiet station's 3-D rocks (`model = "3d"`)
+//! against as many planar blocks, per rock per sample (the rest group on). Run:
+//! `cargo bench --bench rocking_3d` (compare benches/block_step.rs for the planar block).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -112,5 +113,99 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// (c) A quiet station (0.01 m/s² noise on every component, 100 Hz, 1 s packets) with
+/// `ROCKS` rocks: all 3-D (`model = "3d"`, the box above) or all planar (the box's planar
+/// block), in the engine with its shared rest check; the cost per rock per sample.
+fn bench_engine_at_rest(c: &mut Criterion) {
+    use rockwatch_core::azimuth::Azimuth;
+    use rockwatch_core::catalogue::RigidMember;
+    use rockwatch_core::dynamics::BlockParams;
+    use rockwatch_core::engine::{
+        AccelPacket, Engine, EngineConfig, PbrSpec, Rock3dSpec, StationId,
+    };
+    const ROCKS: usize = 100;
+    let station = StationId::parse("XX.Q.00").expect("station");
+    let planar = BlockParams::from_width_height(0.4, 2.0, 0.8, 0.8, None).expect("block");
+    let specs = |three_d: bool| -> Vec<PbrSpec> {
+        (0..ROCKS)
+            .map(|k| PbrSpec {
+                id: format!("rock-{k}"),
+                station: station.clone(),
+                azimuth: Azimuth::from_degrees(3.6 * k as f64).expect("azimuth"),
+                nominal: planar,
+                members: vec![],
+                more_directions: vec![],
+                rock_3d: three_d.then(|| Rock3dSpec {
+                    body: box_body(),
+                    nominal: RigidMember {
+                        heading_deg: 3.6 * k as f64,
+                        mu_s: 0.8,
+                        mu_k: 0.8,
+                    },
+                    members: vec![],
+                }),
+            })
+            .collect()
+    };
+    let packet = |i: usize| {
+        let noise = |phase: f32| -> Vec<f32> {
+            (0..100)
+                .map(|j| 0.01 * ((i * 100 + j) as f32 * phase).sin())
+                .collect()
+        };
+        AccelPacket {
+            station: "XX.Q.00".into(),
+            start_time_ns: 1_700_000_000_000_000_000 + i as i64 * 1_000_000_000,
+            sample_rate_hz: 100.0,
+            sequence: i as u64,
+            east: noise(0.7),
+            north: noise(0.3),
+            up: noise(0.9),
+        }
+    };
+    let mut group = c.benchmark_group("engine_at_rest");
+    let mut per_rock_ns = [0.0; 2];
+    for (slot, three_d) in [(0, false), (1, true)] {
+        let config = EngineConfig {
+            state_interval_s: 3600.0,
+            ..EngineConfig::default()
+        };
+        let mut engine = Engine::new(config, vec![], &specs(three_d)).expect("engine");
+        let mut out = Vec::new();
+        let mut i = 0;
+        for _ in 0..3 {
+            engine.process(packet(i), 0, &mut out);
+            i += 1;
+        }
+        assert_eq!(engine.parked_blocks(), ROCKS, "every rock parked");
+        let name = if three_d {
+            "3-D rocks"
+        } else {
+            "planar blocks"
+        };
+        group.bench_function(format!("{ROCKS} {name}, per 1 s packet"), |bch| {
+            bch.iter_custom(|iters| {
+                let packets: Vec<AccelPacket> =
+                    (0..iters as usize).map(|k| packet(i + k)).collect();
+                i += iters as usize;
+                let start = std::time::Instant::now();
+                for p in packets {
+                    engine.process(p, 0, &mut out);
+                }
+                let elapsed = start.elapsed();
+                out.clear();
+                per_rock_ns[slot] =
+                    elapsed.as_nanos() as f64 / (iters as f64 * 100.0 * ROCKS as f64);
+                elapsed
+            });
+        });
+    }
+    group.finish();
+    println!(
+        "engine at rest (quiet station, shared rest check): planar {:.2} ns, 3-D {:.2} ns per rock per sample",
+        per_rock_ns[0], per_rock_ns[1]
+    );
+}
+
+criterion_group!(benches, bench, bench_engine_at_rest);
 criterion_main!(benches);

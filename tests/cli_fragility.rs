@@ -546,3 +546,105 @@ fn a_meshed_rock_sees_records_from_all_azimuths_whatever_its_first_direction() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_mesh_rock_in_3d_gets_the_planar_status_along_a_face_normal_from_the_flags_and_the_catalogue() {
+    // The 0.4 (east) × 0.3 (north) × 1.2 m box of the test above as one 3-D rigid body
+    // (`--model 3d`): records along incidence 0° (north) rock it over its 0.3 m side, as the
+    // planar 0.3 × 1.2 m rectangle does (an independent formulation), so each run has the
+    // rectangle's status; the standing peaks agree within 2 % where it rocks. The same body
+    // from a catalogue entry with model = "3d" and heading 90° (its mesh north points east)
+    // sees incidence 90° exactly as the flags' rock sees 0°.
+    let dir = temp_dir("mesh-3d");
+    std::fs::write(
+        dir.join("box.obj"),
+        "v -0.2 -0.15 0\nv 0.2 -0.15 0\nv 0.2 0.15 0\nv -0.2 0.15 0\n\
+         v -0.2 -0.15 1.2\nv 0.2 -0.15 1.2\nv 0.2 0.15 1.2\nv -0.2 0.15 1.2\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
+    )
+    .unwrap();
+    let catalogue = dir.join("cat.toml");
+    std::fs::write(
+        &catalogue,
+        "[[pbr]]\nid = \"box\"\nname = \"Box\"\nlat = 34.28\nlon = -118.48\n\
+         station = \"CI.RRS.00\"\nmesh = \"box.obj\"\nmodel = \"3d\"\nheading_deg = 90.0\n\
+         mu_s = 0.8\nmu_k = 0.8\nsource = \"test\"\n",
+    )
+    .unwrap();
+    let record = format!("{RECORDS}/Rinaldi228.AT2");
+    let run = |name: &str, rock: &[&str], incidences: &str| {
+        let out = dir.join(name);
+        let mut args = vec!["fragility"];
+        args.extend_from_slice(rock);
+        args.extend_from_slice(&[
+            "--records",
+            &record,
+            "--im",
+            "PGA",
+            "--scales",
+            "0.2:1.6:4",
+            "--bootstrap",
+            "0",
+            "--no-plots",
+            "--format",
+            "json",
+            "--azimuths",
+            incidences,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let (ok, _, stderr) = cli(&args);
+        assert!(ok || stderr.contains("no IM could be fitted"), "{stderr}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+                .unwrap();
+        (json, runs(&out.join("runs.csv")))
+    };
+    let mesh = dir.join("box.obj");
+    let (json, three) = run(
+        "flags",
+        &[
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "--model",
+            "3d",
+            "--mu-s",
+            "0.8",
+        ],
+        "0",
+    );
+    let (_, planar) = run(
+        "planar",
+        &["--width", "0.3", "--height", "1.2", "--mu-s", "0.8"],
+        "0",
+    );
+    assert_eq!(three.len(), 4);
+    assert!(three.iter().any(|r| r.3 == "overturned"), "{three:?}");
+    assert!(three.iter().any(|r| r.3 == "standing"), "{three:?}");
+    for (t, p) in three.iter().zip(&planar) {
+        assert_eq!(
+            (&t.0, t.1, &t.3),
+            (&p.0, p.1, &p.3),
+            "3-D {t:?} vs planar {p:?}"
+        );
+        if t.3 == "standing" && p.4 > 0.05 {
+            assert!((t.4 - p.4).abs() < 0.02 * p.4, "3-D {t:?} vs planar {p:?}");
+        }
+    }
+    let rock = &json["rock"];
+    assert_eq!(rock["model"], "3d", "{rock}");
+    assert!((rock["body"]["com_height_m"].as_f64().unwrap() - 0.6).abs() < 1e-12);
+    let (json, from_catalogue) = run(
+        "catalogue",
+        &["--pbr", "box", "--catalogue", catalogue.to_str().unwrap()],
+        "90",
+    );
+    assert_eq!(json["rock"]["model"], "3d");
+    let strip = |rows: &[(String, f64, f64, String, f64)]| -> Vec<(String, f64, String, f64)> {
+        rows.iter()
+            .map(|r| (r.0.clone(), r.1, r.3.clone(), r.4))
+            .collect()
+    };
+    assert_eq!(strip(&from_catalogue), strip(&three));
+    let _ = std::fs::remove_dir_all(&dir);
+}

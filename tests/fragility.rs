@@ -223,7 +223,7 @@ fn config_with(levels: Vec<f64>, bootstrap: usize, seed: u64) -> FragilityConfig
     FragilityConfig {
         ims: vec![FragilityIm::Pga],
         intensity: Intensity::Stripes { im: 0, levels },
-        members: vec![RockMember {
+        members: vec![RockMember::Planar {
             directions: vec![RockDirection {
                 azimuth_deg: 0.0,
                 params,
@@ -468,7 +468,7 @@ fn housner_pulses_give_the_closed_form_fragility() {
     let params = BlockParams::from_r_alpha(r, alpha, 1.0, 0.9, None).unwrap();
     let levels = log_spaced(0.8 * G * alpha * 1.5, theta * 1.8, 14);
     let mut config = config_with(levels.clone(), 100, 3);
-    config.members[0].directions[0].params = params;
+    config.members = vec![RockMember::planar(params)];
     // Both polarities: a symmetric block must not care.
     config.incidences_deg = vec![0.0, 180.0];
     let prepared = prepare(&config, &records).unwrap();
@@ -582,5 +582,114 @@ fn early_exit_runs_agree_with_the_full_simulation() {
         );
         assert_eq!(fast.max_abs_slide_m, full.summary.max_abs_slide, "{h}");
         assert!(fast.duration_s <= full.summary.duration + 1e-9);
+    }
+}
+
+#[test]
+fn a_3d_rock_member_overturns_where_the_planar_block_of_its_face_normal_does() {
+    // A 0.4 (east) × 0.6 (north) × 2.0 m box as one 3-D rigid body at heading 30° (its east
+    // face normal is the rock-frame azimuth 120°), against the planar 0.4 × 2.0 m block of
+    // that face normal (an independent formulation: tests/rocking_3d.rs check (a)), under
+    // one-cycle sines at 1 and 2 Hz sampled at 200 Hz, scaled to 0.9 and 1.15 of the planar
+    // block's smallest overturning amplitude (2.481 and 4.317 m/s²), the record along 120° and
+    // 300° (both faces): the same status in every run, and the standing peaks within 2 %.
+    // (Nearer the static uplift g·b/h the rocking is a few 10⁻⁴ rad and the two formulations
+    // resolve it differently: at 0.85× of the 1 Hz case θ/α is 0.0119 in 3-D, 0.0045 planar.)
+    use rockwatch_core::mesh::contact::{RockGeometry, UpAxis};
+    use rockwatch_core::mesh::TriMesh;
+    use rockwatch_core::rocking3d::RockBody;
+    let (b, d, h) = (0.4, 0.6, 2.0);
+    let mut vertices = Vec::new();
+    for z in [0.0, h] {
+        for (x, y) in [(0.0, 0.0), (b, 0.0), (b, d), (0.0, d)] {
+            vertices.push([x, y, z]);
+        }
+    }
+    let faces = vec![
+        [0, 2, 1],
+        [0, 3, 2],
+        [4, 5, 6],
+        [4, 6, 7],
+        [0, 1, 5],
+        [0, 5, 4],
+        [1, 2, 6],
+        [1, 6, 5],
+        [2, 3, 7],
+        [2, 7, 6],
+        [3, 0, 4],
+        [3, 4, 7],
+    ];
+    let mesh = TriMesh {
+        source: "generated".into(),
+        face_lines: vec![0; faces.len()],
+        vertices,
+        faces,
+    };
+    let geometry = RockGeometry::new(&mesh).unwrap();
+    let body = RockBody::from_mesh(
+        &geometry,
+        &geometry.rest(UpAxis::PlusZ, 0.0).unwrap(),
+        2500.0,
+    )
+    .unwrap();
+    let dt = 0.005;
+    let records: Vec<FragilityRecord> = [(1.0_f64, 2.481), (2.0, 4.317)]
+        .iter()
+        .map(|&(f, threshold)| {
+            let n = (1.0 / (f * dt)).round() as usize;
+            let mut a: Vec<f64> = (0..=n)
+                .map(|i| threshold * (2.0 * std::f64::consts::PI * f * i as f64 * dt).sin())
+                .collect();
+            a.extend(vec![0.0; 10]);
+            FragilityRecord {
+                name: format!("sine {f} Hz"),
+                record: Record {
+                    source: "one-sine".into(),
+                    dt_s: dt,
+                    horizontal_mps2: a,
+                    vertical_mps2: None,
+                },
+            }
+        })
+        .collect();
+    let planar = BlockParams::from_width_height(0.4, 2.0, 0.8, 0.8, None).unwrap();
+    let mut config = config_with(vec![1.0], 0, 1);
+    config.intensity = Intensity::Scales(vec![0.9, 1.15]);
+    config.t_extra_s = 6.0;
+    config.incidences_deg = vec![120.0, 300.0];
+    let mut planar_config = config.clone();
+    planar_config.members = vec![RockMember::Planar {
+        directions: vec![RockDirection {
+            azimuth_deg: 120.0,
+            params: planar,
+        }],
+    }];
+    config.members = vec![RockMember::Rigid3d {
+        body: std::sync::Arc::new(body),
+        heading_deg: 30.0,
+        mu_s: 0.8,
+        mu_k: 0.8,
+    }];
+    let run = |c: &FragilityConfig| {
+        let prepared = prepare(c, &records).unwrap();
+        run_simulations(c, &records, &prepared, &|| {})
+    };
+    let (three, two) = (run(&config), run(&planar_config));
+    assert_eq!(three.len(), 2 * 2 * 2);
+    for (a, p) in three.iter().zip(&two) {
+        assert_eq!(a.status, p.status, "3-D {a:?}\nplanar {p:?}");
+        assert_eq!(
+            a.status,
+            if a.level == 0 {
+                RunStatus::Standing
+            } else {
+                RunStatus::Overturned
+            }
+        );
+        if a.status == RunStatus::Standing {
+            let rel = (a.max_abs_theta_over_alpha - p.max_abs_theta_over_alpha).abs()
+                / p.max_abs_theta_over_alpha;
+            assert!(rel < 0.02, "3-D {a:?}\nplanar {p:?}");
+        }
     }
 }

@@ -13,8 +13,9 @@
 //!   towards (≥ 0; 1 = the centre of mass above the support polygon's edge);
 //! - the direction: the true azimuth d towards which the top leans (degrees clockwise from
 //!   north); at rest, the azimuth of the weakest direction;
-//! - the slide: the horizontal displacement of the centre of mass over the ground (m; it
-//!   includes the rocking excursion h·sin θ);
+//! - the slide: the horizontal displacement over the ground of the base point below the
+//!   centre of mass at rest (m): the slip of the rock's foot, which pure rocking about an edge
+//!   barely moves (r·(1 − cos θ)), unlike the centre of mass (h·sin θ);
 //! - the mode: `rest`, `overturned`, and while moving `rock` when tilted by more than
 //!   [`TILT_ROCKING_RAD`], else `slide` (the 3-D model does not tell slide-rock from rock,
 //!   and models a flight instead of reporting it).
@@ -121,14 +122,20 @@ impl Member {
             Mode3d::Moving if tilt > TILT_ROCKING_RAD => Mode::Rock,
             Mode3d::Moving => Mode::Slide,
         };
-        let x: Vector3<f64> = self.rock.position();
         Pose {
             mode,
             theta_rad: tilt,
             theta_over_alpha: if alpha > 0.0 { tilt / alpha } else { 0.0 },
-            slide_m: x.x.hypot(x.y),
+            slide_m: self.slide_m(),
             direction_deg,
         }
+    }
+
+    /// Horizontal displacement (m) of the base point below the centre of mass at rest.
+    fn slide_m(&self) -> f64 {
+        let foot: Vector3<f64> = self.rock.position()
+            + self.rock.rotation() * Vector3::new(0.0, 0.0, -self.rock.body().h_m());
+        foot.x.hypot(foot.y)
     }
 }
 
@@ -156,6 +163,8 @@ fn weakest_direction(body: &crate::rocking3d::RockBody) -> (f64, f64) {
 pub(crate) struct RigidRock {
     nominal: Member,
     members: Vec<Member>,
+    /// Largest slide of the nominal rock (m, module doc).
+    max_slide_m: f64,
 }
 
 /// What one step of a rock's members did.
@@ -178,6 +187,7 @@ impl RigidRock {
                 .iter()
                 .map(|&p| Member::new(spec, p))
                 .collect::<Result<_, _>>()?,
+            max_slide_m: 0.0,
         })
     }
 
@@ -190,6 +200,9 @@ impl RigidRock {
             failed |= m.advance(prev, next, dt_s).is_err();
         }
         let after = self.nominal.rock.mode();
+        if after != Mode3d::Rest || before != Mode3d::Rest {
+            self.max_slide_m = self.max_slide_m.max(self.nominal.slide_m());
+        }
         let motion_after = self.nominal.rock.stats().last_motion_s;
         RigidStep {
             left_rest_s: motion_after.filter(|_| motion_after != motion_before),
@@ -273,6 +286,7 @@ impl RigidRock {
     /// Every member stands again at rest (an operator's reset).
     pub(crate) fn reset(&mut self) {
         self.all_mut().for_each(|m| m.rock.reset());
+        self.max_slide_m = 0.0;
     }
 
     /// The same rock: body and every member's heading and friction.
@@ -296,13 +310,13 @@ impl RigidRock {
     }
 
     /// The nominal rock's response extremes: largest tilt/α and its true azimuth, largest
-    /// slide (m).
+    /// slide (m, sampled at the input samples while it moves).
     pub(crate) fn extremes(&self) -> (f64, f64, f64) {
         let s = self.nominal.rock.stats();
         (
             s.max_tilt_over_alpha,
             self.nominal.true_azimuth(s.max_tilt_over_alpha_azimuth_deg),
-            s.max_slide_m,
+            self.max_slide_m,
         )
     }
 }

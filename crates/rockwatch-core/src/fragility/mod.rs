@@ -16,7 +16,9 @@
 //!
 //! Rock input: a list of [`RockMember`]s (ensemble members), each a list of
 //! [`RockDirection`]s (a planar body and the azimuth of its +x axis in the rock's frame), so a
-//! mesh-derived rock with several toppling directions plugs in as more directions.
+//! mesh-derived rock with several toppling directions plugs in as more directions; or a mesh
+//! rock as one 3-D rigid body ([`RockMember::Rigid3d`], [`crate::rocking3d`]), the record
+//! applied along the incidence azimuth and its vertical component as up.
 //! Single-component records: incidence angle φ puts the record along the azimuth φ of the
 //! rock's frame; direction ψ sees `a_h·cos(φ − ψ)` (φ = 0 and 180° apply the record along +x
 //! and −x: both pivots). The vertical component, when given, is applied unprojected. Every
@@ -31,6 +33,7 @@ use crate::dynamics::{BlockOptions, BlockParams};
 use crate::ims::{compute_ims, ImError, ImOptions};
 use crate::lhs::{rng_from_seed, uniform_below};
 use crate::record::{Record, MAX_ABS_ACCEL_MPS2};
+use crate::rocking3d::{simulate_3d_outcome, Rock3dOptions};
 use crate::simulate::{simulate_outcome, SimulateError, Status};
 use crate::stats::normal_cdf;
 use fit::{fit_lognormal_groups, fit_surface, FitError, LognormalFit, SurfaceFit};
@@ -54,11 +57,44 @@ pub struct RockDirection {
     pub params: BlockParams,
 }
 
-/// One realisation of the rock (an ensemble member): its directions (one for a planar body
-/// given by flags or a catalogue entry; several for a rock from a mesh).
+/// One realisation of the rock (an ensemble member).
 #[derive(Debug, Clone, PartialEq)]
-pub struct RockMember {
-    pub directions: Vec<RockDirection>,
+pub enum RockMember {
+    /// Planar bodies: one direction for a planar body given by flags or a catalogue entry;
+    /// several for a rock from a mesh. The run overturns when any direction does.
+    Planar { directions: Vec<RockDirection> },
+    /// A mesh rock as one 3-D rigid body (docs/rocking-3d.md): `heading_deg` is the azimuth
+    /// of the mesh's north axis in the rock's frame (incidence φ is the mesh azimuth
+    /// φ − heading), `mu_s` ≥ `mu_k` its friction.
+    Rigid3d {
+        /// Shared by the members of one rock.
+        body: std::sync::Arc<crate::rocking3d::RockBody>,
+        heading_deg: f64,
+        mu_s: f64,
+        mu_k: f64,
+    },
+}
+
+impl RockMember {
+    /// One planar direction of the rock's frame at azimuth 0.
+    #[must_use]
+    pub fn planar(params: BlockParams) -> RockMember {
+        RockMember::Planar {
+            directions: vec![RockDirection {
+                azimuth_deg: 0.0,
+                params,
+            }],
+        }
+    }
+
+    /// Simulations per run before early exits (its directions; one 3-D body).
+    #[must_use]
+    pub fn simulations(&self) -> usize {
+        match self {
+            RockMember::Planar { directions } => directions.len(),
+            RockMember::Rigid3d { .. } => 1,
+        }
+    }
 }
 
 /// How the records are brought to each intensity.
@@ -165,7 +201,7 @@ impl FragilityConfig {
                 }
             }
         }
-        if self.members.is_empty() || self.members.iter().any(|m| m.directions.is_empty()) {
+        if self.members.is_empty() || self.members.iter().any(|m| m.simulations() == 0) {
             return bad("the rock needs at least one member with one direction".into());
         }
         if self.incidences_deg.is_empty() || self.incidences_deg.iter().any(|a| !a.is_finite()) {
@@ -201,7 +237,7 @@ impl FragilityConfig {
     /// across directions).
     #[must_use]
     pub fn n_simulations(&self, n_records: usize) -> usize {
-        let directions: usize = self.members.iter().map(|m| m.directions.len()).sum();
+        let directions: usize = self.members.iter().map(RockMember::simulations).sum();
         n_records * self.intensity.len() * self.incidences_deg.len() * directions
     }
 }
@@ -357,8 +393,42 @@ fn run_one(
     member: &RockMember,
     incidence_deg: f64,
 ) -> (RunStatus, Option<usize>, f64, f64, Option<String>) {
+    let directions = match member {
+        RockMember::Planar { directions } => directions,
+        RockMember::Rigid3d {
+            body,
+            heading_deg,
+            mu_s,
+            mu_k,
+        } => {
+            return match simulate_3d_outcome(
+                crate::rocking3d::RockBody::clone(body),
+                *mu_s,
+                *mu_k,
+                record,
+                incidence_deg - heading_deg,
+                scale,
+                scale,
+                config.t_extra_s,
+                Rock3dOptions::default(),
+            ) {
+                Ok(o) => (
+                    if o.overturned {
+                        RunStatus::Overturned
+                    } else {
+                        RunStatus::Standing
+                    },
+                    o.overturned.then_some(0),
+                    o.max_tilt_over_alpha,
+                    o.max_slide_m,
+                    None,
+                ),
+                Err(e) => (RunStatus::Failed, Some(0), 0.0, 0.0, Some(e.to_string())),
+            };
+        }
+    };
     let (mut theta, mut slide) = (0.0_f64, 0.0_f64);
-    for (d, dir) in member.directions.iter().enumerate() {
+    for (d, dir) in directions.iter().enumerate() {
         let projection = (incidence_deg - dir.azimuth_deg).to_radians().cos();
         match simulate_outcome(
             dir.params,

@@ -45,4 +45,7 @@ pub use body::{BodyError, RockBody};
 pub use ground::{GroundAccel3d, GroundMotion3d, MotionError};
 pub use rest::RestCondition;
 pub use rock::{Advance3dError, Mode3d, Rock3d, Rock3dOptions, Stats3d};
-pub use simulate::{simulate_3d, Simulate3dError, Simulation3dOptions, Status3d, Summary3d};
+pub use simulate::{
+    simulate_3d, simulate_3d_outcome, Outcome3d, Simulate3dError, Simulation3dOptions, Status3d,
+    Summary3d,
+};

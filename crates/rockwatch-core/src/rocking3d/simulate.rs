@@ -6,6 +6,7 @@
 use super::body::RockBody;
 use super::ground::{GroundAccel3d, GroundMotion3d};
 use super::rock::{Advance3dError, Mode3d, Rock3d, Rock3dOptions};
+use crate::record::Record;
 use crate::simulate::MAX_SIMULATION_STEPS;
 
 /// Options of an offline 3-D simulation.
@@ -96,41 +97,34 @@ pub enum Simulate3dError {
     Advance { t_s: f64, reason: Advance3dError },
 }
 
-/// Simulates `body` (friction `mu_s`, `mu_k`) under `motion`.
-pub fn simulate_3d(
-    body: RockBody,
-    mu_s: f64,
-    mu_k: f64,
-    motion: &GroundMotion3d,
-    options: &Simulation3dOptions,
-) -> Result<Summary3d, Simulate3dError> {
-    let n = motion.len();
+/// Advances `rock` through `n` input samples at `dt_s` (`at(i)`, zero beyond the last) and
+/// up to `t_extra_s` of quiet after them: one [`Rock3d::advance`] per interval, stopping once
+/// the rock has overturned, or once the input has ended and it is at rest (with no input a rock
+/// at rest stays so).
+fn run_to_end(
+    rock: &mut Rock3d,
+    n: usize,
+    dt_s: f64,
+    t_extra_s: f64,
+    at: impl Fn(usize) -> GroundAccel3d,
+) -> Result<(), Simulate3dError> {
     if n < 2 {
         return Err(Simulate3dError::TooShort);
     }
-    if !(options.t_extra_s.is_finite() && options.t_extra_s >= 0.0) {
-        return Err(Simulate3dError::BadExtra(options.t_extra_s));
+    if !(t_extra_s.is_finite() && t_extra_s >= 0.0) {
+        return Err(Simulate3dError::BadExtra(t_extra_s));
     }
-    let dt = motion.dt_s;
-    let steps = n as f64 + (options.t_extra_s / dt).ceil();
-    if !(dt > 0.0 && steps <= MAX_SIMULATION_STEPS as f64) {
-        return Err(Simulate3dError::TooManySteps { steps, dt_s: dt });
+    let steps = n as f64 + (t_extra_s / dt_s).ceil();
+    if !(dt_s > 0.0 && steps <= MAX_SIMULATION_STEPS as f64) {
+        return Err(Simulate3dError::TooManySteps { steps, dt_s });
     }
-    let n_extra = (options.t_extra_s / dt).ceil() as usize;
-    let alpha_min = {
-        let edges = body.edges();
-        let dist = edges.iter().map(|e| e.2).fold(f64::INFINITY, f64::min);
-        (dist / body.h_m()).atan()
-    };
-    let mut rock = Rock3d::new(body, mu_s, mu_k, options.rock)
-        .map_err(|reason| Simulate3dError::Advance { t_s: 0.0, reason })?;
-    let at = |i: usize| motion.samples.get(i).copied().unwrap_or_default();
+    let n_extra = (t_extra_s / dt_s).ceil() as usize;
     for i in 0..n - 1 + n_extra {
         if i + 1 >= n && rock.mode() == Mode3d::Rest {
             break;
         }
-        let (from, to): (GroundAccel3d, GroundAccel3d) = (at(i), at(i + 1));
-        rock.advance(dt, from, to)
+        let (from, to) = (at(i), at(i + 1));
+        rock.advance(dt_s, from, to)
             .map_err(|reason| Simulate3dError::Advance {
                 t_s: rock.time_s(),
                 reason,
@@ -139,6 +133,82 @@ pub fn simulate_3d(
             break;
         }
     }
+    Ok(())
+}
+
+/// The outcome of one run of [`simulate_3d_outcome`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Outcome3d {
+    pub overturned: bool,
+    /// Largest tilt/α(d) (d the tilt azimuth).
+    pub max_tilt_over_alpha: f64,
+    /// Largest horizontal displacement of the centre of mass (m).
+    pub max_slide_m: f64,
+    /// Simulated time when the run stopped (s).
+    pub duration_s: f64,
+}
+
+/// `body` (friction `mu_s`, `mu_k`) under a single-component `record` applied along the
+/// azimuth `azimuth_deg` of the body frame (degrees clockwise from the mesh's north axis),
+/// its horizontal component multiplied by `horizontal_factor` and its vertical one (applied
+/// as up, if the record has one) by `vertical_factor`: the 3-D run of a fragility analysis,
+/// with the early exits of [`run_to_end`] and no ground-motion copy.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_3d_outcome(
+    body: RockBody,
+    mu_s: f64,
+    mu_k: f64,
+    record: &Record,
+    azimuth_deg: f64,
+    horizontal_factor: f64,
+    vertical_factor: f64,
+    t_extra_s: f64,
+    options: Rock3dOptions,
+) -> Result<Outcome3d, Simulate3dError> {
+    let mut rock = Rock3d::new(body, mu_s, mu_k, options)
+        .map_err(|reason| Simulate3dError::Advance { t_s: 0.0, reason })?;
+    let (s, c) = azimuth_deg.to_radians().sin_cos();
+    let at = |i: usize| {
+        let a = record.horizontal_mps2.get(i).copied().unwrap_or(0.0) * horizontal_factor;
+        let up = record
+            .vertical_mps2
+            .as_ref()
+            .and_then(|v| v.get(i))
+            .copied()
+            .unwrap_or(0.0);
+        GroundAccel3d {
+            east_mps2: a * s,
+            north_mps2: a * c,
+            up_mps2: up * vertical_factor,
+        }
+    };
+    run_to_end(&mut rock, record.len(), record.dt_s, t_extra_s, at)?;
+    let stats = rock.stats();
+    Ok(Outcome3d {
+        overturned: rock.mode() == Mode3d::Overturned,
+        max_tilt_over_alpha: stats.max_tilt_over_alpha,
+        max_slide_m: stats.max_slide_m,
+        duration_s: rock.time_s(),
+    })
+}
+
+/// Simulates `body` (friction `mu_s`, `mu_k`) under `motion`.
+pub fn simulate_3d(
+    body: RockBody,
+    mu_s: f64,
+    mu_k: f64,
+    motion: &GroundMotion3d,
+    options: &Simulation3dOptions,
+) -> Result<Summary3d, Simulate3dError> {
+    let alpha_min = {
+        let edges = body.edges();
+        let dist = edges.iter().map(|e| e.2).fold(f64::INFINITY, f64::min);
+        (dist / body.h_m()).atan()
+    };
+    let mut rock = Rock3d::new(body, mu_s, mu_k, options.rock)
+        .map_err(|reason| Simulate3dError::Advance { t_s: 0.0, reason })?;
+    let at = |i: usize| motion.samples.get(i).copied().unwrap_or_default();
+    run_to_end(&mut rock, motion.len(), motion.dt_s, options.t_extra_s, at)?;
     let s = *rock.stats();
     let overturned = rock.mode() == Mode3d::Overturned;
     let x = rock.position();

@@ -226,13 +226,6 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
         let pbr = catalogue
             .get(id)
             .with_context(|| format!("{}: no pbr {id:?}", path.display()))?;
-        if pbr.model() == rockwatch_core::catalogue::RockModel::Rigid3d {
-            bail!(
-                "pbr {id:?} is integrated in 3-D (model = \"3d\"): fragility --model 3d is not \
-                 implemented yet (docs/rocking-3d.md); remove model = \"3d\" from a copy of the \
-                 entry for the planar reduction's fragility"
-            );
-        }
         let k = args.ensemble.unwrap_or(pbr.ensemble_size());
         if k == 0 {
             bail!("--ensemble must be at least 1");
@@ -242,6 +235,9 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
                 "pbr {id:?} has no uncertain parameter: an ensemble of {k} would repeat the \
                  nominal rock (use --ensemble 1)"
             );
+        }
+        if let (Some(mesh), Some((nominal, drawn))) = (pbr.mesh(), pbr.rigid_members(k)) {
+            return rigid_catalogue_rock(pbr, path, mesh, nominal, drawn);
         }
         // Every toppling direction of the rock: one for a planar entry, at 0 in its own frame;
         // one per true azimuth of a meshed rock, in the frame of north. Member i is one rock in
@@ -256,7 +252,7 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
             }
         };
         let members: Vec<RockMember> = (0..k)
-            .map(|i| RockMember {
+            .map(|i| RockMember::Planar {
                 directions: directions
                     .iter()
                     .map(|d| RockDirection {
@@ -300,7 +296,7 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
         RockPlan::Planar(params) => params,
         RockPlan::Mesh(mesh) => {
             if mesh.model == super::rock_flags::Model::ThreeD {
-                bail!("fragility --model 3d is not implemented yet (docs/rocking-3d.md); use simulate --model 3d");
+                return rigid_mesh_rock(&mesh);
             }
             return mesh_rock(args, &mesh);
         }
@@ -318,12 +314,7 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
         "model": "2d",
     });
     Ok(Rock {
-        members: vec![RockMember {
-            directions: vec![RockDirection {
-                azimuth_deg: 0.0,
-                params,
-            }],
-        }],
+        members: vec![RockMember::planar(params)],
         label,
         info,
         meshed: false,
@@ -366,10 +357,107 @@ fn mesh_rock(args: &FragilityArgs, mesh: &MeshPlan) -> anyhow::Result<Rock> {
         "mu_s": mu_s, "mu_k": mu_k, "restitution": restitution,
     });
     Ok(Rock {
-        members: vec![RockMember { directions }],
+        members: vec![RockMember::Planar { directions }],
         label,
         info,
         meshed: true,
+    })
+}
+
+/// The rock of `--mesh F --model 3d`: one 3-D rigid body in the mesh's frame (the frame of
+/// the incidences: its north axis).
+fn rigid_mesh_rock(mesh: &MeshPlan) -> anyhow::Result<Rock> {
+    let Friction {
+        mu_s,
+        mu_k,
+        restitution,
+    } = mesh.friction;
+    if restitution.is_some() {
+        bail!("--restitution is not available with --model 3d (impacts are plastic, docs/rocking-3d.md)");
+    }
+    let body = mesh.body_3d()?;
+    let loaded = &mesh.mesh;
+    let label = format!("{} in 3-D, μs = {mu_s}, μk = {mu_k}", loaded.path.display());
+    let info = json!({
+        "mesh": loaded.path.display().to_string(), "mesh_sha256": file_sha256(&loaded.path)?,
+        "cap": loaded.cap, "model": "3d", "up": loaded.up.as_str(),
+        "body": body_json(&body), "mu_s": mu_s, "mu_k": mu_k,
+    });
+    Ok(Rock {
+        members: vec![RockMember::Rigid3d {
+            body: std::sync::Arc::new(body),
+            heading_deg: 0.0,
+            mu_s,
+            mu_k,
+        }],
+        label,
+        info,
+        meshed: true,
+    })
+}
+
+/// The rock of a `model = "3d"` catalogue entry: its nominal rock, or its `drawn` members
+/// (heading and friction from the entry's Latin hypercube), in the frame of north.
+fn rigid_catalogue_rock(
+    pbr: &rockwatch_core::catalogue::Pbr,
+    path: &Path,
+    mesh: &rockwatch_core::catalogue::MeshRock,
+    nominal: rockwatch_core::catalogue::RigidMember,
+    drawn: Vec<rockwatch_core::catalogue::RigidMember>,
+) -> anyhow::Result<Rock> {
+    let Some(body) = mesh.body() else {
+        bail!("pbr {:?}: model = \"3d\" without a body", pbr.id());
+    };
+    let chosen = if drawn.is_empty() {
+        vec![nominal]
+    } else {
+        drawn
+    };
+    let k = chosen.len();
+    let shared = std::sync::Arc::new(body.clone());
+    let members = chosen
+        .iter()
+        .map(|m| RockMember::Rigid3d {
+            body: shared.clone(),
+            heading_deg: m.heading_deg,
+            mu_s: m.mu_s,
+            mu_k: m.mu_k,
+        })
+        .collect();
+    let label = format!(
+        "{} ({}), {} in 3-D, {k} member{}",
+        pbr.id(),
+        pbr.name(),
+        mesh.path.display(),
+        if k == 1 { "" } else { "s (Latin hypercube)" }
+    );
+    let info = json!({
+        "pbr": pbr.id(), "catalogue": path.display().to_string(), "ensemble": k,
+        "seed": pbr.seed(), "model": "3d", "mesh": mesh.path.display().to_string(),
+        "mesh_sha256": file_sha256(&mesh.path)?, "cap": mesh.cap, "body": body_json(body),
+        "nominal": { "heading_deg": nominal.heading_deg, "mu_s": nominal.mu_s, "mu_k": nominal.mu_k },
+    });
+    Ok(Rock {
+        members,
+        label,
+        info,
+        meshed: true,
+    })
+}
+
+/// A 3-D body for fragility.json: mass, height of the centre of mass, the weakest direction's
+/// uplift angle and the hull's vertex count.
+fn body_json(body: &rockwatch_core::rocking3d::RockBody) -> serde_json::Value {
+    let weakest = body
+        .edges()
+        .iter()
+        .map(|e| e.2)
+        .fold(f64::INFINITY, f64::min);
+    json!({
+        "density_kg_m3": rockwatch_core::rocking3d::body::NOMINAL_DENSITY_KG_M3,
+        "mass_kg": body.mass_kg(), "com_height_m": body.h_m(),
+        "alpha_min_deg": (weakest / body.h_m()).atan().to_degrees(),
+        "hull_vertices": body.vertices().len(),
     })
 }
 
