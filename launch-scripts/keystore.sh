@@ -33,7 +33,8 @@
 #   /rockwatch/station   replay / acquire: publishes /pbr/accel and the partition topics
 #                        /pbr/accel/p<i>of<N> of a scaled-out service (rt/pbr/accel/p*: the
 #                        permissions' topic expressions are fnmatch patterns, `*` matching `/`
-#                        too, in RustDDS (glob::Pattern) and Cyclone DDS alike), reads /pbr/intake
+#                        too, in RustDDS (glob::Pattern) and Cyclone DDS alike) and acquire's
+#                        status on /diagnostics, reads /pbr/intake
 #   /rockwatch/operator  `rockwatch reset --node`: calls /pbr/reset
 #   /rockwatch/reader    reads /pbr/alerts, /pbr/state, /pbr/ims
 # The governance refuses unauthenticated participants, encrypts discovery, liveliness and data,
@@ -186,7 +187,7 @@ under() { local f="$1" ns p; shift; for ns in "${namespaces[@]}"; do
 enclave /rockwatch/node \
   "$(under rt pbr/alerts pbr/state pbr/ims pbr/intake) $(under rr pbr/resetReply) rt/diagnostics rr/*rockwatch/*" \
   "rt/* $(under rq pbr/resetRequest) rq/*rockwatch/*"
-enclave /rockwatch/station "$(under rt pbr/accel 'pbr/accel/p*')" "$(under rt pbr/intake)"
+enclave /rockwatch/station "$(under rt pbr/accel 'pbr/accel/p*') rt/diagnostics" "$(under rt pbr/intake)"
 enclave /rockwatch/operator "$(under rq pbr/resetRequest)" "$(under rr pbr/resetReply)"
 enclave /rockwatch/reader "" "$(under rt pbr/alerts pbr/state pbr/ims)"
 

@@ -17,7 +17,11 @@
 //! - `FarFuture`: a copy of the next record stamped in the year 2100 (a GPS glitch).
 //!
 //! Each test also checks acquire's log line naming the station and the fault, and (without a
-//! restart, where acquire sees the fault and runs to its end) its end-of-run summary. The
+//! restart, where acquire sees the fault and runs to its end) its end-of-run summary and the
+//! fault's counter on acquire's `/metrics`. `OtherRate` alone also runs `acquire --to ros2`
+//! with an independent ROS 2 peer (rclpy, [`DiagnosticsPeer`]) on `/diagnostics`: the refusal
+//! is counted on the station's item (WARN in the report that sees it), the station recovers
+//! (OK, every later record taken), and the link and publication items are there. The
 //! client alone is tested below against the same server: a jump is never the resume point,
 //! a resume by number that yields nothing falls back to time, refused records are never
 //! delivered or saved. Tests run one at a time (each in its own network namespace), so the
@@ -28,7 +32,8 @@ mod ros2_util;
 mod seedlink_server;
 
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -42,6 +47,7 @@ use rockwatch_core::assembly::AssemblyConfig;
 use rockwatch_core::engine::AccelPacket;
 use rockwatch_core::inventory::Inventory;
 use rockwatch_core::record::mseed::{parse_mseed, Channel};
+use rockwatch_core::utc::format_utc_ns;
 
 use acquire_util::{latest_starts, Rig};
 use ros2_util::reexec_in_netns;
@@ -122,10 +128,212 @@ fn scrape() -> String {
     reply
 }
 
+/// The independent ROS 2 peer of acquire's `/diagnostics`: tests/data/ros2/rclpy_status.py
+/// `--diagnostics-only` (rclpy with Fast DDS and diagnostic_msgs, PyPI wheels; loopback in the
+/// test's network namespace), printing every `DiagnosticArray` received as one JSON line.
+struct DiagnosticsPeer {
+    child: std::process::Child,
+    out: PathBuf,
+    err: PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+/// The prefix of acquire's items on `/diagnostics` (diagnostic_updater's `<program>: <item>`).
+const ACQUIRE_ITEM: &str = "rockwatch acquire: ";
+
+/// One DiagnosticArray of acquire as the peer decoded it: item name (without the prefix) →
+/// `{level, name, message, hardware_id, values: {key: value}}`.
+type Report = serde_json::Map<String, serde_json::Value>;
+
+impl DiagnosticsPeer {
+    /// Starts the peer; `None` (the check skipped) without rclpy and diagnostic_msgs, except
+    /// under `CI=true` (a failure: .ci/run installs them).
+    fn start() -> Option<DiagnosticsPeer> {
+        let ok = Command::new("python3")
+            .args(["-c", "import rclpy, diagnostic_msgs.msg"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if !ros2_util::peer_available(
+            ok,
+            "python3 with ros-rclpy[fastrtps] and ros-diagnostic-msgs",
+            "see .ci/run",
+        ) {
+            return None;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let (out, err) = (dir.path().join("peer.out"), dir.path().join("peer.err"));
+        let child = Command::new("python3")
+            .arg(ros2_util::repo().join("tests/data/ros2/rclpy_status.py"))
+            .args(["--seconds", "200", "--diagnostics-only"])
+            .stdout(std::fs::File::create(&out).unwrap())
+            .stderr(std::fs::File::create(&err).unwrap())
+            .spawn()
+            .unwrap();
+        Some(DiagnosticsPeer {
+            child,
+            out,
+            err,
+            _dir: dir,
+        })
+    }
+
+    /// Acquire's reports received so far, in order (arrays without an acquire item, e.g. the
+    /// node's, left out).
+    fn reports(&self) -> Vec<Report> {
+        std::fs::read_to_string(&self.out)
+            .unwrap_or_default()
+            .lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter_map(|m| {
+                let items: Report = m["diagnostics"]
+                    .as_array()?
+                    .iter()
+                    .filter_map(|s| {
+                        let name = s["name"].as_str()?.strip_prefix(ACQUIRE_ITEM)?;
+                        Some((name.to_string(), s.clone()))
+                    })
+                    .collect();
+                (!items.is_empty()).then_some(items)
+            })
+            .collect()
+    }
+
+    /// Stops the peer (what it received is already written, a line per message); its stderr.
+    fn stop(&mut self) -> String {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        std::fs::read_to_string(&self.err).unwrap_or_default()
+    }
+}
+
+impl Drop for DiagnosticsPeer {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// What the peer must have seen of acquire's status, with one record at another rate among
+/// `records` (all sent): the refusal counted once on the station's item, WARN in the report
+/// that saw it; then the station OK again with the refusal still counted and its last record
+/// the data's last; the link connected to `server`; the publication item counting it too.
+fn check_diagnostics(peer: &mut DiagnosticsPeer, records: &[Vec<u8>], server: &str) {
+    let reports = peer.reports();
+    let peer_err = peer.stop();
+    let context = format!(
+        "\n--- acquire's items as the rclpy peer received them ({} reports)\n{}\n--- peer stderr\n{peer_err}",
+        reports.len(),
+        reports
+            .iter()
+            .map(|r| serde_json::Value::Object(r.clone()).to_string())
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    let station = "station XX.STN.";
+    let value =
+        |item: &serde_json::Value, key: &str| item["values"][key].as_str().map(String::from);
+    // The refused record is counted once, and never again.
+    let counts: Vec<String> = reports
+        .iter()
+        .filter_map(|r| value(r.get(station)?, "records_refused_other_rate"))
+        .collect();
+    assert!(
+        counts.iter().all(|c| c == "0" || c == "1") && counts.last().is_some_and(|c| c == "1"),
+        "records_refused_other_rate of {station}: {counts:?}{context}"
+    );
+    let warned = reports
+        .iter()
+        .position(|r| {
+            r.get(station).is_some_and(|s| {
+                s["level"] == 1 && value(s, "records_refused_other_rate").as_deref() == Some("1")
+            })
+        })
+        .unwrap_or_else(|| panic!("no WARN report of {station} counting the refusal{context}"));
+    let warn = &reports[warned][station];
+    assert_eq!(warn["hardware_id"], "XX.STN.", "{warn}");
+    assert!(
+        warn["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("1 at another sampling rate")),
+        "{warn}"
+    );
+    // Recovered: OK again, the refusal still counted, every record up to the data's last taken.
+    let recovered = reports[warned..]
+        .iter()
+        .filter_map(|r| r.get(station))
+        .find(|s| s["level"] == 0)
+        .unwrap_or_else(|| panic!("{station} never OK again after the refusal{context}"));
+    assert_eq!(
+        value(recovered, "records_refused_other_rate").as_deref(),
+        Some("1"),
+        "{recovered}"
+    );
+    let last_start = acquire_util::latest_starts(records)
+        .into_values()
+        .max()
+        .unwrap();
+    let last = reports.last().unwrap();
+    let final_station = &last[station];
+    assert_eq!(
+        (
+            final_station["level"].clone(),
+            value(final_station, "last_record_time")
+        ),
+        (0.into(), Some(format_utc_ns(i128::from(last_start)))),
+        "{final_station}{context}"
+    );
+    // The link: OK while connected, WARN while reconnecting (the idle timeout of 2 s ends
+    // connections that have nothing more to send).
+    for link in reports.iter().filter_map(|r| r.get("link")) {
+        assert_eq!(link["hardware_id"], server, "{link}");
+        let state = value(link, "state").unwrap_or_default();
+        assert!(
+            (state == "connected" && link["level"] == 0)
+                || (state == "reconnecting" && link["level"] == 1),
+            "{link}{context}"
+        );
+    }
+    assert!(
+        reports[warned..]
+            .iter()
+            .any(|r| value(&r["link"], "state").as_deref() == Some("connected")),
+        "{context}"
+    );
+    let publication = &last["publication"];
+    println!(
+        "acquire's /diagnostics, as the rclpy peer received them: {} reports; the refusal: {warn}; recovered: {recovered}; last: {}",
+        reports.len(),
+        serde_json::Value::Object(last.clone())
+    );
+    assert_eq!(
+        value(publication, "records_refused_other_rate").as_deref(),
+        Some("1"),
+        "{publication}"
+    );
+    assert!(
+        value(publication, "packets_published").is_some_and(|p| p != "0"),
+        "{publication}"
+    );
+}
+
 fn run(fault: Fault, restart: bool) {
     let server = Hostile::start();
     let mut rig = Rig::start(server.addr, "idle_timeout_s = 2.0");
     let records = records_in_time_order();
+    // acquire's /diagnostics (issue 23), checked on one fault: acquire publishes over ROS 2
+    // and starts before the ring holds anything, so the peer hears it before the fault comes.
+    let mut peer = (fault == Fault::OtherRate && !restart)
+        .then(DiagnosticsPeer::start)
+        .flatten();
+    let early = peer.as_ref().map(|peer| {
+        let running = rig.acquire("ros2");
+        rig.wait(
+            "the rclpy peer never received acquire's /diagnostics",
+            &|_| !peer.reports().is_empty(),
+        );
+        running
+    });
     server.push(&records[..AT]);
     let far = server.next_seq() + FAR;
     match fault {
@@ -162,7 +370,7 @@ fn run(fault: Fault, restart: bool) {
         running = rig.acquire("iceoryx2");
     } else {
         server.push(&records[AT..]);
-        running = rig.acquire("iceoryx2");
+        running = early.unwrap_or_else(|| rig.acquire("iceoryx2"));
         // The fault is counted on acquire's /metrics while it runs.
         if let Some(metric) = expected_metric(fault) {
             rig.wait(
@@ -183,6 +391,9 @@ fn run(fault: Fault, restart: bool) {
             logs.contains(summary),
             "{scenario}: acquire's summary must say {summary:?}:\n{logs}"
         );
+    }
+    if let Some(peer) = &mut peer {
+        check_diagnostics(peer, &records, &server.addr.to_string());
     }
 }
 

@@ -3,14 +3,17 @@
 //! calibrated, rotated and aligned with StationXML ([`rockwatch_core::assembly`]) →
 //! [`AccelPacket`](rockwatch_core::engine::AccelPacket)s published to the node through a
 //! [`PacketSink`] (iceoryx2 or ROS 2). Configuration: `config/acquire.toml` (every key).
+//! Its counters: Prometheus text on `/metrics` ([`acquire_prometheus`]) and, over ROS 2, its
+//! status on `/diagnostics` ([`PacketPublisher::publish_status`]).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use rockwatch_core::assembly::{Assembler, AssemblyConfig, AssemblyCounters};
+use rockwatch_core::assembly::{Assembler, AssemblyConfig, AssemblyCounters, RecordIssue};
 use rockwatch_core::inventory::Inventory;
 use rockwatch_core::record::mseed::{Channel, NS_PER_S};
+use rockwatch_core::utc::format_utc_ns;
 
 use crate::iox::IoxConfig;
 use crate::log_text::{printable, STATION_CHARS};
@@ -18,6 +21,7 @@ use crate::node::RateLimitedLog;
 use crate::ports::PacketSink;
 use crate::ros2::Ros2Config;
 use crate::seedlink::{LinkCounters, RecordSink, SeedLinkConfig, Taken, LOG_INTERVAL};
+use crate::status::{kv, Item, Level, StatusReport};
 
 /// The acquisition configuration file.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
@@ -70,9 +74,7 @@ pub fn acquire_prometheus(
             let _ = writeln!(out, "rockwatch_acquire_{name}{labels} {v}");
         }
     };
-    let other = assembled.refused_records.saturating_sub(
-        assembled.other_rate_records + assembled.implausible_records + assembled.far_ahead_records,
-    );
+    let refused = RefusedRecords::from(assembled);
     counter(
         "link_connections_total",
         "SeedLink connections made.",
@@ -127,13 +129,10 @@ pub fn acquire_prometheus(
         "records_refused_total",
         "Records refused (never used, never a resume point), by reason.",
         &[
-            ("{reason=\"other_rate\"}", assembled.other_rate_records),
-            (
-                "{reason=\"impossible_values\"}",
-                assembled.implausible_records,
-            ),
-            ("{reason=\"far_ahead\"}", assembled.far_ahead_records),
-            ("{reason=\"other\"}", other),
+            ("{reason=\"other_rate\"}", refused.other_rate),
+            ("{reason=\"impossible_values\"}", refused.impossible_values),
+            ("{reason=\"far_ahead\"}", refused.far_ahead),
+            ("{reason=\"other\"}", refused.other),
         ],
     );
     counter(
@@ -327,6 +326,115 @@ pub struct PublishCounters {
     pub clipped_records: u64,
 }
 
+/// Records refused (never used, never a resume point), by reason.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RefusedRecords {
+    /// Claiming another sampling rate than their station's (or their inventory epoch's).
+    pub other_rate: u64,
+    /// Impossible values: a sample not finite, or beyond ±100 g once calibrated.
+    pub impossible_values: u64,
+    /// Starting more than `max_buffer_s` after what their station holds (a far-future time).
+    pub far_ahead: u64,
+    /// Any other reason: not in the inventory, unusable, off the grid, another band, …
+    pub other: u64,
+}
+
+impl RefusedRecords {
+    /// Counts one refused record.
+    fn count(&mut self, issue: &RecordIssue) {
+        if issue.is_other_rate() {
+            self.other_rate += 1;
+        } else if matches!(issue, RecordIssue::Implausible { .. }) {
+            self.impossible_values += 1;
+        } else if matches!(issue, RecordIssue::FarAhead { .. }) {
+            self.far_ahead += 1;
+        } else {
+            self.other += 1;
+        }
+    }
+
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        self.other_rate + self.impossible_values + self.far_ahead + self.other
+    }
+
+    /// The counts by reason since `before`.
+    fn since(&self, before: &RefusedRecords) -> RefusedRecords {
+        RefusedRecords {
+            other_rate: self.other_rate.saturating_sub(before.other_rate),
+            impossible_values: self
+                .impossible_values
+                .saturating_sub(before.impossible_values),
+            far_ahead: self.far_ahead.saturating_sub(before.far_ahead),
+            other: self.other.saturating_sub(before.other),
+        }
+    }
+
+    /// `N at another sampling rate, N with impossible values, N far ahead, N other`.
+    fn describe(&self) -> String {
+        format!(
+            "{} at another sampling rate, {} with impossible values, {} far ahead of the station's data, {} other",
+            self.other_rate, self.impossible_values, self.far_ahead, self.other
+        )
+    }
+
+    /// The `values` of a status item: `records_refused` and one entry per reason.
+    fn values(&self, out: &mut Vec<(String, String)>) {
+        out.extend([
+            kv("records_refused", self.total()),
+            kv("records_refused_other_rate", self.other_rate),
+            kv("records_refused_impossible_values", self.impossible_values),
+            kv("records_refused_far_ahead", self.far_ahead),
+            kv("records_refused_other", self.other),
+        ]);
+    }
+}
+
+impl From<&AssemblyCounters> for RefusedRecords {
+    /// The assembler's totals (`other`: the refusals of no counted reason).
+    fn from(c: &AssemblyCounters) -> RefusedRecords {
+        RefusedRecords {
+            other_rate: c.other_rate_records,
+            impossible_values: c.implausible_records,
+            far_ahead: c.far_ahead_records,
+            other: c
+                .refused_records
+                .saturating_sub(c.other_rate_records + c.implausible_records + c.far_ahead_records),
+        }
+    }
+}
+
+/// The prefix of acquire's item names on `/diagnostics` (diagnostic_updater's
+/// `<program>: <item>`; the node's is `rockwatch`).
+pub const DIAGNOSTICS_PREFIX: &str = "rockwatch acquire";
+
+/// Most stations with an item of their own in acquire's status: a server that sends ever
+/// new station names under a wildcard pattern cannot grow it without bound (the records of
+/// the others are counted in the `publication` item).
+pub const MAX_STATUS_STATIONS: usize = 4096;
+
+/// One station's figures in acquire's status (`station NET.STA.LOC`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct StationFigures {
+    /// Records taken (placed by the assembler).
+    records: u64,
+    refused: RefusedRecords,
+    /// `refused` at the previous report.
+    reported: RefusedRecords,
+    /// Start (UTC, ns) of the latest record taken.
+    last_record_ns: Option<i64>,
+    /// Raw samples at or beyond the stream's full scale, in records taken.
+    clipped_samples: u64,
+}
+
+/// What the previous status report counted, to judge what happened since.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct Reported {
+    malformed: u64,
+    send_errors: u64,
+    refused: u64,
+}
+
 /// The record sink of `acquire`: assembles records into packets and sends them.
 pub struct PacketPublisher<'a> {
     assembler: Assembler,
@@ -341,6 +449,11 @@ pub struct PacketPublisher<'a> {
     clipping: ClippingSection,
     /// Per stream and kind (`clipped`, `refused`): at most one line per [`LOG_INTERVAL`].
     log: RateLimitedLog,
+    /// Per station (`NET.STA.LOC`, at most [`MAX_STATUS_STATIONS`]): the status figures.
+    stations: BTreeMap<String, StationFigures>,
+    /// Records of stations beyond [`MAX_STATUS_STATIONS`].
+    records_not_itemised: u64,
+    reported: Reported,
 }
 
 impl<'a> PacketPublisher<'a> {
@@ -360,12 +473,202 @@ impl<'a> PacketPublisher<'a> {
             counters: PublishCounters::default(),
             clipping,
             log: RateLimitedLog::with_interval(LOG_INTERVAL),
+            stations: BTreeMap::new(),
+            records_not_itemised: 0,
+            reported: Reported::default(),
         }
     }
 
     #[must_use]
     pub fn counters(&self) -> (PublishCounters, AssemblyCounters) {
         (self.counters, self.assembler.counters())
+    }
+
+    /// The status figures of `station` (`None`: beyond [`MAX_STATUS_STATIONS`], counted).
+    fn station_figures(&mut self, station: &str) -> Option<&mut StationFigures> {
+        if !self.stations.contains_key(station) {
+            if self.stations.len() >= MAX_STATUS_STATIONS {
+                self.records_not_itemised += 1;
+                return None;
+            }
+            self.stations
+                .insert(station.to_string(), StationFigures::default());
+        }
+        self.stations.get_mut(station)
+    }
+
+    /// Acquire's status as `/diagnostics` items, judged on what changed since the previous
+    /// call (call it once per report):
+    /// - `link` (`hardware_id`: `server`): **WARN** while the link is down (reconnecting), or
+    ///   if packets could not be decoded since the previous report; else **OK**;
+    /// - `publication` (assembly and publication): **WARN** if records were refused or
+    ///   packets could not be sent since the previous report; else **OK**;
+    /// - `station NET.STA.LOC` (`hardware_id`: the station), in id order: **WARN** if records
+    ///   of the station were refused since the previous report (the count by reason in the
+    ///   message); else **OK**. Values: records taken and refused by reason, clipped samples,
+    ///   `last_record_time` (UTC start of the latest record taken) and `published_until` (UTC
+    ///   before which every sample is published).
+    ///
+    /// Counters are totals since acquire started; `stamp_ns` is the report's UTC time (ns).
+    pub fn status_report(
+        &mut self,
+        link: &LinkCounters,
+        server: &str,
+        stamp_ns: i64,
+    ) -> StatusReport {
+        let mut items = Vec::with_capacity(2 + self.stations.len());
+        let malformed = link.malformed.saturating_sub(self.reported.malformed);
+        let (state, level, message) = match self.offline_since {
+            Some(since) => (
+                "reconnecting",
+                Level::Warn,
+                format!(
+                    "link down for {:.0} s: reconnecting to {server} ({} connections lost so far)",
+                    since.elapsed().as_secs_f64(),
+                    link.disconnects
+                ),
+            ),
+            None if malformed > 0 => (
+                "connected",
+                Level::Warn,
+                format!("{malformed} packets could not be decoded since the last report"),
+            ),
+            None => ("connected", Level::Ok, format!("connected to {server}")),
+        };
+        items.push(Item {
+            name: "link".into(),
+            hardware_id: server.to_string(),
+            level,
+            message,
+            values: vec![
+                kv("state", state),
+                kv("server", server),
+                kv("connections", link.connections),
+                kv("reconnections", link.disconnects),
+                kv("packets", link.packets),
+                kv("records_delivered", link.delivered),
+                kv("records_refused", link.refused),
+                kv("duplicates", link.duplicates),
+                kv("malformed", link.malformed),
+                kv("unselected", link.unselected),
+                kv("missing_sequences", link.missing_sequences),
+                kv("sequence_outliers", link.sequence_outliers),
+                kv("server_resets", link.server_resets),
+                kv("server_restarts", link.server_restarts),
+                kv("resume_fallbacks", link.resume_fallbacks),
+            ],
+        });
+        let (published, assembled) = self.counters();
+        let refused = RefusedRecords::from(&assembled);
+        let new_refused = refused.total().saturating_sub(self.reported.refused);
+        let send_errors = published
+            .send_errors
+            .saturating_sub(self.reported.send_errors);
+        let (level, message) = if send_errors + new_refused > 0 {
+            (
+                Level::Warn,
+                format!(
+                    "since the last report: {new_refused} records refused, {send_errors} packets not published"
+                ),
+            )
+        } else {
+            (
+                Level::Ok,
+                format!("{} packets published", published.packets_sent),
+            )
+        };
+        let mut values = vec![
+            kv("records", assembled.records),
+            kv("packets_assembled", assembled.packets),
+            kv("samples_assembled", assembled.samples),
+            kv("packets_published", published.packets_sent),
+            kv("send_errors", published.send_errors),
+            kv("clipped_samples", published.clipped_samples),
+            kv("clipped_records", published.clipped_records),
+            kv("overlap_samples", assembled.overlap_samples),
+            kv(
+                "missing_component_samples",
+                assembled.missing_component_samples,
+            ),
+            kv("grid_restarts", assembled.grid_restarts),
+            kv("stations", self.stations.len()),
+            kv(
+                "records_of_stations_not_itemised",
+                self.records_not_itemised,
+            ),
+        ];
+        refused.values(&mut values);
+        items.push(Item {
+            name: "publication".into(),
+            hardware_id: "assembly and publication".into(),
+            level,
+            message,
+            values,
+        });
+        for (station, figures) in &mut self.stations {
+            let new = figures.refused.since(&figures.reported);
+            figures.reported = figures.refused;
+            let (level, message) = if new.total() > 0 {
+                (
+                    Level::Warn,
+                    format!(
+                        "{} records refused since the last report ({})",
+                        new.total(),
+                        new.describe()
+                    ),
+                )
+            } else if figures.records == 0 {
+                (Level::Ok, "no record taken yet".to_string())
+            } else {
+                (Level::Ok, "receiving records".to_string())
+            };
+            let time = |t: Option<i64>| t.map_or(String::new(), |t| format_utc_ns(i128::from(t)));
+            let mut values = vec![
+                kv("records", figures.records),
+                kv("clipped_samples", figures.clipped_samples),
+                kv("last_record_time", time(figures.last_record_ns)),
+                kv(
+                    "published_until",
+                    time(self.assembler.emitted_until_ns(station)),
+                ),
+            ];
+            figures.refused.values(&mut values);
+            items.push(Item {
+                name: format!("station {station}"),
+                hardware_id: station.clone(),
+                level,
+                message,
+                values,
+            });
+        }
+        self.reported = Reported {
+            malformed: link.malformed,
+            send_errors: published.send_errors,
+            refused: refused.total(),
+        };
+        StatusReport {
+            stamp_ns,
+            prefix: DIAGNOSTICS_PREFIX,
+            items,
+        }
+    }
+
+    /// Hands the sink acquire's status ([`PacketPublisher::status_report`], stamped now):
+    /// ROS 2 publishes it on `/diagnostics`. A failure is logged (at most once a minute).
+    pub fn publish_status(&mut self, link: &LinkCounters, server: &str) {
+        let stamp_ns = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+        let report = self.status_report(link, server, stamp_ns);
+        if let Err(e) = self.sink.status(report) {
+            self.log.log(
+                "output",
+                "status",
+                &format!(
+                    "acquire: cannot publish its status on /diagnostics: {e:#} (logged at most once a minute)"
+                ),
+            );
+        }
     }
 
     /// Nanoseconds the link has been up since the publisher started.
@@ -404,8 +707,11 @@ impl RecordSink for PacketPublisher<'_> {
         let mut send = send_all(&mut *self.sink, &mut self.counters);
         let result = self.assembler.push(record, now, &mut send);
         drop(send);
+        let station = format!("{}.{}.{}", record.net, record.sta, record.loc);
         if let Err(issue) = result {
-            let station = format!("{}.{}.{}", record.net, record.sta, record.loc);
+            if let Some(figures) = self.station_figures(&station) {
+                figures.refused.count(&issue);
+            }
             self.log.log(
                 &record.id(),
                 "refused",
@@ -424,6 +730,12 @@ impl RecordSink for PacketPublisher<'_> {
             .flat_map(|s| &s.samples)
             .filter(|x| x.abs() >= full_scale)
             .count();
+        let start = record.segments.first().map(|s| s.start_time_ns);
+        if let Some(figures) = self.station_figures(&station) {
+            figures.records += 1;
+            figures.clipped_samples += clipped as u64;
+            figures.last_record_ns = figures.last_record_ns.max(start);
+        }
         if clipped > 0 {
             self.counters.clipped_samples += clipped as u64;
             self.counters.clipped_records += 1;
@@ -435,7 +747,6 @@ impl RecordSink for PacketPublisher<'_> {
                 ),
             );
         }
-        let station = format!("{}.{}.{}", record.net, record.sta, record.loc);
         let end = record.segments.last().map_or(0, |s| {
             s.start_time_ns + (s.samples.len() as f64 * 1e9 / record.sample_rate_hz).round() as i64
         });
@@ -563,6 +874,83 @@ mod tests {
         drop(publisher);
         let samples: usize = sink.0.iter().map(AccelPacket::len).sum();
         assert_eq!(samples, 8250, "every XX.STN. sample published");
+    }
+
+    #[test]
+    fn the_status_warns_of_a_refused_record_once_and_of_a_link_down() {
+        let (inventory, channels) = k2();
+        let mut sink = Collect::default();
+        let mut publisher = PacketPublisher::new(
+            inventory,
+            AssemblyConfig::default(),
+            ClippingSection::default(),
+            &mut sink,
+        );
+        publisher.link(true);
+        let link = LinkCounters::default();
+        let find = |report: &StatusReport, name: &str| -> Item {
+            let item = report.items.iter().find(|i| i.name == name);
+            item.cloned()
+                .unwrap_or_else(|| panic!("{name}: {report:?}"))
+        };
+        let value = |item: &Item, key: &str| -> String {
+            let kv = item.values.iter().find(|(k, _)| k == key);
+            kv.map(|(_, v)| v.clone())
+                .unwrap_or_else(|| panic!("{key}: {item:?}"))
+        };
+        assert_eq!(publisher.record(&channels[0]), Taken::Held);
+        // The next record of HN1 claiming 200× its rate: refused, counted by reason.
+        let mut other_rate = channels[0].clone();
+        other_rate.sample_rate_hz *= 200.0;
+        assert_eq!(publisher.record(&other_rate), Taken::Refused);
+        let report = publisher.status_report(&link, "host:18000", 7);
+        assert_eq!((report.stamp_ns, report.prefix), (7, DIAGNOSTICS_PREFIX));
+        let names: Vec<&str> = report.items.iter().map(|i| i.name.as_str()).collect();
+        assert_eq!(names, ["link", "publication", "station XX.STN."]);
+        let station = find(&report, "station XX.STN.");
+        assert_eq!(
+            (station.level, station.hardware_id.as_str()),
+            (Level::Warn, "XX.STN.")
+        );
+        assert!(
+            station
+                .message
+                .contains("(1 at another sampling rate, 0 with"),
+            "{station:?}"
+        );
+        assert_eq!(value(&station, "records_refused_other_rate"), "1");
+        assert_eq!(value(&station, "records"), "1");
+        let start = format_utc_ns(i128::from(channels[0].segments[0].start_time_ns));
+        assert_eq!(value(&station, "last_record_time"), start);
+        assert_eq!(find(&report, "publication").level, Level::Warn);
+        let link_item = find(&report, "link");
+        assert_eq!(
+            (link_item.level, value(&link_item, "state")),
+            (Level::Ok, "connected".to_string())
+        );
+        // Nothing new: OK, the refusal still counted.
+        let report = publisher.status_report(&link, "host:18000", 8);
+        let station = find(&report, "station XX.STN.");
+        assert_eq!(station.level, Level::Ok);
+        assert_eq!(value(&station, "records_refused_other_rate"), "1");
+        assert_eq!(find(&report, "publication").level, Level::Ok);
+        // The link down: WARN, reconnecting, the connections lost counted.
+        publisher.link(false);
+        let down = LinkCounters {
+            connections: 1,
+            disconnects: 1,
+            ..LinkCounters::default()
+        };
+        let link_item = find(&publisher.status_report(&down, "host:18000", 9), "link");
+        assert_eq!(
+            (
+                link_item.level,
+                value(&link_item, "state"),
+                value(&link_item, "reconnections")
+            ),
+            (Level::Warn, "reconnecting".to_string(), "1".to_string())
+        );
+        assert_eq!(link_item.hardware_id, "host:18000");
     }
 
     #[test]

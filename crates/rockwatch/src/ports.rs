@@ -2,8 +2,9 @@
 //! ([`Publication`] through a [`Publisher`]), what it sends when replaying ([`PacketSink`]), and
 //! how another thread hands the node's event loop a settings change ([`ControlSender`]).
 //!
-//! Architecture invariant: this module depends only on the engine's types (`rockwatch_core`);
-//! the transports (`ros2`, `iox`) and the node (`node`) depend on it, never the reverse.
+//! Architecture invariant: this module depends only on the engine's types (`rockwatch_core`)
+//! and the transport-free status report (`status`); the transports (`ros2`, `iox`) and the
+//! node (`node`) depend on it, never the reverse.
 
 use std::sync::mpsc;
 
@@ -101,5 +102,12 @@ pub trait PacketSink {
     fn finish(&mut self, timeout: std::time::Duration) -> anyhow::Result<bool> {
         let _ = timeout;
         Ok(true)
+    }
+    /// Publishes the sender's status (`rockwatch acquire`'s, about once a second) where the
+    /// transport has a status channel — ROS 2: `/diagnostics` — and drops it elsewhere. Never
+    /// waits on the transport. An error: this report was not published (sending goes on).
+    fn status(&mut self, report: crate::status::StatusReport) -> anyhow::Result<()> {
+        let _ = report;
+        Ok(())
     }
 }

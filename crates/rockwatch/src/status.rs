@@ -2,7 +2,9 @@
 //! and for the node (journal, transports, engine real-time margin), with one OK / WARN /
 //! ERROR / STALE judgement per item. Built by the node's event loop about once a second
 //! ([`StatusBuilder`]); published on `/diagnostics` (`ros2::diagnostics`) and, optionally, as
-//! Prometheus text (`metrics`). Transport-free: it knows the engine's types only.
+//! Prometheus text (`metrics`). Transport-free: it knows the engine's types only. A
+//! [`StatusReport`] is what a program publishes on `/diagnostics`: the node's items, or
+//! `rockwatch acquire`'s (`acquire::PacketPublisher::status_report`).
 //!
 //! The judgement (one policy, used by both outputs):
 //! - a station: **STALE** while no data arrive for `engine.stale_after_s`; **ERROR** if packets
@@ -96,15 +98,28 @@ pub struct NodeStatus {
     pub rosout_dropped: u64,
 }
 
-/// The figures of one node-level item (journal, transports, engine).
+/// The figures of one item of a status (the node's journal, transports, engine, a station;
+/// acquire's link, publication, a station).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Item {
-    /// `journal`, `transports`, `engine`, or `station NET.STA.LOC`.
+    /// `journal`, `transports`, `engine`, or `station NET.STA.LOC`; acquire's `link`,
+    /// `publication`, `station NET.STA.LOC`.
     pub name: String,
     pub hardware_id: String,
     pub level: Level,
     pub message: String,
     pub values: Vec<(String, String)>,
+}
+
+/// One status report of a program as diagnostic_updater publishes it: its items, each named
+/// `<prefix>: <item name>` on `/diagnostics` (`ros2::diagnostics::DiagnosticArray`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StatusReport {
+    /// UTC (ns) of the report.
+    pub stamp_ns: i64,
+    /// The program: `rockwatch` (the node), `rockwatch acquire`.
+    pub prefix: &'static str,
+    pub items: Vec<Item>,
 }
 
 impl NodeStatus {
@@ -403,7 +418,8 @@ impl NodeStatus {
     }
 }
 
-fn kv(key: &str, value: impl ToString) -> (String, String) {
+/// One `values` entry of an [`Item`].
+pub(crate) fn kv(key: &str, value: impl ToString) -> (String, String) {
     (key.to_string(), value.to_string())
 }
 

@@ -2,7 +2,9 @@
 message definitions of diagnostic_msgs, rcl_interfaces and pbr_msgs (the colcon build of
 msg/), loopback only. Subscribes /diagnostics (diagnostic_msgs/msg/DiagnosticArray), /rosout
 (rcl_interfaces/msg/Log) and /pbr/state (pbr_msgs/msg/PbrState) for --seconds S, and prints
-one JSON object per line per message received:
+one JSON object per line per message received (with --diagnostics-only, /diagnostics alone:
+then neither rcl_interfaces nor the pbr_msgs build is needed, as for `rockwatch acquire`'s
+status in tests/acquire_faults.rs):
   {"diagnostics": [{"level", "name", "message", "hardware_id", "values": {k: v}}, ...],
    "stamp": ns}
   {"rosout": {"level", "name", "msg", "function"}}
@@ -16,8 +18,6 @@ import rclpy
 import rclpy.executors
 from rclpy.qos import QoSProfile, ReliabilityPolicy, DurabilityPolicy, HistoryPolicy
 from diagnostic_msgs.msg import DiagnosticArray
-from rcl_interfaces.msg import Log
-from pbr_msgs.msg import PbrState
 
 
 def stamp_ns(header):
@@ -26,6 +26,7 @@ def stamp_ns(header):
 
 def main():
     seconds = float(sys.argv[sys.argv.index("--seconds") + 1])
+    diagnostics_only = "--diagnostics-only" in sys.argv
     rclpy.init()
     node = rclpy.create_node("rockwatch_status_peer")
     qos = QoSProfile(
@@ -60,8 +61,11 @@ def main():
                                     "stamp": stamp_ns(m.header)}}), flush=True)
 
     node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, qos)
-    node.create_subscription(Log, "/rosout", on_rosout, qos)
-    node.create_subscription(PbrState, "/pbr/state", on_state, qos)
+    if not diagnostics_only:
+        from rcl_interfaces.msg import Log
+        from pbr_msgs.msg import PbrState
+        node.create_subscription(Log, "/rosout", on_rosout, qos)
+        node.create_subscription(PbrState, "/pbr/state", on_state, qos)
     print(json.dumps({"ready": True}), flush=True)
     deadline = time.monotonic() + seconds
     try:

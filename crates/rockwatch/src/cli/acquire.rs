@@ -5,7 +5,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _};
-use rockwatch::acquire::{acquire_prometheus, AcquireConfig, PacketPublisher};
+use rockwatch::acquire::{acquire_prometheus, AcquireConfig, PacketPublisher, RefusedRecords};
 use rockwatch::iox::IoxPacketSink;
 use rockwatch::metrics::MetricsServer;
 use rockwatch::ports::PacketSink;
@@ -33,7 +33,9 @@ pub enum Output {
 /// failures; resumes each station after the last record published, from the state directory
 /// (nothing lost or published twice across restarts, within the server's ring). Waits for the
 /// node's subscription before connecting. SIGINT/SIGTERM stop it cleanly; counters are printed
-/// on exit. Under systemd (`Type=notify`) it reports READY once the node has subscribed and
+/// on exit. With `--to ros2` it publishes its status every second on /diagnostics
+/// (`rockwatch acquire: link`, `… publication`, `… station NET.STA.LOC`; docs/seedlink.md).
+/// Under systemd (`Type=notify`) it reports READY once the node has subscribed and
 /// pings the watchdog (`WatchdogSec=`) from its receive loop while connected to the server. Configuration: config/acquire.toml documents every key; docs/seedlink.md the
 /// protocol and resume semantics.
 #[derive(Debug, clap::Args)]
@@ -51,16 +53,22 @@ pub struct AcquireArgs {
     to: Output,
 }
 
-/// How often `[metrics]` gets acquire's counters (s).
+/// How often `[metrics]` gets acquire's counters, and `/diagnostics` its status (s).
 const METRICS_PERIOD: Duration = Duration::from_secs(1);
 
 /// The publisher, pinging systemd's watchdog on the receive loop's ticks (about every
-/// 100 ms while connected): a loop that stops turning stops the pings. With `[metrics]`, it
-/// hands the endpoint the counters once per [`METRICS_PERIOD`].
+/// 100 ms while connected): a loop that stops turning stops the pings (not while the link is
+/// down: a server down longer than `WatchdogSec` restarts acquire). Once per
+/// [`METRICS_PERIOD`], connected or not, it hands `[metrics]` the counters and, with
+/// `status_server` (`--to ros2`), the sink the status (`/diagnostics`).
 struct Watched<'a, 's> {
     inner: PacketPublisher<'s>,
     systemd: Option<&'a mut SystemdNotifier>,
-    metrics: Option<(MetricsServer, Instant)>,
+    metrics: Option<MetricsServer>,
+    /// The SeedLink server, named in the status; `None`: no status is published.
+    status_server: Option<String>,
+    last_report: Instant,
+    link_up: bool,
 }
 
 impl RecordSink for Watched<'_, '_> {
@@ -74,21 +82,23 @@ impl RecordSink for Watched<'_, '_> {
 
     fn tick(&mut self, link: &LinkCounters) {
         self.inner.tick(link);
-        if let Some(systemd) = &mut self.systemd {
+        if let (Some(systemd), true) = (&mut self.systemd, self.link_up) {
             systemd.ping_if_due();
         }
-        if let Some(metrics) = &mut self.metrics {
-            if metrics.1.elapsed() >= METRICS_PERIOD {
+        if self.last_report.elapsed() >= METRICS_PERIOD {
+            self.last_report = Instant::now();
+            if let Some(metrics) = &self.metrics {
                 let (published, assembled) = self.inner.counters();
-                metrics
-                    .0
-                    .update(acquire_prometheus(link, &published, &assembled));
-                metrics.1 = Instant::now();
+                metrics.update(acquire_prometheus(link, &published, &assembled));
+            }
+            if let Some(server) = &self.status_server {
+                self.inner.publish_status(link, server);
             }
         }
     }
 
     fn link(&mut self, up: bool) {
+        self.link_up = up;
         self.inner.link(up);
     }
 }
@@ -106,7 +116,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     }
     let inventory = Inventory::read_all(&config.inventory.stationxml)?;
     let metrics = match &config.metrics.listen {
-        Some(listen) => Some((MetricsServer::start(listen)?, Instant::now())),
+        Some(listen) => Some(MetricsServer::start(listen)?),
         None => None,
     };
     let mut client = SeedLinkClient::new(config.seedlink.clone(), state_dir.as_deref())
@@ -158,12 +168,15 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         ),
         systemd: systemd.as_mut(),
         metrics,
+        status_server: (args.to == Output::Ros2).then(|| config.seedlink.server.clone()),
+        last_report: Instant::now(),
+        link_up: false,
     };
     let result = client.run(&stop, &mut publisher);
     if let Some(systemd) = publisher.systemd.take() {
         systemd.stopping();
     }
-    if let Some((metrics, _)) = &publisher.metrics {
+    if let Some(metrics) = &publisher.metrics {
         let (published, assembled) = publisher.inner.counters();
         metrics.update(acquire_prometheus(
             &client.counters(),
@@ -172,6 +185,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         ));
     }
     let (published, assembled) = publisher.inner.counters();
+    let refused = RefusedRecords::from(&assembled);
     let link = client.counters();
     tracing::info!(
         "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} server resets, {} sequence numbers out of line, {} server restarts, {} resumes by number that yielded nothing (resumed by time), {} reconnections); {} records refused ({} at another sampling rate, {} with impossible values, {} far ahead of their station's data, {} other: not in the inventory, off the grid, another band; {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
@@ -186,12 +200,10 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         link.resume_fallbacks,
         link.disconnects,
         assembled.refused_records,
-        assembled.other_rate_records,
-        assembled.implausible_records,
-        assembled.far_ahead_records,
-        assembled
-            .refused_records
-            .saturating_sub(assembled.other_rate_records + assembled.implausible_records + assembled.far_ahead_records),
+        refused.other_rate,
+        refused.impossible_values,
+        refused.far_ahead,
+        refused.other,
         assembled.grid_restarts,
         published.clipped_samples,
         published.clipped_records,

@@ -1,5 +1,7 @@
 //! The node's status on `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`, about once a
-//! second) and its log records on `/rosout` (`rcl_interfaces/msg/Log`).
+//! second) and its log records on `/rosout` (`rcl_interfaces/msg/Log`); the one
+//! `/diagnostics` writer ([`DiagnosticsWriter`]), also `rockwatch acquire`'s (through its
+//! ROS 2 sink, `replay_sink.rs`).
 //!
 //! The `diagnostic_msgs` structs below are in CDR field order, exactly as the message
 //! definitions of ROS 2 (checked against an independent rclpy peer by
@@ -9,13 +11,13 @@
 //!   `string message`, `string hardware_id`, `KeyValue[] values`;
 //! - `KeyValue`: `string key`, `string value`.
 //!
-//! Names follow diagnostic_updater: `rockwatch: <item>` (`rockwatch: station CI.RRS.00`,
-//! `rockwatch: journal`, …), the station id as `hardware_id`.
+//! Names follow diagnostic_updater: `<program>: <item>` (`rockwatch: station CI.RRS.00`,
+//! `rockwatch: journal`, `rockwatch acquire: link`, …), the station id as `hardware_id`.
 
 use anyhow::anyhow;
 use ros2_client::builtin_interfaces::Time;
 use ros2_client::dds::RosoutRaw;
-use ros2_client::{Log, MessageTypeName, Name};
+use ros2_client::{Log, MessageTypeName, Name, QosProfile};
 use serde::{Deserialize, Serialize};
 
 use super::msg::Header;
@@ -23,7 +25,7 @@ use super::names::{DIAGNOSTICS_TOPIC, NODE_NAME};
 use super::qos::output_qos;
 use super::session::Ros2Session;
 use crate::logging::RosoutRecord;
-use crate::status::NodeStatus;
+use crate::status::{NodeStatus, StatusReport};
 
 /// `diagnostic_msgs/KeyValue`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -55,14 +57,24 @@ impl ros2_client::Message for DiagnosticArray {}
 
 impl From<&NodeStatus> for DiagnosticArray {
     fn from(status: &NodeStatus) -> DiagnosticArray {
+        DiagnosticArray::from(StatusReport {
+            stamp_ns: status.stamp_ns,
+            prefix: NODE_NAME,
+            items: status.items(),
+        })
+    }
+}
+
+impl From<StatusReport> for DiagnosticArray {
+    fn from(report: StatusReport) -> DiagnosticArray {
         DiagnosticArray {
-            header: Header::new(status.stamp_ns, ""),
-            status: status
-                .items()
+            header: Header::new(report.stamp_ns, ""),
+            status: report
+                .items
                 .into_iter()
                 .map(|item| DiagnosticStatus {
                     level: item.level as u8,
-                    name: format!("{NODE_NAME}: {}", item.name),
+                    name: format!("{}: {}", report.prefix, item.name),
                     message: item.message,
                     hardware_id: item.hardware_id,
                     values: item
@@ -76,20 +88,16 @@ impl From<&NodeStatus> for DiagnosticArray {
     }
 }
 
-/// The publisher of `/diagnostics` and the node's `/rosout` writer.
-pub struct StatusPublisher {
-    diagnostics: ros2_client::Publisher<DiagnosticArray>,
-    rosout: std::sync::Arc<Option<ros2_client::Publisher<Log>>>,
-    /// The `name` of the node's `/rosout` records.
-    logger: String,
-    errors: u64,
+/// A writer of `/diagnostics` (absolute, as diagnostic_updater's) on a session's node: the
+/// node's ([`StatusPublisher`]) and `rockwatch acquire`'s.
+pub struct DiagnosticsWriter {
+    publisher: ros2_client::Publisher<DiagnosticArray>,
 }
 
-impl StatusPublisher {
-    /// Creates the `/diagnostics` publisher on `session`'s node and takes its `/rosout` writer
-    /// (present when the node was made with `/rosout` enabled).
-    pub(super) fn open(session: &mut Ros2Session) -> anyhow::Result<Self> {
-        let qos = output_qos();
+impl DiagnosticsWriter {
+    /// Creates the `/diagnostics` topic and publisher on `session`'s node with `qos` (the
+    /// node: [`output_qos`]; acquire: [`super::qos::sender_status_qos`], which never waits).
+    pub(super) fn open(session: &mut Ros2Session, qos: QosProfile) -> anyhow::Result<Self> {
         let name =
             Name::parse(DIAGNOSTICS_TOPIC).map_err(|e| anyhow!("{DIAGNOSTICS_TOPIC}: {e:?}"))?;
         let topic = session
@@ -100,10 +108,33 @@ impl StatusPublisher {
                 &qos,
             )
             .map_err(|e| anyhow!("ROS 2 topic {DIAGNOSTICS_TOPIC}: {e:?}"))?;
-        let diagnostics = session
+        let publisher = session
             .node
             .create_publisher(&topic, Some(qos))
             .map_err(|e| anyhow!("ROS 2 publisher {DIAGNOSTICS_TOPIC}: {e:?}"))?;
+        Ok(DiagnosticsWriter { publisher })
+    }
+
+    /// Publishes `array`; an error is the middleware's reason it did not (the caller logs it).
+    pub fn publish(&self, array: DiagnosticArray) -> anyhow::Result<()> {
+        self.publisher.publish(array).map_err(|e| anyhow!("{e:?}"))
+    }
+}
+
+/// The publisher of `/diagnostics` and the node's `/rosout` writer.
+pub struct StatusPublisher {
+    diagnostics: DiagnosticsWriter,
+    rosout: std::sync::Arc<Option<ros2_client::Publisher<Log>>>,
+    /// The `name` of the node's `/rosout` records.
+    logger: String,
+    errors: u64,
+}
+
+impl StatusPublisher {
+    /// Creates the `/diagnostics` publisher on `session`'s node and takes its `/rosout` writer
+    /// (present when the node was made with `/rosout` enabled).
+    pub(super) fn open(session: &mut Ros2Session) -> anyhow::Result<Self> {
+        let diagnostics = DiagnosticsWriter::open(session, output_qos())?;
         // rcl's logger name: the namespace's parts and the node name (after remaps) joined
         // by dots.
         let naming = session.naming();
@@ -125,7 +156,7 @@ impl StatusPublisher {
     /// Publishes `status` on `/diagnostics`; a failure is logged (every power of two).
     pub fn publish_status(&mut self, status: &NodeStatus) {
         if let Err(e) = self.diagnostics.publish(DiagnosticArray::from(status)) {
-            self.failed(DIAGNOSTICS_TOPIC, &format!("{e:?}"));
+            self.failed(DIAGNOSTICS_TOPIC, &format!("{e:#}"));
         }
     }
 

@@ -30,6 +30,15 @@ pub fn output_qos() -> QosProfile {
         .history(History::KeepLast { depth: 100 })
 }
 
+/// QoS of a sender's status on `/diagnostics` (`rockwatch acquire`): that of
+/// [`output_qos`], but a send window full of unacknowledged reports (a slow subscriber) fails
+/// the publication at once ([`WhenFull::Fail`]) instead of waiting: the acquisition loop
+/// never waits on DDS for its status (the report is lost, counted and logged).
+#[must_use]
+pub fn sender_status_qos() -> QosProfile {
+    output_qos().reliability_reliable(WhenFull::Fail)
+}
+
 /// QoS of `/pbr/intake` (both ends): reliable, volatile, keep last 100.
 #[must_use]
 pub fn intake_qos() -> QosProfile {

@@ -2,7 +2,8 @@
 //! `rockwatch_replay`, paced by what the node reports it has taken (`/pbr/intake`), so that
 //! a replay ends only once the node has processed every packet — or says how many it did not.
 //! To a scaled-out service (docs/capacity.md) each station's packets go to its partition's
-//! topic, one writer per partition, each paced and confirmed by the node that reads it.
+//! topic, one writer per partition, each paced and confirmed by the node that reads it. A live
+//! sender (`rockwatch acquire`) also publishes its status on `/diagnostics` through it.
 
 use std::collections::{BTreeSet, VecDeque};
 use std::time::{Duration, Instant};
@@ -11,15 +12,17 @@ use anyhow::{anyhow, bail};
 use ros2_client::dds::rustdds::{no_key, DataWriterStatus, RTPSEntity, StatusEvented};
 use ros2_client::Gid;
 
+use super::diagnostics::{DiagnosticArray, DiagnosticsWriter};
 use super::intake_report::IntakeWatch;
 use super::msg;
 use super::msg::IntakeReport;
 use super::names::{accel_topic, IntoNaming, Naming, INTAKE_TOPIC};
 use super::network::NetworkPlan;
-use super::qos::{intake_qos, replay_qos, REPLAY_HISTORY};
+use super::qos::{intake_qos, replay_qos, sender_status_qos, REPLAY_HISTORY};
 use super::session::Ros2Session;
 use crate::logging::MuteLibraries;
 use crate::ports::PacketSink;
+use crate::status::StatusReport;
 use rockwatch_core::engine::AccelPacket;
 use rockwatch_core::partition::{Partition, PartitionMap};
 
@@ -85,6 +88,9 @@ pub struct Ros2PacketSink {
     ignored_warned: (u64, Option<Instant>),
     /// The nodes' reports on `/pbr/intake`: one subscription for every lane.
     reports: ros2_client::Subscription<IntakeReport>,
+    /// The sender's `/diagnostics` writer, made at its first [`PacketSink::status`] (a replay
+    /// has none) and again after a rebuild of the participant.
+    diagnostics: Option<DiagnosticsWriter>,
     /// Last: the endpoints above are dropped before their participant.
     _session: Ros2Session,
 }
@@ -185,6 +191,7 @@ impl Ros2PacketSink {
             .collect();
         Ok(Ros2PacketSink {
             reports,
+            diagnostics: None,
             _session: session,
             lanes,
             map,
@@ -315,6 +322,8 @@ impl Ros2PacketSink {
             let _quiet = MuteLibraries::new();
             self.read_reports();
             self.reports = reports;
+            // Made again on the new participant at the next report.
+            self.diagnostics = None;
             for (lane, writer) in self.lanes.iter_mut().zip(writers) {
                 lane.intake.switch(Gid::from(writer.guid()));
                 // Endpoints before their participant (see the field order).
@@ -487,6 +496,17 @@ impl PacketSink for Ros2PacketSink {
         l.write(m)?;
         l.sent += 1;
         Ok(())
+    }
+
+    /// `/diagnostics` on this sender's participant, never waiting ([`sender_status_qos`]).
+    fn status(&mut self, report: StatusReport) -> anyhow::Result<()> {
+        let writer = match self.diagnostics.take() {
+            Some(writer) => writer,
+            None => DiagnosticsWriter::open(&mut self._session, sender_status_qos())?,
+        };
+        let published = writer.publish(DiagnosticArray::from(report));
+        self.diagnostics = Some(writer);
+        published
     }
 
     /// Also fails when the node took everything but ignored some packets (a station it

@@ -215,8 +215,10 @@ pub trait RecordSink {
     /// Time before which every sample of station `NET.STA.LOC` has been published (ns);
     /// `None` if the sink holds nothing of it.
     fn published_until_ns(&self, station: &str) -> Option<i64>;
-    /// Called about every 100 ms while connected (bounded waits, housekeeping), with the
-    /// link's counters so far (for a sink that reports them, e.g. acquire's /metrics).
+    /// Called about every 100 ms while connected (bounded waits, housekeeping) and while
+    /// waiting to reconnect (the link down: see [`RecordSink::link`]), with the link's
+    /// counters so far (for a sink that reports them, e.g. acquire's /metrics and
+    /// /diagnostics). Not during a connection attempt (at most `connect_timeout_s` per step).
     fn tick(&mut self, link: &LinkCounters);
     /// The link came up (`true`: streams requested, data may flow) or went down. A sink that
     /// waits for data (a missing component) should not count the time the link is down:
@@ -361,6 +363,8 @@ impl SeedLinkClient {
                         std::thread::sleep(
                             TICK.min(until.saturating_duration_since(Instant::now())),
                         );
+                        // The sink reports the link down meanwhile.
+                        sink.tick(&self.counters);
                     }
                     backoff = (backoff * 2).min(max);
                 }
