@@ -612,11 +612,106 @@ fn simulate_model_3d_of_a_box_matches_the_planar_block_and_reports_its_pose() {
         text.contains("max tilt") && text.contains("twist") && text.contains("final pose"),
         "{text}"
     );
-    // --model 3d needs a mesh; fragility refuses it for now.
+    // --model 3d needs a mesh.
     let out = rockwatch(&[
         "simulate", "--width", "0.4", "--height", "2", "--model", "3d", "--record", RINALDI,
         "--mu-s", "0.8",
     ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--model 3d needs a mesh"));
+}
+
+#[test]
+fn simulate_model_3d_writes_its_trace_and_plot() {
+    // The 0.4 × 0.6 × 2.0 m box under Rinaldi228 × 1.2 towards 60°: the trace has one row per
+    // input sample until the overturn, its ground columns are the record laid along 60°
+    // (east = a·sin 60°, north = a·cos 60°, as read independently here), its tilt/α peaks at
+    // the summary's (sampled at the input samples: at most the sub-step maximum), and the
+    // last row is the overturn; the plot is a PNG.
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = box_obj(dir.path(), 0.4, 0.6, 2.0);
+    let (trace, plot) = (dir.path().join("t.csv"), dir.path().join("p.png"));
+    let summary = ok_json(&[
+        "simulate",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--model",
+        "3d",
+        "--record",
+        RINALDI,
+        "--azimuth",
+        "60",
+        "--scale",
+        "1.2",
+        "--mu-s",
+        "0.8",
+        "--format",
+        "json",
+        "--trace",
+        trace.to_str().unwrap(),
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert_eq!(summary["overturned"], true, "{summary}");
+    let csv = std::fs::read_to_string(&trace).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "t_s,ground_e_mps2,ground_n_mps2,ground_u_mps2,tilt_rad,tilt_over_alpha,direction_deg,\
+         slide_m,com_e_m,com_n_m,com_u_m,twist_rad,mode"
+    );
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    // The record read independently: AT2, g, 5 values per line after the 4 header lines.
+    let at2 = std::fs::read_to_string(RINALDI).unwrap();
+    let g_values: Vec<f64> = at2
+        .lines()
+        .skip(4)
+        .flat_map(|l| l.split_whitespace().map(|v| v.parse::<f64>().unwrap()))
+        .collect();
+    let (s, c) = 60f64.to_radians().sin_cos();
+    for (i, row) in rows.iter().enumerate() {
+        let a = 1.2 * 9.80665 * g_values.get(i).copied().unwrap_or(0.0);
+        let (e, n): (f64, f64) = (row[1].parse().unwrap(), row[2].parse().unwrap());
+        assert!(
+            (e - a * s).abs() < 1e-9 && (n - a * c).abs() < 1e-9,
+            "row {i}: {row:?}"
+        );
+        let t: f64 = row[0].parse().unwrap();
+        assert!((t - 0.01 * i as f64).abs() < 1e-9, "row {i}: {row:?}");
+    }
+    let last = rows.last().unwrap();
+    assert_eq!(last[12], "overturned");
+    assert!(rows[..rows.len() - 1].iter().all(|r| r[12] != "overturned"));
+    assert!(rows.iter().any(|r| r[12] == "rock"));
+    let peak = rows[..rows.len() - 1]
+        .iter()
+        .map(|r| r[5].parse::<f64>().unwrap())
+        .fold(0.0, f64::max);
+    let summary_peak = f(&summary["max_tilt_over_alpha"]);
+    assert!(
+        peak <= summary_peak && peak > 0.9,
+        "{peak} vs {summary_peak}"
+    );
+    let png = std::fs::read(&plot).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "not a PNG");
+    // --rtol is not a setting of the 3-D model.
+    let out = rockwatch(&[
+        "simulate",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--model",
+        "3d",
+        "--record",
+        RINALDI,
+        "--azimuth",
+        "60",
+        "--mu-s",
+        "0.8",
+        "--rtol",
+        "1e-6",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--rtol is not a setting of --model 3d"));
 }

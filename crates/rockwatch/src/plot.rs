@@ -1,7 +1,8 @@
 //! Plots of a simulation (SVG or PNG by the file's extension): ground acceleration
 //! (horizontal, and vertical when the record has it), θ/α with the ±1 lines of the static
 //! overturning angle, and slide against time, with the response mode shaded (in the manner of
-//! the seed paper's Figures 2 and 3).
+//! the seed paper's Figures 2 and 3); the same figure of a 3-D simulation (the ground's
+//! components, tilt/α, the foot's slide).
 
 use std::error::Error;
 use std::path::{Path, PathBuf};
@@ -10,6 +11,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use rockwatch_core::dynamics::{BlockParams, Mode};
+use rockwatch_core::rocking3d::{GroundAccel3d, Trace3d};
 use rockwatch_core::simulate::Trace;
 use rockwatch_core::STANDARD_GRAVITY_MPS2;
 
@@ -106,11 +108,11 @@ fn mode_colour(mode: Mode) -> Option<RGBAColor> {
     }
 }
 
-/// Contiguous runs `(t_start, t_end, mode)` of the trace's modes.
-fn mode_runs(trace: &Trace) -> Vec<(f64, f64, Mode)> {
+/// Contiguous runs `(t_start, t_end, mode)` of the modes at times `t_s`.
+fn mode_runs(t_s: &[f64], modes: &[Mode]) -> Vec<(f64, f64, Mode)> {
     let mut runs: Vec<(f64, f64, Mode)> = Vec::new();
-    for (i, (&t, &m)) in trace.t_s.iter().zip(&trace.mode).enumerate() {
-        let t_prev = if i == 0 { t } else { trace.t_s[i - 1] };
+    for (i, (&t, &m)) in t_s.iter().zip(modes).enumerate() {
+        let t_prev = if i == 0 { t } else { t_s[i - 1] };
         match runs.last_mut() {
             Some(run) if run.2 == m => run.1 = t,
             _ => runs.push((t_prev, t, m)),
@@ -159,37 +161,6 @@ pub fn plot_simulation(
     params: &BlockParams,
     title: &str,
 ) -> Result<(), PlotError> {
-    by_extension(
-        path,
-        SIZE,
-        |root| draw(root, trace, params, title),
-        |root| draw(root, trace, params, title),
-    )
-}
-
-fn draw<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    trace: &Trace,
-    params: &BlockParams,
-    title: &str,
-) -> DrawResult
-where
-    DB::ErrorType: 'static,
-{
-    root.fill(&WHITE)?;
-    let (head, body) = root.split_vertically(48);
-    head.titled(
-        &format!(
-            "{title} — {}, μs = {}, μk = {}",
-            params.geometry_label_with(short_number, short_number),
-            short_number(params.mu_s),
-            short_number(params.mu_k)
-        ),
-        ("sans-serif", 16),
-    )?;
-    let panels = body.split_evenly((3, 1));
-    let t_end = trace.t_s.last().copied().unwrap_or(1.0).max(1e-9);
-    let runs = mode_runs(trace);
     let in_g =
         |values: &[f64]| -> Vec<f64> { values.iter().map(|a| a / STANDARD_GRAVITY_MPS2).collect() };
     let horizontal_g = in_g(&trace.horizontal_mps2);
@@ -203,89 +174,180 @@ where
     if !vertical_g.is_empty() {
         accel.push((&vertical_g, RGBColor(153, 153, 153), "vertical"));
     }
-    let panels_data: [Panel; 3] = [
-        ("ground acceleration (g)", accel, &[]),
-        (
-            "θ/α",
-            vec![(&theta_over_alpha, RGBColor(0, 114, 178), "θ/α")],
-            &[-1.0, 1.0],
+    let history = History {
+        title: format!(
+            "{title} — {}, μs = {}, μk = {}",
+            params.geometry_label_with(short_number, short_number),
+            short_number(params.mu_s),
+            short_number(params.mu_k)
         ),
-        (
-            "slide u (m)",
-            vec![(&trace.slide_m, RGBColor(0, 158, 115), "slide")],
-            &[],
-        ),
+        t_s: &trace.t_s,
+        modes: &trace.mode,
+        panels: [
+            ("ground acceleration (g)", accel, &[]),
+            (
+                "θ/α",
+                vec![(&theta_over_alpha, RGBColor(0, 114, 178), "θ/α")],
+                &[-1.0, 1.0],
+            ),
+            (
+                "slide u (m)",
+                vec![(&trace.slide_m, RGBColor(0, 158, 115), "slide")],
+                &[],
+            ),
+        ],
+    };
+    by_extension(
+        path,
+        SIZE,
+        |root| history.draw(root),
+        |root| history.draw(root),
+    )
+}
+
+/// Writes the three-panel plot of a 3-D simulation to `path` (PNG or SVG by extension): the
+/// ground acceleration (east, north, up of the mesh), tilt/α with its line at 1, and the foot's
+/// slide, modes shaded (docs/rocking-3d.md; [`rockwatch_core::rocking3d::report`]).
+pub fn plot_simulation_3d(path: &Path, trace: &Trace3d, title: &str) -> Result<(), PlotError> {
+    let component = |f: fn(&GroundAccel3d) -> f64| -> Vec<f64> {
+        trace
+            .ground
+            .iter()
+            .map(|a| f(a) / STANDARD_GRAVITY_MPS2)
+            .collect()
+    };
+    let (east, north, up) = (
+        component(|a| a.east_mps2),
+        component(|a| a.north_mps2),
+        component(|a| a.up_mps2),
+    );
+    let tilt_over_alpha: Vec<f64> = trace.view.iter().map(|v| v.theta_over_alpha).collect();
+    let slide: Vec<f64> = trace.view.iter().map(|v| v.slide_m).collect();
+    let modes: Vec<Mode> = trace.view.iter().map(|v| v.mode).collect();
+    let mut accel: Vec<Series> = vec![
+        (&east, RGBColor(0, 0, 0), "east"),
+        (&north, RGBColor(0, 114, 178), "north"),
     ];
-    for (panel, (label, series, levels)) in panels.iter().zip(panels_data) {
-        let (lo, hi) = range(
-            series
-                .iter()
-                .flat_map(|(values, _, _)| values.iter().copied())
-                .chain(levels.iter().copied()),
-        );
-        let mut chart = ChartBuilder::on(panel)
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0.0..t_end, lo..hi)?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc(label)
-            .light_line_style(WHITE)
-            .draw()?;
-        for &(t0, t1, mode) in &runs {
-            if let Some(fill) = mode_colour(mode) {
-                chart.draw_series(std::iter::once(Rectangle::new(
-                    [(t0, lo), (t1, hi)],
-                    fill.filled(),
-                )))?;
-            }
-        }
-        for &level in levels {
-            chart.draw_series(LineSeries::new(
-                [(0.0, level), (t_end, level)],
-                RGBColor(213, 94, 0).stroke_width(1),
-            ))?;
-        }
-        let labelled = series.len() > 1;
-        for (values, colour, name) in series {
-            let drawn = chart.draw_series(LineSeries::new(
-                trace.t_s.iter().copied().zip(values.iter().copied()),
-                colour.stroke_width(1),
-            ))?;
-            if labelled {
-                drawn.label(name).legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
-                });
-            }
-        }
-        if labelled {
+    if up.iter().any(|&a| a != 0.0) {
+        accel.push((&up, RGBColor(153, 153, 153), "up"));
+    }
+    let history = History {
+        title: title.to_string(),
+        t_s: &trace.t_s,
+        modes: &modes,
+        panels: [
+            ("ground acceleration (g)", accel, &[]),
+            (
+                "tilt/α",
+                vec![(&tilt_over_alpha, RGBColor(0, 114, 178), "tilt/α")],
+                &[1.0],
+            ),
+            (
+                "foot slide (m)",
+                vec![(&slide, RGBColor(0, 158, 115), "slide")],
+                &[],
+            ),
+        ],
+    };
+    by_extension(
+        path,
+        SIZE,
+        |root| history.draw(root),
+        |root| history.draw(root),
+    )
+}
+
+/// A time-history figure: a title, three panels against time, the response mode shaded.
+struct History<'a> {
+    title: String,
+    t_s: &'a [f64],
+    modes: &'a [Mode],
+    panels: [Panel<'a>; 3],
+}
+
+impl History<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
+    where
+        DB::ErrorType: 'static,
+    {
+        root.fill(&WHITE)?;
+        let (head, body) = root.split_vertically(48);
+        head.titled(&self.title, ("sans-serif", 16))?;
+        let areas = body.split_evenly((3, 1));
+        let t_end = self.t_s.last().copied().unwrap_or(1.0).max(1e-9);
+        let runs = mode_runs(self.t_s, self.modes);
+        for (panel, (label, series, levels)) in areas.iter().zip(&self.panels) {
+            let (label, levels) = (*label, *levels);
+            let (lo, hi) = range(
+                series
+                    .iter()
+                    .flat_map(|(values, _, _)| values.iter().copied())
+                    .chain(levels.iter().copied()),
+            );
+            let mut chart = ChartBuilder::on(panel)
+                .margin(8)
+                .x_label_area_size(30)
+                .y_label_area_size(60)
+                .build_cartesian_2d(0.0..t_end, lo..hi)?;
             chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 12))
+                .configure_mesh()
+                .x_desc("time (s)")
+                .y_desc(label)
+                .light_line_style(WHITE)
                 .draw()?;
+            for &(t0, t1, mode) in &runs {
+                if let Some(fill) = mode_colour(mode) {
+                    chart.draw_series(std::iter::once(Rectangle::new(
+                        [(t0, lo), (t1, hi)],
+                        fill.filled(),
+                    )))?;
+                }
+            }
+            for &level in levels {
+                chart.draw_series(LineSeries::new(
+                    [(0.0, level), (t_end, level)],
+                    RGBColor(213, 94, 0).stroke_width(1),
+                ))?;
+            }
+            let labelled = series.len() > 1;
+            for &(values, colour, name) in series {
+                let drawn = chart.draw_series(LineSeries::new(
+                    self.t_s.iter().copied().zip(values.iter().copied()),
+                    colour.stroke_width(1),
+                ))?;
+                if labelled {
+                    drawn.label(name).legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
+                    });
+                }
+            }
+            if labelled {
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.8))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 12))
+                    .draw()?;
+            }
         }
-    }
-    // Legend of the mode colours, under the title.
-    let legend = [
-        Mode::Slide,
-        Mode::Rock,
-        Mode::SlideRock,
-        Mode::Overturned,
-        Mode::Flight,
-    ];
-    for (i, mode) in legend.iter().enumerate() {
-        if let Some(fill) = mode_colour(*mode) {
-            let x = 250 + 110 * i as i32;
-            root.draw(&Rectangle::new([(x, 30), (x + 14, 42)], fill.filled()))?;
-            root.draw(&Text::new(mode.as_str(), (x + 18, 30), ("sans-serif", 12)))?;
+        // Legend of the mode colours, under the title.
+        let legend = [
+            Mode::Slide,
+            Mode::Rock,
+            Mode::SlideRock,
+            Mode::Overturned,
+            Mode::Flight,
+        ];
+        for (i, mode) in legend.iter().enumerate() {
+            if let Some(fill) = mode_colour(*mode) {
+                let x = 250 + 110 * i as i32;
+                root.draw(&Rectangle::new([(x, 30), (x + 14, 42)], fill.filled()))?;
+                root.draw(&Text::new(mode.as_str(), (x + 18, 30), ("sans-serif", 12)))?;
+            }
         }
+        root.present()?;
+        Ok(())
     }
-    root.present()?;
-    Ok(())
 }
 
 #[cfg(test)]

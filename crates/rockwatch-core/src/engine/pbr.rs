@@ -8,11 +8,12 @@ use std::collections::HashSet;
 use super::config::{AlertConfig, PbrSpec};
 use super::output::{Alert, AlertKey, AlertLevel, Output, OutputSink, PbrState, RaisedLevels};
 use super::rest_group::GroundSample as Sample;
-use super::rigid_rock::{Pose, RigidRock};
+use super::rigid_rock::RigidRock;
 use crate::azimuth::Azimuth;
 use crate::dynamics::{
     BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RestLimit, RigidBlock,
 };
+use crate::rocking3d::report::PlanarView as Pose;
 
 /// A block's response summary (the last line of `rockwatch monitor`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

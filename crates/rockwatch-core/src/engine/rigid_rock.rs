@@ -6,19 +6,9 @@
 //! A member's body frame is its mesh's east, north, up at rest ([`crate::rocking3d`]); its
 //! heading h (true azimuth of the mesh's north axis) turns the station's true (east, north)
 //! ground acceleration into the body frame: north_b = a_E·sin h + a_N·cos h,
-//! east_b = a_E·cos h − a_N·sin h. What the engine reports of a member, in the terms of the
-//! planar outputs:
-//! - θ: the tilt (rad, ≥ 0), the angle between the body's up axis at rest and the vertical;
-//! - θ/α: the tilt over the uplift angle α(d) = atan(r(d)/h) of the direction d it tilts
-//!   towards (≥ 0; 1 = the centre of mass above the support polygon's edge);
-//! - the direction: the true azimuth d towards which the top leans (degrees clockwise from
-//!   north); at rest, the azimuth of the weakest direction;
-//! - the slide: the horizontal displacement over the ground of the base point below the
-//!   centre of mass at rest (m): the slip of the rock's foot, which pure rocking about an edge
-//!   barely moves (r·(1 − cos θ)), unlike the centre of mass (h·sin θ);
-//! - the mode: `rest`, `overturned`, and while moving `rock` when tilted by more than
-//!   [`TILT_ROCKING_RAD`], else `slide` (the 3-D model does not tell slide-rock from rock,
-//!   and models a flight instead of reporting it).
+//! east_b = a_E·cos h − a_N·sin h. What the engine reports of a member is its
+//! [`Rock3d::planar_view`] (θ = tilt, θ/α = tilt/α(d), the foot's slide, the mode; module doc of
+//! [`crate::rocking3d::report`]), its direction turned to a true azimuth (+ h).
 //!
 //! # The station-wide rest check
 //! A rock whose every member is at rest may be parked in its station's rest group
@@ -30,17 +20,13 @@
 //! a few ulps (10⁻¹⁵), far inside the margin, and g + a_U is the same floating-point value in
 //! both. So every member would have taken its at-rest path (time += dt, nothing else).
 
-use nalgebra::Vector3;
-
 use super::config::Rock3dSpec;
 use super::rest_group::GroundSample as Sample;
 use crate::azimuth::Azimuth;
 use crate::catalogue::RigidMember;
-use crate::dynamics::{Mode, RestLimit};
+use crate::dynamics::RestLimit;
+use crate::rocking3d::report::PlanarView;
 use crate::rocking3d::{Advance3dError, GroundAccel3d, Mode3d, Rock3d, Rock3dOptions};
-
-/// A moving rock tilted by more than this (rad) is reported as rocking, else as sliding.
-pub const TILT_ROCKING_RAD: f64 = 1e-6;
 
 /// Relative margin of a 3-D rock's rest-group limit (module doc).
 pub const REST_GROUP_MARGIN: f64 = 1e-9;
@@ -53,16 +39,6 @@ struct Member {
     /// Directions of the mesh's north and east axes.
     north_axis: Azimuth,
     east_axis: Azimuth,
-}
-
-/// What the outputs say of the nominal rock (module doc for the meaning in 3-D).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Pose {
-    pub(crate) mode: Mode,
-    pub(crate) theta_rad: f64,
-    pub(crate) theta_over_alpha: f64,
-    pub(crate) slide_m: f64,
-    pub(crate) direction_deg: f64,
 }
 
 impl Member {
@@ -106,56 +82,14 @@ impl Member {
         (mesh_deg + self.params.heading_deg).rem_euclid(360.0)
     }
 
-    fn pose(&self) -> Pose {
-        let (tilt, azimuth) = self.rock.tilt();
-        let body = self.rock.body();
-        let (direction_deg, alpha) = if tilt > 0.0 {
-            let (s, c) = azimuth.to_radians().sin_cos();
-            (self.true_azimuth(azimuth), body.alpha_towards(s, c))
-        } else {
-            let (weakest_deg, alpha) = weakest_direction(body);
-            (self.true_azimuth(weakest_deg), alpha)
-        };
-        let mode = match self.rock.mode() {
-            Mode3d::Rest => Mode::Rest,
-            Mode3d::Overturned => Mode::Overturned,
-            Mode3d::Moving if tilt > TILT_ROCKING_RAD => Mode::Rock,
-            Mode3d::Moving => Mode::Slide,
-        };
-        Pose {
-            mode,
-            theta_rad: tilt,
-            theta_over_alpha: if alpha > 0.0 { tilt / alpha } else { 0.0 },
-            slide_m: self.slide_m(),
-            direction_deg,
+    /// The member's [`Rock3d::planar_view`], its direction as a true azimuth.
+    fn pose(&self) -> PlanarView {
+        let view = self.rock.planar_view();
+        PlanarView {
+            direction_deg: self.true_azimuth(view.direction_deg),
+            ..view
         }
     }
-
-    /// Horizontal displacement (m) of the base point below the centre of mass at rest.
-    fn slide_m(&self) -> f64 {
-        let foot: Vector3<f64> = self.rock.position()
-            + self.rock.rotation() * Vector3::new(0.0, 0.0, -self.rock.body().h_m());
-        foot.x.hypot(foot.y)
-    }
-}
-
-/// The weakest direction of a body: the mesh azimuth (degrees) of the support polygon's
-/// nearest edge normal and its uplift angle α = atan(dist/h) (rad).
-fn weakest_direction(body: &crate::rocking3d::RockBody) -> (f64, f64) {
-    let nearest = body
-        .edges()
-        .iter()
-        .copied()
-        .fold(None, |best: Option<(f64, f64, f64)>, e| match best {
-            Some(b) if b.2 <= e.2 => Some(b),
-            _ => Some(e),
-        });
-    nearest.map_or((0.0, 0.0), |(nx, ny, dist)| {
-        (
-            nx.atan2(ny).to_degrees().rem_euclid(360.0),
-            (dist / body.h_m()).atan(),
-        )
-    })
 }
 
 /// A 3-D rock in the engine: the nominal rock and its ensemble members (empty: nominal only).
@@ -201,7 +135,7 @@ impl RigidRock {
         }
         let after = self.nominal.rock.mode();
         if after != Mode3d::Rest || before != Mode3d::Rest {
-            self.max_slide_m = self.max_slide_m.max(self.nominal.slide_m());
+            self.max_slide_m = self.max_slide_m.max(self.nominal.rock.foot_slide_m());
         }
         let motion_after = self.nominal.rock.stats().last_motion_s;
         RigidStep {
@@ -223,7 +157,7 @@ impl RigidRock {
         self.nominal.overturned()
     }
 
-    pub(crate) fn pose(&self) -> Pose {
+    pub(crate) fn pose(&self) -> PlanarView {
         self.nominal.pose()
     }
 

@@ -28,6 +28,7 @@
 //! - [`rest`]: the closed-form rest test;
 //! - [`solver`]: the contact impulses of one step;
 //! - [`rock`]: the real-time stepper (one call per input interval);
+//! - [`report`]: the rock in the planar outputs' terms (θ, θ/α, slide, direction, mode);
 //! - [`simulate`]: a whole record, and the serialisable [`simulate::Summary3d`].
 //!
 //! Architecture invariants: no I/O, no allocation in [`rock::Rock3d::advance`], no threads,
@@ -36,6 +37,7 @@
 
 pub mod body;
 pub mod ground;
+pub mod report;
 pub mod rest;
 pub mod rock;
 pub mod simulate;
@@ -46,6 +48,6 @@ pub use ground::{GroundAccel3d, GroundMotion3d, MotionError};
 pub use rest::RestCondition;
 pub use rock::{Advance3dError, Mode3d, Rock3d, Rock3dOptions, Stats3d};
 pub use simulate::{
-    simulate_3d, simulate_3d_outcome, Outcome3d, Simulate3dError, Simulation3dOptions, Status3d,
-    Summary3d,
+    simulate_3d, simulate_3d_outcome, simulate_3d_traced, Outcome3d, Simulate3dError,
+    Simulation3dOptions, Status3d, Summary3d, Trace3d,
 };

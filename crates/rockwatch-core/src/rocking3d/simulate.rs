@@ -100,13 +100,15 @@ pub enum Simulate3dError {
 /// Advances `rock` through `n` input samples at `dt_s` (`at(i)`, zero beyond the last) and
 /// up to `t_extra_s` of quiet after them: one [`Rock3d::advance`] per interval, stopping once
 /// the rock has overturned, or once the input has ended and it is at rest (with no input a rock
-/// at rest stays so).
+/// at rest stays so). `observe` sees the rock and its input at the start and after each
+/// interval.
 fn run_to_end(
     rock: &mut Rock3d,
     n: usize,
     dt_s: f64,
     t_extra_s: f64,
     at: impl Fn(usize) -> GroundAccel3d,
+    mut observe: impl FnMut(&Rock3d, GroundAccel3d),
 ) -> Result<(), Simulate3dError> {
     if n < 2 {
         return Err(Simulate3dError::TooShort);
@@ -119,6 +121,7 @@ fn run_to_end(
         return Err(Simulate3dError::TooManySteps { steps, dt_s });
     }
     let n_extra = (t_extra_s / dt_s).ceil() as usize;
+    observe(rock, at(0));
     for i in 0..n - 1 + n_extra {
         if i + 1 >= n && rock.mode() == Mode3d::Rest {
             break;
@@ -129,6 +132,7 @@ fn run_to_end(
                 t_s: rock.time_s(),
                 reason,
             })?;
+        observe(rock, to);
         if rock.mode() == Mode3d::Overturned {
             break;
         }
@@ -182,7 +186,14 @@ pub fn simulate_3d_outcome(
             up_mps2: up * vertical_factor,
         }
     };
-    run_to_end(&mut rock, record.len(), record.dt_s, t_extra_s, at)?;
+    run_to_end(
+        &mut rock,
+        record.len(),
+        record.dt_s,
+        t_extra_s,
+        at,
+        |_, _| {},
+    )?;
     let stats = rock.stats();
     Ok(Outcome3d {
         overturned: rock.mode() == Mode3d::Overturned,
@@ -190,6 +201,34 @@ pub fn simulate_3d_outcome(
         max_slide_m: stats.max_slide_m,
         duration_s: rock.time_s(),
     })
+}
+
+/// The time history of a 3-D simulation, one entry per input sample (and per sample of the
+/// quiet tail) until the end or the overturn, in the mesh's frame ([`super::report`] for what
+/// each column means).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Trace3d {
+    /// Time (s).
+    pub t_s: Vec<f64>,
+    /// The ground acceleration driving the rock (m/s², east, north, up of the mesh).
+    pub ground: Vec<GroundAccel3d>,
+    /// The rock in the planar outputs' terms (tilt, tilt/α, foot slide, direction, mode).
+    pub view: Vec<super::report::PlanarView>,
+    /// Centre of mass (m, ground frame).
+    pub position_m: Vec<[f64; 3]>,
+    /// Rotation about the vertical (rad).
+    pub twist_rad: Vec<f64>,
+}
+
+impl Trace3d {
+    fn push(&mut self, rock: &Rock3d, ground: GroundAccel3d) {
+        let x = rock.position();
+        self.t_s.push(rock.time_s());
+        self.ground.push(ground);
+        self.view.push(rock.planar_view());
+        self.position_m.push([x.x, x.y, x.z]);
+        self.twist_rad.push(rock.twist_rad());
+    }
 }
 
 /// Simulates `body` (friction `mu_s`, `mu_k`) under `motion`.
@@ -200,6 +239,32 @@ pub fn simulate_3d(
     motion: &GroundMotion3d,
     options: &Simulation3dOptions,
 ) -> Result<Summary3d, Simulate3dError> {
+    run_3d(body, mu_s, mu_k, motion, options, |_, _| {})
+}
+
+/// [`simulate_3d`] with its time history ([`Trace3d`]).
+pub fn simulate_3d_traced(
+    body: RockBody,
+    mu_s: f64,
+    mu_k: f64,
+    motion: &GroundMotion3d,
+    options: &Simulation3dOptions,
+) -> Result<(Summary3d, Trace3d), Simulate3dError> {
+    let mut trace = Trace3d::default();
+    let summary = run_3d(body, mu_s, mu_k, motion, options, |rock, a| {
+        trace.push(rock, a);
+    })?;
+    Ok((summary, trace))
+}
+
+fn run_3d(
+    body: RockBody,
+    mu_s: f64,
+    mu_k: f64,
+    motion: &GroundMotion3d,
+    options: &Simulation3dOptions,
+    observe: impl FnMut(&Rock3d, GroundAccel3d),
+) -> Result<Summary3d, Simulate3dError> {
     let alpha_min = {
         let edges = body.edges();
         let dist = edges.iter().map(|e| e.2).fold(f64::INFINITY, f64::min);
@@ -208,7 +273,14 @@ pub fn simulate_3d(
     let mut rock = Rock3d::new(body, mu_s, mu_k, options.rock)
         .map_err(|reason| Simulate3dError::Advance { t_s: 0.0, reason })?;
     let at = |i: usize| motion.samples.get(i).copied().unwrap_or_default();
-    run_to_end(&mut rock, motion.len(), motion.dt_s, options.t_extra_s, at)?;
+    run_to_end(
+        &mut rock,
+        motion.len(),
+        motion.dt_s,
+        options.t_extra_s,
+        at,
+        observe,
+    )?;
     let s = *rock.stats();
     let overturned = rock.mode() == Mode3d::Overturned;
     let x = rock.position();

@@ -3,11 +3,13 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use rockwatch::plot::{plot_simulation, short_number};
+use rockwatch::plot::{plot_simulation, plot_simulation_3d, short_number};
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::ode::Tolerance;
 use rockwatch_core::record::Record;
-use rockwatch_core::rocking3d::{simulate_3d, GroundMotion3d, Simulation3dOptions};
+use rockwatch_core::rocking3d::{
+    simulate_3d, simulate_3d_traced, GroundMotion3d, Simulation3dOptions, Trace3d,
+};
 use rockwatch_core::simulate::{simulate, SimulationOptions, Status, Summary, Trace};
 
 use super::rock_flags::{FrictionFlags, GeometryFlags, MeshPlan, Model, RockPlan};
@@ -63,14 +65,19 @@ pub struct SimulateArgs {
     format: OutputFormat,
     /// Also draw the ground acceleration (horizontal, and vertical when given), θ/α with its
     /// ±1 lines and slide against time, modes shaded; PNG if OUT ends in .png, SVG if it ends
-    /// in .svg.
+    /// in .svg. With --model 3d: the ground's east, north, up, tilt/α and the foot's slide.
     #[arg(long, value_name = "OUT.svg|OUT.png")]
     plot: Option<PathBuf>,
     /// Write the time history as CSV, one row per input sample (and per sample of the
     /// --t-extra tail) until the end or the overturn: `t_s` (s), `ground_h_mps2` (horizontal
     /// ground acceleration along +x, m/s²), `ground_v_mps2` (vertical, + up, m/s²; only with
     /// --vertical), `theta_rad` (rotation, + about the +x pivot), `slide_m` (slip of the
-    /// contact point, m), `mode` (rest, slide, rock, slide-rock, flight, overturned).
+    /// contact point, m), `mode` (rest, slide, rock, slide-rock, flight, overturned). With
+    /// --model 3d (mesh frame: east, north, up of the mesh at rest): `t_s`, `ground_e_mps2`,
+    /// `ground_n_mps2`, `ground_u_mps2`, `tilt_rad`, `tilt_over_alpha` (tilt/α(d), d the
+    /// direction it leans towards), `direction_deg` (d, degrees from the mesh's north; the
+    /// weakest direction at rest), `slide_m` (the foot's slip), `com_e_m`, `com_n_m`,
+    /// `com_u_m` (centre of mass), `twist_rad`, `mode` (rest, slide, rock, overturned).
     #[arg(long, value_name = "OUT.csv")]
     trace: Option<PathBuf>,
 }
@@ -102,8 +109,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
 
 /// Simulates a mesh rock in 3-D (docs/rocking-3d.md) as the flags say.
 fn run_3d(mesh: &MeshPlan, args: SimulateArgs) -> anyhow::Result<()> {
-    if args.plot.is_some() || args.trace.is_some() || args.rtol.is_some() {
-        bail!("--plot, --trace and --rtol are not available with --model 3d yet");
+    if args.rtol.is_some() {
+        bail!("--rtol is not a setting of --model 3d (fixed sub-steps of at most 1 ms, docs/rocking-3d.md)");
     }
     if mesh.friction.restitution.is_some() {
         bail!("--restitution is not available with --model 3d (impacts are plastic, docs/rocking-3d.md)");
@@ -137,14 +144,46 @@ fn run_3d(mesh: &MeshPlan, args: SimulateArgs) -> anyhow::Result<()> {
         ..Simulation3dOptions::default()
     };
     let friction = mesh.friction;
-    let summary = simulate_3d(
-        mesh.body_3d()?,
-        friction.mu_s,
-        friction.mu_k,
-        &motion,
-        &options,
-    )
-    .with_context(|| format!("simulating {} in 3-D", args.record.display()))?;
+    let context = || format!("simulating {} in 3-D", args.record.display());
+    let summary = if args.plot.is_some() || args.trace.is_some() {
+        let (summary, trace) = simulate_3d_traced(
+            mesh.body_3d()?,
+            friction.mu_s,
+            friction.mu_k,
+            &motion,
+            &options,
+        )
+        .with_context(context)?;
+        if let Some(path) = &args.plot {
+            let title = format!(
+                "{}{} — {} in 3-D, μs = {}, μk = {}",
+                first.source,
+                if args.scale == 1.0 {
+                    String::new()
+                } else {
+                    format!(" × {}", short_number(args.scale))
+                },
+                mesh.mesh.path.display(),
+                short_number(friction.mu_s),
+                short_number(friction.mu_k)
+            );
+            plot_simulation_3d(path, &trace, &title)?;
+        }
+        if let Some(path) = &args.trace {
+            write_trace_3d(path, &trace)
+                .with_context(|| format!("writing trace {}", path.display()))?;
+        }
+        summary
+    } else {
+        simulate_3d(
+            mesh.body_3d()?,
+            friction.mu_s,
+            friction.mu_k,
+            &motion,
+            &options,
+        )
+        .with_context(context)?
+    };
     match args.format {
         OutputFormat::Json => outln!("{}", serde_json::to_string_pretty(&summary)?),
         OutputFormat::Text => {
@@ -294,6 +333,38 @@ fn write_trace(path: &std::path::Path, trace: &Trace) -> std::io::Result<()> {
             trace.theta_rad[i],
             trace.slide_m[i],
             trace.mode[i].as_str()
+        )?;
+    }
+    out.flush()
+}
+
+/// Writes the trace CSV of `--trace` with `--model 3d` (columns in [`SimulateArgs::trace`]).
+fn write_trace_3d(path: &std::path::Path, trace: &Trace3d) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(
+        out,
+        "t_s,ground_e_mps2,ground_n_mps2,ground_u_mps2,tilt_rad,tilt_over_alpha,direction_deg,\
+         slide_m,com_e_m,com_n_m,com_u_m,twist_rad,mode"
+    )?;
+    for i in 0..trace.t_s.len() {
+        let (a, v, x) = (trace.ground[i], trace.view[i], trace.position_m[i]);
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            trace.t_s[i],
+            a.east_mps2,
+            a.north_mps2,
+            a.up_mps2,
+            v.theta_rad,
+            v.theta_over_alpha,
+            v.direction_deg,
+            v.slide_m,
+            x[0],
+            x[1],
+            x[2],
+            trace.twist_rad[i],
+            v.mode.as_str()
         )?;
     }
     out.flush()
