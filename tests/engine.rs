@@ -879,6 +879,61 @@ fn one_packet_stamped_years_ahead_does_not_silence_a_station() {
     assert_eq!(own.samples as usize, record.len() + 100);
 }
 
+#[test]
+fn a_few_packets_stamped_seconds_ahead_do_not_drop_the_real_data_behind_them() {
+    // Issue 24 item 6: five contiguous packets stamped 4.9 s ahead (inside the node's
+    // `max_ahead_s`, so the shell lets them through), then the real stream. The five confirm
+    // one another; they must not confirm the jump and make the real data of the next ~5 s
+    // "already processed": the grid is rewound once the real data keeps landing behind them.
+    let record = rinaldi_f32();
+    let zeros = vec![0.0; record.len()];
+    let pbrs = [spec("slender", "CI.RRS.00", 90.0, slender())];
+    // 10-sample packets (0.1 s at 100 Hz), as a digitiser streams them.
+    let clean = packets(
+        "CI.RRS.00",
+        &record.horizontal_mps2,
+        &zeros,
+        record.dt_s,
+        10,
+    );
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    let expected = alert_levels(&run(&mut engine, clean.clone()));
+    assert!(expected.contains(&("slender".into(), AlertLevel::Overturned)));
+
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
+    let mut out = Vec::new();
+    for (i, p) in clean.iter().cloned().enumerate() {
+        if i == 30 {
+            // Before the strong shaking: quiet values, 4.9 s ahead, numbered ahead.
+            for j in 0..5 {
+                let mut forged = clean[i + 49 + j].clone();
+                forged.sequence = 1_000_000 + j as u64;
+                forged.east.iter_mut().for_each(|v| *v = 0.0);
+                engine.process(forged, 0, &mut out);
+            }
+        }
+        engine.process(p, 0, &mut out);
+    }
+    engine.flush(0, &mut out);
+    assert_eq!(alert_levels(&out), expected);
+    let (_, own, stream) = engine.station_counters().next().unwrap();
+    assert_eq!(stream.grid_rewinds, 1, "{stream:?}");
+    // Every real sample was integrated (and the forged packets' too): none was dropped as
+    // "already processed".
+    assert_eq!(own.samples as usize, record.len() + 50, "{stream:?}");
+    // The rewind is said, naming the station; nothing was dropped, so no drop is reported.
+    let notice = |kind: &str, out: &[Output]| {
+        out.iter()
+            .any(|o| matches!(o, Output::Notice(n) if n.kind == kind && n.station == "CI.RRS.00"))
+    };
+    assert!(notice("grid_rewound", &out), "no grid_rewound notice");
+    assert!(!notice("dropped", &out));
+    // Data that is dropped is said: a packet sent twice.
+    let mut again = Vec::new();
+    engine.process(clean[clean.len() - 1].clone(), 0, &mut again);
+    assert!(notice("dropped", &again), "{again:?}");
+}
+
 /// Finding 6: accelerations beyond the physical bound (default 20 g, after the station's
 /// gain) reject the packet, counted; the station goes on with the next packet.
 #[test]

@@ -181,9 +181,30 @@ impl StationRuntime {
     ) {
         self.counters.packets += 1;
         scratch.clear();
+        let before = self.sequencer.counters;
         self.sequencer.offer(packet, scratch);
+        self.report_dropped(&before, out);
         for r in scratch.drain(..) {
             self.process_packet(&r, ctx, out);
+        }
+    }
+
+    /// A notice when the sequencer dropped data since `before` (packets already processed:
+    /// duplicates, late or overlapping packets, packets held beyond an undone jump).
+    fn report_dropped(&self, before: &super::stream::StreamCounters, out: &mut dyn OutputSink) {
+        let now = &self.sequencer.counters;
+        let packets = now.duplicate_packets - before.duplicate_packets;
+        let samples = now.overlap_samples - before.overlap_samples;
+        if packets > 0 || samples > 0 {
+            notice(
+                &self.name,
+                "dropped",
+                format!(
+                    "{samples} samples already processed dropped ({packets} whole packets: duplicate, late or overlapping data; {} dropped so far)",
+                    now.overlap_samples
+                ),
+                out,
+            );
         }
     }
 
@@ -195,7 +216,9 @@ impl StationRuntime {
         out: &mut dyn OutputSink,
     ) {
         scratch.clear();
+        let before = self.sequencer.counters;
         self.sequencer.flush(scratch);
+        self.report_dropped(&before, out);
         for r in scratch.drain(..) {
             self.process_packet(&r, ctx, out);
         }

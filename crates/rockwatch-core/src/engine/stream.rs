@@ -7,12 +7,14 @@
 //! as misaligned). Decisions depend only on the order of packets, never on wall time, so the
 //! same packets give the same output (the reorder window counts packets, not seconds).
 //!
-//! No single packet moves the grid irreversibly: after a forward jump too long to bridge
-//! (a station back from an outage, or one packet stamped far ahead), the grid before the
-//! jump is remembered. If the next packets continue the jumped stream, the jump is confirmed;
-//! if instead `resync_packets` packets in a row land in the gap the jump left (the outlier
-//! was the jumping packet), the grid is rewound to before the jump and those packets are
-//! released ([`Gap::Rewind`]); packets held beyond the jump are dropped.
+//! No handful of packets moves the grid irreversibly: after a forward jump too long to bridge
+//! (a station back from an outage, or packets stamped ahead), the grid before the jump is
+//! remembered. The jump is confirmed once the stream after it has lasted as long as the gap it
+//! left (a few packets stamped seconds ahead confirm one another, but not for that long); if
+//! instead `resync_packets` packets in a row land in the gap (the jumping packets were the
+//! outliers), the grid is rewound to before the jump and those packets are released
+//! ([`Gap::Rewind`]); packets held beyond the jump are dropped. A packet continuing the jumped
+//! stream breaks the row: the gap packets before it are dropped (counted).
 
 use super::packet::AccelPacket;
 
@@ -264,11 +266,16 @@ impl Sequencer {
     /// A new forward jump (`Some`) replaces the one remembered; a packet continuing the stream
     /// (`None`) confirms it. Either way the packets that landed behind it are dropped.
     fn settle_jump(&mut self, jump: Option<Jump>) {
+        self.drop_behind();
+        self.jump = jump;
+    }
+
+    /// Drops the packets that landed in the gap of the remembered jump (counted).
+    fn drop_behind(&mut self) {
         for p in self.behind.drain(..) {
             self.counters.duplicate_packets += 1;
             self.counters.overlap_samples += p.len() as u64;
         }
-        self.jump = jump;
     }
 
     /// Undoes the last forward jump: the grid before it comes back, the packets held beyond
@@ -365,8 +372,15 @@ impl Sequencer {
                 max_sequence: self.max_sequence,
                 to_ns: self.time_ns(k),
             }));
-        } else if self.jump.is_some() {
-            self.settle_jump(None); // the stream continues after the jump: confirmed
+        } else if let Some(jump) = self.jump {
+            if self.time_ns(k + n) - jump.to_ns >= jump.to_ns - jump.time_ns(jump.next_index) {
+                // The stream after the jump has lasted as long as the gap: confirmed.
+                self.settle_jump(None);
+            } else {
+                // A burst after the jump (a few packets stamped ahead confirm one another):
+                // not yet a confirmation, but the packets behind it are no longer in a row.
+                self.drop_behind();
+            }
         }
         if std::mem::take(&mut self.rewound) {
             gap = Gap::Rewind;
@@ -603,7 +617,29 @@ mod tests {
     /// A real outage: the stream continues after the jump, which is confirmed; a stale packet
     /// from the outage arriving later is dropped, not a rewind.
     #[test]
-    fn a_jump_the_stream_continues_is_kept() {
+    fn a_jump_the_stream_continues_for_as_long_as_its_gap_is_kept() {
+        // A 0.9 s jump, then 0.9 s of the stream after it: confirmed; packets landing in the
+        // gap afterwards are late (dropped, counted).
+        let mut s = Sequencer::new(StreamConfig {
+            reorder_window_packets: 0,
+            ..StreamConfig::default()
+        });
+        let mut packets = vec![packet(0, 10, 0)];
+        packets.extend((0..9).map(|i| packet(100 + 10 * i, 10, 1 + i as u64)));
+        packets.extend([packet(10, 10, 10), packet(20, 10, 11), packet(30, 10, 12)]);
+        let got = offer_all(&mut s, packets);
+        let mut expected = vec![(0, 10, Gap::Start), (100, 10, Gap::Break(90))];
+        expected.extend((1..9).map(|i| (100 + 10 * i, 10, Gap::None)));
+        assert_eq!(got, expected);
+        assert_eq!(s.counters.grid_rewinds, 0);
+        assert_eq!(s.counters.duplicate_packets, 3);
+    }
+
+    #[test]
+    fn a_burst_stamped_ahead_does_not_confirm_its_jump() {
+        // Issue 24 item 6: two packets 9.9 s ahead confirm one another, but 0.2 s of stream
+        // does not confirm a 9.9 s jump: the real packets landing in the gap rewind the grid
+        // and none of them is dropped.
         let mut s = Sequencer::new(StreamConfig {
             reorder_window_packets: 0,
             ..StreamConfig::default()
@@ -617,6 +653,7 @@ mod tests {
                 packet(10, 10, 3),
                 packet(20, 10, 4),
                 packet(30, 10, 5),
+                packet(40, 10, 6),
             ],
         );
         assert_eq!(
@@ -624,10 +661,14 @@ mod tests {
             vec![
                 (0, 10, Gap::Start),
                 (1000, 10, Gap::Break(990)),
-                (1010, 10, Gap::None)
+                (1010, 10, Gap::None),
+                (10, 10, Gap::Rewind),
+                (20, 10, Gap::None),
+                (30, 10, Gap::None),
+                (40, 10, Gap::None),
             ]
         );
-        assert_eq!(s.counters.grid_rewinds, 0);
-        assert_eq!(s.counters.duplicate_packets, 3);
+        assert_eq!(s.counters.grid_rewinds, 1);
+        assert_eq!(s.counters.duplicate_packets, 0);
     }
 }
