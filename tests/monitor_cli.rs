@@ -509,3 +509,47 @@ fn a_crash_during_journal_compaction_loses_nothing() {
         assert_eq!(got, expected, "{stage}");
     }
 }
+
+#[test]
+fn a_device_given_as_a_file_is_refused_not_read_until_memory_runs_out() {
+    // Issue 24 item 8: `--mseed /dev/urandom` read until memory ran out. Input files are read
+    // up to a bound (rockwatch_core::bounded_read), here a never-ending device.
+    let catalogue = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml");
+    let out = rockwatch(
+        &[
+            "monitor",
+            "--catalogue",
+            catalogue,
+            "--station",
+            "CI.RRS.00",
+            "--mseed",
+            "/dev/zero",
+        ],
+        &[],
+    );
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("/dev/zero") && stderr.contains("the most read of such a file"),
+        "{stderr}"
+    );
+    // A configuration too.
+    let out = rockwatch(
+        &[
+            "monitor",
+            "--config",
+            "/dev/zero",
+            "--station",
+            "CI.RRS.00",
+            "--mseed",
+            "/dev/null",
+        ],
+        &[],
+    );
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("the most read of such a file"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -8,6 +8,7 @@
 
 pub mod assembly;
 pub mod azimuth;
+pub mod bounded_read;
 pub mod catalogue;
 pub mod differentiate;
 pub mod dynamics;

@@ -262,7 +262,11 @@ impl AcquireConfig {
     /// name the file (and the line, for TOML syntax).
     pub fn load(path: &Path) -> Result<AcquireConfig, String> {
         let fail = |e: String| format!("{}: {e}", path.display());
-        let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
+        let text = rockwatch_core::bounded_read::read_to_string_bounded(
+            path,
+            rockwatch_core::bounded_read::MAX_CONFIG_FILE_BYTES,
+        )
+        .map_err(|e| fail(e.to_string()))?;
         let mut config: AcquireConfig = toml::from_str(&text)
             .map_err(|e| fail(rockwatch_core::catalogue::toml_error_line(&text, &e)))?;
         let base = path.parent().unwrap_or(Path::new("."));

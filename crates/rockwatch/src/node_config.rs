@@ -117,7 +117,11 @@ impl NodeConfig {
             path: path.to_owned(),
             problem,
         };
-        let text = std::fs::read_to_string(path).map_err(|e| error(e.into()))?;
+        let text = rockwatch_core::bounded_read::read_to_string_bounded(
+            path,
+            rockwatch_core::bounded_read::MAX_CONFIG_FILE_BYTES,
+        )
+        .map_err(|e| error(e.into()))?;
         let mut config: NodeConfig = toml::from_str(&text).map_err(|e| {
             error(NodeConfigProblem::Syntax(
                 rockwatch_core::catalogue::toml_error_line(&text, &e),

@@ -217,7 +217,11 @@ impl Catalogue {
                 })
             }
         };
-        let text = std::fs::read_to_string(path).map_err(|error| CatalogueError::Io {
+        let text = crate::bounded_read::read_to_string_bounded(
+            path,
+            crate::bounded_read::MAX_DATA_FILE_BYTES,
+        )
+        .map_err(|error| CatalogueError::Io {
             path: path.to_owned(),
             error,
         })?;

@@ -172,10 +172,12 @@ impl Inventory {
     /// Reads and parses one StationXML file.
     pub fn read(path: &Path) -> Result<Inventory, InventoryError> {
         let source = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| InventoryError {
-            document: source.clone(),
-            problem: format!("cannot read: {e}"),
-        })?;
+        let bytes =
+            crate::bounded_read::read_bounded(path, crate::bounded_read::MAX_DATA_FILE_BYTES)
+                .map_err(|e| InventoryError {
+                    document: source.clone(),
+                    problem: format!("cannot read: {e}"),
+                })?;
         Inventory::parse(&source, &bytes)
     }
 

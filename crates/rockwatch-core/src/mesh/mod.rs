@@ -274,7 +274,8 @@ impl TriMesh {
                 message: format!("{size} bytes, more than the {MAX_FILE_BYTES} read"),
             });
         }
-        let bytes = std::fs::read(path).map_err(io)?;
+        // The size read is bounded too: a device reads as size 0 and never ends.
+        let bytes = crate::bounded_read::read_bounded(path, MAX_FILE_BYTES).map_err(io)?;
         TriMesh::parse_with(&bytes, format, &source, cap_up)
     }
 

@@ -249,7 +249,8 @@ fn extension_lowercase(path: &Path) -> Option<String> {
 }
 
 fn read_text(path: &Path) -> Result<String, RecordError> {
-    let bytes = std::fs::read(path).map_err(|e| RecordError::new(path, None, e.to_string()))?;
+    let bytes = crate::bounded_read::read_bounded(path, crate::bounded_read::MAX_DATA_FILE_BYTES)
+        .map_err(|e| RecordError::new(path, None, e.to_string()))?;
     String::from_utf8(bytes).map_err(|e| {
         RecordError::new(
             path,

@@ -108,7 +108,11 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
         }
     }
     let read = |path: &PathBuf| {
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
+        rockwatch_core::bounded_read::read_to_string_bounded(
+            path,
+            rockwatch_core::bounded_read::MAX_DATA_FILE_BYTES,
+        )
+        .with_context(|| format!("cannot read {}", path.display()))
     };
     let fragility_name = args.fragility.display().to_string();
     let fragility = fragility_from_json(

@@ -84,8 +84,11 @@ fn check_kind(content: &str) -> Result<(), String> {
 /// Reads an iceoryx2 configuration file; the error names the file.
 pub fn load_config_file(path: &Path) -> anyhow::Result<Config> {
     // Read it ourselves first for a clear error (iceoryx2 reports only an error code).
-    let content = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read the iceoryx2 configuration", path.display()))?;
+    let content = rockwatch_core::bounded_read::read_to_string_bounded(
+        path,
+        rockwatch_core::bounded_read::MAX_CONFIG_FILE_BYTES,
+    )
+    .with_context(|| format!("{}: cannot read the iceoryx2 configuration", path.display()))?;
     check_kind(&content).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let text = path
         .to_str()

@@ -122,6 +122,34 @@ mod tests {
     }
 
     #[test]
+    fn exec_children_start_with_no_signal_blocked() {
+        // The node blocks its stop and reload signals on every thread (signals.rs): a command
+        // must not inherit that mask (it could then never be stopped by SIGTERM, issue 24
+        // item 8). The mask is blocked here on this test's thread, as the node's workers have it.
+        use nix::sys::signal::{SigSet, Signal};
+        let mut set = SigSet::empty();
+        for s in [Signal::SIGINT, Signal::SIGTERM, Signal::SIGHUP] {
+            set.add(s);
+        }
+        set.thread_block().unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("status");
+        let cmd = sh(&format!(
+            "grep -E '^Sig(Blk|Ign)' /proc/self/status > '{}'",
+            out.display()
+        ));
+        let result = exec(&cmd, b"{}", Duration::from_secs(10));
+        set.thread_unblock().unwrap();
+        result.unwrap();
+        let status = std::fs::read_to_string(&out).unwrap();
+        for line in status.lines() {
+            let mask = u64::from_str_radix(line.split_whitespace().nth(1).unwrap(), 16).unwrap();
+            // SIGHUP 1, SIGINT 2, SIGTERM 15: bits 0, 1, 14.
+            assert_eq!(mask & 0b100_0000_0000_0011, 0, "{status}");
+        }
+    }
+
+    #[test]
     fn exec_kills_a_command_that_outlives_its_timeout() {
         let start = Instant::now();
         let e = exec(&sh("exec sleep 30"), b"{}", Duration::from_millis(300)).unwrap_err();

@@ -360,8 +360,11 @@ type ParamSections = Vec<(String, Vec<(String, ParameterValue)>)>;
 /// above `ros__parameters` form the node's name (`/ns/node`, or nested mappings `ns: node:`);
 /// nested mappings below it form dotted parameter names.
 fn read_params_file(path: &Path) -> anyhow::Result<ParamSections> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("--params-file {}: cannot read it", path.display()))?;
+    let text = rockwatch_core::bounded_read::read_to_string_bounded(
+        path,
+        rockwatch_core::bounded_read::MAX_CONFIG_FILE_BYTES,
+    )
+    .with_context(|| format!("--params-file {}: cannot read it", path.display()))?;
     let docs = YamlLoader::load_from_str(&text)
         .map_err(|e| anyhow!("--params-file {}: not YAML: {e}", path.display()))?;
     let mut sections = Vec::new();

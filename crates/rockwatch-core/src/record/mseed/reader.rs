@@ -13,7 +13,8 @@ use super::{
 /// Reads and decodes a MiniSEED (2 or 3) file. See the module documentation for what is
 /// skipped and what is an error.
 pub fn read_mseed(path: &Path) -> Result<MseedFile, RecordError> {
-    let bytes = std::fs::read(path).map_err(|e| RecordError::new(path, None, e.to_string()))?;
+    let bytes = crate::bounded_read::read_bounded(path, crate::bounded_read::MAX_DATA_FILE_BYTES)
+        .map_err(|e| RecordError::new(path, None, e.to_string()))?;
     parse_mseed(&bytes, path)
 }
 
