@@ -319,12 +319,30 @@ fn a_second_process_on_a_state_directory_is_refused() {
     let lock = std::fs::File::create(state.join(rockwatch::journal::LOCK_FILE)).unwrap();
     lock.try_lock().unwrap();
     let state_arg = state.to_str().unwrap();
-    let run = rockwatch(&["node", "--catalogue", CATALOGUE, "--state-dir", state_arg]);
+    // Refused before its DDS participant exists (issue 24 item 8: it was refused only after
+    // creating it): RustDDS logs the participant's construction at trace level.
+    let run = rockwatch(&[
+        "node",
+        "--catalogue",
+        CATALOGUE,
+        "--state-dir",
+        state_arg,
+        "--log-level",
+        "rockwatch=info,rustdds=trace",
+    ]);
     refused(&run, "in use by another rockwatch process");
+    assert!(!run.stderr.contains("DomainParticipant"), "{}", run.stderr);
     let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
     refused(&run, "one node per state directory");
     // Released (as when the first node ends, however it ends): the directory is usable.
     drop(lock);
+    // A node holding the directory whose lock file was deleted still holds it (issue 24
+    // item 8: deleting `state/lock` let a second node in).
+    let (held, _, _) = rockwatch::journal::Journal::open(&state).unwrap();
+    std::fs::remove_file(state.join(rockwatch::journal::LOCK_FILE)).unwrap();
+    let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
+    refused(&run, "one node per state directory");
+    drop(held);
     let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
     assert_eq!(run.code, Some(0), "{}", run.stderr);
 }

@@ -15,9 +15,16 @@
 //! either the old journal or the compacted one (a leftover temporary file is removed on open).
 //!
 //! One process per state directory: [`Journal::open`] takes an exclusive OS lock (`flock`) on
-//! [`LOCK_FILE`] and holds it as long as the journal is open (the process's lifetime for the
-//! node); a second opener is refused ([`JournalError::Locked`]). The lock is released by the
-//! kernel when the process ends, however it ends (a `kill -9` leaves no stale lock).
+//! the directory itself and on [`LOCK_FILE`] and holds them as long as the journal is open (the
+//! process's lifetime for the node); a second opener is refused ([`JournalError::Locked`]),
+//! even if the lock file was deleted meanwhile (the directory's lock remains). The locks are
+//! released by the kernel when the process ends, however it ends (a `kill -9` leaves no stale
+//! lock). [`check_state_dir_free`] lets a node refuse a held directory before it starts
+//! anything else.
+//!
+//! The journal must be a regular file (a journal symlinked to `/dev/null` would swallow every
+//! alert: refused, [`JournalError::NotAFile`]); a state directory others may write is warned of
+//! ([`LoadReport::world_writable`]).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
@@ -79,24 +86,126 @@ pub enum JournalError {
         source: std::io::Error,
     },
     #[error(
-        "{dir}: the state directory is in use by another rockwatch process (it holds \
-         {LOCK_FILE}): one node per state directory"
+        "{dir}: the state directory is in use by another rockwatch process (it holds the \
+         directory's lock): one node per state directory"
     )]
     Locked { dir: PathBuf },
     #[error("{path}: {waiting} records wait for the state directory (it is failing, e.g. full)")]
     Backlog { path: PathBuf, waiting: usize },
     #[error("{path}: cannot encode a record: {message}")]
     Encode { path: PathBuf, message: String },
+    #[error(
+        "{path}: the journal is not a regular file (a link to a device such as /dev/null would \
+         swallow every alert): point the state directory elsewhere or remove it"
+    )]
+    NotAFile { path: PathBuf },
 }
 
 /// What opening a journal found.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct LoadReport {
     pub records: usize,
-    /// Lines whose checksum or JSON was wrong (skipped), 1-based line numbers.
+    /// Lines whose checksum or JSON was wrong, or whose episode number is absurd (beyond
+    /// [`MAX_JOURNAL_EPISODE`]: a forged line), skipped; 1-based line numbers.
     pub corrupt_lines: Vec<usize>,
     /// A torn last line was found and truncated away.
     pub truncated_tail: bool,
+    /// Lines ending in CR LF (a journal converted to DOS line endings): read as if LF.
+    pub crlf_lines: usize,
+    /// Alert records repeating an earlier one's identity (pbr, episode, level), e.g. a
+    /// journal appended to itself: the first is kept, the repeats ignored.
+    pub repeated_alerts: usize,
+    /// The state directory is writable by every user (mode o+w): anyone could forge or
+    /// delete the alert history ([`Journal::open`] only; `read_journal` does not check).
+    pub world_writable: bool,
+}
+
+impl LoadReport {
+    /// Whether anything was repaired or ignored (worth a warning).
+    #[must_use]
+    pub fn repaired(&self) -> bool {
+        !self.corrupt_lines.is_empty()
+            || self.truncated_tail
+            || self.crlf_lines > 0
+            || self.repeated_alerts > 0
+    }
+
+    /// The warnings this report calls for, one line each (none if all is well).
+    #[must_use]
+    pub fn warnings(&self, dir: &Path) -> Vec<String> {
+        let mut lines = Vec::new();
+        if self.repaired() {
+            lines.push(format!("{}: journal repaired: {self}", dir.display()));
+        }
+        if self.world_writable {
+            lines.push(format!(
+                "{}: the state directory is writable by every user (mode o+w): anyone on this \
+                 machine could forge or delete the alert history; chmod o-w it",
+                dir.display()
+            ));
+        }
+        lines
+    }
+}
+
+impl std::fmt::Display for LoadReport {
+    /// `12 records; 2 corrupt lines skipped (3, 9); …` (at most 10 line numbers).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} records", self.records)?;
+        if !self.corrupt_lines.is_empty() {
+            let shown: Vec<String> = self
+                .corrupt_lines
+                .iter()
+                .take(10)
+                .map(ToString::to_string)
+                .collect();
+            let more = if self.corrupt_lines.len() > 10 {
+                ", …"
+            } else {
+                ""
+            };
+            write!(
+                f,
+                "; {} corrupt lines skipped (bad checksum, JSON or episode: lines {}{more})",
+                self.corrupt_lines.len(),
+                shown.join(", ")
+            )?;
+        }
+        if self.truncated_tail {
+            write!(f, "; a torn last line truncated")?;
+        }
+        if self.crlf_lines > 0 {
+            write!(
+                f,
+                "; {} lines ended in CR LF (DOS line endings), read as LF",
+                self.crlf_lines
+            )?;
+        }
+        if self.repeated_alerts > 0 {
+            write!(
+                f,
+                "; {} repeated alert records ignored (the journal holds some lines twice)",
+                self.repeated_alerts
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The largest episode number a journal line may carry: a rock's episode lasts seconds at
+/// least, so 10⁹ episodes are decades of continuous shaking; a larger number is a forged or
+/// corrupted line (one at 2³² − 1 would wrap the next episode to 0).
+pub const MAX_JOURNAL_EPISODE: u32 = 1_000_000_000;
+
+/// The episode number a record carries, if any.
+fn episode_of(record: &JournalRecord) -> Option<u32> {
+    match record {
+        JournalRecord::Alert(a) => Some(a.episode),
+        JournalRecord::EpisodeEnd { episode, .. } | JournalRecord::Published { episode, .. } => {
+            Some(*episode)
+        }
+        JournalRecord::Reset { .. } => None,
+    }
 }
 
 /// An open journal, appending.
@@ -109,7 +218,8 @@ pub struct Journal {
     /// Size beyond which [`Journal::compact_if_due`] compacts.
     compact_at: u64,
     /// Holds the state directory's exclusive lock while open.
-    _lock: File,
+    /// The state directory's locks: the directory itself, and its lock file.
+    _lock: (File, File),
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> JournalError + '_ {
@@ -151,6 +261,7 @@ pub fn read_journal(dir: &Path) -> Result<(Vec<JournalRecord>, LoadReport), Jour
     let mut reader = BufReader::new(file);
     let mut line = Vec::new();
     let mut number = 0;
+    let mut alert_keys = std::collections::HashSet::new();
     loop {
         line.clear();
         let n = reader.read_until(b'\n', &mut line).map_err(io(&path))?;
@@ -162,11 +273,22 @@ pub fn read_journal(dir: &Path) -> Result<(Vec<JournalRecord>, LoadReport), Jour
             report.truncated_tail = true; // torn write: never acknowledged
             break;
         }
+        let mut body = &line[..line.len() - 1];
+        if let Some(stripped) = body.strip_suffix(b"\r") {
+            report.crlf_lines += 1;
+            body = stripped;
+        }
         // A line that is not UTF-8 is as corrupt as one whose checksum fails.
-        match std::str::from_utf8(&line[..line.len() - 1])
+        match std::str::from_utf8(body)
             .ok()
-            .and_then(decode)
+            .and_then(decode::<JournalRecord>)
         {
+            Some(r) if episode_of(&r).is_some_and(|e| e > MAX_JOURNAL_EPISODE) => {
+                report.corrupt_lines.push(number);
+            }
+            Some(JournalRecord::Alert(a)) if !alert_keys.insert(a.key()) => {
+                report.repeated_alerts += 1;
+            }
             Some(r) => records.push(r),
             None => report.corrupt_lines.push(number),
         }
@@ -175,8 +297,17 @@ pub fn read_journal(dir: &Path) -> Result<(Vec<JournalRecord>, LoadReport), Jour
     Ok((records, report))
 }
 
-/// Takes the exclusive lock of the state directory `dir`, without waiting.
-fn lock_state_dir(dir: &Path) -> Result<File, JournalError> {
+/// Takes the exclusive locks of the state directory `dir` (the directory and its lock
+/// file), without waiting.
+fn lock_state_dir(dir: &Path) -> Result<(File, File), JournalError> {
+    let locked = |file: File, path: &Path| match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(JournalError::Locked {
+            dir: dir.to_path_buf(),
+        }),
+        Err(std::fs::TryLockError::Error(e)) => Err(io(path)(e)),
+    };
+    let directory = locked(File::open(dir).map_err(io(dir))?, dir)?;
     let path = dir.join(LOCK_FILE);
     let file = OpenOptions::new()
         .create(true)
@@ -184,13 +315,17 @@ fn lock_state_dir(dir: &Path) -> Result<File, JournalError> {
         .write(true)
         .open(&path)
         .map_err(io(&path))?;
-    match file.try_lock() {
-        Ok(()) => Ok(file),
-        Err(std::fs::TryLockError::WouldBlock) => Err(JournalError::Locked {
-            dir: dir.to_path_buf(),
-        }),
-        Err(std::fs::TryLockError::Error(e)) => Err(io(&path)(e)),
+    Ok((directory, locked(file, &path)?))
+}
+
+/// Refuses (`JournalError::Locked`) a state directory another process holds, without keeping
+/// it: a node calls it before it starts anything (DDS, notifications), then opens the journal.
+/// A directory that does not exist yet is free.
+pub fn check_state_dir_free(dir: &Path) -> Result<(), JournalError> {
+    if !dir.exists() {
+        return Ok(());
     }
+    lock_state_dir(dir).map(drop)
 }
 
 impl Journal {
@@ -219,7 +354,21 @@ impl Journal {
             file.set_len(keep as u64).map_err(io(&path))?;
             file.seek(SeekFrom::End(0)).map_err(io(&path))?;
         }
-        let len = file.metadata().map_err(io(&path))?.len();
+        let metadata = file.metadata().map_err(io(&path))?;
+        if !metadata.is_file() {
+            return Err(JournalError::NotAFile { path });
+        }
+        let len = metadata.len();
+        let mut report = report;
+        report.world_writable = {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::metadata(dir)
+                .map_err(io(dir))?
+                .permissions()
+                .mode()
+                & 0o002
+                != 0
+        };
         Ok((
             Journal {
                 path,
@@ -546,6 +695,49 @@ mod tests {
     }
 
     #[test]
+    fn deleting_the_lock_file_does_not_let_a_second_node_in() {
+        // Issue 24 item 8: with `state/lock` deleted, a second node created a new lock file,
+        // locked it and shared the directory. The directory itself is locked too.
+        let dir = tempfile::tempdir().unwrap();
+        let (first, _, _) = Journal::open(dir.path()).unwrap();
+        std::fs::remove_file(dir.path().join(LOCK_FILE)).unwrap();
+        let err = Journal::open(dir.path()).unwrap_err();
+        assert!(matches!(err, JournalError::Locked { .. }), "{err}");
+        assert!(matches!(
+            check_state_dir_free(dir.path()),
+            Err(JournalError::Locked { .. })
+        ));
+        drop(first);
+        check_state_dir_free(dir.path()).unwrap();
+        check_state_dir_free(&dir.path().join("not-yet")).unwrap();
+        Journal::open(dir.path()).unwrap();
+    }
+
+    #[test]
+    fn a_journal_that_is_not_a_regular_file_is_refused_and_an_open_directory_is_warned_of() {
+        use std::os::unix::fs::PermissionsExt;
+        // Issue 24 item 8: a journal symlinked to /dev/null was accepted (every alert lost).
+        let dir = tempfile::tempdir().unwrap();
+        std::os::unix::fs::symlink("/dev/null", dir.path().join(JOURNAL_FILE)).unwrap();
+        let err = Journal::open(dir.path()).unwrap_err();
+        assert!(matches!(err, JournalError::NotAFile { .. }), "{err}");
+        // A world-writable state directory opens, with a warning.
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o777)).unwrap();
+        let (_, _, report) = Journal::open(dir.path()).unwrap();
+        assert!(report.world_writable);
+        let warnings = report.warnings(dir.path());
+        assert!(
+            warnings.len() == 1 && warnings[0].contains("writable by every user"),
+            "{warnings:?}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o750)).unwrap();
+        let (_, _, report) = Journal::open(dir.path()).unwrap();
+        assert!(report.warnings(dir.path()).is_empty(), "{report:?}");
+    }
+
+    #[test]
     fn records_round_trip() {
         let dir = tempfile::tempdir().unwrap();
         let (mut j, recs, _) = Journal::open(dir.path()).unwrap();
@@ -574,6 +766,60 @@ mod tests {
                 records: 2,
                 ..LoadReport::default()
             }
+        );
+    }
+
+    #[test]
+    fn a_crlf_doubled_or_forged_journal_keeps_its_history_and_says_so() {
+        // Issue 24 item 8: a journal converted to CR LF lost all its history (every checksum
+        // failed) with a warning printed as a debug struct; a journal appended to itself
+        // republished every alert twice without a word; a forged line (valid checksum)
+        // at episode 2³² − 1 wrapped the next episode to 0.
+        use rockwatch_core::engine::AlertLevel;
+        let dir = tempfile::tempdir().unwrap();
+        let (mut j, _, _) = Journal::open(dir.path()).unwrap();
+        let records = [
+            alert("p", 1, AlertLevel::MotionOnset),
+            alert("p", 1, AlertLevel::Overturned),
+            reset("p"),
+        ];
+        for r in &records {
+            j.append(r).unwrap();
+        }
+        drop(j);
+        let path = dir.path().join(JOURNAL_FILE);
+        let text = std::fs::read_to_string(&path).unwrap();
+        // CR LF: every record read, the conversion reported.
+        std::fs::write(&path, text.replace('\n', "\r\n")).unwrap();
+        let (recs, report) = read_journal(dir.path()).unwrap();
+        assert_eq!(recs, records);
+        assert_eq!(report.crlf_lines, 3);
+        assert!(report.repaired());
+        assert!(
+            report.to_string().contains("3 lines ended in CR LF"),
+            "{report}"
+        );
+        // Doubled: the repeated alerts are ignored and counted (the reset, harmless, is kept).
+        std::fs::write(&path, format!("{text}{text}")).unwrap();
+        let (recs, report) = read_journal(dir.path()).unwrap();
+        assert_eq!(recs[..3], records);
+        assert_eq!(recs[3..], [reset("p")]);
+        assert_eq!(report.repeated_alerts, 2);
+        assert!(
+            report
+                .to_string()
+                .contains("2 repeated alert records ignored"),
+            "{report}"
+        );
+        // Forged: a valid checksum on an absurd episode is a corrupt line.
+        let forged = encode(&alert("p", u32::MAX, AlertLevel::MotionOnset)).unwrap();
+        std::fs::write(&path, format!("{text}{forged}")).unwrap();
+        let (recs, report) = read_journal(dir.path()).unwrap();
+        assert_eq!(recs, records);
+        assert_eq!(report.corrupt_lines, vec![4]);
+        assert!(
+            report.to_string().contains("1 corrupt lines skipped"),
+            "{report}"
         );
     }
 

@@ -234,8 +234,8 @@ impl NodeOptions {
             return Ok(None);
         };
         let (journal, records, report) = Journal::open(&dir)?;
-        if !report.corrupt_lines.is_empty() || report.truncated_tail {
-            tracing::warn!("{}: journal repaired ({report:?})", dir.display());
+        for line in report.warnings(&dir) {
+            tracing::warn!("{line}");
         }
         Ok(Some((journal, records)))
     }

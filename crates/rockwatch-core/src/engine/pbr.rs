@@ -593,7 +593,8 @@ impl PbrRuntime {
             if holds && !self.raised.contains(level) {
                 if !self.in_episode {
                     self.in_episode = true;
-                    self.episode += 1;
+                    // Journals bound the number restored (rockwatch::journal): never wraps.
+                    self.episode = self.episode.saturating_add(1);
                 }
                 self.raised.insert(level);
                 if ctx

@@ -78,11 +78,10 @@ pub fn run_alerts(args: AlertsArgs) -> anyhow::Result<()> {
         bail!("{}: not a directory", args.state_dir.display());
     }
     let (records, report) = read_journal(&args.state_dir)?;
-    if !report.corrupt_lines.is_empty() {
+    if report.repaired() {
         eprintln!(
-            "rockwatch: warning: {}: skipped corrupt journal lines {:?}",
-            args.state_dir.display(),
-            report.corrupt_lines
+            "rockwatch: warning: {}: journal read with repairs: {report}",
+            args.state_dir.display()
         );
     }
     match args.format {

@@ -138,6 +138,10 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         );
     }
     let state_dir = options.state_dir_path();
+    if let Some(dir) = &state_dir {
+        // Refused here, before DDS and the notifications start, if another node holds it.
+        rockwatch::journal::check_state_dir_free(dir)?;
+    }
     let journal = match &state_dir {
         Some(dir) => read_journal(dir)?.0,
         None => Vec::new(),
