@@ -17,7 +17,7 @@ use rockwatch_core::utc::format_utc_ns;
 
 use crate::iox::IoxConfig;
 use crate::log_text::{printable, STATION_CHARS};
-use crate::node::RateLimitedLog;
+use crate::logging::RateLimitedLog;
 use crate::ports::PacketSink;
 use crate::ros2::Ros2Config;
 use crate::seedlink::{LinkCounters, RecordSink, SeedLinkConfig, Taken, LOG_INTERVAL};

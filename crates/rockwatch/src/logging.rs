@@ -40,6 +40,9 @@ use std::collections::{HashMap, VecDeque};
 use std::fmt;
 use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use crate::log_text::{printable, MESSAGE_CHARS, STATION_CHARS};
 
 use tracing::field::{Field, Visit};
 use tracing::subscriber::Interest;
@@ -604,5 +607,111 @@ mod tests {
         assert_eq!(rosout_level(Level::INFO), 20);
         assert_eq!(rosout_level(Level::WARN), 30);
         assert_eq!(rosout_level(Level::ERROR), 40);
+    }
+}
+
+/// Logs at most one line per (station, kind) every `interval`, with the count suppressed, and
+/// at most [`LOG_STATIONS_PER_KIND`] stations' lines of one kind per interval: beyond them a
+/// kind's lines fold into one `(other stations)` line (2000 invented station ids used to give
+/// 2000 lines at once, issue 24 item 8). The one rate-limited log of the shell (the node's
+/// notices, `acquire`'s per-stream problems, the SeedLink client's).
+#[derive(Debug)]
+pub(crate) struct RateLimitedLog {
+    interval: Duration,
+    last: HashMap<(String, &'static str), (Instant, u64)>,
+    /// Per kind: the start of its current interval and the stations' lines written in it.
+    per_kind: HashMap<&'static str, (Instant, usize)>,
+}
+
+/// Distinct (station, kind) keys the log remembers; past this, new stations share one key,
+/// so a flood of invented station ids cannot grow the map without bound.
+const LOG_MAX_KEYS: usize = 4096;
+
+/// Most stations with a line of one kind per interval (then `(other stations)`).
+pub(crate) const LOG_STATIONS_PER_KIND: usize = 20;
+
+/// The key of the lines folded together.
+const OTHER_STATIONS: &str = "(other stations)";
+
+impl RateLimitedLog {
+    /// At most one line per (station, kind) every 10 s.
+    pub(crate) fn new() -> RateLimitedLog {
+        Self::with_interval(Duration::from_secs(10))
+    }
+
+    /// At most one line per (station, kind) every `interval`.
+    pub(crate) fn with_interval(interval: Duration) -> RateLimitedLog {
+        RateLimitedLog {
+            interval,
+            last: HashMap::new(),
+            per_kind: HashMap::new(),
+        }
+    }
+
+    /// Logs `message` unless a line of this (station, kind) was written within the interval,
+    /// or its kind has had [`LOG_STATIONS_PER_KIND`] stations' lines in it (then it is
+    /// counted, and the next line of its key says how many).
+    pub(crate) fn log(&mut self, station: &str, kind: &'static str, message: &str) {
+        self.write(station, kind, message);
+    }
+
+    /// [`RateLimitedLog::log`], returning whether a line was written.
+    fn write(&mut self, station: &str, kind: &'static str, message: &str) -> bool {
+        let now = Instant::now();
+        let mut key = (printable(station, STATION_CHARS), kind);
+        if self.last.len() >= LOG_MAX_KEYS && !self.last.contains_key(&key) {
+            key.0 = OTHER_STATIONS.into();
+        }
+        let due = |last: &HashMap<(String, &'static str), (Instant, u64)>, key| {
+            last.get(key)
+                .is_none_or(|(at, _): &(Instant, u64)| now.duration_since(*at) >= self.interval)
+        };
+        if key.0 != OTHER_STATIONS && due(&self.last, &key) {
+            let (start, lines) = self.per_kind.entry(kind).or_insert((now, 0));
+            if now.duration_since(*start) >= self.interval {
+                (*start, *lines) = (now, 0);
+            }
+            if *lines >= LOG_STATIONS_PER_KIND {
+                key.0 = OTHER_STATIONS.into();
+            } else {
+                *lines += 1;
+            }
+        }
+        let message = printable(message, MESSAGE_CHARS);
+        let station = key.0.clone();
+        let entry = self.last.entry(key).or_insert((now - self.interval, 0));
+        if now.duration_since(entry.0) >= self.interval {
+            let suppressed = std::mem::take(&mut entry.1);
+            let more = if suppressed > 0 {
+                format!(" (+{suppressed} more since last report)")
+            } else {
+                String::new()
+            };
+            tracing::warn!(target: "rockwatch::notice", station = %station, kind, "{station}: {kind}: {message}{more}");
+            entry.0 = now;
+            true
+        } else {
+            entry.1 += 1;
+            false
+        }
+    }
+}
+
+#[cfg(test)]
+mod rate_limited_log_tests {
+    use super::*;
+
+    #[test]
+    fn thousands_of_stations_of_one_kind_give_a_bounded_number_of_lines() {
+        // Issue 24 item 8: 2000 unknown station ids gave 2000 warning lines at once.
+        let mut log = RateLimitedLog::with_interval(Duration::from_secs(3600));
+        let written = (0..2000)
+            .filter(|i| log.write(&format!("XX.S{i}.00"), "unknown_station", "not monitored"))
+            .count();
+        // 20 stations, then one line for the others.
+        assert_eq!(written, LOG_STATIONS_PER_KIND + 1);
+        // Another kind has its own budget; a station already logged stays quiet.
+        assert!(log.write("XX.S0.00", "gap", "missing samples"));
+        assert!(!log.write("XX.S0.00", "unknown_station", "not monitored"));
     }
 }

@@ -38,6 +38,7 @@ use crate::ports::{Control, ControlSender, Publication, Publisher, Wake};
 
 use crate::journal::{Appended, Journal, JournalWriter};
 use crate::log_text::{printable, MESSAGE_CHARS, PBR_ID_CHARS, STATION_CHARS};
+use crate::logging::RateLimitedLog;
 use crate::node_config::NodeConfig;
 use crate::status::{AlertLatency, NodeStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
@@ -300,58 +301,6 @@ impl InputTotals {
             self.grid_rewinds += stream.grid_rewinds;
             self.duplicate_packets += stream.duplicate_packets;
             self.late_packets += stream.late_packets;
-        }
-    }
-}
-
-/// Logs at most one line per (station, kind) every `interval`, with the count suppressed.
-/// The one rate-limited log of the shell (the node's notices, `acquire`'s per-stream problems).
-#[derive(Debug)]
-pub(crate) struct RateLimitedLog {
-    interval: Duration,
-    last: HashMap<(String, &'static str), (Instant, u64)>,
-}
-
-/// Distinct (station, kind) keys the log remembers; past this, new stations share one key,
-/// so a flood of invented station ids cannot grow the map without bound.
-const LOG_MAX_KEYS: usize = 4096;
-
-impl RateLimitedLog {
-    /// At most one line per (station, kind) every 10 s.
-    pub(crate) fn new() -> RateLimitedLog {
-        Self::with_interval(Duration::from_secs(10))
-    }
-
-    /// At most one line per (station, kind) every `interval`.
-    pub(crate) fn with_interval(interval: Duration) -> RateLimitedLog {
-        RateLimitedLog {
-            interval,
-            last: HashMap::new(),
-        }
-    }
-
-    /// Logs `message` unless a line of this (station, kind) was written within the
-    /// interval (then it is counted, and the next line says how many).
-    pub(crate) fn log(&mut self, station: &str, kind: &'static str, message: &str) {
-        let now = Instant::now();
-        let mut key = (printable(station, STATION_CHARS), kind);
-        if self.last.len() >= LOG_MAX_KEYS && !self.last.contains_key(&key) {
-            key.0 = "(other stations)".into();
-        }
-        let message = printable(message, MESSAGE_CHARS);
-        let station = key.0.clone();
-        let entry = self.last.entry(key).or_insert((now - self.interval, 0));
-        if now.duration_since(entry.0) >= self.interval {
-            let suppressed = std::mem::take(&mut entry.1);
-            let more = if suppressed > 0 {
-                format!(" (+{suppressed} more since last report)")
-            } else {
-                String::new()
-            };
-            tracing::warn!(target: "rockwatch::notice", station = %station, kind, "{station}: {kind}: {message}{more}");
-            entry.0 = now;
-        } else {
-            entry.1 += 1;
         }
     }
 }

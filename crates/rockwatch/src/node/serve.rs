@@ -28,9 +28,10 @@ use mio::{Events, Poll, Token, Waker};
 
 use super::{
     Control, ControlSender, InputTotals, NodeOptions, NodeRuntime, Publication, Publisher,
-    RateLimitedLog, Reloaded, TransportStatus, Wake, FAULT_STALL_ON_RELOAD_ENV,
+    Reloaded, TransportStatus, Wake, FAULT_STALL_ON_RELOAD_ENV,
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
+use crate::logging::RateLimitedLog;
 use crate::logging::{take_rosout, RosoutRecord};
 use crate::metrics::MetricsServer;
 use crate::ros2::msg::ResetPbrResponse;

@@ -26,7 +26,7 @@ use rockwatch_core::seedlink::sequence::{judge, DeliveredStarts, StationSequence
 use rockwatch_core::seedlink::Protocol;
 
 use crate::log_text::{printable, STATION_CHARS};
-use crate::node::RateLimitedLog;
+use crate::logging::RateLimitedLog;
 
 /// Shortest time between two log lines of one stream and kind of problem.
 pub const LOG_INTERVAL: Duration = Duration::from_secs(60);
