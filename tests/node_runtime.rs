@@ -568,3 +568,127 @@ fn a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns()
         .arg(dir.path())
         .status();
 }
+
+/// Issue 24 item 2: on a full disk a node with `[[notify]]` could not restart ("cannot open
+/// its spool: …spool.tmp: No space left on device") and with no free inode no node started
+/// ("journal.log: No space left on device"). Now it starts degraded: alerts published flagged
+/// `journal_pending`, kept in memory, journaled once the directory has room; the spool is
+/// appended to uncompacted. On a tmpfs with 8 inodes, in a private mount namespace (root).
+#[test]
+fn a_node_starts_on_a_full_disk_degraded_and_journals_once_there_is_room() {
+    const NAME: &str = "a_node_starts_on_a_full_disk_degraded_and_journals_once_there_is_room";
+    if std::env::var_os(IN_MOUNT_NS).is_none() {
+        let exe = std::env::current_exe().unwrap();
+        let out = std::process::Command::new("timeout")
+            .args([
+                "-k",
+                "5",
+                "120",
+                "unshare",
+                "-m",
+                "--propagation",
+                "private",
+            ])
+            .arg(exe)
+            .args(["--exact", NAME, "--nocapture", "--test-threads=1"])
+            .env(IN_MOUNT_NS, "1")
+            .output()
+            .expect("runs timeout and unshare (coreutils, util-linux)");
+        assert!(
+            out.status.success() && String::from_utf8_lossy(&out.stdout).contains("1 passed"),
+            "{}\n{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mounted = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=256k,nr_inodes=16", "tmpfs"])
+        .arg(dir.path())
+        .status()
+        .unwrap();
+    assert!(mounted.success(), "mount tmpfs (root needed)");
+    let state = dir.path().join("state");
+    // A receiver with its spool (it exists: a restart must compact it into a new file).
+    let notify: Vec<rockwatch::notify::NotifyConfig> =
+        toml::from_str::<std::collections::BTreeMap<String, Vec<_>>>(
+            "notify = [{ kind = \"exec\", command = [\"true\"] }]",
+        )
+        .unwrap()
+        .remove("notify")
+        .unwrap();
+    rockwatch::notify::Notifier::start(&notify, Some(&state), &[])
+        .unwrap()
+        .shutdown(Duration::from_secs(5));
+    // No inode left, and no byte: every new file fails, every write too.
+    let mut fillers = Vec::new();
+    for i in 0.. {
+        let path = dir.path().join(format!("filler-{i}"));
+        match std::fs::File::create(&path) {
+            Ok(mut f) => {
+                use std::io::Write;
+                while f.write_all(&[0u8; 4096]).is_ok() {}
+                while f.write_all(&[0u8; 1]).is_ok() {}
+                fillers.push(path);
+            }
+            Err(_) => break,
+        }
+    }
+    assert!(std::fs::File::create(dir.path().join("one-more")).is_err());
+    // The receiver restarts: its spool is used as it is.
+    rockwatch::notify::Notifier::start(&notify, Some(&state), &[])
+        .expect("notify starts on a full disk")
+        .shutdown(Duration::from_secs(5));
+    // The node starts with no journal file (none can be created): degraded, not refused.
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
+        state_dir: Some(state.clone()),
+        reject_future: false,
+        ..NodeOptions::default()
+    };
+    let mut node = NodeRuntime::start(&options).expect("the node starts on a full disk");
+    // A second node is still refused (the directory's lock needs no inode).
+    assert!(NodeRuntime::start(&options).is_err());
+    let mut alerts = Vec::new();
+    let mut publish = |p: Publication| {
+        if let Publication::Alert {
+            alert,
+            journal_pending,
+            ..
+        } = p
+        {
+            alerts.push((alert.key(), journal_pending));
+        }
+    };
+    for packet in rinaldi_packets() {
+        node.submit(packet, &mut publish).unwrap();
+    }
+    let mut keys: Vec<_> = alerts.iter().map(|(k, _)| k.clone()).collect();
+    keys.sort();
+    assert_eq!(keys, reference_alert_keys(), "every alert published");
+    assert!(alerts.iter().all(|(_, pending)| *pending), "{alerts:?}");
+    assert!(!state.join(rockwatch::journal::JOURNAL_FILE).exists());
+    // Room again: the journal is created and takes every alert, in order.
+    for f in &fillers {
+        std::fs::remove_file(f).unwrap();
+    }
+    std::thread::sleep(Duration::from_millis(1100)); // the reopening is tried once a second
+    node.retry_journal();
+    assert_eq!(node.stats().journal_backlog, 0);
+    node.stop(&mut |_| {}).unwrap();
+    let (records, report) = read_journal(&state).unwrap();
+    assert!(report.corrupt_lines.is_empty() && !report.truncated_tail);
+    let mut journaled: Vec<_> = records
+        .iter()
+        .filter_map(|r| match r {
+            rockwatch_core::engine::JournalRecord::Alert(a) => Some(a.key()),
+            _ => None,
+        })
+        .collect();
+    journaled.sort();
+    assert_eq!(journaled, reference_alert_keys());
+}

@@ -218,8 +218,8 @@ pub struct Journal {
     /// Size beyond which [`Journal::compact_if_due`] compacts.
     compact_at: u64,
     /// Holds the state directory's exclusive lock while open.
-    /// The state directory's locks: the directory itself, and its lock file.
-    _lock: (File, File),
+    /// The state directory's locks.
+    _lock: StateLock,
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> JournalError + '_ {
@@ -297,9 +297,18 @@ pub fn read_journal(dir: &Path) -> Result<(Vec<JournalRecord>, LoadReport), Jour
     Ok((records, report))
 }
 
+/// The exclusive locks of a state directory: the directory itself, and its lock file when it
+/// could be created (a disk without free inodes cannot create one; the directory's lock needs
+/// none).
+#[derive(Debug)]
+pub struct StateLock {
+    _dir: File,
+    _file: Option<File>,
+}
+
 /// Takes the exclusive locks of the state directory `dir` (the directory and its lock
 /// file), without waiting.
-fn lock_state_dir(dir: &Path) -> Result<(File, File), JournalError> {
+fn lock_state_dir(dir: &Path) -> Result<StateLock, JournalError> {
     let locked = |file: File, path: &Path| match file.try_lock() {
         Ok(()) => Ok(file),
         Err(std::fs::TryLockError::WouldBlock) => Err(JournalError::Locked {
@@ -309,13 +318,38 @@ fn lock_state_dir(dir: &Path) -> Result<(File, File), JournalError> {
     };
     let directory = locked(File::open(dir).map_err(io(dir))?, dir)?;
     let path = dir.join(LOCK_FILE);
-    let file = OpenOptions::new()
+    let file = match OpenOptions::new()
         .create(true)
         .truncate(false)
         .write(true)
         .open(&path)
-        .map_err(io(&path))?;
-    Ok((directory, locked(file, &path)?))
+    {
+        Ok(file) => Some(locked(file, &path)?),
+        // A full disk (no inode for a new lock file): the directory's lock is the lock.
+        Err(e) if is_storage_full(&e) => None,
+        Err(e) => return Err(io(&path)(e)),
+    };
+    Ok(StateLock {
+        _dir: directory,
+        _file: file,
+    })
+}
+
+/// Whether `e` says the file system is full (no space or no inode: `ENOSPC`, `EDQUOT`).
+fn is_storage_full(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded
+    )
+}
+
+impl JournalError {
+    /// Whether the state directory failed because its file system is full: a node starts
+    /// degraded then ([`JournalWriter::degraded`]) rather than not at all.
+    #[must_use]
+    pub fn is_storage_full(&self) -> bool {
+        matches!(self, JournalError::Io { source, .. } if is_storage_full(source))
+    }
 }
 
 /// Refuses (`JournalError::Locked`) a state directory another process holds, without keeping
@@ -532,7 +566,13 @@ pub const MAX_BACKLOG: usize = 100_000;
 /// directory recovers ([`JournalWriter::retry`], and before every later record).
 #[derive(Debug)]
 pub struct JournalWriter {
-    journal: Journal,
+    /// None: the journal could not be opened at start (a full disk); reopened by
+    /// [`JournalWriter::retry`], at most once a second.
+    journal: Option<Journal>,
+    /// The state directory, and the lock held while the journal is not open.
+    dir: PathBuf,
+    lock: Option<StateLock>,
+    last_reopen: Option<std::time::Instant>,
     backlog: std::collections::VecDeque<JournalRecord>,
     /// Failed write attempts since start.
     pub failures: u64,
@@ -556,8 +596,16 @@ pub enum Appended {
 impl JournalWriter {
     #[must_use]
     pub fn new(journal: Journal) -> JournalWriter {
+        let dir = journal
+            .path
+            .parent()
+            .unwrap_or(Path::new("."))
+            .to_path_buf();
         let mut writer = JournalWriter {
-            journal,
+            journal: Some(journal),
+            dir,
+            lock: None,
+            last_reopen: None,
             backlog: std::collections::VecDeque::new(),
             failures: 0,
             dropped: 0,
@@ -565,6 +613,66 @@ impl JournalWriter {
         };
         writer.compact_if_due(); // a journal that grew past its bound before this start
         writer
+    }
+
+    /// A writer for the state directory `dir` whose journal could not be opened because its
+    /// file system is full (`error`, [`JournalError::is_storage_full`]): it holds the
+    /// directory's lock, keeps every record in the backlog and opens the journal once the
+    /// directory takes it ([`JournalWriter::retry`]). Refused if another process holds `dir`.
+    pub fn degraded(dir: &Path, error: &JournalError) -> Result<JournalWriter, JournalError> {
+        Ok(JournalWriter {
+            journal: None,
+            dir: dir.to_path_buf(),
+            lock: Some(lock_state_dir(dir)?),
+            last_reopen: Some(std::time::Instant::now()),
+            backlog: std::collections::VecDeque::new(),
+            failures: 1,
+            dropped: 0,
+            last_error: Some(error.to_string()),
+        })
+    }
+
+    /// Whether the journal is open (false: started degraded, waiting for the directory).
+    #[must_use]
+    pub fn is_open(&self) -> bool {
+        self.journal.is_some()
+    }
+
+    /// The journal, opening it if the writer started degraded and a second has passed since
+    /// the last attempt.
+    fn journal(&mut self) -> Result<&mut Journal, JournalError> {
+        if self.journal.is_none() {
+            let due = self
+                .last_reopen
+                .is_none_or(|at| at.elapsed() >= std::time::Duration::from_secs(1));
+            if !due {
+                return Err(JournalError::Backlog {
+                    path: self.dir.join(JOURNAL_FILE),
+                    waiting: self.backlog.len(),
+                });
+            }
+            self.last_reopen = Some(std::time::Instant::now());
+            // The directory's lock is ours: let the journal take it again.
+            self.lock = None;
+            match Journal::open(&self.dir) {
+                Ok((journal, _, _)) => {
+                    tracing::info!(
+                        "{}: the journal is open again: {} waiting records are written now",
+                        self.dir.display(),
+                        self.backlog.len()
+                    );
+                    self.journal = Some(journal);
+                }
+                Err(e) => {
+                    self.lock = lock_state_dir(&self.dir).ok();
+                    return Err(e);
+                }
+            }
+        }
+        self.journal.as_mut().ok_or(JournalError::Backlog {
+            path: self.dir.join(JOURNAL_FILE),
+            waiting: self.backlog.len(),
+        })
     }
 
     /// Records waiting for the state directory.
@@ -595,11 +703,12 @@ impl JournalWriter {
         self.retry();
         if !self.backlog.is_empty() {
             return Err(JournalError::Backlog {
-                path: self.journal.path.clone(),
+                path: self.dir.join(JOURNAL_FILE),
                 waiting: self.backlog.len(),
             });
         }
-        self.journal.append(record).inspect_err(|e| {
+        let result = self.journal().and_then(|j| j.append(record));
+        result.inspect_err(|e| {
             self.failures += 1;
             self.last_error = Some(e.to_string());
         })
@@ -613,7 +722,10 @@ impl JournalWriter {
         if !self.backlog.is_empty() {
             return false;
         }
-        match self.journal.append_unsynced(record) {
+        let Some(journal) = self.journal.as_mut() else {
+            return false;
+        };
+        match journal.append_unsynced(record) {
             Ok(()) => true,
             Err(e) => {
                 self.failures += 1;
@@ -623,19 +735,22 @@ impl JournalWriter {
         }
     }
 
-    /// The underlying journal.
-    pub fn journal_mut(&mut self) -> &mut Journal {
-        &mut self.journal
+    /// The underlying journal (None while it could not be opened).
+    pub fn journal_mut(&mut self) -> Option<&mut Journal> {
+        self.journal.as_mut()
     }
 
     /// Compacts the journal when it has passed its bound (see [`Journal::compact_if_due`]),
     /// saying so on stderr; a failed compaction is counted and said, and appends go on.
     fn compact_if_due(&mut self) {
-        match self.journal.compact_if_due() {
+        let Some(journal) = self.journal.as_mut() else {
+            return;
+        };
+        match journal.compact_if_due() {
             Ok(None) => {}
             Ok(Some(c)) => tracing::info!(
                 "journal {} compacted: {} records ({} bytes) -> {} records ({} bytes) kept for restarts",
-                self.journal.path.display(),
+                journal.path.display(),
                 c.records_before,
                 c.bytes_before,
                 c.records_after,
@@ -659,8 +774,8 @@ impl JournalWriter {
     }
 
     fn drain(&mut self) {
-        while let Some(record) = self.backlog.front() {
-            match self.journal.append(record) {
+        while let Some(record) = self.backlog.front().cloned() {
+            match self.journal().and_then(|j| j.append(&record)) {
                 Ok(()) => {
                     self.backlog.pop_front();
                 }
@@ -965,7 +1080,7 @@ mod tests {
         let mut largest = 0;
         for r in &records {
             assert_eq!(w.append(r.clone()), Appended::Written);
-            largest = largest.max(w.journal_mut().len_bytes());
+            largest = largest.max(w.journal_mut().unwrap().len_bytes());
         }
         let size = std::fs::metadata(dir.path().join(JOURNAL_FILE))
             .unwrap()

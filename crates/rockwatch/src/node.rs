@@ -229,16 +229,32 @@ impl NodeOptions {
     }
 
     /// Opens the state directory in force (the flag's, else the configuration's), if any,
-    /// returning the journal and its records; repairs are reported on stderr.
-    pub fn open_state(&self) -> anyhow::Result<Option<(Journal, Vec<JournalRecord>)>> {
+    /// returning the journal's writer and its records; repairs are reported on stderr. A
+    /// directory whose file system is full (no space or no inode to open the journal) does
+    /// not stop the node: its records are read, and the writer starts degraded
+    /// ([`JournalWriter::degraded`]: alerts published flagged `journal pending`, kept in
+    /// memory, written once the directory takes them), said on stderr.
+    pub fn open_state(&self) -> anyhow::Result<Option<(JournalWriter, Vec<JournalRecord>)>> {
         let Some(dir) = self.state_dir_path() else {
             return Ok(None);
         };
-        let (journal, records, report) = Journal::open(&dir)?;
+        let (writer, records, report) = match Journal::open(&dir) {
+            Ok((journal, records, report)) => (JournalWriter::new(journal), records, report),
+            Err(e) if e.is_storage_full() => {
+                let (records, report) = crate::journal::read_journal(&dir)?;
+                tracing::error!(
+                    "{e}: the state directory's file system is full: starting degraded — alerts \
+                     are published (flagged journal pending) and kept in memory until it takes \
+                     them; retried every second"
+                );
+                (JournalWriter::degraded(&dir, &e)?, records, report)
+            }
+            Err(e) => return Err(e.into()),
+        };
         for line in report.warnings(&dir) {
             tracing::warn!("{line}");
         }
-        Ok(Some((journal, records)))
+        Ok(Some((writer, records)))
     }
 }
 
@@ -678,7 +694,7 @@ impl NodeRuntime {
         Ok(NodeRuntime {
             engine: Some(engine),
             emit: Emitter {
-                journal: journal.map(JournalWriter::new),
+                journal,
                 epoch: Instant::now(),
                 epoch_utc_ns: std::time::SystemTime::now()
                     .duration_since(std::time::UNIX_EPOCH)

@@ -104,6 +104,12 @@ impl Notifier {
                     let path = dir.join(SPOOL_DIR).join(config.spool_file_name());
                     let (mut spool, report) = Spool::open(&path)
                         .with_context(|| format!("notify {name}: cannot open its spool"))?;
+                    if let Some(why) = &report.degraded {
+                        tracing::error!(
+                            "notify {name}: {}: the state directory's file system is full: {why}",
+                            path.display()
+                        );
+                    }
                     if !report.corrupt_lines.is_empty() {
                         tracing::warn!(
                             "{}: skipped corrupt spool lines {:?}",

@@ -46,6 +46,9 @@ pub struct SpoolReport {
     pub created: bool,
     /// Lines skipped (bad checksum or JSON, or a torn last line), 1-based.
     pub corrupt_lines: Vec<usize>,
+    /// The spool could not be compacted because its file system is full: it is appended to
+    /// as it was, or kept in memory only if the file could not be opened at all (the reason).
+    pub degraded: Option<String>,
 }
 
 /// A receiver's pending and acknowledged alerts, kept in a file (or in memory only, without a
@@ -106,11 +109,43 @@ impl Spool {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => report.created = true,
             Err(e) => return Err(err(e)),
         }
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(with_path(dir))?;
+        let lines_read = spool.acked.len() + spool.pending.len() + report.corrupt_lines.len();
+        let rewritten = path
+            .parent()
+            .map_or(Ok(()), |dir| {
+                std::fs::create_dir_all(dir).map_err(with_path(dir))
+            })
+            .and_then(|()| Spool::rewrite(path, &spool));
+        match rewritten {
+            Ok(file) => {
+                spool.file = Some((path.to_path_buf(), file));
+                spool.lines = spool.acked.len() + spool.pending.len();
+            }
+            // A full disk cannot take the compacted copy (a new file): the spool goes on
+            // appending to the file as it was, or lives in memory until the next start.
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded
+                ) =>
+            {
+                let _ = std::fs::remove_file(path.with_extension("spool.tmp"));
+                match OpenOptions::new().append(true).open(path) {
+                    Ok(file) => {
+                        spool.file = Some((path.to_path_buf(), file));
+                        spool.lines = lines_read;
+                        report.degraded =
+                            Some(format!("{e}: not compacted, appended to as it was"));
+                    }
+                    Err(open) => {
+                        report.degraded = Some(format!(
+                            "{e}; {open}: kept in memory (undelivered alerts are lost if the node stops before the disk has room)"
+                        ));
+                    }
+                }
+            }
+            Err(e) => return Err(e),
         }
-        spool.file = Some((path.to_path_buf(), Spool::rewrite(path, &spool)?));
-        spool.lines = spool.acked.len() + spool.pending.len();
         Ok((spool, report))
     }
 
