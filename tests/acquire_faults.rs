@@ -14,7 +14,22 @@
 //!   numbered on, and the server resends the copy too on a resume before its number);
 //! - `HugeValuesFarAhead`: a FLOAT32 record of 1e30 at the next record's time, numbered 500 000
 //!   ahead;
-//! - `FarFuture`: a copy of the next record stamped in the year 2100 (a GPS glitch).
+//! - `FarFuture`: a copy of the next record stamped in the year 2100 (a GPS glitch);
+//! - `SampleCount65535`, `YearZero`, `CorruptSteim`: a copy of the next record whose header
+//!   claims 65535 samples, that starts in the year 0, or whose Steim frame's integration
+//!   constant is wrong (undecodable: `malformed`);
+//! - `NanSamples`: a FLOAT32 record of NaN at the next record's time (undecodable);
+//! - `UnknownLocation`: a copy of the next record under location `99` (a stream no pattern
+//!   selects and the inventory does not hold: `unselected`).
+//!
+//! Faults of the connection rather than of a record — `Garbage` (text in place of a packet),
+//! `HugeLength` (a SeedLink 4 header claiming a 2^31-byte payload), `UnreadableSequence` (a
+//! v3 header whose number is not hex, on every connection: the record's only copy),
+//! `HangMidPacket`, `CloseMidPacket` (100 bytes of a packet, then silence or a close) — decide
+//! only which records reach the assembler, so they run against the client and `acquire`'s
+//! publisher in this process (no node; [`run_link`]): every record delivered, none twice,
+//! nothing published twice across a restart, the fault's log line, its counter in
+//! `acquire_prometheus` (the `/metrics` text) and in `acquire_summary` (the end-of-run line).
 //!
 //! Each test also checks acquire's log line naming the station and the fault, and (without a
 //! restart, where acquire sees the fault and runs to its end) its end-of-run summary and the
@@ -38,12 +53,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use rockwatch::acquire::{ClippingSection, PacketPublisher};
+use rockwatch::acquire::{acquire_prometheus, acquire_summary, ClippingSection, PacketPublisher};
 use rockwatch::ports::PacketSink;
 use rockwatch::seedlink::{
     LinkCounters, ProtocolChoice, RecordSink, SeedLinkClient, SeedLinkConfig, Taken,
 };
-use rockwatch_core::assembly::AssemblyConfig;
+use rockwatch_core::assembly::{AssemblyConfig, AssemblyCounters};
 use rockwatch_core::engine::AccelPacket;
 use rockwatch_core::inventory::Inventory;
 use rockwatch_core::record::mseed::{parse_mseed, Channel};
@@ -51,7 +66,10 @@ use rockwatch_core::utc::format_utc_ns;
 
 use acquire_util::{latest_starts, Rig};
 use ros2_util::reexec_in_netns;
-use seedlink_server::hostile::{at_other_rate, in_year, with_values, Conn, Hostile};
+use seedlink_server::hostile::{
+    at_other_rate, in_year, with_corrupt_steim, with_location, with_nan, with_sample_count,
+    with_values, Conn, Hostile,
+};
 use seedlink_server::records_in_time_order;
 
 /// One scenario at a time (the outer test processes wait here for their namespace's run).
@@ -65,6 +83,31 @@ enum Fault {
     NextFarAheadThenClose,
     HugeValuesFarAhead,
     FarFuture,
+    SampleCount65535,
+    YearZero,
+    UnknownLocation,
+    CorruptSteim,
+    NanSamples,
+    // Faults of the connection ([`run_link`]).
+    Garbage,
+    HugeLength,
+    UnreadableSequence,
+    HangMidPacket,
+    CloseMidPacket,
+}
+
+impl Fault {
+    /// A fault of the connection (run against the client and publisher, no node).
+    fn of_the_link(self) -> bool {
+        matches!(
+            self,
+            Fault::Garbage
+                | Fault::HugeLength
+                | Fault::UnreadableSequence
+                | Fault::HangMidPacket
+                | Fault::CloseMidPacket
+        )
+    }
 }
 
 /// Where the fault goes: before record 30 of the 104 (about 3 s into the data).
@@ -72,26 +115,81 @@ const AT: usize = 30;
 /// "Far ahead" for a sequence number.
 const FAR: u64 = 500_000;
 
-/// What acquire's log must say: a line naming the station and the fault, and (when acquire
-/// ran to its end with the fault in its run) its end-of-run summary.
-fn expected_lines(fault: Fault) -> (&'static str, &'static str) {
+/// The log line of an undecodable copy of record `AT` (packet 31).
+const UNDECODABLE: &str =
+    "station XX.STN..HN3: packet 31: record dropped, it cannot be decoded: record 1 at byte 0: ";
+
+/// What acquire's log must say: a line naming the station and the fault (every part), and
+/// (when acquire ran to its end with the fault in its run) its end-of-run summary.
+fn expected_lines(fault: Fault) -> (&'static [&'static str], &'static str) {
     match fault {
         Fault::OtherRate => (
-            "station XX.STN.: XX.STN..HN3: 50000 Hz, but the station is assembled at 250 Hz",
+            &["station XX.STN.: XX.STN..HN3: 50000 Hz, but the station is assembled at 250 Hz"],
             "records refused (1 at another sampling rate",
         ),
-        Fault::ResentFarAheadThenHang => ("timeout: no packet for 2 s", "104 records delivered ("),
+        Fault::ResentFarAheadThenHang => {
+            (&["timeout: no packet for 2 s"], "104 records delivered (")
+        }
         Fault::NextFarAheadThenHang | Fault::NextFarAheadThenClose => (
-            "station XX_STN: sequence number",
+            &["station XX_STN: sequence number"],
             "1 sequence numbers out of line",
         ),
         Fault::HugeValuesFarAhead => (
-            "station XX.STN.: XX.STN..HN3: impossible sample values",
+            &["station XX.STN.: XX.STN..HN3: impossible sample values"],
             "records refused (0 at another sampling rate, 1 with impossible values",
         ),
         Fault::FarFuture => (
-            "station XX.STN.: XX.STN..HN3: record starts",
+            &["station XX.STN.: XX.STN..HN3: record starts"],
             "1 far ahead of their station's data",
+        ),
+        Fault::SampleCount65535 => (
+            &[UNDECODABLE, "XX.STN..HN3: Steim-2: header says 65535 samples"],
+            ", 1 malformed, ",
+        ),
+        Fault::YearZero => (
+            &[UNDECODABLE, "invalid start time: year/day of year 0/"],
+            ", 1 malformed, ",
+        ),
+        Fault::CorruptSteim => (
+            &[UNDECODABLE, "XX.STN..HN3: Steim-2 integrity check failed"],
+            ", 1 malformed, ",
+        ),
+        Fault::NanSamples => (
+            &[UNDECODABLE, "XX.STN..HN3: sample 0 is NaN (not a finite number)"],
+            ", 1 malformed, ",
+        ),
+        Fault::UnknownLocation => (
+            &[
+                "XX.STN.99.HN3: unselected: ",
+                "stream not selected by any pattern; dropped",
+            ],
+            ", 1 unselected, ",
+        ),
+        Fault::Garbage => (
+            &[
+                "protocol error: not a SeedLink V3 packet: starts with \"<html><body>502 \"",
+                "after station XX_STN's packet 30; counted: dropping the connection",
+            ],
+            ", 1 packets not framed as the protocol says, ",
+        ),
+        Fault::HugeLength => (
+            &[
+                "protocol error: v4 payload of 2147483648 bytes is more than the 1048576 accepted",
+                "after station XX_STN's packet 30; counted: dropping the connection",
+            ],
+            ", 1 packets not framed as the protocol says, ",
+        ),
+        Fault::UnreadableSequence => (
+            &["XX_STN: unreadable sequence: ", "station XX_STN: packet with the unreadable number \"zz!?00\": its record XX.STN..HN3 goes by its start time"],
+            ", 1 unreadable sequence numbers (delivered by start time), ",
+        ),
+        Fault::HangMidPacket => (
+            &["timeout: no packet for 2 s in the middle of a packet (100 bytes of it received, dropped; after station XX_STN's packet 30; counted)"],
+            ", 1 packets cut off by the end of a connection, ",
+        ),
+        Fault::CloseMidPacket => (
+            &["the server closed the connection in the middle of a packet (100 bytes of it received, dropped; after station XX_STN's packet 30; counted)"],
+            ", 1 packets cut off by the end of a connection, ",
         ),
     }
 }
@@ -111,6 +209,17 @@ fn expected_metric(fault: Fault) -> Option<&'static str> {
         }
         Fault::NextFarAheadThenHang | Fault::NextFarAheadThenClose => {
             Some("rockwatch_acquire_link_sequence_outliers_total 1\n")
+        }
+        Fault::SampleCount65535 | Fault::YearZero | Fault::CorruptSteim | Fault::NanSamples => {
+            Some("rockwatch_acquire_link_malformed_total 1\n")
+        }
+        Fault::UnknownLocation => Some("rockwatch_acquire_link_unselected_total 1\n"),
+        Fault::Garbage | Fault::HugeLength => {
+            Some("rockwatch_acquire_link_protocol_errors_total 1\n")
+        }
+        Fault::UnreadableSequence => Some("rockwatch_acquire_link_unreadable_sequences_total 1\n"),
+        Fault::HangMidPacket | Fault::CloseMidPacket => {
+            Some("rockwatch_acquire_link_partial_packets_total 1\n")
         }
         Fault::ResentFarAheadThenHang => None,
     }
@@ -352,6 +461,12 @@ fn run(fault: Fault, restart: bool) {
         }
         Fault::HugeValuesFarAhead => server.push_with_seq(&with_values(&records[AT], 1e30), far),
         Fault::FarFuture => server.push(&[in_year(&records[AT], 2100)]),
+        Fault::SampleCount65535 => server.push(&[with_sample_count(&records[AT], 65535)]),
+        Fault::YearZero => server.push(&[in_year(&records[AT], 0)]),
+        Fault::UnknownLocation => server.push(&[with_location(&records[AT], "99")]),
+        Fault::CorruptSteim => server.push(&[with_corrupt_steim(&records[AT])]),
+        Fault::NanSamples => server.push(&[with_nan(&records[AT])]),
+        link => unreachable!("{link:?} runs in run_link"),
     }
     let scenario = format!("{fault:?}{}", if restart { " + restart" } else { "" });
     let mut running;
@@ -381,11 +496,13 @@ fn run(fault: Fault, restart: bool) {
     }
     let logs = rig.finish(running, Duration::from_secs(60), &scenario);
     server.stop();
-    let (line, summary) = expected_lines(fault);
-    assert!(
-        logs.contains(line),
-        "{scenario}: acquire's log must say {line:?}:\n{logs}"
-    );
+    let (lines, summary) = expected_lines(fault);
+    for line in lines {
+        assert!(
+            logs.contains(line),
+            "{scenario}: acquire's log must say {line:?}:\n{logs}"
+        );
+    }
     if !restart {
         assert!(
             logs.contains(summary),
@@ -400,7 +517,11 @@ fn run(fault: Fault, restart: bool) {
 fn scenario(name: &str, fault: Fault, restart: bool) {
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     if reexec_in_netns(name, 240) {
-        run(fault, restart);
+        if fault.of_the_link() {
+            run_link(fault, restart);
+        } else {
+            run(fault, restart);
+        }
     }
 }
 
@@ -501,12 +622,13 @@ fn a_far_future_record_is_never_a_resume_point_across_a_restart_of_acquire() {
 
 // ---- The SeedLink client alone against the hostile server (loopback, no node) ----
 
-/// A client of `server` for XX.STN..HN? (v3, idle timeout 2 s, reconnecting after 0.2 s).
-fn client(server: &Hostile, state: &Path) -> SeedLinkClient {
+/// A client of `server` for XX.STN..HN? (`protocol`, idle timeout 2 s, reconnecting after
+/// 0.2 s).
+fn client(server: &Hostile, state: &Path, protocol: ProtocolChoice) -> SeedLinkClient {
     let config = SeedLinkConfig {
         server: server.addr.to_string(),
         streams: vec!["XX.STN..HN?".into()],
-        protocol: ProtocolChoice::V3,
+        protocol,
         connect_timeout_s: 5.0,
         idle_timeout_s: 2.0,
         reconnect_initial_s: 0.2,
@@ -527,40 +649,13 @@ fn keys(records: &[Vec<u8>]) -> BTreeSet<(String, i64)> {
         .collect()
 }
 
-/// Takes every record (nothing held, so each is committed at once) and stops the client
-/// once `want` has arrived, or after 30 s.
-struct Until<'a> {
-    want: BTreeSet<(String, i64)>,
-    got: Vec<(String, i64)>,
-    stop: &'a AtomicBool,
-    deadline: Instant,
-}
-
-impl RecordSink for Until<'_> {
-    fn record(&mut self, record: &Channel) -> Taken {
-        self.got.push((record.id(), record.start_time_ns));
-        if self.want.iter().all(|k| self.got.contains(k)) {
-            self.stop.store(true, Ordering::Relaxed);
-        }
-        Taken::Done
-    }
-    fn published_until_ns(&self, _: &str) -> Option<i64> {
-        None
-    }
-    fn tick(&mut self, _: &LinkCounters) {
-        if Instant::now() > self.deadline {
-            self.stop.store(true, Ordering::Relaxed);
-        }
-    }
-    fn link(&mut self, _: bool) {}
-}
-
 fn run_until(
     client: &mut SeedLinkClient,
     want: BTreeSet<(String, i64)>,
 ) -> (Vec<(String, i64)>, LinkCounters) {
     let stop = AtomicBool::new(false);
-    let mut sink = Until {
+    let mut sink = Watch {
+        inner: None,
         want,
         got: Vec::new(),
         stop: &stop,
@@ -591,7 +686,7 @@ fn a_number_far_ahead_that_nothing_followed_is_never_the_resume_point() {
             server.plan(&[Conn::CloseAfter(11)]);
             server.push(&records[10..]);
             let dir = tempfile::tempdir().unwrap();
-            let mut c = client(&server, dir.path());
+            let mut c = client(&server, dir.path(), ProtocolChoice::V3);
             let (got, counters) = run_until(&mut c, keys(&records));
             let unique: BTreeSet<_> = got.iter().cloned().collect();
             assert_eq!(
@@ -640,7 +735,7 @@ fn a_resume_by_number_that_yields_nothing_falls_back_to_time() {
                 state.to_string(),
             )
             .unwrap();
-            let mut c = client(&server, dir.path());
+            let mut c = client(&server, dir.path(), ProtocolChoice::V3);
             let (got, counters) = run_until(&mut c, keys(&records[21..]));
             let unique: BTreeSet<_> = got.iter().cloned().collect();
             assert!(
@@ -656,6 +751,46 @@ fn a_resume_by_number_that_yields_nothing_falls_back_to_time() {
             );
         },
     );
+}
+
+/// acquire's record sink (`inner`) watched — or, without one, every record taken at once
+/// (nothing held, so each is committed at once): the records taken (not refused), and `stop`
+/// set once `want` are all among them or after `deadline`.
+struct Watch<'a, 'p> {
+    inner: Option<&'a mut PacketPublisher<'p>>,
+    want: BTreeSet<(String, i64)>,
+    got: Vec<(String, i64)>,
+    stop: &'a AtomicBool,
+    deadline: Instant,
+}
+
+impl RecordSink for Watch<'_, '_> {
+    fn record(&mut self, r: &Channel) -> Taken {
+        let t = self.inner.as_mut().map_or(Taken::Done, |p| p.record(r));
+        if t != Taken::Refused {
+            self.got.push((r.id(), r.start_time_ns));
+        }
+        if self.want.iter().all(|k| self.got.contains(k)) {
+            self.stop.store(true, Ordering::Relaxed);
+        }
+        t
+    }
+    fn published_until_ns(&self, s: &str) -> Option<i64> {
+        self.inner.as_ref()?.published_until_ns(s)
+    }
+    fn tick(&mut self, link: &LinkCounters) {
+        if let Some(p) = self.inner.as_mut() {
+            p.tick(link);
+        }
+        if Instant::now() > self.deadline {
+            self.stop.store(true, Ordering::Relaxed);
+        }
+    }
+    fn link(&mut self, up: bool) {
+        if let Some(p) = self.inner.as_mut() {
+            p.link(up);
+        }
+    }
 }
 
 /// Publishes nowhere (the assembler's decisions are what is tested).
@@ -686,57 +821,9 @@ fn refused_records_are_never_delivered_nor_saved_and_their_clean_copies_go_throu
             ]);
             server.push(&records[30..]);
             let dir = tempfile::tempdir().unwrap();
-            let xml = ros2_util::repo().join("tests/data/stationxml/obspy_XX.STN_k2.xml");
-            let mut out = Nowhere;
-            let mut publisher = PacketPublisher::new(
-                Inventory::read(&xml).unwrap(),
-                AssemblyConfig::default(),
-                ClippingSection::default(),
-                &mut out,
-            );
-            let mut c = client(&server, dir.path());
-            let stop = AtomicBool::new(false);
-            let deadline = Instant::now() + Duration::from_secs(30);
             // Until the client has delivered every clean record.
-            struct Watch<'a, 'p> {
-                inner: &'a mut PacketPublisher<'p>,
-                delivered: usize,
-                stop: &'a AtomicBool,
-                deadline: Instant,
-            }
-            impl RecordSink for Watch<'_, '_> {
-                fn record(&mut self, r: &Channel) -> Taken {
-                    let t = self.inner.record(r);
-                    if t != Taken::Refused {
-                        self.delivered += 1;
-                    }
-                    if self.delivered == 104 {
-                        self.stop.store(true, Ordering::Relaxed);
-                    }
-                    t
-                }
-                fn published_until_ns(&self, s: &str) -> Option<i64> {
-                    self.inner.published_until_ns(s)
-                }
-                fn tick(&mut self, link: &LinkCounters) {
-                    self.inner.tick(link);
-                    if Instant::now() > self.deadline {
-                        self.stop.store(true, Ordering::Relaxed);
-                    }
-                }
-                fn link(&mut self, up: bool) {
-                    self.inner.link(up);
-                }
-            }
-            let mut watch = Watch {
-                inner: &mut publisher,
-                delivered: 0,
-                stop: &stop,
-                deadline,
-            };
-            c.run(&stop, &mut watch).unwrap();
-            let counters = c.counters();
-            let (_, assembled) = publisher.counters();
+            let run = acquire_in_process(&server, dir.path(), ProtocolChoice::V3, keys(&records));
+            let (counters, assembled) = (run.link, run.assembled);
             assert_eq!(
                 (counters.delivered, counters.refused, counters.duplicates),
                 (104, 3, 0),
@@ -753,9 +840,369 @@ fn refused_records_are_never_delivered_nor_saved_and_their_clean_copies_go_throu
             );
             // No refused time is a resume point: every stream's latest is a clean record's.
             let latest = acquire_util::latest_starts(&records);
-            for (stream, t) in &c.state().streams {
+            for (stream, t) in &run.saved {
                 assert!(latest[stream] >= *t, "{stream}: {t} saved");
             }
         },
+    );
+}
+
+// ---- Faults of the connection: the client and acquire's publisher, in this process ----
+
+/// What this process logged (the `tracing` lines of the client and the publisher, as
+/// `acquire` writes them), captured from the first call on.
+fn captured_log() -> String {
+    static LOG: Mutex<Vec<u8>> = Mutex::new(Vec::new());
+    struct Capture;
+    impl std::io::Write for Capture {
+        fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+            LOG.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .extend_from_slice(bytes);
+            Ok(bytes.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        let _ = tracing_subscriber::fmt()
+            .with_ansi(false)
+            .with_writer(|| Capture)
+            .try_init();
+    });
+    String::from_utf8_lossy(&LOG.lock().unwrap_or_else(|e| e.into_inner())).into_owned()
+}
+
+/// What one run of "acquire" in this process did ([`acquire_in_process`]).
+struct InProcessRun {
+    /// The records taken (not refused), in order.
+    got: Vec<(String, i64)>,
+    link: LinkCounters,
+    assembled: AssemblyCounters,
+    /// `acquire_prometheus`: the `/metrics` text at the end.
+    metrics: String,
+    /// `acquire_summary`: the end-of-run line.
+    summary: String,
+    /// The records taken that the saved state counts as committed.
+    committed: BTreeSet<(String, i64)>,
+    /// The saved per-stream latest start times.
+    saved: std::collections::BTreeMap<String, i64>,
+}
+
+/// One run of "acquire" in this process: a client on `state` and its publisher (to nowhere)
+/// until `want` are taken (at most 30 s), then stopped as on SIGTERM.
+fn acquire_in_process(
+    server: &Hostile,
+    state: &Path,
+    protocol: ProtocolChoice,
+    want: BTreeSet<(String, i64)>,
+) -> InProcessRun {
+    let xml = ros2_util::repo().join("tests/data/stationxml/obspy_XX.STN_k2.xml");
+    let mut out = Nowhere;
+    let mut publisher = PacketPublisher::new(
+        Inventory::read(&xml).unwrap(),
+        AssemblyConfig::default(),
+        ClippingSection::default(),
+        &mut out,
+    );
+    let mut c = client(server, state, protocol);
+    let stop = AtomicBool::new(false);
+    let mut watch = Watch {
+        inner: Some(&mut publisher),
+        want,
+        got: Vec::new(),
+        stop: &stop,
+        deadline: Instant::now() + Duration::from_secs(30),
+    };
+    c.run(&stop, &mut watch).unwrap();
+    let got = std::mem::take(&mut watch.got);
+    let (published, assembled) = publisher.counters();
+    assert_eq!(
+        assembled.missing_component_samples, 0,
+        "nothing zero-filled: {assembled:?}"
+    );
+    let link = c.counters();
+    let saved = c.state().streams.clone();
+    let committed = got
+        .iter()
+        .filter(|(stream, t)| saved.get(stream).is_some_and(|l| t <= l))
+        .cloned()
+        .collect();
+    InProcessRun {
+        metrics: acquire_prometheus(&link, &published, &assembled),
+        summary: acquire_summary(&link, &published, &assembled),
+        got,
+        link,
+        assembled,
+        committed,
+        saved,
+    }
+}
+
+/// A fault of the connection after record `AT` (or, `UnreadableSequence`, record `AT`'s only
+/// copy under an unreadable number), alone or with acquire stopped 10 records after the fault
+/// and started again on its state: every record taken, none twice in one run, none taken
+/// again that the first run had committed; the fault's log line, counter and summary.
+fn run_link(fault: Fault, restart: bool) {
+    let log_before = captured_log().len();
+    let server = match fault {
+        Fault::HugeLength => Hostile::start_v4(),
+        _ => Hostile::start(),
+    };
+    let protocol = match fault {
+        Fault::HugeLength => ProtocolChoice::V4,
+        _ => ProtocolChoice::V3,
+    };
+    let records = records_in_time_order();
+    server.push(&records[..AT]);
+    let mut rest = AT;
+    match fault {
+        Fault::Garbage => server.plan(&[Conn::GarbageAfter(AT)]),
+        Fault::HugeLength => server.plan(&[Conn::HugeLengthAfter(AT)]),
+        Fault::HangMidPacket => server.plan(&[Conn::HangMidPacketAfter(AT)]),
+        Fault::CloseMidPacket => server.plan(&[Conn::CloseMidPacketAfter(AT)]),
+        Fault::UnreadableSequence => {
+            server.push_with_number_text(&records[AT], b"zz!?00");
+            rest = AT + 1;
+        }
+        other => unreachable!("{other:?} runs against the node"),
+    }
+    server.push(&records[rest..]);
+    let all = keys(&records);
+    let dir = tempfile::tempdir().unwrap();
+    let first_want = if restart {
+        keys(&records[..AT + 10])
+    } else {
+        all.clone()
+    };
+    let first = acquire_in_process(&server, dir.path(), protocol, first_want);
+    let (mut got, link) = (first.got, first.link);
+    let once: BTreeSet<_> = got.iter().cloned().collect();
+    assert_eq!(once.len(), got.len(), "a record taken twice: {got:?}");
+    if restart {
+        let want: BTreeSet<_> = all.difference(&once).cloned().collect();
+        let again = acquire_in_process(&server, dir.path(), protocol, want).got;
+        let twice: Vec<_> = again
+            .iter()
+            .filter(|k| first.committed.contains(*k))
+            .collect();
+        assert!(
+            twice.is_empty(),
+            "taken again after the restart though committed before it: {twice:?}"
+        );
+        let again_once: BTreeSet<_> = again.iter().cloned().collect();
+        assert_eq!(again_once.len(), again.len(), "{again:?}");
+        got.extend(again);
+    }
+    let taken: BTreeSet<_> = got.into_iter().collect();
+    let missing: Vec<_> = all.difference(&taken).collect();
+    let log = captured_log()[log_before..].to_string();
+    assert!(
+        missing.is_empty(),
+        "{fault:?}: records never taken: {missing:?}; commands {:?}; {link:?}\n{log}",
+        server.commands()
+    );
+    let (lines, summary_part) = expected_lines(fault);
+    for line in lines {
+        assert!(
+            log.contains(line),
+            "{fault:?}: the log must say {line:?}:\n{log}"
+        );
+    }
+    let metric = expected_metric(fault).unwrap();
+    let (metrics, summary) = (first.metrics, first.summary);
+    assert!(
+        metrics.contains(metric),
+        "{fault:?}: /metrics must say {metric:?}:\n{metrics}"
+    );
+    assert!(
+        summary.contains(summary_part),
+        "{fault:?}: the summary must say {summary_part:?}:\n{summary}"
+    );
+    println!(
+        "{fault:?}{}: every record taken once; {summary}",
+        if restart { " + restart" } else { "" }
+    );
+}
+
+#[test]
+fn a_record_claiming_65535_samples_is_dropped_as_malformed_and_costs_nothing() {
+    scenario(
+        "a_record_claiming_65535_samples_is_dropped_as_malformed_and_costs_nothing",
+        Fault::SampleCount65535,
+        false,
+    );
+}
+
+#[test]
+fn a_record_claiming_65535_samples_then_a_restart_of_acquire() {
+    scenario(
+        "a_record_claiming_65535_samples_then_a_restart_of_acquire",
+        Fault::SampleCount65535,
+        true,
+    );
+}
+
+#[test]
+fn a_record_of_the_year_0_is_dropped_as_malformed_and_costs_nothing() {
+    scenario(
+        "a_record_of_the_year_0_is_dropped_as_malformed_and_costs_nothing",
+        Fault::YearZero,
+        false,
+    );
+}
+
+#[test]
+fn a_record_of_the_year_0_then_a_restart_of_acquire() {
+    scenario(
+        "a_record_of_the_year_0_then_a_restart_of_acquire",
+        Fault::YearZero,
+        true,
+    );
+}
+
+#[test]
+fn a_record_of_an_unknown_location_is_unselected_and_costs_nothing() {
+    scenario(
+        "a_record_of_an_unknown_location_is_unselected_and_costs_nothing",
+        Fault::UnknownLocation,
+        false,
+    );
+}
+
+#[test]
+fn a_record_of_an_unknown_location_then_a_restart_of_acquire() {
+    scenario(
+        "a_record_of_an_unknown_location_then_a_restart_of_acquire",
+        Fault::UnknownLocation,
+        true,
+    );
+}
+
+#[test]
+fn a_corrupt_steim_frame_is_dropped_as_malformed_and_costs_nothing() {
+    scenario(
+        "a_corrupt_steim_frame_is_dropped_as_malformed_and_costs_nothing",
+        Fault::CorruptSteim,
+        false,
+    );
+}
+
+#[test]
+fn a_corrupt_steim_frame_then_a_restart_of_acquire() {
+    scenario(
+        "a_corrupt_steim_frame_then_a_restart_of_acquire",
+        Fault::CorruptSteim,
+        true,
+    );
+}
+
+#[test]
+fn a_record_of_nan_samples_is_dropped_as_malformed_and_costs_nothing() {
+    scenario(
+        "a_record_of_nan_samples_is_dropped_as_malformed_and_costs_nothing",
+        Fault::NanSamples,
+        false,
+    );
+}
+
+#[test]
+fn a_record_of_nan_samples_then_a_restart_of_acquire() {
+    scenario(
+        "a_record_of_nan_samples_then_a_restart_of_acquire",
+        Fault::NanSamples,
+        true,
+    );
+}
+
+#[test]
+fn garbage_in_place_of_a_packet_drops_the_connection_and_costs_nothing() {
+    scenario(
+        "garbage_in_place_of_a_packet_drops_the_connection_and_costs_nothing",
+        Fault::Garbage,
+        false,
+    );
+}
+
+#[test]
+fn garbage_in_place_of_a_packet_then_a_restart_of_acquire() {
+    scenario(
+        "garbage_in_place_of_a_packet_then_a_restart_of_acquire",
+        Fault::Garbage,
+        true,
+    );
+}
+
+#[test]
+fn a_v4_packet_claiming_2_31_bytes_drops_the_connection_and_costs_nothing() {
+    scenario(
+        "a_v4_packet_claiming_2_31_bytes_drops_the_connection_and_costs_nothing",
+        Fault::HugeLength,
+        false,
+    );
+}
+
+#[test]
+fn a_v4_packet_claiming_2_31_bytes_then_a_restart_of_acquire() {
+    scenario(
+        "a_v4_packet_claiming_2_31_bytes_then_a_restart_of_acquire",
+        Fault::HugeLength,
+        true,
+    );
+}
+
+#[test]
+fn a_packet_with_an_unreadable_sequence_number_is_delivered_by_time() {
+    scenario(
+        "a_packet_with_an_unreadable_sequence_number_is_delivered_by_time",
+        Fault::UnreadableSequence,
+        false,
+    );
+}
+
+#[test]
+fn a_packet_with_an_unreadable_sequence_number_then_a_restart_of_acquire() {
+    scenario(
+        "a_packet_with_an_unreadable_sequence_number_then_a_restart_of_acquire",
+        Fault::UnreadableSequence,
+        true,
+    );
+}
+
+#[test]
+fn a_connection_that_hangs_mid_packet_costs_nothing() {
+    scenario(
+        "a_connection_that_hangs_mid_packet_costs_nothing",
+        Fault::HangMidPacket,
+        false,
+    );
+}
+
+#[test]
+fn a_connection_that_hangs_mid_packet_then_a_restart_of_acquire() {
+    scenario(
+        "a_connection_that_hangs_mid_packet_then_a_restart_of_acquire",
+        Fault::HangMidPacket,
+        true,
+    );
+}
+
+#[test]
+fn a_connection_that_closes_mid_packet_costs_nothing() {
+    scenario(
+        "a_connection_that_closes_mid_packet_costs_nothing",
+        Fault::CloseMidPacket,
+        false,
+    );
+}
+
+#[test]
+fn a_connection_that_closes_mid_packet_then_a_restart_of_acquire() {
+    scenario(
+        "a_connection_that_closes_mid_packet_then_a_restart_of_acquire",
+        Fault::CloseMidPacket,
+        true,
     );
 }

@@ -1,13 +1,19 @@
-//! A hostile SeedLink 3 server for the fault tests: plain threads on loopback, no crate. It
+//! A hostile SeedLink 3 (or 4, [`Hostile::start_v4`]) server for the fault tests: plain
+//! threads on loopback, no crate. It
 //! streams a ring of `(sequence number, 512-byte record)` entries that the test builds —
 //! sequence numbers and records are whatever the test says, so a fault is a record or a
 //! number put in the ring ([`Hostile::push`], [`Hostile::push_with_seq`]) — and behaves per
-//! connection as told ([`Conn`]: serve, hang or close after some packets).
+//! connection as told ([`Conn`]: serve, hang or close after some packets, send garbage, a
+//! v4 header claiming 2^31 bytes, or part of a packet). An entry may carry the six
+//! characters of its v3 header's number ([`Hostile::push_with_number_text`]: an unreadable
+//! number, sent on every connection).
 //!
-//! Requests are read the way a numbering server reads them: `DATA n` (6 hex digits) sends the
-//! entries whose number is greater than n, in ring order; `TIME y,m,d,h,m,s` the entries whose
-//! record starts at or after that time; plain `DATA` the whole ring. It refuses `INFO` (so
-//! acquire never sees a restart). Every command received is kept ([`Hostile::commands`]).
+//! Requests are read the way a numbering server reads them: `DATA n` (v3 6 hex digits, v4
+//! decimal) sends the entries whose number is greater than n, in ring order; `TIME
+//! y,m,d,h,m,s` (v4 `DATA ALL y-m-dTh:m:sZ`) the entries whose record starts at or after
+//! that time; plain `DATA` the whole ring. It refuses `INFO` (so acquire never sees a
+//! restart). v4 is `SLPROTO 4.0` after HELLO, packets `SE2D` + length + number + `XX_STN`.
+//! Every command received is kept ([`Hostile::commands`]).
 
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Write};
@@ -30,6 +36,17 @@ pub enum Conn {
     HangAfter(usize),
     /// Sends this many packets, then closes the connection.
     CloseAfter(usize),
+    /// Sends this many packets, then 520 bytes of text in place of the next packet (then
+    /// serves on: the client has dropped the connection).
+    GarbageAfter(usize),
+    /// v4: sends this many packets, then a packet header claiming a 2^31-byte payload and a
+    /// few bytes of it (then serves on).
+    HugeLengthAfter(usize),
+    /// Sends this many packets, then the first 100 bytes of the next, then nothing more (the
+    /// socket stays open).
+    HangMidPacketAfter(usize),
+    /// Sends this many packets, then the first 100 bytes of the next, then closes.
+    CloseMidPacketAfter(usize),
 }
 
 #[derive(Debug, Clone)]
@@ -37,6 +54,8 @@ struct Entry {
     seq: u64,
     bytes: Vec<u8>,
     start_ns: i64,
+    /// v3: the six characters sent in place of the number (`None`: the number in hex).
+    number_text: Option<[u8; 6]>,
 }
 
 #[derive(Default)]
@@ -45,6 +64,8 @@ struct Shared {
     next_seq: u64,
     plan: VecDeque<Conn>,
     commands: Vec<String>,
+    /// Offers and speaks SeedLink 4.
+    v4: bool,
 }
 
 pub struct Hostile {
@@ -62,12 +83,22 @@ enum From {
 }
 
 impl Hostile {
-    /// Listens on 127.0.0.1 (any port); sequence numbers start at 1.
+    /// Listens on 127.0.0.1 (any port); SeedLink 3; sequence numbers start at 1.
     pub fn start() -> Hostile {
+        Hostile::listen(false)
+    }
+
+    /// The same, offering SeedLink 4 (`SLPROTO:4.0`) and speaking it when asked.
+    pub fn start_v4() -> Hostile {
+        Hostile::listen(true)
+    }
+
+    fn listen(v4: bool) -> Hostile {
         let listener = TcpListener::bind("127.0.0.1:0").unwrap();
         let addr = listener.local_addr().unwrap();
         let shared = Arc::new(Mutex::new(Shared {
             next_seq: 1,
+            v4,
             ..Shared::default()
         }));
         let stop = Arc::new(AtomicBool::new(false));
@@ -110,6 +141,18 @@ impl Hostile {
         self.shared.lock().unwrap().ring.push(entry(seq, record));
     }
 
+    /// Appends one record numbered on (as [`Hostile::push`]) whose v3 header carries `text`
+    /// in place of the number, on every connection.
+    pub fn push_with_number_text(&self, record: &[u8], text: &[u8; 6]) {
+        let mut s = self.shared.lock().unwrap();
+        let seq = s.next_seq;
+        s.next_seq += 1;
+        s.ring.push(Entry {
+            number_text: Some(*text),
+            ..entry(seq, record)
+        });
+    }
+
     /// The next number [`Hostile::push`] assigns.
     pub fn next_seq(&self) -> u64 {
         self.shared.lock().unwrap().next_seq
@@ -142,6 +185,7 @@ fn entry(seq: u64, bytes: &[u8]) -> Entry {
         seq,
         bytes: bytes.to_vec(),
         start_ns,
+        number_text: None,
     }
 }
 
@@ -155,6 +199,8 @@ fn serve(
     let mut reader = BufReader::new(stream.try_clone()?);
     let mut out = stream.try_clone()?;
     let mut from = From::All;
+    let offers_v4 = shared.lock().unwrap().v4;
+    let mut v4 = false;
     loop {
         let mut line = String::new();
         if reader.read_line(&mut line)? == 0 {
@@ -164,15 +210,28 @@ fn serve(
         shared.lock().unwrap().commands.push(line.clone());
         let words: Vec<&str> = line.split_whitespace().collect();
         match words.first().copied() {
+            Some("HELLO") if offers_v4 => out.write_all(
+                b"SeedLink v4.0 (rockwatch hostile test server) :: SLPROTO:3.1 SLPROTO:4.0\r\nrockwatch tests\r\n",
+            )?,
             Some("HELLO") => out.write_all(
                 b"SeedLink v3.1 (rockwatch hostile test server) :: SLPROTO:3.1\r\nrockwatch tests\r\n",
             )?,
+            Some("SLPROTO") if offers_v4 => {
+                v4 = true;
+                out.write_all(b"OK\r\n")?;
+            }
             Some("INFO") => out.write_all(b"ERROR\r\n")?,
             Some("STATION" | "SELECT") => out.write_all(b"OK\r\n")?,
             Some("DATA") => {
-                from = match words.get(1) {
-                    Some(n) => From::After(u64::from_str_radix(n, 16).unwrap_or(0)),
-                    None => From::All,
+                from = match (words.get(1), words.get(2)) {
+                    // v4 `DATA ALL start`: `y-m-dTh:m:sZ`.
+                    (Some(&"ALL"), Some(t)) => From::Since(time_ns(
+                        &t.trim_end_matches('Z').replace(['-', 'T', ':'], ","),
+                    )),
+                    (Some(&"ALL"), None) => From::All,
+                    (Some(n), _) if v4 => From::After(n.parse().unwrap_or(0)),
+                    (Some(n), _) => From::After(u64::from_str_radix(n, 16).unwrap_or(0)),
+                    (None, _) => From::All,
                 };
                 out.write_all(b"OK\r\n")?;
             }
@@ -221,8 +280,54 @@ fn serve(
             }
             _ => {}
         }
-        let mut packet = format!("SL{:06X}", e.seq % (1 << 24)).into_bytes();
-        packet.extend_from_slice(&e.bytes);
+        let packet = if v4 {
+            let mut p = b"SE2D".to_vec();
+            p.extend_from_slice(&(e.bytes.len() as u32).to_le_bytes());
+            p.extend_from_slice(&e.seq.to_le_bytes());
+            p.push(6);
+            p.extend_from_slice(b"XX_STN");
+            p.extend_from_slice(&e.bytes);
+            p
+        } else {
+            let mut p = match e.number_text {
+                Some(text) => [b"SL".as_slice(), &text].concat(),
+                None => format!("SL{:06X}", e.seq % (1 << 24)).into_bytes(),
+            };
+            p.extend_from_slice(&e.bytes);
+            p
+        };
+        // The faults in place of the packet `sent` (then the connection ends or goes on).
+        match conn {
+            Conn::GarbageAfter(n) if sent == n => {
+                let garbage = b"<html><body>502 Bad Gateway</body></html> ".repeat(13);
+                out.write_all(&garbage[..520])?;
+            }
+            Conn::HugeLengthAfter(n) if sent == n => {
+                let mut header = packet[..16].to_vec();
+                header[4..8].copy_from_slice(&(1u32 << 31).to_le_bytes());
+                header.extend_from_slice(&packet[16..100]);
+                out.write_all(&header)?;
+            }
+            Conn::HangMidPacketAfter(n) | Conn::CloseMidPacketAfter(n) if sent == n => {
+                out.write_all(&packet[..100])?;
+                out.flush()?;
+                if let Conn::CloseMidPacketAfter(_) = conn {
+                    std::thread::sleep(Duration::from_millis(50));
+                    let _ = stream.shutdown(Shutdown::Both);
+                    return Ok(());
+                }
+                while !stop.load(Ordering::Relaxed) {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                return Ok(());
+            }
+            _ => {}
+        }
+        if matches!(conn, Conn::GarbageAfter(n) | Conn::HugeLengthAfter(n) if sent == n) {
+            // The fault took the packet's place: it is not sent on this connection.
+            sent += 1;
+            continue;
+        }
         out.write_all(&packet)?;
         sent += 1;
     }
@@ -284,4 +389,41 @@ pub fn with_values(record: &[u8], value: f64) -> Vec<u8> {
     .unwrap();
     assert_eq!(bytes.len(), 512);
     bytes
+}
+
+/// The record with its header's sample count set to `n` (more than its Steim frames hold).
+pub fn with_sample_count(record: &[u8], n: u16) -> Vec<u8> {
+    let mut r = record.to_vec();
+    r[30..32].copy_from_slice(&n.to_be_bytes());
+    r
+}
+
+/// The record with its location code set to `loc` (two characters): another stream of the
+/// station, which no pattern selects and the inventory does not hold.
+pub fn with_location(record: &[u8], loc: &str) -> Vec<u8> {
+    let mut r = record.to_vec();
+    r[13..15].copy_from_slice(&loc.as_bytes()[..2]);
+    r
+}
+
+/// The record with its first Steim frame's forward integration constant (X0, the first
+/// sample) moved by 1000 counts: every sample decodes off by 1000, and the last one no longer
+/// equals the reverse integration constant (Xn).
+pub fn with_corrupt_steim(record: &[u8]) -> Vec<u8> {
+    let mut r = record.to_vec();
+    let data = usize::from(u16::from_be_bytes([r[44], r[45]]));
+    let x0 = i32::from_be_bytes([r[data + 4], r[data + 5], r[data + 6], r[data + 7]]);
+    r[data + 4..data + 8].copy_from_slice(&(x0 + 1000).to_be_bytes());
+    r
+}
+
+/// A FLOAT32 record of the same stream and start as `record` whose samples are all NaN (the
+/// writer refuses to encode them, so they are put in its data section afterwards).
+pub fn with_nan(record: &[u8]) -> Vec<u8> {
+    let mut r = with_values(record, 1.0);
+    let data = usize::from(u16::from_be_bytes([r[44], r[45]]));
+    for i in 0..100 {
+        r[data + 4 * i..data + 4 * i + 4].copy_from_slice(&f32::NAN.to_be_bytes());
+    }
+    r
 }

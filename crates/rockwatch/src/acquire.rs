@@ -56,6 +56,45 @@ pub struct AcquireConfig {
     pub metrics: crate::metrics::MetricsConfig,
 }
 
+/// Acquire's end-of-run summary (one log line): what the link received and dropped, what
+/// was refused and why, what was assembled and published. Counters are totals of the run.
+#[must_use]
+pub fn acquire_summary(
+    link: &LinkCounters,
+    published: &PublishCounters,
+    assembled: &AssemblyCounters,
+) -> String {
+    let refused = RefusedRecords::from(assembled);
+    format!(
+        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} packets not framed as the protocol says, {} packets cut off by the end of a connection, {} unreadable sequence numbers (delivered by start time), {} server resets, {} sequence numbers out of line, {} server restarts, {} resumes by number that yielded nothing (resumed by time), {} reconnections); {} records refused ({} at another sampling rate, {} with impossible values, {} far ahead of their station's data, {} other: not in the inventory, off the grid, another band; {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
+        link.packets,
+        link.delivered,
+        link.duplicates,
+        link.malformed,
+        link.unselected,
+        link.protocol_errors,
+        link.partial_packets,
+        link.unreadable_sequences,
+        link.server_resets,
+        link.sequence_outliers,
+        link.server_restarts,
+        link.resume_fallbacks,
+        link.disconnects,
+        assembled.refused_records,
+        refused.other_rate,
+        refused.impossible_values,
+        refused.far_ahead,
+        refused.other,
+        assembled.grid_restarts,
+        published.clipped_samples,
+        published.clipped_records,
+        assembled.overlap_samples,
+        assembled.missing_component_samples,
+        published.packets_sent,
+        published.send_errors
+    )
+}
+
 /// Acquire's counters in the Prometheus text exposition format (served on `/metrics`): the
 /// link (`rockwatch_acquire_link_*`), the records refused by reason, the assembly and the
 /// publication. Counters are totals since acquire started.
@@ -104,6 +143,31 @@ pub fn acquire_prometheus(
         "link_malformed_total",
         "Packets that could not be decoded.",
         &[("", link.malformed)],
+    );
+    counter(
+        "link_unselected_total",
+        "Records of streams no pattern selects (dropped).",
+        &[("", link.unselected)],
+    );
+    counter(
+        "link_protocol_errors_total",
+        "Bytes that were not a SeedLink packet (the connection dropped and made again).",
+        &[("", link.protocol_errors)],
+    );
+    counter(
+        "link_partial_packets_total",
+        "Connections that ended in the middle of a packet (the part dropped).",
+        &[("", link.partial_packets)],
+    );
+    counter(
+        "link_unreadable_sequences_total",
+        "v3 packets whose sequence number could not be read (delivered by start time).",
+        &[("", link.unreadable_sequences)],
+    );
+    counter(
+        "link_server_resets_total",
+        "New data numbered behind a confirmed number (the server restarted its numbering).",
+        &[("", link.server_resets)],
     );
     counter(
         "link_missing_sequences_total",
@@ -434,6 +498,7 @@ struct StationFigures {
 /// What the previous status report counted, to judge what happened since.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 struct Reported {
+    /// Malformed records, protocol errors and partial packets.
     malformed: u64,
     send_errors: u64,
     refused: u64,
@@ -521,7 +586,9 @@ impl<'a> PacketPublisher<'a> {
         stamp_ns: i64,
     ) -> StatusReport {
         let mut items = Vec::with_capacity(2 + self.stations.len());
-        let malformed = link.malformed.saturating_sub(self.reported.malformed);
+        // Packets that could not be decoded or framed (a connection dropped for it).
+        let undecoded = link.malformed + link.protocol_errors + link.partial_packets;
+        let malformed = undecoded.saturating_sub(self.reported.malformed);
         let (state, level, message) = match self.offline_since {
             Some(since) => (
                 "reconnecting",
@@ -535,7 +602,7 @@ impl<'a> PacketPublisher<'a> {
             None if malformed > 0 => (
                 "connected",
                 Level::Warn,
-                format!("{malformed} packets could not be decoded since the last report"),
+                format!("{malformed} packets could not be decoded or framed since the last report"),
             ),
             None => ("connected", Level::Ok, format!("connected to {server}")),
         };
@@ -555,6 +622,9 @@ impl<'a> PacketPublisher<'a> {
                 kv("duplicates", link.duplicates),
                 kv("malformed", link.malformed),
                 kv("unselected", link.unselected),
+                kv("protocol_errors", link.protocol_errors),
+                kv("partial_packets", link.partial_packets),
+                kv("unreadable_sequences", link.unreadable_sequences),
                 kv("missing_sequences", link.missing_sequences),
                 kv("sequence_outliers", link.sequence_outliers),
                 kv("server_resets", link.server_resets),
@@ -646,7 +716,7 @@ impl<'a> PacketPublisher<'a> {
             });
         }
         self.reported = Reported {
-            malformed: link.malformed,
+            malformed: link.malformed + link.protocol_errors + link.partial_packets,
             send_errors: published.send_errors,
             refused: refused.total(),
         };

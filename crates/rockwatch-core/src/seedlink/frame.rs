@@ -1,7 +1,9 @@
 //! SeedLink packets as they arrive on a streaming connection.
 //!
 //! - v3: `SL` + sequence as 6 ASCII hex digits + 512-byte payload (520 bytes); `SLINFO` + 2
-//!   bytes + 512 bytes is an INFO packet (answers to INFO, no sequence).
+//!   bytes + 512 bytes is an INFO packet (answers to INFO, no sequence). The length is fixed,
+//!   so a packet whose number cannot be read still ends where it should: it is returned
+//!   without a number ([`Frame::unreadable_sequence`]) and the stream stays framed.
 //! - v4: `SE`, format (1 byte, `2` = MiniSEED 2, `3` = MiniSEED 3, `J` = JSON, `X` = XML),
 //!   subformat (1 byte, `D` = data, `I` = info, `E` = error, …), payload length (u32 LE),
 //!   sequence (u64 LE), station id length (u8), station id (`NET_STA`), payload.
@@ -20,8 +22,12 @@ pub const MAX_V4_PAYLOAD: usize = 1 << 20;
 /// One packet, borrowing the receive buffer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Frame<'a> {
-    /// The server's sequence number (v3: 0 to 0xFFFFFF); `None` for INFO packets.
+    /// The server's sequence number (v3: 0 to 0xFFFFFF); `None` for INFO packets and for v3
+    /// data packets whose number cannot be read.
     pub sequence: Option<u64>,
+    /// v3: the six characters where the number should be, when they are not hex digits (a
+    /// corrupt header); the payload is still the packet's 512 bytes.
+    pub unreadable_sequence: Option<&'a [u8]>,
     /// v4 format byte (`b'2'` for v3 data packets).
     pub format: u8,
     /// v4 subformat byte (`b'D'` for v3 data packets, `b'I'` for v3 INFO packets).
@@ -32,10 +38,13 @@ pub struct Frame<'a> {
 }
 
 impl Frame<'_> {
-    /// Whether the payload is a MiniSEED data record (format 2 or 3, subformat D).
+    /// Whether the payload is a MiniSEED data record (format 2 or 3, subformat D), numbered
+    /// or with an unreadable number.
     #[must_use]
     pub fn is_miniseed_data(&self) -> bool {
-        matches!(self.format, b'2' | b'3') && self.subformat == b'D' && self.sequence.is_some()
+        matches!(self.format, b'2' | b'3')
+            && self.subformat == b'D'
+            && (self.sequence.is_some() || self.unreadable_sequence.is_some())
     }
 }
 
@@ -44,8 +53,6 @@ impl Frame<'_> {
 pub enum FrameError {
     #[error("not a SeedLink {protocol:?} packet: starts with {start:?}")]
     Signature { protocol: Protocol, start: String },
-    #[error("bad v3 sequence number {0:?}")]
-    Sequence(String),
     #[error("v4 payload of {0} bytes is more than the {MAX_V4_PAYLOAD} accepted")]
     TooLarge(usize),
     #[error("v4 station id is not ASCII")]
@@ -76,21 +83,22 @@ pub fn parse_frame(
                 return Ok(None);
             }
             let payload = &buf[V3_HEADER_LEN..V3_HEADER_LEN + V3_PAYLOAD_LEN];
-            let (sequence, subformat) = if &buf[2..6] == b"INFO" {
-                (None, b'I')
+            let digits = &buf[2..8];
+            let (sequence, unreadable_sequence, subformat) = if &buf[2..6] == b"INFO" {
+                (None, None, b'I')
             } else {
-                let hex = std::str::from_utf8(&buf[2..8])
+                let seq = std::str::from_utf8(digits)
                     .ok()
                     .filter(|h| h.bytes().all(|b| b.is_ascii_hexdigit()))
-                    .ok_or_else(|| {
-                        FrameError::Sequence(String::from_utf8_lossy(&buf[2..8]).into_owned())
-                    })?;
-                let seq = u64::from_str_radix(hex, 16)
-                    .map_err(|_| FrameError::Sequence(hex.to_string()))?;
-                (Some(seq), b'D')
+                    .and_then(|h| u64::from_str_radix(h, 16).ok());
+                match seq {
+                    Some(seq) => (Some(seq), None, b'D'),
+                    None => (None, Some(digits), b'D'),
+                }
             };
             let frame = Frame {
                 sequence,
+                unreadable_sequence,
                 format: b'2',
                 subformat,
                 station: "",
@@ -120,6 +128,7 @@ pub fn parse_frame(
                 .ok_or(FrameError::StationId)?;
             let frame = Frame {
                 sequence: Some(u64::from_le_bytes(seq)),
+                unreadable_sequence: None,
                 format: buf[2],
                 subformat: buf[3],
                 station,
@@ -153,11 +162,14 @@ mod tests {
         assert!(frame.sequence.is_none() && !frame.is_miniseed_data());
         let e = parse_frame(b"ERROR\r\n", Protocol::V3).unwrap_err();
         assert!(matches!(e, FrameError::Signature { .. }), "{e}");
-        let bad = [b"SLzz0000".as_slice(), &[0; 512]].concat();
-        assert!(matches!(
-            parse_frame(&bad, Protocol::V3),
-            Err(FrameError::Sequence(_))
-        ));
+        // An unreadable number: still one 520-byte data packet, without a number.
+        let bad = [b"SLzz!?00".as_slice(), &[0; 512], b"SL00002B"].concat();
+        let (frame, used) = parse_frame(&bad, Protocol::V3).unwrap().unwrap();
+        assert_eq!(
+            (frame.sequence, frame.unreadable_sequence, used),
+            (None, Some(&b"zz!?00"[..]), 520)
+        );
+        assert!(frame.is_miniseed_data());
     }
 
     #[test]

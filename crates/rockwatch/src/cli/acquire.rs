@@ -5,7 +5,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _};
-use rockwatch::acquire::{acquire_prometheus, AcquireConfig, PacketPublisher, RefusedRecords};
+use rockwatch::acquire::{acquire_prometheus, acquire_summary, AcquireConfig, PacketPublisher};
 use rockwatch::iox::IoxPacketSink;
 use rockwatch::metrics::MetricsServer;
 use rockwatch::ports::PacketSink;
@@ -185,32 +185,9 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         ));
     }
     let (published, assembled) = publisher.inner.counters();
-    let refused = RefusedRecords::from(&assembled);
-    let link = client.counters();
     tracing::info!(
-        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} server resets, {} sequence numbers out of line, {} server restarts, {} resumes by number that yielded nothing (resumed by time), {} reconnections); {} records refused ({} at another sampling rate, {} with impossible values, {} far ahead of their station's data, {} other: not in the inventory, off the grid, another band; {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
-        link.packets,
-        link.delivered,
-        link.duplicates,
-        link.malformed,
-        link.unselected,
-        link.server_resets,
-        link.sequence_outliers,
-        link.server_restarts,
-        link.resume_fallbacks,
-        link.disconnects,
-        assembled.refused_records,
-        refused.other_rate,
-        refused.impossible_values,
-        refused.far_ahead,
-        refused.other,
-        assembled.grid_restarts,
-        published.clipped_samples,
-        published.clipped_records,
-        assembled.overlap_samples,
-        assembled.missing_component_samples,
-        published.packets_sent,
-        published.send_errors
+        "{}",
+        acquire_summary(&client.counters(), &published, &assembled)
     );
     result.map_err(anyhow::Error::msg)?;
     if !sink.finish(Duration::from_secs(5))? {

@@ -297,6 +297,12 @@ impl Connection {
         Ok(true)
     }
 
+    /// Bytes received and not yet consumed: a partial packet, between complete ones.
+    #[must_use]
+    pub fn pending_bytes(&self) -> usize {
+        self.end - self.start
+    }
+
     /// Says BYE (best effort) and closes.
     pub fn close(mut self) {
         let _ = self.send("BYE\r\n");

@@ -18,7 +18,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use rockwatch_core::record::mseed::{parse_mseed, Channel};
+use rockwatch_core::record::mseed::{parse_mseed, record_stream_id, Channel};
 use rockwatch_core::seedlink::frame::Frame;
 use rockwatch_core::seedlink::info::expand;
 use rockwatch_core::seedlink::select::StreamPattern;
@@ -183,6 +183,17 @@ pub struct LinkCounters {
     pub malformed: u64,
     /// Records of streams no pattern selects.
     pub unselected: u64,
+    /// Bytes where a packet should start that are not one of the protocol (garbage, a v4
+    /// payload length beyond the bound): the connection is dropped and made again, resuming
+    /// after the last confirmed number.
+    pub protocol_errors: u64,
+    /// Connections that ended (closed, or silent for `idle_timeout_s`) in the middle of a
+    /// packet: the part received is dropped; the packet comes again after reconnecting.
+    pub partial_packets: u64,
+    /// v3 data packets whose sequence number could not be read (not six hex digits): the
+    /// packet's length is fixed, so its record is delivered by (stream, start time) like any
+    /// other, and is never a resume point.
+    pub unreadable_sequences: u64,
 }
 
 /// What the sink did with a record.
@@ -291,6 +302,9 @@ pub struct SeedLinkClient {
     sequences_protocol: Option<Protocol>,
     /// `NET_STA` of the stations of which a record arrived on the current connection.
     heard: BTreeSet<String>,
+    /// The last data packet of the current connection (`station NET_STA's packet N`), to
+    /// place a connection's failure in the stream.
+    last_packet: Option<String>,
 }
 
 impl SeedLinkClient {
@@ -318,6 +332,7 @@ impl SeedLinkClient {
             sequences: HashMap::new(),
             sequences_protocol: None,
             heard: BTreeSet::new(),
+            last_packet: None,
         })
     }
 
@@ -494,6 +509,7 @@ impl SeedLinkClient {
         let mut last_durable = Instant::now();
         let connected = Instant::now();
         self.heard.clear();
+        self.last_packet = None;
         let mut resumes_checked = by_sequence.is_empty();
         loop {
             if stop.load(Ordering::Relaxed) {
@@ -510,7 +526,9 @@ impl SeedLinkClient {
                 }
             }
             let before = self.counters.packets;
-            let got = conn.poll_frames(TICK, &mut |frame| self.on_frame(protocol, frame, sink))?;
+            let got = conn
+                .poll_frames(TICK, &mut |frame| self.on_frame(protocol, frame, sink))
+                .map_err(|e| self.connection_fault(e, conn.pending_bytes()))?;
             sink.tick(&self.counters);
             if !resumes_checked && connected.elapsed() > idle {
                 resumes_checked = true;
@@ -522,10 +540,9 @@ impl SeedLinkClient {
             if got {
                 last_packet = Instant::now();
             } else if last_packet.elapsed() > idle {
-                return Err(LinkError::Timeout(format!(
-                    "no packet for {} s",
-                    self.config.idle_timeout_s
-                )));
+                let timeout =
+                    LinkError::Timeout(format!("no packet for {} s", self.config.idle_timeout_s));
+                return Err(self.connection_fault(timeout, conn.pending_bytes()));
             }
             let committed = self.commit(sink);
             if self.counters.packets > before || committed {
@@ -535,6 +552,38 @@ impl SeedLinkClient {
                     last_durable = Instant::now();
                 }
             }
+        }
+    }
+
+    /// A connection's failure, counted and told in full: bytes that are not a packet
+    /// (`protocol_errors`), or an end — closed, or silent — in the middle of a packet
+    /// (`partial_packets`; `partial` bytes of it had arrived). Both name the last packet
+    /// received before (its station and number), which is where the stream resumes.
+    fn connection_fault(&mut self, error: LinkError, partial: usize) -> LinkError {
+        let after = match &self.last_packet {
+            Some(p) => format!("after {p}"),
+            None => "before any data packet of this connection".to_string(),
+        };
+        match error {
+            LinkError::Protocol(problem) => {
+                self.counters.protocol_errors += 1;
+                LinkError::Protocol(format!(
+                    "{problem} ({after}; counted: dropping the connection)"
+                ))
+            }
+            LinkError::Eof if partial > 0 => {
+                self.counters.partial_packets += 1;
+                LinkError::Io(format!(
+                    "the server closed the connection in the middle of a packet ({partial} bytes of it received, dropped; {after}; counted)"
+                ))
+            }
+            LinkError::Timeout(problem) if partial > 0 => {
+                self.counters.partial_packets += 1;
+                LinkError::Timeout(format!(
+                    "{problem} in the middle of a packet ({partial} bytes of it received, dropped; {after}; counted)"
+                ))
+            }
+            other => other,
         }
     }
 
@@ -652,19 +701,44 @@ impl SeedLinkClient {
     /// Judges and delivers one packet.
     fn on_frame(&mut self, protocol: Protocol, frame: Frame<'_>, sink: &mut dyn RecordSink) {
         self.counters.packets += 1;
-        let Some(sequence) = frame.sequence.filter(|_| frame.is_miniseed_data()) else {
+        if !frame.is_miniseed_data() {
             self.counters.other_packets += 1;
             return;
+        }
+        // `None`: a v3 number that cannot be read (the record goes by its start time only).
+        let sequence = frame.sequence;
+        let label = match (sequence, frame.unreadable_sequence) {
+            (Some(n), _) => n.to_string(),
+            (None, text) => format!(
+                "with the unreadable number {:?}",
+                printable(&String::from_utf8_lossy(text.unwrap_or_default()), 16)
+            ),
         };
-        let source = format!("seedlink {} packet {sequence}", self.config.server);
+        let source = format!("seedlink {} packet {label}", self.config.server);
         let file = match parse_mseed(frame.payload, Path::new(&source)) {
             Ok(f) => f,
             Err(e) => {
+                // Named by the stream its header gives, if any (the v3 packet does not say).
+                let stream = record_stream_id(frame.payload)
+                    .or_else(|| (!frame.station.is_empty()).then(|| frame.station.to_string()))
+                    .unwrap_or_else(|| "(unknown stream)".into());
                 self.counters.malformed += 1;
-                self.log_once("malformed", frame.station.to_string(), &e.to_string());
+                self.last_packet = Some(format!(
+                    "station {}'s packet {label}",
+                    printable(&stream, STATION_CHARS)
+                ));
+                let message = format!(
+                    "station {}: packet {label}: record dropped, it cannot be decoded: {}",
+                    printable(&stream, STATION_CHARS),
+                    e.problem
+                );
+                self.log_once("malformed", stream, &message);
                 return;
             }
         };
+        if sequence.is_none() {
+            self.counters.unreadable_sequences += 1;
+        }
         for channel in &file.channels {
             let id = channel.id();
             if !self
@@ -687,6 +761,20 @@ impl SeedLinkClient {
             if !self.heard.contains(&key) {
                 self.heard.insert(key.clone());
             }
+            self.last_packet = Some(format!(
+                "station {}'s packet {label}",
+                printable(&key, STATION_CHARS)
+            ));
+            if sequence.is_none() {
+                self.log_once(
+                    "unreadable sequence",
+                    key.clone(),
+                    &format!(
+                        "station {}: packet {label}: its record {id} goes by its start time (a duplicate if delivered before), never a resume point",
+                        printable(&key, STATION_CHARS)
+                    ),
+                );
+            }
             let saved = self
                 .state
                 .stations
@@ -702,7 +790,11 @@ impl SeedLinkClient {
                 .delivered
                 .entry(id.clone())
                 .or_insert_with(|| DeliveredStarts::from_latest(latest));
-            let verdict = judge(protocol, &station, sequence, delivered, start_ns);
+            let verdict = match sequence {
+                Some(seq) => judge(protocol, &station, seq, delivered, start_ns),
+                None if delivered.contains(start_ns) => Verdict::Duplicate,
+                None => Verdict::Deliver { missing: 0 },
+            };
             if verdict == Verdict::Duplicate {
                 self.counters.duplicates += 1;
                 continue;
@@ -717,15 +809,21 @@ impl SeedLinkClient {
             delivered.insert(start_ns);
             self.counters.delivered += 1;
             let tracker = self.sequences.entry(key.clone()).or_default();
-            let undone = tracker.accept(protocol, sequence, verdict);
-            let resume = tracker.resume_point();
+            let (undone, resume) = match sequence {
+                Some(seq) => (
+                    tracker.accept(protocol, seq, verdict),
+                    tracker.resume_point(),
+                ),
+                // Unnumbered: the numbering is not touched, nor the resume point.
+                None => (0, None),
+            };
             match verdict {
                 Verdict::Duplicate => {}
                 Verdict::Deliver { missing } => self.counters.missing_sequences += missing,
                 Verdict::DeliverAfterReset => {
                     self.counters.server_resets += 1;
                     tracing::info!(
-                        "seedlink {}: station {}: sequence {sequence} after {} with new data: the server restarted its numbering",
+                        "seedlink {}: station {}: sequence {label} after {} with new data: the server restarted its numbering",
                         self.config.server,
                         printable(&key, STATION_CHARS),
                         station.last().unwrap_or(0)
@@ -736,7 +834,7 @@ impl SeedLinkClient {
                     self.counters.missing_sequences =
                         self.counters.missing_sequences.saturating_sub(undone);
                     let line = format!(
-                        "seedlink {}: station {}: sequence number {odd} was out of line (new data numbered {sequence} follows {}): one odd number, not a server restart; never a resume point (counted; logged at most once a minute)",
+                        "seedlink {}: station {}: sequence number {odd} was out of line (new data numbered {label} follows {}): one odd number, not a server restart; never a resume point (counted; logged at most once a minute)",
                         self.config.server,
                         printable(&key, STATION_CHARS),
                         station.resume_point().unwrap_or(0)

@@ -46,7 +46,7 @@ use super::{Record, RecordError};
 use crate::azimuth::Azimuth;
 use steim::{decode_steim, encode_steim2, fits, Steim};
 
-pub use reader::{parse_mseed, read_mseed};
+pub use reader::{parse_mseed, read_mseed, record_stream_id};
 pub use writer::{
     encode_mseed, write_mseed, Blockette1001, ChannelData, FloatEncoding, RecordLength,
     SampleRateError, SampleRateFactors, Samples, SeedId, SeedIdError, WriteOptions,

@@ -40,6 +40,45 @@ pub fn parse_mseed(bytes: &[u8], source: &Path) -> Result<MseedFile, RecordError
     })
 }
 
+/// The stream (`NET.STA.LOC.CHA`) a record's header names, read without decoding anything
+/// else: for naming a record that cannot be decoded (a corrupt time, sample count or Steim
+/// frame) in a log line. MiniSEED 2: the fixed header's codes; MiniSEED 3: the FDSN source
+/// identifier. `None` when the bytes do not start like a record or the codes are not
+/// printable ASCII.
+#[must_use]
+pub fn record_stream_id(bytes: &[u8]) -> Option<String> {
+    let printable = |raw: &[u8]| -> Option<String> {
+        raw.iter()
+            .all(|&c| c.is_ascii_graphic() || c == b' ' || c == 0)
+            .then(|| {
+                raw.iter()
+                    .filter(|&&c| c != 0)
+                    .map(|&c| char::from(c))
+                    .collect::<String>()
+                    .trim()
+                    .to_string()
+            })
+    };
+    let (net, sta, loc, cha) = match signature(bytes) {
+        Signature::None => return None,
+        Signature::V2 => {
+            let fixed = bytes.get(..20)?;
+            (
+                printable(&fixed[18..20])?,
+                printable(&fixed[8..13])?,
+                printable(&fixed[13..15])?,
+                printable(&fixed[15..18])?,
+            )
+        }
+        Signature::V3 => {
+            let sid_length = usize::from(*bytes.get(33)?);
+            let sid = bytes.get(V3_FIXED..V3_FIXED + sid_length)?;
+            parse_fdsn_sid(&printable(sid)?).ok()?
+        }
+    };
+    Some(format!("{net}.{sta}.{loc}.{cha}"))
+}
+
 /// Warnings, counted so that one problem repeated in many records is one line.
 #[derive(Default)]
 struct Warnings {
@@ -944,6 +983,16 @@ mod tests {
         assert_eq!(time_ns(2000, 61, 0, 0, 0, 0), Ok(951_868_800 * NS_PER_S));
         assert!(time_ns(2001, 366, 0, 0, 0, 0).is_err());
         assert!(time_ns(2001, 1, 24, 0, 0, 0).is_err());
+    }
+
+    #[test]
+    fn a_record_that_cannot_be_decoded_still_names_its_stream() {
+        let mut v2 = b"000001D XSTN 00HN3XX".to_vec();
+        v2.resize(64, 0);
+        // Year 0: not decodable, but the codes are there.
+        assert!(parse_mseed(&v2, Path::new("r")).is_err());
+        assert_eq!(record_stream_id(&v2).as_deref(), Some("XX.XSTN.00.HN3"));
+        assert_eq!(record_stream_id(b"garbage garbage garbage"), None);
     }
 
     #[test]
