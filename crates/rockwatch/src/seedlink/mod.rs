@@ -822,12 +822,15 @@ impl SeedLinkClient {
                 Verdict::Deliver { missing } => self.counters.missing_sequences += missing,
                 Verdict::DeliverAfterReset => {
                     self.counters.server_resets += 1;
-                    tracing::info!(
-                        "seedlink {}: station {}: sequence {label} after {} with new data: the server restarted its numbering",
+                    // Rate-limited per station (it was logged per packet when a server kept
+                    // renumbering, issue 24 item 8); every one is counted.
+                    let line = format!(
+                        "seedlink {}: station {}: sequence {label} after {} with new data: the server restarted its numbering (counted; logged at most once a minute)",
                         self.config.server,
                         printable(&key, STATION_CHARS),
                         station.last().unwrap_or(0)
                     );
+                    self.log.log(&key, "server reset", &line);
                 }
                 Verdict::DeliverAfterOutlier { odd } => {
                     self.counters.sequence_outliers += 1;
