@@ -1,16 +1,25 @@
 //! Cost of the 3-D rigid-body rock (crates/rockwatch-core/src/rocking3d) per rock per input
 //! sample at 100 Hz: (a) at rest under weak motion (the closed-form rest test), (b) rocking
-//! (a 0.4 × 0.6 × 2.0 m box under a 1 Hz sine above its uplift threshold, released tilted so
-//! that it rocks throughout). Prints the number of 3-D rocks one core runs at 2× real time
-//! while all of them rock; and (c) in the engine, a quiet station's 3-D rocks (`model = "3d"`)
+//! (a 0.4 × 0.6 × 2.0 m box under a 1 Hz sine above its uplift threshold, released tilted: it
+//! rocks with a growing amplitude and falls after about 2.2 s; only the samples that start
+//! with the rock moving are timed and counted, so an overturned rock's free samples do not
+//! dilute the figure). Prints the number of 3-D rocks one core runs at 2× real time while all
+//! of them rock; and (c) in the engine, a quiet station's 3-D rocks (`model = "3d"`)
 //! against as many planar blocks, per rock per sample (the rest group on). Run:
 //! `cargo bench --bench rocking_3d` (compare benches/block_step.rs for the planar block).
+//!
+//! Instruction counts (noise-free on a shared machine): with `ROCKING_3D_SAMPLES=N` in the
+//! environment the binary runs only the rocking case (b) for at most N samples from its
+//! release (while it moves),
+//! prints the rock's step and solver counters, and exits without Criterion, e.g.
+//! `ROCKING_3D_SAMPLES=300 valgrind --tool=callgrind target/release/deps/rocking_3d-…`
+//! (instructions per sample = the total of `advance` / N).
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, Criterion};
 use nalgebra::{UnitQuaternion, Vector3};
 use rockwatch_core::mesh::contact::{RockGeometry, UpAxis};
 use rockwatch_core::mesh::TriMesh;
-use rockwatch_core::rocking3d::{GroundAccel3d, Rock3d, Rock3dOptions, RockBody};
+use rockwatch_core::rocking3d::{GroundAccel3d, Mode3d, Rock3d, Rock3dOptions, RockBody};
 use std::hint::black_box;
 
 const DT: f64 = 0.01; // 100 Hz
@@ -55,10 +64,29 @@ fn sine(amp: f64, f_hz: f64, n: usize) -> Vec<GroundAccel3d> {
         .collect()
 }
 
+/// The rocking case (b): a 1 Hz sine above the uplift threshold.
+fn strong_sine() -> Vec<GroundAccel3d> {
+    sine(2.3, 1.0, 1000)
+}
+
+/// The box of case (b) released at a tilt of 0.05 rad about its west edge.
+fn released(body: &RockBody) -> Rock3d {
+    let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -0.05);
+    let x = Vector3::new(-0.2, 0.0, 0.0) - q * Vector3::new(-0.2, 0.0, -1.0);
+    Rock3d::released(
+        body.clone(),
+        0.8,
+        0.8,
+        Rock3dOptions::default(),
+        (x, q, Vector3::zeros(), Vector3::zeros()),
+    )
+    .unwrap()
+}
+
 fn bench(c: &mut Criterion) {
     let body = box_body();
     let weak = sine(0.5, 2.0, 1000);
-    let strong = sine(2.3, 1.0, 1000);
+    let strong = strong_sine();
     let mut group = c.benchmark_group("rocking_3d");
     group.bench_function("at rest, per sample", |bch| {
         let mut rock = Rock3d::new(body.clone(), 0.8, 0.8, Rock3dOptions::default()).unwrap();
@@ -70,33 +98,18 @@ fn bench(c: &mut Criterion) {
             black_box(rock.mode());
         });
     });
-    // Rocking: released at a tilt of 0.05 rad about the west edge.
-    let released = || {
-        let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -0.05);
-        let x = Vector3::new(-0.2, 0.0, 0.0) - q * Vector3::new(-0.2, 0.0, -1.0);
-        Rock3d::released(
-            body.clone(),
-            0.8,
-            0.8,
-            Rock3dOptions::default(),
-            (x, q, Vector3::zeros(), Vector3::zeros()),
-        )
-        .unwrap()
-    };
     let mut rocking_ns = 0.0;
     group.bench_function("rocking, per sample", |bch| {
         bch.iter_custom(|iters| {
             let mut total = std::time::Duration::ZERO;
             let mut done = 0u64;
             while done < iters {
-                let mut rock = released();
+                let mut rock = released(&body);
                 let n = (iters - done).min(300);
                 let start = std::time::Instant::now();
-                for k in 0..n as usize {
-                    rock.advance(DT, strong[k], strong[k + 1]).unwrap();
-                }
+                let rocked = rock_while_moving(&mut rock, &strong, n as usize);
                 total += start.elapsed();
-                done += n;
+                done += rocked as u64;
             }
             rocking_ns = total.as_nanos() as f64 / iters as f64;
             total
@@ -207,5 +220,45 @@ fn bench_engine_at_rest(c: &mut Criterion) {
     );
 }
 
+/// Advances `rock` over at most `n` samples of `input` (from its first), stopping before a
+/// sample that starts with the rock no longer moving; returns the samples advanced.
+fn rock_while_moving(rock: &mut Rock3d, input: &[GroundAccel3d], n: usize) -> usize {
+    for k in 0..n {
+        if rock.mode() != Mode3d::Moving {
+            return k;
+        }
+        rock.advance(DT, input[k], input[k + 1]).unwrap();
+    }
+    n
+}
+
+/// `ROCKING_3D_SAMPLES=N`: case (b) alone for at most N samples while the rock moves (for
+/// callgrind; module doc).
+fn rocking_samples_only(n: usize) {
+    let strong = strong_sine();
+    let mut rock = released(&box_body());
+    let rocked = rock_while_moving(&mut rock, &strong, n);
+    let s = rock.stats();
+    println!(
+        "{rocked} samples rocked: mode {:?}, steps {}, max sweeps {}, unconverged {}, max tilt/α {:.5}",
+        rock.mode(),
+        s.n_steps,
+        s.max_sweeps,
+        s.n_unconverged,
+        s.max_tilt_over_alpha
+    );
+}
+
 criterion_group!(benches, bench, bench_engine_at_rest);
-criterion_main!(benches);
+
+fn main() {
+    if let Some(n) = std::env::var("ROCKING_3D_SAMPLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        rocking_samples_only(n);
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

@@ -593,8 +593,10 @@ fn a_3d_rock_member_overturns_where_the_planar_block_of_its_face_normal_does() {
     // one-cycle sines at 1 and 2 Hz sampled at 200 Hz, scaled to 0.9 and 1.15 of the planar
     // block's smallest overturning amplitude (2.481 and 4.317 m/s²), the record along 120° and
     // 300° (both faces): the same status in every run, and the standing peaks within 2 %.
-    // (Nearer the static uplift g·b/h the rocking is a few 10⁻⁴ rad and the two formulations
-    // resolve it differently: at 0.85× of the 1 Hz case θ/α is 0.0119 in 3-D, 0.0045 planar.)
+    // (Nearer the static uplift g·b/h the rocking is a few 10⁻⁴ rad and the peaks are
+    // sensitive: at 0.85× of the 1 Hz case along east θ/α was 0.0119 in 3-D against 0.0045
+    // planar with 1 ms steps and an early-stopped solver, 0.00446 in both now;
+    // docs/rocking-3d.md.)
     use rockwatch_core::mesh::contact::{RockGeometry, UpAxis};
     use rockwatch_core::mesh::TriMesh;
     use rockwatch_core::rocking3d::RockBody;
