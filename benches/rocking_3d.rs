@@ -25,31 +25,9 @@ use std::hint::black_box;
 const DT: f64 = 0.01; // 100 Hz
 
 fn box_body() -> RockBody {
+    // 0.4 × 0.6 × 2.0 m, centred on the origin.
     let (b, d, h) = (0.2, 0.3, 2.0);
-    let base = [(-b, -d), (b, -d), (b, d), (-b, d)];
-    let mut vertices: Vec<[f64; 3]> = base.iter().map(|&(x, y)| [x, y, 0.0]).collect();
-    vertices.extend(base.iter().map(|&(x, y)| [x, y, h]));
-    let faces = vec![
-        [0, 2, 1],
-        [0, 3, 2],
-        [4, 5, 6],
-        [4, 6, 7],
-        [0, 1, 5],
-        [0, 5, 4],
-        [1, 2, 6],
-        [1, 6, 5],
-        [2, 3, 7],
-        [2, 7, 6],
-        [3, 0, 4],
-        [3, 4, 7],
-    ];
-    let mut mesh = TriMesh {
-        source: "bench box".into(),
-        face_lines: vec![0; faces.len()],
-        vertices,
-        faces,
-    };
-    mesh.validate().expect("box");
+    let mesh = TriMesh::prism(&[(-b, -d), (b, -d), (b, d), (-b, d)], h).expect("box");
     let geometry = RockGeometry::new(&mesh).expect("geometry");
     let rest = geometry.rest(UpAxis::PlusZ, 0.0).expect("rest");
     RockBody::from_mesh(&geometry, &rest, 2500.0).expect("body")

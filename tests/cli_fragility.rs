@@ -346,6 +346,17 @@ fn csv_and_at2_records_mix_and_give_the_same_ims() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A box mesh 0.4 m (east) × 0.3 m (north) × 1.2 m (up), centred on the origin: `dir/box.obj`.
+fn write_box_obj(dir: &std::path::Path) {
+    std::fs::write(
+        dir.join("box.obj"),
+        "v -0.2 -0.15 0\nv 0.2 -0.15 0\nv 0.2 0.15 0\nv -0.2 0.15 0\n\
+         v -0.2 -0.15 1.2\nv 0.2 -0.15 1.2\nv 0.2 0.15 1.2\nv -0.2 0.15 1.2\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
+    )
+    .unwrap();
+}
+
 /// `runs.csv` rows as (record, scale, incidence, status, max |θ|/α).
 fn runs(path: &std::path::Path) -> Vec<(String, f64, f64, String, f64)> {
     let csv = std::fs::read_to_string(path).unwrap();
@@ -371,13 +382,7 @@ fn a_meshed_catalogue_rock_is_analysed_in_each_of_its_directions() {
     // planar body is the 0.3 × 1.2 m rectangle; along 90° only the east one (0.4 × 1.2 m).
     // So every run must match the rectangle run with the flags, an independent path (no mesh).
     let dir = temp_dir("mesh");
-    std::fs::write(
-        dir.join("box.obj"),
-        "v -0.2 -0.15 0\nv 0.2 -0.15 0\nv 0.2 0.15 0\nv -0.2 0.15 0\n\
-         v -0.2 -0.15 1.2\nv 0.2 -0.15 1.2\nv 0.2 0.15 1.2\nv -0.2 0.15 1.2\n\
-         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
-    )
-    .unwrap();
+    write_box_obj(&dir);
     let catalogue = dir.join("cat.toml");
     std::fs::write(
         &catalogue,
@@ -556,13 +561,7 @@ fn a_mesh_rock_in_3d_gets_the_planar_status_along_a_face_normal_from_the_flags_a
     // from a catalogue entry with model = "3d" and heading 90° (its mesh north points east)
     // sees incidence 90° exactly as the flags' rock sees 0°.
     let dir = temp_dir("mesh-3d");
-    std::fs::write(
-        dir.join("box.obj"),
-        "v -0.2 -0.15 0\nv 0.2 -0.15 0\nv 0.2 0.15 0\nv -0.2 0.15 0\n\
-         v -0.2 -0.15 1.2\nv 0.2 -0.15 1.2\nv 0.2 0.15 1.2\nv -0.2 0.15 1.2\n\
-         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
-    )
-    .unwrap();
+    write_box_obj(&dir);
     let catalogue = dir.join("cat.toml");
     std::fs::write(
         &catalogue,

@@ -353,22 +353,10 @@ fn contact_tolerance_widens_the_patch_to_a_chamfer_within_it() {
 }
 
 /// An upright prism: the convex polygon `base` (east, north; m; counter-clockwise seen from
-/// above) from z = 0 to z = `height`, closed and outward.
+/// above) from z = 0 to z = `height`, closed and outward ([`TriMesh::prism`], whose volume,
+/// centre and inertia the closed-form tests here check).
 fn upright_prism(base: &[(f64, f64)], height: f64) -> TriMesh {
-    let n = base.len();
-    let mut vertices: Vec<P> = base.iter().map(|&(x, y)| [x, y, 0.0]).collect();
-    vertices.extend(base.iter().map(|&(x, y)| [x, y, height]));
-    let mut faces = Vec::new();
-    for k in 1..n - 1 {
-        faces.push([0, k + 1, k]); // bottom, normal −z
-        faces.push([n, n + k, n + k + 1]); // top, normal +z
-    }
-    for i in 0..n {
-        let j = (i + 1) % n;
-        faces.push([i, j, n + j]);
-        faces.push([i, n + j, n + i]);
-    }
-    mesh(vertices, faces)
+    TriMesh::prism(base, height).expect("valid prism")
 }
 
 /// The quasi-static uplift of a rigid upright prism of convex base `base` (counter-clockwise,

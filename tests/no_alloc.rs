@@ -283,34 +283,7 @@ fn box_body() -> rockwatch_core::rocking3d::RockBody {
     use rockwatch_core::mesh::contact::{RockGeometry, UpAxis};
     use rockwatch_core::mesh::TriMesh;
     use rockwatch_core::rocking3d::RockBody;
-    let (b, d, h) = (0.4, 0.6, 2.0);
-    let mut vertices = Vec::new();
-    for z in [0.0, h] {
-        for (x, y) in [(0.0, 0.0), (b, 0.0), (b, d), (0.0, d)] {
-            vertices.push([x, y, z]);
-        }
-    }
-    let faces = vec![
-        [0, 2, 1],
-        [0, 3, 2],
-        [4, 5, 6],
-        [4, 6, 7],
-        [0, 1, 5],
-        [0, 5, 4],
-        [1, 2, 6],
-        [1, 6, 5],
-        [2, 3, 7],
-        [2, 7, 6],
-        [3, 0, 4],
-        [3, 4, 7],
-    ];
-    let mesh = TriMesh {
-        source: "generated".into(),
-        face_lines: vec![0; faces.len()],
-        vertices,
-        faces,
-    };
-    let geometry = RockGeometry::new(&mesh).unwrap();
+    let geometry = RockGeometry::new(&TriMesh::cuboid(0.4, 0.6, 2.0).unwrap()).unwrap();
     let rest = geometry.rest(UpAxis::PlusZ, 0.0).unwrap();
     RockBody::from_mesh(&geometry, &rest, 2500.0).unwrap()
 }

@@ -451,40 +451,47 @@ fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
 /// Set in the full-disk test re-executed in its own mount namespace.
 const IN_MOUNT_NS: &str = "ROCKWATCH_TEST_IN_MOUNT_NS";
 
+/// Runs the test `name` again in a private mount namespace (`unshare -m`: it may mount a
+/// tmpfs; root, as in CI) and asserts it passed there; returns true when already inside it
+/// (the caller then does the work).
+fn reexec_in_mount_ns(name: &str) -> bool {
+    if std::env::var_os(IN_MOUNT_NS).is_some() {
+        return true;
+    }
+    let exe = std::env::current_exe().unwrap();
+    let out = std::process::Command::new("timeout")
+        .args([
+            "-k",
+            "5",
+            "120",
+            "unshare",
+            "-m",
+            "--propagation",
+            "private",
+        ])
+        .arg(exe)
+        .args(["--exact", name, "--nocapture", "--test-threads=1"])
+        .env(IN_MOUNT_NS, "1")
+        .output()
+        .expect("runs timeout and unshare (coreutils, util-linux)");
+    assert!(
+        out.status.success() && String::from_utf8_lossy(&out.stdout).contains("1 passed"),
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    false
+}
+
 /// Issue 11, finding 5: the node exited 1 at the first alert it could not journal. On a real
 /// full file system (a 64 KiB tmpfs, mounted in a private mount namespace: needs root, as in
 /// CI), the runtime now publishes every alert flagged `journal_pending`, counts the failures,
 /// and journals everything, in order and without a torn line, once space returns.
 #[test]
 fn a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns() {
-    if std::env::var_os(IN_MOUNT_NS).is_none() {
-        let exe = std::env::current_exe().unwrap();
-        let out = std::process::Command::new("timeout")
-            .args([
-                "-k",
-                "5",
-                "120",
-                "unshare",
-                "-m",
-                "--propagation",
-                "private",
-            ])
-            .arg(exe)
-            .args([
-                "--exact",
-                "a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns",
-                "--nocapture",
-                "--test-threads=1",
-            ])
-            .env(IN_MOUNT_NS, "1")
-            .output()
-            .expect("runs timeout and unshare (coreutils, util-linux)");
-        assert!(
-            out.status.success() && String::from_utf8_lossy(&out.stdout).contains("1 passed"),
-            "{}\n{}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
+    if !reexec_in_mount_ns(
+        "a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns",
+    ) {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -577,29 +584,7 @@ fn a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns()
 #[test]
 fn a_node_starts_on_a_full_disk_degraded_and_journals_once_there_is_room() {
     const NAME: &str = "a_node_starts_on_a_full_disk_degraded_and_journals_once_there_is_room";
-    if std::env::var_os(IN_MOUNT_NS).is_none() {
-        let exe = std::env::current_exe().unwrap();
-        let out = std::process::Command::new("timeout")
-            .args([
-                "-k",
-                "5",
-                "120",
-                "unshare",
-                "-m",
-                "--propagation",
-                "private",
-            ])
-            .arg(exe)
-            .args(["--exact", NAME, "--nocapture", "--test-threads=1"])
-            .env(IN_MOUNT_NS, "1")
-            .output()
-            .expect("runs timeout and unshare (coreutils, util-linux)");
-        assert!(
-            out.status.success() && String::from_utf8_lossy(&out.stdout).contains("1 passed"),
-            "{}\n{}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
+    if !reexec_in_mount_ns(NAME) {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

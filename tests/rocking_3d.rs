@@ -23,8 +23,6 @@ use rockwatch_core::rocking3d::{
 use rockwatch_core::simulate::{simulate, SimulationOptions};
 use rockwatch_core::STANDARD_GRAVITY_MPS2 as G;
 
-type P = [f64; 3];
-
 fn repo(path: &str) -> PathBuf {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join(path)
 }
@@ -32,31 +30,7 @@ fn repo(path: &str) -> PathBuf {
 /// A vertical prism: the convex polygon `base` (east, north; counter-clockwise seen from
 /// above) extruded from z = 0 to z = `height`.
 fn prism(base: &[(f64, f64)], height: f64) -> TriMesh {
-    let n = base.len();
-    let mut vertices: Vec<P> = base.iter().map(|&(x, y)| [x, y, 0.0]).collect();
-    vertices.extend(base.iter().map(|&(x, y)| [x, y, height]));
-    let mut faces = Vec::new();
-    for k in 1..n - 1 {
-        faces.push([0, k + 1, k]); // bottom, outward −z
-        faces.push([n, n + k, n + k + 1]); // top, outward +z
-    }
-    for i in 0..n {
-        let j = (i + 1) % n;
-        faces.push([i, j, n + j]);
-        faces.push([i, n + j, n + i]);
-    }
-    mesh(vertices, faces)
-}
-
-fn mesh(vertices: Vec<P>, faces: Vec<[usize; 3]>) -> TriMesh {
-    let mut m = TriMesh {
-        source: "generated".into(),
-        face_lines: vec![0; faces.len()],
-        vertices,
-        faces,
-    };
-    m.validate().expect("valid mesh");
-    m
+    TriMesh::prism(base, height).expect("valid prism")
 }
 
 /// A box `b` (east) × `d` (north) × `h` (up), turned by `turn_deg` about the vertical

@@ -197,12 +197,7 @@ pub fn plot_simulation(
             ),
         ],
     };
-    by_extension(
-        path,
-        SIZE,
-        |root| history.draw(root),
-        |root| history.draw(root),
-    )
+    history.write(path)
 }
 
 /// Writes the three-panel plot of a 3-D simulation to `path` (PNG or SVG by extension): the
@@ -249,12 +244,7 @@ pub fn plot_simulation_3d(path: &Path, trace: &Trace3d, title: &str) -> Result<(
             ),
         ],
     };
-    by_extension(
-        path,
-        SIZE,
-        |root| history.draw(root),
-        |root| history.draw(root),
-    )
+    history.write(path)
 }
 
 /// A time-history figure: a title, three panels against time, the response mode shaded.
@@ -266,6 +256,11 @@ struct History<'a> {
 }
 
 impl History<'_> {
+    /// Writes the figure to `path` (PNG or SVG by extension, [`by_extension`]).
+    fn write(&self, path: &Path) -> Result<(), PlotError> {
+        by_extension(path, SIZE, |root| self.draw(root), |root| self.draw(root))
+    }
+
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
     where
         DB::ErrorType: 'static,

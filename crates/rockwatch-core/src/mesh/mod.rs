@@ -246,6 +246,40 @@ impl MeshBuilder {
 }
 
 impl TriMesh {
+    /// A vertical prism: the convex polygon `base` (x east, y north, m; counter-clockwise seen
+    /// from above) extruded from z = 0 to z = `height_m` (z up), validated. The shapes of the
+    /// tests, benchmarks and docs (boxes, triangular and pentagonal prisms) whose volume,
+    /// centre of mass and pivots have closed forms.
+    pub fn prism(base: &[(f64, f64)], height_m: f64) -> Result<TriMesh, MeshError> {
+        let n = base.len();
+        let mut vertices: Vec<[f64; 3]> = base.iter().map(|&(x, y)| [x, y, 0.0]).collect();
+        vertices.extend(base.iter().map(|&(x, y)| [x, y, height_m]));
+        let mut faces = Vec::with_capacity(4 * n);
+        for k in 1..n.saturating_sub(1) {
+            faces.push([0, k + 1, k]); // bottom, outward −z
+            faces.push([n, n + k, n + k + 1]); // top, outward +z
+        }
+        for i in 0..n {
+            let j = (i + 1) % n;
+            faces.push([i, j, n + j]);
+            faces.push([i, n + j, n + i]);
+        }
+        let mut mesh = TriMesh {
+            source: format!("prism of {n} sides, {height_m} m"),
+            face_lines: vec![0; faces.len()],
+            vertices,
+            faces,
+        };
+        mesh.validate()?;
+        Ok(mesh)
+    }
+
+    /// A box `b` (x, east) × `d` (y, north) × `h` (z, up) m with its base's corner at the
+    /// origin ([`TriMesh::prism`] of the rectangle).
+    pub fn cuboid(b: f64, d: f64, h: f64) -> Result<TriMesh, MeshError> {
+        TriMesh::prism(&[(0.0, 0.0), (b, 0.0), (b, d), (0.0, d)], h)
+    }
+
     /// Reads a mesh file (format by extension), merges duplicate vertices and validates it
     /// ([`TriMesh::validate`]).
     pub fn read(path: impl AsRef<Path>) -> Result<TriMesh, MeshError> {
