@@ -110,7 +110,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
 /// Simulates a mesh rock in 3-D (docs/rocking-3d.md) as the flags say.
 fn run_3d(mesh: &MeshPlan, args: SimulateArgs) -> anyhow::Result<()> {
     if args.rtol.is_some() {
-        bail!("--rtol is not a setting of --model 3d (fixed sub-steps of at most 1 ms, docs/rocking-3d.md)");
+        bail!("--rtol is not a setting of --model 3d (fixed sub-steps of at most 0.25 ms, docs/rocking-3d.md)");
     }
     if mesh.friction.restitution.is_some() {
         bail!("--restitution is not available with --model 3d (impacts are plastic, docs/rocking-3d.md)");
