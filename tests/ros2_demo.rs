@@ -63,6 +63,29 @@ fn demo_runs_on_loopback_only_and_reports_the_slender_pillar_overturned() {
     for needle in ["max |θ|/α:", "P(over):", "no data:    CI.SYL.00", "Next: "] {
         assert!(stdout.contains(needle), "{needle:?} missing\n{stdout}");
     }
+    // The suggested next command works as printed, from the repository (issue 20 item 8: it
+    // lacked the required --station).
+    let next = stdout
+        .lines()
+        .find(|l| l.starts_with("Next: "))
+        .and_then(|l| l.split('`').nth(1))
+        .unwrap_or_else(|| panic!("no command on the Next line\n{stdout}"));
+    let words: Vec<&str> = next.split_whitespace().collect();
+    assert_eq!(words[..2], ["rockwatch", "monitor"], "{next}");
+    let run = std::process::Command::new(rockwatch())
+        .args(&words[1..])
+        .current_dir(repo())
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{next}: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        String::from_utf8_lossy(&run.stdout).contains("rrs-slender-pillar"),
+        "{next}"
+    );
 }
 
 #[test]

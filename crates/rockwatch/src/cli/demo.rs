@@ -402,6 +402,6 @@ fn print_blocks(outcome: &DemoOutcome) {
         rockwatch::ros2::ALERTS_TOPIC
     );
     outln!(
-        "Next: `rockwatch monitor --config config/node.toml --record FILE.AT2` runs your own record through the same engine; `rockwatch node --config config/node.toml` runs the node live (README: `rockwatch node`)."
+        "Next: `rockwatch monitor --config config/node.toml --station {STATION} --record tests/data/records/Rinaldi228.AT2 --azimuth {AZIMUTH_DEG}` runs a record through the same engine offline (your own: --record FILE.AT2 with its station and azimuth, or --mseed FILE); `rockwatch node --config config/node.toml` runs the node live (README: `rockwatch node`)."
     );
 }
