@@ -60,6 +60,12 @@ pub const LOG_ENV: &str = "ROCKWATCH_LOG";
 /// The filter without `--log-level`, `RUST_LOG` or `ROCKWATCH_LOG`.
 pub const DEFAULT_FILTER: &str = "error,rockwatch=info";
 
+/// The default filter of `rockwatch demo`: [`DEFAULT_FILTER`] without the node's alert lines
+/// (target `rockwatch::alert`), which the demo shows in its own table; their "data → arrival"
+/// figure (the replay's clock, not a latency) interleaved with it (issue 20 item 9).
+/// `--log-level rockwatch=info` brings them back.
+pub const DEMO_FILTER: &str = "error,rockwatch=info,rockwatch::alert=off";
+
 /// How records are written on stderr.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum LogFormat {

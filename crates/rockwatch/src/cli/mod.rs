@@ -236,7 +236,11 @@ pub fn run() -> ExitCode {
         level: cli
             .log_level
             .clone()
-            .or_else(|| ros_level.map(|l| l.as_str().to_ascii_lowercase())),
+            .or_else(|| ros_level.map(|l| l.as_str().to_ascii_lowercase()))
+            .or_else(|| {
+                matches!(cli.command, Command::Demo(_))
+                    .then(|| rockwatch::logging::DEMO_FILTER.to_string())
+            }),
         format: cli.log_format,
     };
     // The long-running services never wait for stderr (a stuck reader must not stall them).
