@@ -50,7 +50,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
+use std::sync::{Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 use rockwatch::acquire::{acquire_prometheus, acquire_summary, ClippingSection, PacketPublisher};
@@ -72,8 +72,35 @@ use seedlink_server::hostile::{
 };
 use seedlink_server::records_in_time_order;
 
-/// One scenario at a time (the outer test processes wait here for their namespace's run).
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+/// At most [`AT_ONCE`] scenarios at a time (the outer test processes wait here for their
+/// namespace's run). Each scenario is its own process in its own network namespace, with
+/// iceoryx2 services named by that process's id, so scenarios do not meet; they mostly wait
+/// (on the server's pace and acquire's timeouts), so two share the two cores of CI.
+static RUNNING: (Mutex<usize>, Condvar) = (Mutex::new(0), Condvar::new());
+const AT_ONCE: usize = 2;
+
+/// A place among the [`AT_ONCE`] running scenarios, given back when dropped.
+struct Slot;
+
+impl Slot {
+    fn take() -> Slot {
+        let (count, freed) = &RUNNING;
+        let mut running = count.lock().unwrap_or_else(|e| e.into_inner());
+        while *running >= AT_ONCE {
+            running = freed.wait(running).unwrap_or_else(|e| e.into_inner());
+        }
+        *running += 1;
+        Slot
+    }
+}
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        let (count, freed) = &RUNNING;
+        *count.lock().unwrap_or_else(|e| e.into_inner()) -= 1;
+        freed.notify_one();
+    }
+}
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Fault {
@@ -515,7 +542,7 @@ fn run(fault: Fault, restart: bool) {
 }
 
 fn scenario(name: &str, fault: Fault, restart: bool) {
-    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let _slot = Slot::take();
     if reexec_in_netns(name, 240) {
         if fault.of_the_link() {
             run_link(fault, restart);
@@ -666,7 +693,7 @@ fn run_until(
 }
 
 fn client_scenario(name: &str, body: fn()) {
-    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let _slot = Slot::take();
     if reexec_in_netns(name, 120) {
         body();
     }
