@@ -5,7 +5,8 @@ use std::path::Path;
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::engine::{
-    AccelPacket, AlertLevel, Engine, EngineConfig, Output, PbrSpec, StationId, StreamConfig,
+    AccelPacket, AlertLevel, Engine, EngineConfig, NoticeKind, Output, PbrSpec, StationId,
+    StreamConfig,
 };
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions};
@@ -245,7 +246,7 @@ fn nan_packet_is_rejected_and_other_stations_are_unaffected() {
     let rejected = out
         .iter()
         .filter(
-            |o| matches!(o, Output::Notice(n) if n.kind == "rejected" && n.station == "CI.RRS.00"),
+            |o| matches!(o, Output::Notice(n) if n.kind == NoticeKind::Rejected && n.station == "CI.RRS.00"),
         )
         .count();
     assert_eq!(rejected, 2);
@@ -696,7 +697,7 @@ fn a_changed_sample_rate_is_counted_and_the_blocks_go_on() {
     assert_eq!(stream.rate_changes, 1);
     assert!(out
         .iter()
-        .any(|o| matches!(o, Output::Notice(n) if n.kind == "rate_change")));
+        .any(|o| matches!(o, Output::Notice(n) if n.kind == NoticeKind::RateChange)));
     assert!(
         engine.summaries()[0].overturned,
         "the block keeps integrating at the new rate"
@@ -772,7 +773,7 @@ fn a_lift_off_is_reported_and_the_block_is_put_down_again() {
     let out = run(&mut engine, p);
     assert!(out
         .iter()
-        .any(|o| matches!(o, Output::Notice(n) if n.kind == "flight")));
+        .any(|o| matches!(o, Output::Notice(n) if n.kind == NoticeKind::Flight)));
     assert!(
         out.iter().any(|o| matches!(o, Output::EpisodeEnd { .. })),
         "the episode must end after landing"
@@ -922,16 +923,19 @@ fn a_few_packets_stamped_seconds_ahead_do_not_drop_the_real_data_behind_them() {
     // "already processed".
     assert_eq!(own.samples as usize, record.len() + 50, "{stream:?}");
     // The rewind is said, naming the station; nothing was dropped, so no drop is reported.
-    let notice = |kind: &str, out: &[Output]| {
+    let notice = |kind: NoticeKind, out: &[Output]| {
         out.iter()
             .any(|o| matches!(o, Output::Notice(n) if n.kind == kind && n.station == "CI.RRS.00"))
     };
-    assert!(notice("grid_rewound", &out), "no grid_rewound notice");
-    assert!(!notice("dropped", &out));
+    assert!(
+        notice(NoticeKind::GridRewound, &out),
+        "no grid_rewound notice"
+    );
+    assert!(!notice(NoticeKind::Dropped, &out));
     // Data that is dropped is said: a packet sent twice.
     let mut again = Vec::new();
     engine.process(clean[clean.len() - 1].clone(), 0, &mut again);
-    assert!(notice("dropped", &again), "{again:?}");
+    assert!(notice(NoticeKind::Dropped, &again), "{again:?}");
 }
 
 /// Finding 6: accelerations beyond the physical bound (default 20 g, after the station's
@@ -953,7 +957,7 @@ fn accelerations_beyond_the_physical_bound_are_rejected_and_counted() {
     assert_eq!(own.samples, 200);
     assert!(out
         .iter()
-        .any(|o| matches!(o, Output::Notice(n) if n.kind == "implausible")));
+        .any(|o| matches!(o, Output::Notice(n) if n.kind == NoticeKind::Implausible)));
     // With a gain, the bound applies to m/s²: 2e7 counts × 1e-5 = 200 m/s² > 20 g.
     let station = rockwatch_core::engine::StationConfig {
         gain_mps2_per_count: Some(1e-5),

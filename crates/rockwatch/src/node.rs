@@ -405,18 +405,21 @@ impl Emitter {
     fn notice(&mut self, notice: &Notice) {
         self.stats.notices += 1;
         match self.notice_log {
-            NoticeLog::RateLimited => self.log.log(&notice.station, notice.kind, &notice.message),
+            NoticeLog::RateLimited => {
+                self.log
+                    .log(&notice.station, notice.kind.as_str(), &notice.message)
+            }
             NoticeLog::Counted { lines } => {
                 let count = self
                     .notice_counts
-                    .entry((notice.station.clone(), notice.kind))
+                    .entry((notice.station.clone(), notice.kind.as_str()))
                     .or_insert(0);
                 *count += 1;
                 if *count <= lines {
                     tracing::info!(
                         "{}: {}: {}",
                         printable(&notice.station, STATION_CHARS),
-                        notice.kind,
+                        notice.kind.as_str(),
                         printable(&notice.message, MESSAGE_CHARS)
                     );
                 }

@@ -43,7 +43,7 @@ pub use config::{
 pub use health::{HealthChange, StationHealth};
 pub use output::{
     compact_journal, fallen_blocks, journaled_alerts, Alert, AlertKey, AlertLevel, JournalRecord,
-    Notice, Output, OutputSink, PbrState, StationIntensity,
+    Notice, NoticeKind, Output, OutputSink, PbrState, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use pbr::{DirectionSummary, PbrSummary};
@@ -256,7 +256,7 @@ impl Engine {
                     self.counters.malformed_station_packets += 1;
                     out.push(Output::Notice(Notice {
                         station: packet.station.clone(),
-                        kind: "rejected",
+                        kind: NoticeKind::Rejected,
                         message: error.to_string(),
                     }));
                     return;
@@ -268,7 +268,7 @@ impl Engine {
             self.counters.unknown_station_packets += 1;
             out.push(Output::Notice(Notice {
                 station: packet.station.clone(),
-                kind: "unknown_station",
+                kind: NoticeKind::UnknownStation,
                 message:
                     "packet from a station that is neither configured nor in the catalogue: ignored"
                         .into(),
@@ -280,7 +280,7 @@ impl Engine {
             station.counters.rejected_samples += packet.len() as u64;
             out.push(Output::Notice(Notice {
                 station: packet.station.clone(),
-                kind: "rejected",
+                kind: NoticeKind::Rejected,
                 message: format!("packet {} rejected: {error}", packet.sequence),
             }));
             return;
@@ -292,7 +292,7 @@ impl Engine {
             station.counters.rejected_samples += packet.len() as u64;
             out.push(Output::Notice(Notice {
                 station: packet.station.clone(),
-                kind: "implausible",
+                kind: NoticeKind::Implausible,
                 message: format!(
                     "packet {} rejected: {component}[{index}] = {value:.6e} m/s² is beyond the physical bound of {} g (engine.plausibility.max_abs_accel_g)",
                     packet.sequence, self.config.plausibility.max_abs_accel_g

@@ -139,8 +139,50 @@ pub struct StationIntensity {
 pub struct Notice {
     /// Station id as received (may be malformed).
     pub station: String,
-    pub kind: &'static str,
+    pub kind: NoticeKind,
     pub message: String,
+}
+
+/// What a [`Notice`] is about (its name in logs and JSON: [`NoticeKind::as_str`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoticeKind {
+    /// A packet failed validation (NaN/Inf, bad lengths, absurd rate, malformed id).
+    Rejected,
+    /// A packet from a station neither configured nor in the catalogue.
+    UnknownStation,
+    /// A sample beyond the physical bound `engine.plausibility.max_abs_accel_g`.
+    Implausible,
+    /// Data already processed dropped (duplicate, late or overlapping).
+    Dropped,
+    /// The grid was rewound to before a forward jump the stream did not confirm.
+    GridRewound,
+    /// The sample rate changed.
+    RateChange,
+    /// Missing samples bridged by interpolation.
+    GapBridged,
+    /// Missing samples too many to bridge: the blocks are flagged `data_gap`.
+    Gap,
+    /// A block lost contact with the ground and was put down again.
+    Flight,
+}
+
+impl NoticeKind {
+    /// The kind's name (snake case, as in the JSON).
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            NoticeKind::Rejected => "rejected",
+            NoticeKind::UnknownStation => "unknown_station",
+            NoticeKind::Implausible => "implausible",
+            NoticeKind::Dropped => "dropped",
+            NoticeKind::GridRewound => "grid_rewound",
+            NoticeKind::RateChange => "rate_change",
+            NoticeKind::GapBridged => "gap_bridged",
+            NoticeKind::Gap => "gap",
+            NoticeKind::Flight => "flight",
+        }
+    }
 }
 
 /// One engine output.

@@ -5,7 +5,7 @@ use std::collections::HashSet;
 
 use super::config::{ConfigError, Orientation, PbrSpec, StationConfig};
 use super::health::{HealthChange, Liveness, StationHealth};
-use super::output::{JournalRecord, Notice, Output, OutputSink, StationIntensity};
+use super::output::{JournalRecord, Notice, NoticeKind, Output, OutputSink, StationIntensity};
 
 use super::pbr::{BlockStep, PacketContext, PbrRuntime, SampleContext};
 use super::rest_group::{GroundSample as Sample, RestGroup};
@@ -57,7 +57,7 @@ pub(crate) struct StationRuntime {
 }
 
 /// Hands `out` a notice about `station`.
-fn notice(station: &str, kind: &'static str, message: String, out: &mut dyn OutputSink) {
+fn notice(station: &str, kind: NoticeKind, message: String, out: &mut dyn OutputSink) {
     out.push(Output::Notice(Notice {
         station: station.to_string(),
         kind,
@@ -198,7 +198,7 @@ impl StationRuntime {
         if packets > 0 || samples > 0 {
             notice(
                 &self.name,
-                "dropped",
+                NoticeKind::Dropped,
                 format!(
                     "{samples} samples already processed dropped ({packets} whole packets: duplicate, late or overlapping data; {} dropped so far)",
                     now.overlap_samples
@@ -362,7 +362,7 @@ impl StationRuntime {
                 if r.gap == Gap::Rewind {
                     notice(
                         &self.name,
-                        "grid_rewound",
+                        NoticeKind::GridRewound,
                         "packets after a forward jump of the stream's time fell in the gap it left: the jump was an outlier, the grid is rewound to before it (blocks flagged data_gap, intensity window restarted)".into(),
                         out,
                     );
@@ -377,7 +377,7 @@ impl StationRuntime {
                 if r.gap == Gap::RateChange {
                     notice(
                         &self.name,
-                        "rate_change",
+                        NoticeKind::RateChange,
                         format!("sample rate changed to {} Hz: intensity window restarted, blocks resume", r.packet.sample_rate_hz),
                         out,
                     );
@@ -397,7 +397,7 @@ impl StationRuntime {
                 if let (Some(prev), Some(next)) = (self.last, self.sample(&r.packet, r.skip)) {
                     notice(
                         &self.name,
-                        "gap_bridged",
+                        NoticeKind::GapBridged,
                         format!("{n} missing samples bridged by linear interpolation"),
                         out,
                     );
@@ -416,7 +416,7 @@ impl StationRuntime {
             Gap::Break(n) => {
                 notice(
                     &self.name,
-                    "gap",
+                    NoticeKind::Gap,
                     format!("{n} missing samples ({:.3} s): blocks flagged data_gap, integration resumes from the last state", n as f64 * dt_s),
                     out,
                 );
@@ -543,7 +543,7 @@ impl StationRuntime {
                 self.counters.flights += 1;
                 notice(
                     at.station,
-                    "flight",
+                    NoticeKind::Flight,
                     format!("block {} lost contact with the ground (g + a_up ≤ 0 or N → 0); put down flat at rest", pbr.id),
                     out,
                 );
