@@ -517,3 +517,48 @@ fn unsafe_root_directories_and_squatted_segments_are_refused_with_one_line() {
         "{line}"
     );
 }
+
+/// Issue 24 item 7: another user filling the world-writable /dev/shm killed an iceoryx2
+/// publisher with SIGBUS (status 135, no message). A full /dev/shm (here a 64 KiB tmpfs in a
+/// private mount namespace: root, as in CI) now ends it with one line saying what happened.
+#[test]
+fn a_full_dev_shm_ends_a_publisher_with_one_line_not_a_silent_bus_error() {
+    if std::env::var_os("CI").is_none() && !nix_is_root() {
+        eprintln!("skipped: needs root (unshare -m, mount)");
+        return;
+    }
+    let script = format!(
+        "mount -t tmpfs -o size=64k tmpfs /dev/shm && exec '{}' replay --config '{}' \
+         --synthetic --mw 6.5 --r-km 5 --station CI.RRS.00 --transport iceoryx2 --wait-s 1 \
+         --speed max",
+        env!("CARGO_BIN_EXE_rockwatch"),
+        repo().join("config/node.toml").display()
+    );
+    let out = Command::new("timeout")
+        .args([
+            "-k",
+            "5",
+            "60",
+            "unshare",
+            "-m",
+            "--propagation",
+            "private",
+            "sh",
+            "-c",
+        ])
+        .arg(&script)
+        .output()
+        .expect("runs timeout, unshare and sh");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("bus error (SIGBUS)") && stderr.contains("/dev/shm"),
+        "{stderr}"
+    );
+}
+
+fn nix_is_root() -> bool {
+    std::fs::metadata("/proc/self")
+        .map(|m| m.uid() == 0)
+        .unwrap_or(false)
+}

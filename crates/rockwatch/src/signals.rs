@@ -89,3 +89,37 @@ fn take_signals(reload_on_hup: bool) -> anyhow::Result<NodeSignals> {
         .context("cannot start the signal thread")?;
     Ok(flags)
 }
+
+/// The line a bus error writes on stderr before the process ends (exit status 1).
+pub const BUS_ERROR_MESSAGE: &str = "rockwatch: error: bus error (SIGBUS): memory mapped from a \
+file could not be backed: most likely an iceoryx2 shared-memory segment in /dev/shm, whose file \
+system is full (another user may be filling it; `df /dev/shm`); the process ends\n";
+
+/// Reports a bus error (SIGBUS) with one line on stderr ([`BUS_ERROR_MESSAGE`]) and ends the
+/// process with status 1, instead of dying silently with status 135: a full `/dev/shm` cannot
+/// back the pages of an iceoryx2 segment mapped before it filled, and touching them faults
+/// (issue 24 item 7; another user can fill a world-writable /dev/shm). Process-wide; call it
+/// once, early. A fault signal goes to the thread that faulted, whatever the signal mask, so
+/// this does not disturb the one-thread rule of the stop signals.
+pub fn report_bus_errors() -> anyhow::Result<()> {
+    use nix::libc;
+    use nix::sys::signal::{sigaction, SaFlags, SigAction, SigHandler};
+    extern "C" fn on_bus_error(_: libc::c_int) {
+        let message = BUS_ERROR_MESSAGE.as_bytes();
+        // SAFETY: write(2) and _exit(2) are async-signal-safe (signal-safety(7)); `message`
+        // is a static buffer of `len` bytes; the handler never returns to the faulting access.
+        unsafe {
+            libc::write(2, message.as_ptr().cast(), message.len());
+            libc::_exit(1);
+        }
+    }
+    let action = SigAction::new(
+        SigHandler::Handler(on_bus_error),
+        SaFlags::empty(),
+        SigSet::empty(),
+    );
+    // SAFETY: the handler calls only async-signal-safe functions and ends the process; nix
+    // requires `unsafe` for installing any handler.
+    unsafe { sigaction(Signal::SIGBUS, &action) }.context("cannot install the SIGBUS handler")?;
+    Ok(())
+}

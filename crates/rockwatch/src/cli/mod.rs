@@ -254,6 +254,10 @@ pub fn run() -> ExitCode {
         eprintln!("rockwatch: error: {e}");
         return ExitCode::FAILURE;
     }
+    if let Err(e) = rockwatch::signals::report_bus_errors() {
+        eprintln!("rockwatch: error: {e:#}");
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Acquire(args) => acquire::run(args),
         Command::Alerts(args) => alerts::run_alerts(args),
