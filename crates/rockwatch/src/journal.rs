@@ -638,41 +638,44 @@ impl JournalWriter {
         self.journal.is_some()
     }
 
-    /// The journal, opening it if the writer started degraded and a second has passed since
-    /// the last attempt.
-    fn journal(&mut self) -> Result<&mut Journal, JournalError> {
-        if self.journal.is_none() {
-            let due = self
-                .last_reopen
-                .is_none_or(|at| at.elapsed() >= std::time::Duration::from_secs(1));
-            if !due {
-                return Err(JournalError::Backlog {
-                    path: self.dir.join(JOURNAL_FILE),
-                    waiting: self.backlog.len(),
-                });
+    /// Opens the journal if the writer started degraded and a second has passed since the last
+    /// attempt (an error, the journal still closed, otherwise).
+    fn ensure_open(&mut self) -> Result<(), JournalError> {
+        if self.journal.is_some() {
+            return Ok(());
+        }
+        let due = self
+            .last_reopen
+            .is_none_or(|at| at.elapsed() >= std::time::Duration::from_secs(1));
+        if !due {
+            return Err(self.waiting());
+        }
+        self.last_reopen = Some(std::time::Instant::now());
+        // The directory's lock is ours: let the journal take it again.
+        self.lock = None;
+        match Journal::open(&self.dir) {
+            Ok((journal, _, _)) => {
+                tracing::info!(
+                    "{}: the journal is open again: {} waiting records are written now",
+                    self.dir.display(),
+                    self.backlog.len()
+                );
+                self.journal = Some(journal);
+                Ok(())
             }
-            self.last_reopen = Some(std::time::Instant::now());
-            // The directory's lock is ours: let the journal take it again.
-            self.lock = None;
-            match Journal::open(&self.dir) {
-                Ok((journal, _, _)) => {
-                    tracing::info!(
-                        "{}: the journal is open again: {} waiting records are written now",
-                        self.dir.display(),
-                        self.backlog.len()
-                    );
-                    self.journal = Some(journal);
-                }
-                Err(e) => {
-                    self.lock = lock_state_dir(&self.dir).ok();
-                    return Err(e);
-                }
+            Err(e) => {
+                self.lock = lock_state_dir(&self.dir).ok();
+                Err(e)
             }
         }
-        self.journal.as_mut().ok_or(JournalError::Backlog {
+    }
+
+    /// The error of a journal not open: the records waiting for it.
+    fn waiting(&self) -> JournalError {
+        JournalError::Backlog {
             path: self.dir.join(JOURNAL_FILE),
             waiting: self.backlog.len(),
-        })
+        }
     }
 
     /// Records waiting for the state directory.
@@ -702,12 +705,14 @@ impl JournalWriter {
     pub fn append_now(&mut self, record: &JournalRecord) -> Result<(), JournalError> {
         self.retry();
         if !self.backlog.is_empty() {
-            return Err(JournalError::Backlog {
-                path: self.dir.join(JOURNAL_FILE),
-                waiting: self.backlog.len(),
-            });
+            return Err(self.waiting());
         }
-        let result = self.journal().and_then(|j| j.append(record));
+        let result = self
+            .ensure_open()
+            .and_then(|()| match self.journal.as_mut() {
+                Some(journal) => journal.append(record),
+                None => Err(self.waiting()),
+            });
         result.inspect_err(|e| {
             self.failures += 1;
             self.last_error = Some(e.to_string());
@@ -773,9 +778,19 @@ impl JournalWriter {
         before - self.backlog.len()
     }
 
+    /// Opens the journal if it is not (a degraded start), then writes the backlog in order;
+    /// the error is cleared only once the journal is open and the backlog written.
     fn drain(&mut self) {
-        while let Some(record) = self.backlog.front().cloned() {
-            match self.journal().and_then(|j| j.append(&record)) {
+        if let Err(e) = self.ensure_open() {
+            self.failures += 1;
+            self.last_error = Some(e.to_string());
+            return;
+        }
+        let Some(journal) = self.journal.as_mut() else {
+            return; // ensure_open succeeded: open
+        };
+        while let Some(record) = self.backlog.front() {
+            match journal.append(record) {
                 Ok(()) => {
                     self.backlog.pop_front();
                 }

@@ -366,9 +366,14 @@ impl Emitter {
         appended == Appended::Written
     }
 
-    /// Writes the backlog of a failing state directory, if any.
+    /// Writes the backlog of a failing state directory, if any, and opens a journal that
+    /// could not be opened at start.
     fn retry_journal(&mut self) {
-        if let Some(writer) = self.journal.as_mut().filter(|w| w.backlog() > 0) {
+        if let Some(writer) = self
+            .journal
+            .as_mut()
+            .filter(|w| w.backlog() > 0 || !w.is_open())
+        {
             let written = writer.retry();
             self.journal_changed(true, written);
         }

@@ -29,10 +29,7 @@ pub enum ConfigError {
     },
     /// A 3-D rock whose parameters the dynamics refuse.
     #[error("pbr {pbr:?}: 3-D rock: {error}")]
-    Rock3d {
-        pbr: String,
-        error: crate::rocking3d::Advance3dError,
-    },
+    Rock3d { pbr: String, error: Rock3dSpecError },
     /// A catalogue entry whose ensemble cannot be drawn.
     #[error("pbr {pbr:?}: ensemble: {error}")]
     Ensemble {
@@ -327,6 +324,16 @@ pub struct PbrSpec {
     /// planar fields above only describe it (`azimuth`, `nominal`: its first planar
     /// direction; `members`, `more_directions` empty) and are not integrated.
     pub rock_3d: Option<Rock3dSpec>,
+}
+
+/// Why a [`Rock3dSpec`] member cannot be integrated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Rock3dSpecError {
+    /// Friction the 3-D dynamics refuse (not 0 ≤ μk ≤ μs, finite).
+    #[error(transparent)]
+    Friction(#[from] crate::rocking3d::Advance3dError),
+    #[error("heading_deg = {0} is not a finite number of degrees")]
+    Heading(f64),
 }
 
 /// A mesh rock integrated in 3-D (docs/rocking-3d.md): its rigid body (body frame: the

@@ -38,7 +38,7 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 
 pub use config::{
     AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, Rock3dSpec,
-    StationConfig,
+    Rock3dSpecError, StationConfig,
 };
 pub use health::{HealthChange, StationHealth};
 pub use output::{

@@ -20,7 +20,7 @@
 //! a few ulps (10⁻¹⁵), far inside the margin, and g + a_U is the same floating-point value in
 //! both. So every member would have taken its at-rest path (time += dt, nothing else).
 
-use super::config::Rock3dSpec;
+use super::config::{Rock3dSpec, Rock3dSpecError};
 use super::rest_group::GroundSample as Sample;
 use crate::azimuth::Azimuth;
 use crate::catalogue::RigidMember;
@@ -42,15 +42,16 @@ struct Member {
 }
 
 impl Member {
-    fn new(spec: &Rock3dSpec, params: RigidMember) -> Result<Member, Advance3dError> {
+    fn new(spec: &Rock3dSpec, params: RigidMember) -> Result<Member, Rock3dSpecError> {
         let rock = Rock3d::new(
             spec.body.clone(),
             params.mu_s,
             params.mu_k,
             Rock3dOptions::default(),
         )?;
-        let axis =
-            |deg: f64| Azimuth::from_degrees(deg).map_err(|_| Advance3dError::NonFiniteInput);
+        let axis = |deg: f64| {
+            Azimuth::from_degrees(deg).map_err(|_| Rock3dSpecError::Heading(params.heading_deg))
+        };
         Ok(Member {
             rock,
             params,
@@ -113,7 +114,7 @@ pub(crate) struct RigidStep {
 }
 
 impl RigidRock {
-    pub(crate) fn new(spec: &Rock3dSpec) -> Result<RigidRock, Advance3dError> {
+    pub(crate) fn new(spec: &Rock3dSpec) -> Result<RigidRock, Rock3dSpecError> {
         Ok(RigidRock {
             nominal: Member::new(spec, spec.nominal)?,
             members: spec

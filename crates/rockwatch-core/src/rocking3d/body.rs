@@ -180,6 +180,27 @@ impl RockBody {
     pub fn alpha_towards(&self, dx: f64, dy: f64) -> f64 {
         (self.polygon.exit_distance(dx, dy) / self.h_m).atan()
     }
+
+    /// The weakest direction: the azimuth (degrees clockwise from the mesh's north axis,
+    /// [0, 360)) of the support polygon's nearest edge normal, and its uplift angle
+    /// α = atan(dist/h) (rad), the smallest over all directions.
+    #[must_use]
+    pub fn weakest_direction(&self) -> (f64, f64) {
+        let nearest = self
+            .edges
+            .iter()
+            .copied()
+            .fold(None, |best: Option<(f64, f64, f64)>, e| match best {
+                Some(b) if b.2 <= e.2 => Some(b),
+                _ => Some(e),
+            });
+        nearest.map_or((0.0, 0.0), |(nx, ny, dist)| {
+            (
+                nx.atan2(ny).to_degrees().rem_euclid(360.0),
+                (dist / self.h_m).atan(),
+            )
+        })
+    }
 }
 
 fn geometry_scale(points: &[Vector3<f64>]) -> f64 {

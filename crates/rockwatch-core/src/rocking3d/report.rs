@@ -17,7 +17,6 @@
 
 use nalgebra::Vector3;
 
-use super::body::RockBody;
 use super::rock::{Mode3d, Rock3d};
 use crate::dynamics::Mode;
 
@@ -49,7 +48,7 @@ impl Rock3d {
             let (s, c) = azimuth.to_radians().sin_cos();
             (azimuth, body.alpha_towards(s, c))
         } else {
-            weakest_direction(body)
+            body.weakest_direction()
         };
         let mode = match self.mode() {
             Mode3d::Rest => Mode::Rest,
@@ -73,24 +72,4 @@ impl Rock3d {
             self.position() + self.rotation() * Vector3::new(0.0, 0.0, -self.body().h_m());
         foot.x.hypot(foot.y)
     }
-}
-
-/// The weakest direction of a body: the azimuth (degrees from the mesh's north axis) of the
-/// support polygon's nearest edge normal and its uplift angle α = atan(dist/h) (rad).
-#[must_use]
-pub fn weakest_direction(body: &RockBody) -> (f64, f64) {
-    let nearest = body
-        .edges()
-        .iter()
-        .copied()
-        .fold(None, |best: Option<(f64, f64, f64)>, e| match best {
-            Some(b) if b.2 <= e.2 => Some(b),
-            _ => Some(e),
-        });
-    nearest.map_or((0.0, 0.0), |(nx, ny, dist)| {
-        (
-            nx.atan2(ny).to_degrees().rem_euclid(360.0),
-            (dist / body.h_m()).atan(),
-        )
-    })
 }

@@ -265,11 +265,7 @@ fn run_3d(
     options: &Simulation3dOptions,
     observe: impl FnMut(&Rock3d, GroundAccel3d),
 ) -> Result<Summary3d, Simulate3dError> {
-    let alpha_min = {
-        let edges = body.edges();
-        let dist = edges.iter().map(|e| e.2).fold(f64::INFINITY, f64::min);
-        (dist / body.h_m()).atan()
-    };
+    let alpha_min = body.weakest_direction().1;
     let mut rock = Rock3d::new(body, mu_s, mu_k, options.rock)
         .map_err(|reason| Simulate3dError::Advance { t_s: 0.0, reason })?;
     let at = |i: usize| motion.samples.get(i).copied().unwrap_or_default();

@@ -236,8 +236,10 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
                  nominal rock (use --ensemble 1)"
             );
         }
-        if let (Some(mesh), Some((nominal, drawn))) = (pbr.mesh(), pbr.rigid_members(k)) {
-            return rigid_catalogue_rock(pbr, path, mesh, nominal, drawn);
+        if let Some(mesh) = pbr.mesh() {
+            if let (Some(body), Some((nominal, drawn))) = (mesh.body(), pbr.rigid_members(k)) {
+                return rigid_catalogue_rock(pbr, path, mesh, body, nominal, drawn);
+            }
         }
         // Every toppling direction of the rock: one for a planar entry, at 0 in its own frame;
         // one per true azimuth of a meshed rock, in the frame of north. Member i is one rock in
@@ -402,12 +404,10 @@ fn rigid_catalogue_rock(
     pbr: &rockwatch_core::catalogue::Pbr,
     path: &Path,
     mesh: &rockwatch_core::catalogue::MeshRock,
+    body: &rockwatch_core::rocking3d::RockBody,
     nominal: rockwatch_core::catalogue::RigidMember,
     drawn: Vec<rockwatch_core::catalogue::RigidMember>,
 ) -> anyhow::Result<Rock> {
-    let Some(body) = mesh.body() else {
-        bail!("pbr {:?}: model = \"3d\" without a body", pbr.id());
-    };
     let chosen = if drawn.is_empty() {
         vec![nominal]
     } else {
@@ -448,15 +448,10 @@ fn rigid_catalogue_rock(
 /// A 3-D body for fragility.json: mass, height of the centre of mass, the weakest direction's
 /// uplift angle and the hull's vertex count.
 fn body_json(body: &rockwatch_core::rocking3d::RockBody) -> serde_json::Value {
-    let weakest = body
-        .edges()
-        .iter()
-        .map(|e| e.2)
-        .fold(f64::INFINITY, f64::min);
     json!({
         "density_kg_m3": rockwatch_core::rocking3d::body::NOMINAL_DENSITY_KG_M3,
         "mass_kg": body.mass_kg(), "com_height_m": body.h_m(),
-        "alpha_min_deg": (weakest / body.h_m()).atan().to_degrees(),
+        "alpha_min_deg": body.weakest_direction().1.to_degrees(),
         "hull_vertices": body.vertices().len(),
     })
 }
