@@ -115,7 +115,7 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
     let echo = {
         let (config, stop, ready_tx) = (config.clone(), stop.clone(), ready_tx.clone());
         std::thread::spawn(move || {
-            let mut input = IoxInput::open(&config).unwrap();
+            let mut input = IoxInput::open(&config, Default::default()).unwrap();
             let mut publisher = IoxAlertPublisher::new(&config).unwrap();
             let mut poll = mio::Poll::new().unwrap();
             poll.registry()
@@ -127,7 +127,7 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
                 poll.poll(&mut events, Some(Duration::from_millis(50)))
                     .unwrap();
                 input
-                    .drain(usize::MAX, &mut |p: AccelPacket| {
+                    .drain(usize::MAX, &|_| true, &mut |p: AccelPacket, _| {
                         let alert = Alert {
                             pbr_id: "echo".into(),
                             station: p.station,

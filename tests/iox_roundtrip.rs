@@ -15,7 +15,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
-use rockwatch::iox::types::{AccelHeader, AccelSample, PbrAlertIox};
+use rockwatch::iox::types::{AccelHeader, AccelSample, IntakeIox, PbrAlertIox};
 use rockwatch::iox::{IoxAlertSubscriber, IoxConfig, IoxPacketSink};
 use rockwatch::node::{NodeOptions, Reactor};
 use rockwatch::ports::PacketSink;
@@ -100,6 +100,23 @@ fn wire_layouts_match_the_documented_c_layouts() {
     ] {
         assert_eq!(offset, expected);
     }
+
+    assert_eq!((size_of::<IntakeIox>(), align_of::<IntakeIox>()), (200, 8));
+    for (offset, expected) in [
+        (offset_of!(IntakeIox, node_id), 0),
+        (offset_of!(IntakeIox, reader), 16),
+        (offset_of!(IntakeIox, writer), 32),
+        (offset_of!(IntakeIox, taken), 48),
+        (offset_of!(IntakeIox, ignored), 56),
+        (offset_of!(IntakeIox, processed), 64),
+        (offset_of!(IntakeIox, refused), 72),
+        (offset_of!(IntakeIox, window), 80),
+        (offset_of!(IntakeIox, node_len), 88),
+        (offset_of!(IntakeIox, node), 96),
+        (offset_of!(IntakeIox, reserved), 160),
+    ] {
+        assert_eq!(offset, expected);
+    }
 }
 
 #[test]
@@ -111,6 +128,7 @@ fn wire_type_names_are_the_documented_ones() {
             <AccelHeader as ZeroCopySend>::type_name(),
             <AccelSample as ZeroCopySend>::type_name(),
             <PbrAlertIox as ZeroCopySend>::type_name(),
+            <IntakeIox as ZeroCopySend>::type_name(),
         ]
     };
     assert_eq!(
@@ -118,7 +136,8 @@ fn wire_type_names_are_the_documented_ones() {
         [
             "rockwatch::AccelHeader",
             "rockwatch::AccelSample",
-            "rockwatch::PbrAlert"
+            "rockwatch::PbrAlert",
+            "rockwatch::IntakeReport"
         ]
     );
 }

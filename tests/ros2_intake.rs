@@ -53,7 +53,7 @@ fn replay_to_node(replay_args: &str, pause: bool) -> (i32, u64, u64, String, Str
         (sent, sent)
     } else {
         let sent = number_after(&replay_err, "sent ").unwrap_or_else(|| panic!("{replay_err}"));
-        let taken = number_after(&replay_err, "it took ").unwrap_or_else(|| panic!("{replay_err}"));
+        let taken = number_after(&replay_err, " took ").unwrap_or_else(|| panic!("{replay_err}"));
         (sent, taken)
     };
     (rc, sent, taken, replay_err, node_err)
@@ -216,5 +216,114 @@ fn a_node_whose_stderr_nobody_reads_keeps_monitoring() {
             "overturned".to_string()
         )),
         "{alerts:?}"
+    );
+}
+
+/// Issue 24 item 4: with two nodes subscribed, a replay exited 0 while one of them lost 23 %.
+/// Each node reports on its own (its id and name); the replay is paced by the one furthest
+/// behind and exits 1 naming the node that did not process everything — here one stopped
+/// (SIGTERM) mid-replay — and not the one that did.
+#[test]
+fn a_replay_to_two_nodes_fails_naming_the_one_that_went_away() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    let catalogue = repo().join("config/catalogue.toml");
+    let (ca, cb) = (
+        write_node_config(&a, &catalogue),
+        write_node_config(&b, &catalogue),
+    );
+    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let rec = repo().join("tests/data/records/Rinaldi228.AT2");
+    let script = format!(
+        "'{bin}' node --config '{ca}' 2> '{d}/a.err' & A=$!; echo A=$A
+         '{bin}' node --config '{cb}' 2> '{d}/b.err' & B=$!; echo B=$B
+         sleep 1
+         '{bin}' replay --config '{ca}' --record '{r}' --azimuth 228 --station CI.RRS.00 \
+             --transport ros2 --speed 5 --wait-s 8 > '{d}/replay.out' 2> '{d}/replay.err' & REPLAY=$!
+         sleep 3; kill -TERM $B; wait $B; echo B_RC=$?
+         RC=0; wait $REPLAY || RC=$?; echo REPLAY_RC=$RC
+         kill -TERM $A; wait $A; echo A_RC=$?",
+        ca = ca.display(),
+        cb = cb.display(),
+        r = rec.display()
+    );
+    let out = run_in_netns(&script, 240, &[]);
+    let (stdout, _) = text(&out);
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap_or_default();
+    let replay_err = read("replay.err");
+    assert!(
+        stdout.contains("A_RC=0") && stdout.contains("B_RC=0"),
+        "{stdout}\n{}\n{}",
+        read("a.err"),
+        read("b.err")
+    );
+    assert!(stdout.contains("REPLAY_RC=1"), "{stdout}\n{replay_err}");
+    let pid = |name: &str| -> String {
+        stdout
+            .lines()
+            .find_map(|l| l.strip_prefix(&format!("{name}=")))
+            .unwrap_or_else(|| panic!("{stdout}"))
+            .to_string()
+    };
+    let (pid_a, pid_b) = (pid("A"), pid("B"));
+    assert!(
+        replay_err.contains(&format!("(pid {pid_b}) took"))
+            && replay_err.contains("not processed (it went away)"),
+        "the node that went away is named\n{replay_err}"
+    );
+    assert!(
+        !replay_err.contains(&format!("(pid {pid_a})")),
+        "the node that kept up is not\n{replay_err}"
+    );
+}
+
+/// Issue 24 item 4: a replay whose every strong-motion packet the node refused (beyond a
+/// plausibility bound of 0.05 g) exited 0. It exits 1, naming the node and how many it refused
+/// — the node's own count.
+#[test]
+fn a_replay_whose_packets_the_node_refuses_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("node.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "catalogue = \"{}\"\n[engine.plausibility]\nmax_abs_accel_g = 0.05\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n",
+            repo().join("config/catalogue.toml").display()
+        ),
+    )
+    .unwrap();
+    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let rec = repo().join("tests/data/records/Rinaldi228.AT2");
+    let script = format!(
+        "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
+         RC=0; '{bin}' replay --config '{c}' --record '{r}' --azimuth 228 --station CI.RRS.00 \
+             --transport ros2 --speed max --wait-s 30 > '{d}/replay.out' 2> '{d}/replay.err' || RC=$?
+         echo REPLAY_RC=$RC
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?",
+        c = config.display(),
+        r = rec.display()
+    );
+    let out = run_in_netns(&script, 240, &[]);
+    let (stdout, _) = text(&out);
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap_or_default();
+    let (replay_err, node_err) = (read("replay.err"), read("node.err"));
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{node_err}");
+    assert!(stdout.contains("REPLAY_RC=1"), "{stdout}\n{replay_err}");
+    let refused: u64 = replay_err
+        .split("refused ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{replay_err}"));
+    assert!(
+        replay_err.contains("/rockwatch (pid") && replay_err.contains("implausible"),
+        "{replay_err}"
+    );
+    assert_eq!(
+        count_before(&node_err, "rejected as invalid"),
+        refused,
+        "{node_err}"
     );
 }

@@ -117,3 +117,33 @@ fn node_and_replay_paused_mid_stream_rebuild_their_participants_and_lose_nothing
     );
     assert_eq!(alert_history_set(&b.join("state")), expected, "{err_b}");
 }
+
+/// Issue 24 item 5: a replay paused ten times in quick succession rebuilt its participant,
+/// which died again while it waited for the node and was never checked again. Every new
+/// participant is watched, while it waits for the node too, and built again; the run ends
+/// as an uninterrupted one (exit 0, every packet counted once).
+#[test]
+fn a_replay_paused_ten_times_in_a_row_rebuilds_as_often_as_needed_and_loses_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let pauses = "sleep 1; for i in 1 2 3 4 5 6 7 8 9 10; do \
+                  kill -STOP $REPLAY || true; sleep 0.05; kill -CONT $REPLAY || true; sleep 0.1; \
+                  done; ";
+    let (out, err_replay, err_node) = run(dir.path(), "2", pauses, "TERM");
+    for line in err_replay.lines() {
+        if line.contains("rebuilt") || line.contains("died too") {
+            eprintln!("{line}");
+        }
+    }
+    assert!(
+        err_replay.contains("participant rebuilt"),
+        "the replay's dead participant must be rebuilt\n{err_replay}"
+    );
+    let sent = replayed(&out);
+    let received = count_before(&err_node, "packets received over ROS 2");
+    let duplicate = count_before(&err_node, "duplicate");
+    assert_eq!(
+        received - duplicate,
+        sent,
+        "packets lost or double counted after the pauses\n{err_node}\n{err_replay}"
+    );
+}

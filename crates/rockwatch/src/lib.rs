@@ -8,6 +8,7 @@
 pub mod acquire;
 pub mod alert_json;
 pub mod fragility;
+pub mod intake;
 pub mod iox;
 pub mod journal;
 pub mod log_text;

@@ -44,7 +44,8 @@ use crate::status::{AlertLatency, NodeStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
     fallen_blocks, journaled_alerts, AccelPacket, Alert, AlertLevel, Engine, HealthChange,
-    JournalRecord, Notice, Output, OutputSink, PbrSpec, PbrSummary, ShardedEngine, StationHealth,
+    JournalRecord, Notice, Output, OutputSink, PbrSpec, PbrSummary, ShardedEngine, Source,
+    SourceTally, StationHealth, Verdict,
 };
 
 /// Journaled alerts a starting node publishes again on ROS 2 (the depth of the
@@ -638,6 +639,8 @@ pub struct NodeRuntime {
     /// status (the real-time factor).
     busy_ns: u64,
     data_s: f64,
+    /// What became of each sender's packets (the engine's, when sharded).
+    tally: Arc<SourceTally>,
 }
 
 impl NodeRuntime {
@@ -685,19 +688,24 @@ impl NodeRuntime {
         let stations = config
             .owned_stations()
             .map_err(|e| anyhow::anyhow!("configuration: {e}"))?;
-        let engine = if shards == 1 {
+        let (engine, tally) = if shards == 1 {
             let mut engine = Engine::new(config.engine, stations, &specs)?;
             engine.restore(&records);
-            EngineMode::Inline(Box::new(engine))
+            (
+                EngineMode::Inline(Box::new(engine)),
+                Arc::new(SourceTally::default()),
+            )
         } else {
-            EngineMode::Sharded(ShardedEngine::start_with_wake(
+            let engine = ShardedEngine::start_with_wake(
                 config.engine,
                 &stations,
                 &specs,
                 &records,
                 shards,
                 wake,
-            )?)
+            )?;
+            let tally = engine.source_tally();
+            (EngineMode::Sharded(engine), tally)
         };
         Ok(NodeRuntime {
             engine: Some(engine),
@@ -723,6 +731,7 @@ impl NodeRuntime {
             status: StatusBuilder::default(),
             busy_ns: 0,
             data_s: 0.0,
+            tally,
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
             foreign_pbr_ids: HashSet::new(),
             last_flush: Instant::now(),
@@ -810,18 +819,23 @@ impl NodeRuntime {
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
         let arrival_ns = self.now_ns();
-        self.submit_arrived(packet, arrival_ns, publish)
+        self.submit_arrived(packet, arrival_ns, None, publish)
     }
 
     /// As [`NodeRuntime::submit`], for a packet taken from its transport at `arrival_ns`
-    /// ([`NodeRuntime::now_ns`] then) and queued since.
+    /// ([`NodeRuntime::now_ns`] then) and queued since, sent by `source` (what became of it is
+    /// counted in [`NodeRuntime::source_tally`] once processed).
     pub fn submit_arrived(
         &mut self,
         packet: AccelPacket,
         arrival: i64,
+        source: Option<Source>,
         publish: &mut impl FnMut(Publication),
     ) -> anyhow::Result<()> {
         if self.stamped_ahead(&packet, arrival) {
+            if let Some(source) = source {
+                self.tally.count(source, Verdict::Refused);
+            }
             return Ok(());
         }
         self.emit.stats.packets += 1;
@@ -835,17 +849,27 @@ impl NodeRuntime {
                     self.data_s += packet.len() as f64 / rate;
                 }
                 let mut sink = self.emit.sink(publish);
-                engine.process(packet, arrival, &mut sink);
+                let verdict = engine.process(packet, arrival, &mut sink);
+                if let Some(source) = source {
+                    self.tally.count(source, verdict);
+                }
                 let finished = sink.finish();
                 self.busy_ns += started.elapsed().as_nanos() as u64;
                 finished
             }
             Some(EngineMode::Sharded(engine)) => {
-                engine.submit(packet, arrival);
+                engine.submit_from(packet, arrival, source);
                 Ok(())
             }
             None => Ok(()),
         }
+    }
+
+    /// What became of each sender's packets (processed and refused per [`Source`]): the
+    /// transports report it to their senders.
+    #[must_use]
+    pub fn source_tally(&self) -> Arc<SourceTally> {
+        Arc::clone(&self.tally)
     }
 
     /// Whether the engine monitors station `station` (configured, or bound to one of this

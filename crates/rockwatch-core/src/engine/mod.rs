@@ -31,6 +31,7 @@ mod rest_group;
 mod rigid_rock;
 pub mod sensor_frame;
 pub mod sharded;
+pub mod source;
 mod station;
 pub mod stream;
 
@@ -48,6 +49,7 @@ pub use output::{
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use pbr::{DirectionSummary, PbrSummary};
 pub use sharded::{EngineHandle, ShardedEngine};
+pub use source::{Source, SourceTally, Verdict, MAX_SOURCES};
 pub use station::StationCounters;
 pub use stream::{StreamConfig, StreamCounters};
 
@@ -244,8 +246,14 @@ impl Engine {
     }
 
     /// Processes one packet that arrived at wall time `arrival_ns`; hands each output to `out`
-    /// as soon as it is produced (pass a `&mut Vec<Output>` to collect them).
-    pub fn process(&mut self, packet: AccelPacket, arrival_ns: i64, out: &mut dyn OutputSink) {
+    /// as soon as it is produced (pass a `&mut Vec<Output>` to collect them). Returns what
+    /// became of the packet (a sender's tally: [`SourceTally`]).
+    pub fn process(
+        &mut self,
+        packet: AccelPacket,
+        arrival_ns: i64,
+        out: &mut dyn OutputSink,
+    ) -> Verdict {
         self.counters.packets += 1;
         // A configured station is found by its text; anything else is parsed to tell a
         // malformed identifier from an unknown station.
@@ -259,7 +267,7 @@ impl Engine {
                         kind: NoticeKind::Rejected,
                         message: error.to_string(),
                     }));
-                    return;
+                    return Verdict::Refused;
                 }
                 None
             }
@@ -273,7 +281,7 @@ impl Engine {
                     "packet from a station that is neither configured nor in the catalogue: ignored"
                         .into(),
             }));
-            return;
+            return Verdict::Ignored;
         };
         if let Err(error) = packet.validate_samples() {
             station.counters.rejected_packets += 1;
@@ -283,7 +291,7 @@ impl Engine {
                 kind: NoticeKind::Rejected,
                 message: format!("packet {} rejected: {error}", packet.sequence),
             }));
-            return;
+            return Verdict::Refused;
         }
         let max_abs_mps2 = self.config.plausibility.max_abs_accel_mps2();
         if let Some((component, index, value)) = station.implausible(&packet, max_abs_mps2) {
@@ -298,7 +306,7 @@ impl Engine {
                     packet.sequence, self.config.plausibility.max_abs_accel_g
                 ),
             }));
-            return;
+            return Verdict::Refused;
         }
         station.accepted(
             arrival_ns,
@@ -314,6 +322,7 @@ impl Engine {
             arrival_ns,
         };
         station.offer(packet, &ctx, &mut self.scratch, out);
+        Verdict::Accepted
     }
 
     /// Judges every station's health at `now_ns` (the clock of the arrival stamps passed to

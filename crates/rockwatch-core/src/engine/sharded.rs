@@ -9,12 +9,12 @@ use std::thread::JoinHandle;
 
 use super::{
     AccelPacket, AlertConfig, Engine, EngineConfig, EngineError, JournalRecord, Output, PbrSpec,
-    StationConfig,
+    Source, SourceTally, StationConfig,
 };
 
 /// Messages to a worker.
 enum Command {
-    Packet(AccelPacket, i64),
+    Packet(AccelPacket, i64, Option<Source>),
     Flush(i64),
     CheckHealth(i64),
     ReportHealth,
@@ -43,8 +43,14 @@ impl EngineHandle {
 
     /// Queues a packet for its station's shard (waits if that shard's queue is full).
     pub fn submit(&self, packet: AccelPacket, arrival_ns: i64) {
+        self.submit_from(packet, arrival_ns, None);
+    }
+
+    /// As [`EngineHandle::submit`], for a packet of `source`: its verdict is counted in the
+    /// engine's [`SourceTally`] ([`ShardedEngine::source_tally`]) once a worker has processed it.
+    pub fn submit_from(&self, packet: AccelPacket, arrival_ns: i64, source: Option<Source>) {
         let shard = shard_of(&packet.station, self.senders.len());
-        self.send(shard, Command::Packet(packet, arrival_ns));
+        self.send(shard, Command::Packet(packet, arrival_ns, source));
     }
 
     /// Releases packets held for reordering on every shard.
@@ -91,6 +97,8 @@ pub struct ShardedEngine {
     monitored: std::collections::HashSet<String>,
     outputs: Receiver<Vec<Output>>,
     workers: Vec<JoinHandle<Engine>>,
+    /// What the workers made of each source's packets.
+    tally: Arc<SourceTally>,
 }
 
 /// The shard of a station: FNV-1a of its id (stable across runs and platforms).
@@ -125,6 +133,7 @@ impl ShardedEngine {
         let mut senders = Vec::with_capacity(shards);
         let mut workers = Vec::with_capacity(shards);
         let mut monitored = std::collections::HashSet::new();
+        let tally = Arc::new(SourceTally::default());
         for shard in 0..shards {
             let mine = |id: &str| shard_of(id, shards) == shard;
             let my_stations: Vec<StationConfig> = stations
@@ -143,13 +152,19 @@ impl ShardedEngine {
             let (tx, rx) = mpsc::sync_channel::<Command>(QUEUE_PACKETS);
             let out_tx = out_tx.clone();
             let wake = Arc::clone(&wake);
+            let tally = Arc::clone(&tally);
             let handle = std::thread::Builder::new()
                 .name(format!("rockwatch-shard-{shard}"))
                 .spawn(move || {
                     let mut out = Vec::new();
                     while let Ok(command) = rx.recv() {
                         match command {
-                            Command::Packet(p, arrival) => engine.process(p, arrival, &mut out),
+                            Command::Packet(p, arrival, source) => {
+                                let verdict = engine.process(p, arrival, &mut out);
+                                if let Some(source) = source {
+                                    tally.count(source, verdict);
+                                }
+                            }
                             Command::Flush(arrival) => engine.flush(arrival, &mut out),
                             Command::CheckHealth(now) => engine.check_health(now, &mut out),
                             Command::ReportHealth => engine.report_health(&mut out),
@@ -182,7 +197,14 @@ impl ShardedEngine {
             },
             outputs,
             workers,
+            tally,
         })
+    }
+
+    /// What the workers made of each source's packets ([`EngineHandle::submit_from`]).
+    #[must_use]
+    pub fn source_tally(&self) -> Arc<SourceTally> {
+        Arc::clone(&self.tally)
     }
 
     /// Number of shards.
@@ -206,6 +228,11 @@ impl ShardedEngine {
     /// Queues a packet for its station's shard (waits if that shard's queue is full).
     pub fn submit(&self, packet: AccelPacket, arrival_ns: i64) {
         self.handle.submit(packet, arrival_ns);
+    }
+
+    /// [`EngineHandle::submit_from`].
+    pub fn submit_from(&self, packet: AccelPacket, arrival_ns: i64, source: Option<Source>) {
+        self.handle.submit_from(packet, arrival_ns, source);
     }
 
     /// Releases packets held for reordering on every shard.

@@ -273,7 +273,13 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
                      give --config with an [iceoryx2] config_file (e.g. config/node.toml)"
                 );
             }
-            let mut sink = IoxPacketSink::new(&config.iceoryx2)?;
+            // An invalid --wait-s is refused by replay_through, before anything is sent.
+            let wait = if args.wait_s.is_finite() && args.wait_s >= 0.0 {
+                Duration::from_secs_f64(args.wait_s)
+            } else {
+                rockwatch::ros2::DEFAULT_INTAKE_WAIT
+            };
+            let mut sink = IoxPacketSink::confirmed(&config.iceoryx2, wait)?;
             replay_through(&args, &config, &mut sink)
         }
     }

@@ -9,12 +9,13 @@ use mio::unix::SourceFd;
 use super::cleanup::{clean_dead_nodes, DeadNodeCleanup};
 use super::config::IoxConfig;
 use super::intake::Intake;
-use super::service::{create_node, iox_err, open_accel_service, open_event};
+use super::service::{create_node, iox_err, open_accel_service, open_event, open_intake_service};
 use super::stats::{
     Counters, IoxInputStats, IoxStatsHandle, DEAD_NODES, RECV_ERRORS, SUBMITTED, WAKEUPS,
 };
-use super::types::{AccelHeader, AccelSample};
-use rockwatch_core::engine::AccelPacket;
+use super::types::{AccelHeader, AccelSample, IntakeIox};
+use crate::intake::{Taken, WriterCounts};
+use rockwatch_core::engine::{AccelPacket, Source, SourceTally, Verdict};
 
 /// The input side, subscribed to `pbr/accel`: a subscriber plus the listener of the event
 /// service of the same name. It has no thread: register it with a `mio::Poll` (it is a mio
@@ -26,13 +27,22 @@ pub struct IoxInput {
     intake: Intake,
     counters: Arc<Counters>,
     cleanup: DeadNodeCleanup,
+    /// What the node made of each publisher's packets, reported on `<accel service>/intake`.
+    writers: WriterCounts,
+    tally: Arc<SourceTally>,
+    reports: iceoryx2::port::publisher::Publisher<ipc::Service, IntakeIox, ()>,
+    /// Reports that could not be published.
+    report_errors: u64,
+    /// Samples taken so far: the sequence number the writer counts check order by.
+    taken: i64,
     node: Node<ipc::Service>,
 }
 
 impl IoxInput {
     /// Cleans up dead iceoryx2 nodes (e.g. `kill -9`ed stations), then opens (or creates)
-    /// `pbr/accel` and subscribes.
-    pub fn open(config: &IoxConfig) -> anyhow::Result<IoxInput> {
+    /// `pbr/accel` and subscribes, and `pbr/accel/intake` to report to the senders what the
+    /// node made of their packets (its engine counts verdicts in `tally`).
+    pub fn open(config: &IoxConfig, tally: Arc<SourceTally>) -> anyhow::Result<IoxInput> {
         let node = create_node(config)?;
         let counters = Arc::new(Counters::default());
         counters.add(DEAD_NODES, clean_dead_nodes(&node));
@@ -47,12 +57,30 @@ impl IoxInput {
             .listener_builder()
             .create()
             .map_err(iox_err("cannot create the pbr/accel listener"))?;
+        let reports = open_intake_service(&node, config)?
+            .publisher_builder()
+            .create()
+            .map_err(iox_err("cannot create the intake report publisher"))?;
+        // Each publisher has its own buffer in the subscriber: the whole buffer is its window
+        // (half of it, for margin), however many publishers there are.
+        let writers = WriterCounts::new(
+            crate::intake::node_id(),
+            format!("rockwatch node (pid {})", std::process::id()),
+            Arc::clone(&tally),
+            config.subscriber_buffer as u64,
+        )
+        .per_writer_buffer();
         Ok(IoxInput {
             subscriber,
             listener,
             intake: Intake::default(),
             counters,
             cleanup: DeadNodeCleanup::new(config),
+            writers,
+            tally,
+            reports,
+            report_errors: 0,
+            taken: 0,
             node,
         })
     }
@@ -70,13 +98,16 @@ impl IoxInput {
     }
 
     /// Takes the pending notifications, then up to `max` packets: each is checked (wire
-    /// layout, values; counted when rejected, with per-station sequence gaps) and handed to
-    /// `submit`. Returns true if `max` was reached (more may be waiting: call again without
-    /// waiting for readiness, which is edge-triggered). An error of `submit` is returned.
+    /// layout, values; counted when rejected, with per-station sequence gaps), counted for its
+    /// publisher (of a station the node `monitors` or not), and handed to `submit` with its
+    /// publisher's slot. Returns true if `max` was reached (more may be waiting: call again
+    /// without waiting for readiness, which is edge-triggered). An error of `submit` is
+    /// returned.
     pub fn drain(
         &mut self,
         max: usize,
-        submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
+        monitors: &dyn Fn(&str) -> bool,
+        submit: &mut impl FnMut(AccelPacket, Option<Source>) -> anyhow::Result<()>,
     ) -> anyhow::Result<bool> {
         self.counters.add(WAKEUPS, 1);
         // Consume the notifications first: a notifier sends again only once the listener has
@@ -87,13 +118,23 @@ impl IoxInput {
         for _ in 0..max {
             match self.subscriber.receive() {
                 Ok(Some(sample)) => {
+                    let writer = sample.header().publisher_id().value().to_le_bytes();
                     let packet =
                         self.intake
                             .accept(sample.user_header(), sample.payload(), &self.counters);
                     drop(sample); // return the shared-memory slot before the engine runs
-                    if let Some(packet) = packet {
-                        self.counters.add(SUBMITTED, 1);
-                        submit(packet)?;
+                    self.taken += 1;
+                    let monitored = packet.as_ref().is_none_or(|p| monitors(&p.station));
+                    let Taken::New(slot) = self.writers.taken(writer, self.taken, monitored) else {
+                        continue; // unreachable: the sequence number only grows
+                    };
+                    match packet {
+                        Some(packet) => {
+                            self.counters.add(SUBMITTED, 1);
+                            submit(packet, Some(slot))?;
+                        }
+                        // Refused at the wire: its publisher is told.
+                        None => self.tally.count(slot, Verdict::Refused),
                     }
                 }
                 Ok(None) => return Ok(false),
@@ -104,6 +145,27 @@ impl IoxInput {
             }
         }
         Ok(true)
+    }
+
+    /// Whether an intake report will be due without any new packet ([`WriterCounts::pending`]).
+    #[must_use]
+    pub fn intake_pending(&self) -> bool {
+        self.writers.pending()
+    }
+
+    /// Publishes the intake reports due on `<accel service>/intake` (`force`: every changed
+    /// count now). Cheap when none is: call it after every turn of the event loop.
+    pub fn publish_intake_reports(&mut self, force: bool) {
+        let reader = self.subscriber.id().value().to_le_bytes();
+        let (reports, errors) = (&self.reports, &mut self.report_errors);
+        self.writers.due(force, reader, &mut |count| {
+            if let Err(e) = reports.send_copy(IntakeIox::from(&count)) {
+                *errors += 1;
+                if errors.is_power_of_two() {
+                    tracing::warn!("iceoryx2 intake report not published ({e:?}; {errors} in all)");
+                }
+            }
+        });
     }
 
     /// Cleans up dead iceoryx2 nodes when [`IoxConfig::dead_node_check_s`] has passed since

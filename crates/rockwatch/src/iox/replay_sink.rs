@@ -1,29 +1,63 @@
 //! Replay over iceoryx2 ([`IoxPacketSink`]): packets sent to `pbr/accel` with a notification
-//! of its event service, for `rockwatch replay --transport iceoryx2` and tests.
+//! of its event service, for `rockwatch replay --transport iceoryx2`, `rockwatch acquire` and
+//! tests.
 
+use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 
+use anyhow::bail;
 use iceoryx2::port::publisher::Publisher as IoxPublisherPort;
+use iceoryx2::port::subscriber::Subscriber as IoxSubscriberPort;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 
 use super::config::IoxConfig;
-use super::service::{create_node, iox_err, open_accel_service, open_event, AccelService};
-use super::types::{AccelHeader, AccelSample};
+use super::service::{
+    create_node, iox_err, open_accel_service, open_event, open_intake_service, AccelService,
+};
+use super::types::{AccelHeader, AccelSample, IntakeIox};
+use crate::intake::{ignored_line, refusal_line, Delivery, IntakeCount};
 use crate::ports::PacketSink;
 use rockwatch_core::engine::AccelPacket;
 
-/// Sends packets to `pbr/accel` and notifies its event service (for the replay tool and
-/// tests). Never blocks on a slow node: a full subscriber buffer overwrites its oldest packet.
+/// Sends packets to `pbr/accel` and notifies its event service.
+///
+/// Made by [`IoxPacketSink::new`] (a live sender: `acquire`, a station) it never blocks on a
+/// slow node: a full subscriber buffer overwrites its oldest packet (the node counts the gap).
+/// Made by [`IoxPacketSink::confirmed`] (a replay) it reads the nodes' intake reports on
+/// `pbr/accel/intake` (`crate::intake`): [`PacketSink::send`] waits while the node furthest
+/// behind has the window it grants unreported (half its per-publisher buffer: nothing is ever
+/// overwritten), and [`PacketSink::finish`] waits until every node has processed every packet,
+/// else fails naming each node that did not, that refused packets or ignored them. A
+/// subscriber that never reports (not a rockwatch node, e.g. a Python client) is named in a
+/// warning and not waited for.
 pub struct IoxPacketSink {
     publisher: IoxPublisherPort<ipc::Service, [AccelSample], AccelHeader>,
     notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
     service: AccelService,
+    /// With [`IoxPacketSink::confirmed`]: the reports, what the nodes made of the packets, and
+    /// how long to wait for the reports to move.
+    confirm: Option<Confirm>,
     _node: Node<ipc::Service>,
 }
 
+struct Confirm {
+    reports: IoxSubscriberPort<ipc::Service, IntakeIox, ()>,
+    delivery: Delivery,
+    wait: Duration,
+    /// The stations sent (the first few, to name them when the node ignores packets).
+    stations: BTreeSet<String>,
+}
+
+/// Stations a confirming sink remembers by name.
+const NAMED_STATIONS: usize = 8;
+
+/// Most packets a replay keeps unreported, whatever window the nodes grant.
+const MAX_WINDOW: u64 = 4096;
+
 impl IoxPacketSink {
-    /// Opens (or creates) `pbr/accel` as [`IoxInput`](super::IoxInput) does.
+    /// Opens (or creates) `pbr/accel` as [`IoxInput`](super::IoxInput) does: a sender that
+    /// never waits for the node.
     pub fn new(config: &IoxConfig) -> anyhow::Result<IoxPacketSink> {
         let node = create_node(config)?;
         let service = open_accel_service(&node, config)?;
@@ -42,8 +76,27 @@ impl IoxPacketSink {
             publisher,
             notifier,
             service,
+            confirm: None,
             _node: node,
         })
+    }
+
+    /// As [`IoxPacketSink::new`], paced and confirmed by the nodes' intake reports, waiting up
+    /// to `wait` for them to move.
+    pub fn confirmed(config: &IoxConfig, wait: Duration) -> anyhow::Result<IoxPacketSink> {
+        let mut sink = Self::new(config)?;
+        let reports = open_intake_service(&sink._node, config)?
+            .subscriber_builder()
+            .create()
+            .map_err(iox_err("cannot subscribe to the intake reports"))?;
+        let writer = sink.publisher.id().value().to_le_bytes();
+        sink.confirm = Some(Confirm {
+            reports,
+            delivery: Delivery::new(writer),
+            wait,
+            stations: BTreeSet::new(),
+        });
+        Ok(sink)
     }
 
     /// Sends a header and samples exactly as given (no checks: for tests of hostile input).
@@ -64,6 +117,9 @@ impl IoxPacketSink {
         self.notifier
             .notify()
             .map_err(iox_err("pbr/accel: notify failed"))?;
+        if let Some(c) = &mut self.confirm {
+            c.delivery.sent += 1;
+        }
         Ok(())
     }
 
@@ -71,6 +127,86 @@ impl IoxPacketSink {
     #[must_use]
     pub fn subscribers(&self) -> usize {
         self.service.dynamic_config().number_of_subscribers()
+    }
+
+    /// The ids of the subscribers of `pbr/accel` now.
+    fn subscriber_ids(&self) -> BTreeSet<[u8; 16]> {
+        let mut ids = BTreeSet::new();
+        self.service.dynamic_config().list_subscribers(|d| {
+            ids.insert(d.subscriber_id.value().to_le_bytes());
+            CallbackProgression::Continue
+        });
+        ids
+    }
+
+    /// Packets sent so far, and of those the node furthest behind has reported taken (all
+    /// sent, without confirmation).
+    pub fn progress(&mut self) -> (u64, u64) {
+        match &mut self.confirm {
+            Some(c) => {
+                c.read_reports();
+                (c.delivery.sent, c.delivery.confirmed())
+            }
+            None => (0, 0),
+        }
+    }
+
+    /// One line on why the nodes have not processed everything.
+    fn shortfall(&mut self) -> String {
+        let matched = self.subscriber_ids();
+        let Some(c) = &mut self.confirm else {
+            return String::new();
+        };
+        c.read_reports();
+        let (sent, wait) = (c.delivery.sent, c.wait.as_secs_f64());
+        if c.delivery.watch.nodes().next().is_none() {
+            return format!(
+                "sent {sent} packets, but no node reported on pbr/accel/intake what it took within {wait:.0} s ({}; is the subscriber a rockwatch node of this version?)",
+                if matched.is_empty() {
+                    "no subscriber left"
+                } else {
+                    "subscribed, silent"
+                }
+            );
+        }
+        format!(
+            "sent {sent} packets, but not every node processed them within {wait:.0} s: {}",
+            c.delivery.behind(&matched).join("; ")
+        )
+    }
+}
+
+impl Confirm {
+    fn read_reports(&mut self) {
+        while let Ok(Some(report)) = self.reports.receive() {
+            self.delivery
+                .watch
+                .offer(&IntakeCount::from(report.payload()));
+        }
+    }
+
+    /// Waits until `done` holds of the delivery, as long as `progress` keeps moving within
+    /// the wait; false if it stood still.
+    fn wait_until<P: PartialEq>(
+        &mut self,
+        progress: impl Fn(&Delivery) -> P,
+        done: impl Fn(&Delivery) -> bool,
+    ) -> bool {
+        self.read_reports();
+        let mut last = progress(&self.delivery);
+        let mut last_move = Instant::now();
+        while !done(&self.delivery) {
+            std::thread::sleep(Duration::from_micros(200));
+            self.read_reports();
+            let now = progress(&self.delivery);
+            if now != last {
+                last = now;
+                last_move = Instant::now();
+            } else if last_move.elapsed() >= self.wait {
+                return false;
+            }
+        }
+        true
     }
 }
 
@@ -101,6 +237,13 @@ impl PacketSink for IoxPacketSink {
                 packet.station
             );
         }
+        if let Some(c) = &mut self.confirm {
+            c.read_reports();
+            let window = c.delivery.window(MAX_WINDOW);
+            if !c.wait_until(Delivery::confirmed, |d| d.unconfirmed() < window) {
+                bail!("{}", self.shortfall());
+            }
+        }
         let mut sample = self
             .publisher
             .loan_slice_uninit(n)
@@ -116,6 +259,47 @@ impl PacketSink for IoxPacketSink {
         self.notifier
             .notify()
             .map_err(iox_err("pbr/accel: notify failed"))?;
+        if let Some(c) = &mut self.confirm {
+            c.delivery.sent += 1;
+            if c.stations.len() < NAMED_STATIONS {
+                c.stations.insert(packet.station.clone());
+            }
+        }
         Ok(())
+    }
+
+    /// With confirmation: waits until every node that reports has processed every packet;
+    /// fails naming each node that did not, that refused packets, or that ignored some.
+    fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
+        let matched = self.subscriber_ids();
+        let Some(c) = &mut self.confirm else {
+            return Ok(true);
+        };
+        c.wait = timeout;
+        if c.delivery.sent > 0 && !c.wait_until(|d| d.processing().0, |d| d.processing().1) {
+            bail!("{}", self.shortfall());
+        }
+        let Some(c) = &mut self.confirm else {
+            return Ok(true);
+        };
+        let refusals = c.delivery.refusals();
+        if !refusals.is_empty() {
+            bail!("{}", refusal_line(&refusals));
+        }
+        let ignored = c.delivery.ignored();
+        if ignored > 0 {
+            let stations = c.stations.iter().map(String::as_str).collect();
+            bail!(
+                "{}",
+                ignored_line(ignored, c.delivery.sent, &stations, false)
+            );
+        }
+        let silent = c.delivery.silent(&matched);
+        if silent > 0 {
+            tracing::warn!(
+                "{silent} subscriber(s) of pbr/accel never reported on pbr/accel/intake what they took (not rockwatch nodes): not checked"
+            );
+        }
+        Ok(true)
     }
 }

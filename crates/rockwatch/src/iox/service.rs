@@ -10,7 +10,7 @@ use iceoryx2::prelude::*;
 
 use super::access::{effective_uid, management_segments, restrict_management_segment, Deployment};
 use super::config::IoxConfig;
-use super::types::{AccelHeader, AccelSample, PbrAlertIox};
+use super::types::{AccelHeader, AccelSample, IntakeIox, PbrAlertIox};
 
 pub(super) fn iox_err<E: Debug>(what: impl std::fmt::Display) -> impl FnOnce(E) -> anyhow::Error {
     move |e| anyhow!("{what}: {e:?}")
@@ -51,6 +51,31 @@ pub(super) fn open_event(
         .event()
         .open_or_create()
         .map_err(iox_err(format!("iceoryx2 service {name:?} (event)")))
+}
+
+pub(super) type IntakeService =
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, IntakeIox, ()>;
+
+/// Reports a sender reads without falling behind: cumulative counts, so an overwritten report
+/// only delays what the next one says.
+const INTAKE_BUFFER: usize = 256;
+
+/// `<accel service>/intake`: the nodes' intake reports to the senders of `pbr/accel`
+/// (`crate::intake`).
+pub(super) fn open_intake_service(
+    node: &Node<ipc::Service>,
+    config: &IoxConfig,
+) -> anyhow::Result<IntakeService> {
+    let name = format!("{}/intake", config.accel_service);
+    node.service_builder(&service_name(&name)?)
+        .publish_subscribe::<IntakeIox>()
+        .enable_safe_overflow(true)
+        .subscriber_max_buffer_size(INTAKE_BUFFER)
+        .max_publishers(config.max_publishers)
+        .open_or_create()
+        .map_err(iox_err(format!(
+            "iceoryx2 service {name:?} (publish-subscribe)"
+        )))
 }
 
 pub(super) type AlertService =

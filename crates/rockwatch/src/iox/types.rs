@@ -3,6 +3,8 @@
 //!
 //! Service `pbr/accel` (publish-subscribe): user header [`AccelHeader`], payload a slice of
 //! [`AccelSample`]. Service `pbr/alerts` (publish-subscribe): payload [`PbrAlertIox`].
+//! Service `pbr/accel/intake` (publish-subscribe, the node to the senders): payload
+//! [`IntakeIox`].
 //! Type names are explicit (`#[type_name]`) and must be spelled identically by every client.
 
 use iceoryx2::prelude::ZeroCopySend;
@@ -60,6 +62,77 @@ pub struct AccelSample {
     pub east: f32,
     pub north: f32,
     pub up: f32,
+}
+
+/// Type name of [`IntakeIox`] on the wire.
+pub const INTAKE_TYPE_NAME: &str = "rockwatch::IntakeReport";
+
+/// Bytes of [`IntakeIox::node`].
+pub const NODE_NAME_BYTES: usize = 64;
+
+/// One intake report on `<accel service>/intake` (200 bytes, alignment 8): what one node made
+/// of the packets of one publisher of `pbr/accel` (the fields of
+/// [`IntakeCount`](crate::intake::IntakeCount); ids are iceoryx2's u128 ids, little-endian).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("rockwatch::IntakeReport")]
+pub struct IntakeIox {
+    pub node_id: [u8; 16],
+    /// The node's reader: its `pbr/accel` subscriber's id.
+    pub reader: [u8; 16],
+    /// The publisher's id.
+    pub writer: [u8; 16],
+    pub taken: u64,
+    pub ignored: u64,
+    pub processed: u64,
+    pub refused: u64,
+    pub window: u64,
+    /// Bytes of `node` used.
+    pub node_len: u64,
+    /// The node's name, UTF-8, truncated to [`NODE_NAME_BYTES`].
+    pub node: [u8; NODE_NAME_BYTES],
+    pub reserved: [u8; 40],
+}
+
+impl From<&crate::intake::IntakeCount> for IntakeIox {
+    fn from(c: &crate::intake::IntakeCount) -> Self {
+        let mut node = [0u8; NODE_NAME_BYTES];
+        let mut len = c.node.len().min(NODE_NAME_BYTES);
+        while !c.node.is_char_boundary(len) {
+            len -= 1;
+        }
+        node[..len].copy_from_slice(&c.node.as_bytes()[..len]);
+        IntakeIox {
+            node_id: c.node_id,
+            reader: c.reader,
+            writer: c.writer,
+            taken: c.taken,
+            ignored: c.ignored,
+            processed: c.processed,
+            refused: c.refused,
+            window: c.window,
+            node_len: len as u64,
+            node,
+            reserved: [0; 40],
+        }
+    }
+}
+
+impl From<&IntakeIox> for crate::intake::IntakeCount {
+    fn from(r: &IntakeIox) -> Self {
+        let len = (r.node_len as usize).min(NODE_NAME_BYTES);
+        crate::intake::IntakeCount {
+            node_id: r.node_id,
+            node: String::from_utf8_lossy(&r.node[..len]).into_owned(),
+            reader: r.reader,
+            writer: r.writer,
+            taken: r.taken,
+            ignored: r.ignored,
+            processed: r.processed,
+            refused: r.refused,
+            window: r.window,
+        }
+    }
 }
 
 /// [`PbrAlertIox::flags`] bit: the block id was longer than [`PBR_ID_BYTES`] and is truncated.

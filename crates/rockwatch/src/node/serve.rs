@@ -39,7 +39,7 @@ use crate::ros2::{
     IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, ALERTS_TOPIC,
 };
 use crate::sd_notify::SystemdNotifier;
-use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary};
+use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary, Source};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
 /// dead-node check are looked at least this often.
@@ -211,8 +211,14 @@ impl Reactor {
             .partitioning()
             .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
             .map(|(p, _)| p);
-        let (mut ros2, ros2_publisher) =
-            Ros2Node::start(&config.ros2, plan, params, control_sender, partition)?;
+        let (mut ros2, ros2_publisher) = Ros2Node::start(
+            &config.ros2,
+            plan,
+            params,
+            control_sender,
+            partition,
+            runtime.source_tally(),
+        )?;
         ros2.register(poll.registry(), ROS2_FIRST)
             .context("cannot register the ROS 2 subscriptions with the event loop")?;
         ros2.register_reset(poll.registry(), RESET)
@@ -221,7 +227,7 @@ impl Reactor {
             .context("cannot register the ROS 2 parameter services with the event loop")?;
         let iox = match &config.iceoryx2.config_file {
             Some(_) => {
-                let mut input = IoxInput::open(&config.iceoryx2)?;
+                let mut input = IoxInput::open(&config.iceoryx2, runtime.source_tally())?;
                 poll.registry()
                     .register(&mut input, IOX, mio::Interest::READABLE)
                     .context("cannot register the iceoryx2 listener with the event loop")?;
@@ -337,6 +343,11 @@ impl Reactor {
                 resets_due || params_due || inboxes.iter().any(|i| i.due || !i.queue.is_empty());
             let timeout = if pending {
                 Duration::ZERO
+            } else if ros2.intake_pending()
+                || iox_input.as_ref().is_some_and(IoxInput::intake_pending)
+            {
+                // A sender waits for the report (its window).
+                crate::intake::REPORT_PERIOD
             } else if ros2.pending_replies() > 0 {
                 crate::ros2::RESET_MATCH_GRACE // a reset response waits for its client
             } else {
@@ -419,6 +430,7 @@ impl Reactor {
             }
             ros2.publish_intake_reports(false);
             if let Some(input) = &mut iox_input {
+                input.publish_intake_reports(false);
                 input.maintain();
             }
             if watchdog.due() {
@@ -465,6 +477,9 @@ impl Reactor {
         ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
         ros2.flush_replies();
         ros2.publish_intake_reports(true);
+        if let Some(input) = &mut iox_input {
+            input.publish_intake_reports(true);
+        }
         take_rosout(&mut rosout);
         ros2.publish_rosout(&mut rosout);
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
@@ -689,7 +704,11 @@ fn turn(
             // iceoryx2 packets are bounded by the service's slice length: bound by count.
             (0, Some(input)) => {
                 let room = INBOX_BOUND.saturating_sub(inbox.queue.len());
-                input.drain(room, &mut |p| inbox.push(p, clock.now_ns()))?
+                input.drain(
+                    room,
+                    &|station| clock.monitors(station),
+                    &mut |p, source| inbox.push(p, clock.now_ns(), source),
+                )?
             }
             (0, None) => false,
             // A DDS message may hold up to MAX_SAMPLES_PER_PACKET samples: take in chunks
@@ -700,10 +719,12 @@ fn turn(
                     let room = INBOX_BOUND
                         .saturating_sub(inbox.queue.len())
                         .min(ROS2_CHUNK);
-                    more =
-                        ros2.drain(s - 1, room, &|station| clock.monitors(station), &mut |p| {
-                            inbox.push(p, clock.now_ns())
-                        })?;
+                    more = ros2.drain(
+                        s - 1,
+                        room,
+                        &|station| clock.monitors(station),
+                        &mut |p, source| inbox.push(p, clock.now_ns(), source),
+                    )?;
                 }
                 more
             }
@@ -716,12 +737,12 @@ fn turn(
     loop {
         let mut any = false;
         for inbox in inboxes.iter_mut() {
-            if let Some((packet, arrival_ns)) = inbox.pop() {
+            if let Some((packet, arrival_ns, source)) = inbox.pop() {
                 any = true;
                 processed += 1;
                 // A parameter change queued before this packet was taken applies to it.
                 apply_controls(controls, runtime);
-                runtime.submit_arrived(packet, arrival_ns, &mut |p| out.publish(p))?;
+                runtime.submit_arrived(packet, arrival_ns, source, &mut |p| out.publish(p))?;
             }
         }
         if !any || processed >= DRAIN_BOUND || Instant::now() >= deadline {
@@ -736,7 +757,7 @@ fn turn(
 /// Packets taken from one source and not yet processed, with their arrival stamps
 /// ([`NodeRuntime::now_ns`] when taken).
 struct Inbox {
-    queue: VecDeque<(AccelPacket, i64)>,
+    queue: VecDeque<(AccelPacket, i64, Option<Source>)>,
     /// Samples (per component) of the packets in `queue`.
     samples: usize,
     /// Ready (or stopped at the bound last turn): take from the source on this turn.
@@ -752,13 +773,18 @@ impl Inbox {
         }
     }
 
-    fn push(&mut self, packet: AccelPacket, arrival_ns: i64) -> anyhow::Result<()> {
+    fn push(
+        &mut self,
+        packet: AccelPacket,
+        arrival_ns: i64,
+        source: Option<Source>,
+    ) -> anyhow::Result<()> {
         self.samples += packet.len();
-        self.queue.push_back((packet, arrival_ns));
+        self.queue.push_back((packet, arrival_ns, source));
         Ok(())
     }
 
-    fn pop(&mut self) -> Option<(AccelPacket, i64)> {
+    fn pop(&mut self) -> Option<(AccelPacket, i64, Option<Source>)> {
         let taken = self.queue.pop_front()?;
         self.samples -= taken.0.len();
         Some(taken)
@@ -895,7 +921,7 @@ mod tests {
         let n = INBOX_SAMPLES.div_ceil(big);
         for i in 0..n {
             assert!(!inbox.full(), "full after {i} packets");
-            inbox.push(packet(big), 0).unwrap();
+            inbox.push(packet(big), 0, None).unwrap();
         }
         assert!(inbox.full() && inbox.queue.len() < INBOX_BOUND);
         // Taking a packet out frees its samples.
@@ -904,7 +930,7 @@ mod tests {
         assert!(!inbox.full());
         // Small packets: the packet bound.
         let mut inbox = Inbox::new();
-        (0..INBOX_BOUND).for_each(|_| inbox.push(packet(10), 0).unwrap());
+        (0..INBOX_BOUND).for_each(|_| inbox.push(packet(10), 0, None).unwrap());
         assert!(inbox.full() && inbox.samples < INBOX_SAMPLES);
     }
 }

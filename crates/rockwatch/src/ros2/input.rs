@@ -12,12 +12,12 @@ use ros2_client::Subscription;
 
 use super::config::{ImuInput, Ros2Config};
 use super::imu::{imu_packet, ImuMsg};
-use super::intake_report::WriterCounts;
 use super::msg;
 use super::names::accel_topic;
 use super::qos::input_qos;
 use super::session::Ros2Session;
-use rockwatch_core::engine::AccelPacket;
+use crate::intake::{Taken, WriterCounts};
+use rockwatch_core::engine::{AccelPacket, Source};
 use rockwatch_core::partition::Partition;
 
 /// Counters of the node's ROS 2 intake.
@@ -41,10 +41,10 @@ pub(super) struct IntakeLog {
 }
 
 impl IntakeLog {
-    pub(super) fn new(counters: Arc<IntakeCounters>) -> IntakeLog {
+    pub(super) fn new(counters: Arc<IntakeCounters>, writers: WriterCounts) -> IntakeLog {
         IntakeLog {
             counters,
-            writers: WriterCounts::default(),
+            writers,
             last_error_report: None,
         }
     }
@@ -111,6 +111,11 @@ impl Inputs {
         })
     }
 
+    /// The GUID (rmw gid) of the `/pbr/accel` subscription.
+    pub(super) fn accel_gid(&self) -> [u8; 16] {
+        self.accel.gid().to_bytes16()
+    }
+
     /// Number of input subscriptions.
     pub(super) fn len(&self) -> usize {
         1 + self.imus.len()
@@ -125,32 +130,36 @@ impl Inputs {
         Ok(())
     }
 
-    /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`,
-    /// counting them (and the undecodable ones, and per writer those of a station that
-    /// `monitors` denies) in `log`. Returns true if `max` was reached.
+    /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`
+    /// with its writer's slot (`/pbr/accel`), counting them (and the undecodable ones, and per
+    /// writer those of a station that `monitors` denies) in `log`. Returns true if `max` was
+    /// reached.
     pub(super) fn drain(
         &mut self,
         input: usize,
         max: usize,
         log: &mut IntakeLog,
         monitors: &dyn Fn(&str) -> bool,
-        submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
+        submit: &mut impl FnMut(AccelPacket, Option<Source>) -> anyhow::Result<()>,
     ) -> anyhow::Result<bool> {
         for _ in 0..max {
             if input == 0 {
                 match self.accel.take() {
                     Ok(Some((m, info))) => {
                         let packet = AccelPacket::from(&m);
-                        if !log.writers.taken(
-                            info.publisher_gid(),
+                        match log.writers.taken(
+                            info.publisher_gid().to_bytes16(),
                             info.sequence_number(),
                             monitors(&packet.station),
                         ) {
-                            log.counters.redelivered.fetch_add(1, Ordering::Relaxed);
-                            continue;
+                            Taken::Redelivered => {
+                                log.counters.redelivered.fetch_add(1, Ordering::Relaxed);
+                            }
+                            Taken::New(slot) => {
+                                log.packet();
+                                submit(packet, Some(slot))?;
+                            }
                         }
-                        log.packet();
-                        submit(packet)?;
                     }
                     Ok(None) => return Ok(false),
                     Err(e) => log.undecodable(&self.accel_topic, &format!("{e:?}")),
@@ -164,7 +173,7 @@ impl Inputs {
                         log.packet();
                         let packet = imu_packet(imu, &m, *sequence);
                         *sequence += 1;
-                        submit(packet)?;
+                        submit(packet, None)?;
                     }
                     Ok(None) => return Ok(false),
                     Err(e) => log.undecodable(&imu.topic, &format!("{e:?}")),

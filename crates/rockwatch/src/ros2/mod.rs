@@ -16,8 +16,7 @@
 //! - `security.rs`: DDS Security from the SROS2 variables and keystore ([`security_plan`]);
 //! - `qos.rs`: the QoS profiles;
 //! - `session.rs`: a participant with one ROS 2 node ([`Ros2Session`]);
-//! - `intake_report.rs`: `/pbr/intake`, what the node took of each sender ([`WriterCounts`],
-//!   [`IntakeWatch`]);
+//! - `/pbr/intake` carries the intake reports of `crate::intake` (`pbr_msgs/IntakeReport`);
 //! - `liveness.rs`: whether a participant's RustDDS threads still run ([`DdsThreads`]);
 //! - `node.rs`: the node's ROS 2 side ([`Ros2Node`]), made of `parameters.rs` (descriptors and
 //!   the parameter services), `input.rs` (with `imu.rs`), `publish.rs` and `reset.rs` (both
@@ -30,7 +29,6 @@ pub mod diagnostics;
 mod held_server;
 mod imu;
 mod input;
-mod intake_report;
 mod liveness;
 pub mod msg;
 mod names;
@@ -50,7 +48,6 @@ pub use alert_listener::Ros2AlertListener;
 pub use config::{DiscoveryRange, ImuInput, InputQos, Ros2Config};
 pub use imu::{imu_packet, ImuMsg};
 pub use input::IntakeCounters;
-pub use intake_report::{IntakeWatch, WriterCounts, MAX_WRITERS, REPORT_EVERY, REPORT_PERIOD};
 pub use liveness::DdsThreads;
 pub use names::{
     accel_topic, IntoNaming, Naming, Remap, ACCEL_TOPIC, ALERTS_TOPIC, DIAGNOSTICS_TOPIC,

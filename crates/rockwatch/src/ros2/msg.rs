@@ -144,18 +144,54 @@ pub struct PbrAlert {
     pub episode: u32,
 }
 
-/// `pbr_msgs/IntakeReport`: what the node has taken from one writer of `/pbr/accel`
-/// (published on `/pbr/intake`).
+/// `pbr_msgs/IntakeReport` (`msg/pbr_msgs/msg/IntakeReport.msg`): what one node made of the
+/// packets of one writer of `/pbr/accel` (published on `/pbr/intake`); the fields are those of
+/// [`IntakeCount`](crate::intake::IntakeCount).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct IntakeReport {
+    pub node_id: [u8; 16],
+    pub node: String,
+    /// The node's reader's DDS GUID (rmw gid).
+    pub reader_gid: [u8; 16],
     /// The writer's DDS GUID (rmw gid): 12-byte GUID prefix, 4-byte entity id.
     pub writer_gid: [u8; 16],
-    /// Messages taken from this writer since the node first heard from it (each handed to the
-    /// engine; undecodable ones not counted).
     pub taken: u64,
-    /// Of `taken`, packets of a station the node does not monitor (neither configured nor
-    /// bound to one of its blocks): the engine ignores them.
     pub ignored: u64,
+    pub processed: u64,
+    pub refused: u64,
+    pub window: u64,
+}
+
+impl From<crate::intake::IntakeCount> for IntakeReport {
+    fn from(c: crate::intake::IntakeCount) -> Self {
+        IntakeReport {
+            node_id: c.node_id,
+            node: c.node,
+            reader_gid: c.reader,
+            writer_gid: c.writer,
+            taken: c.taken,
+            ignored: c.ignored,
+            processed: c.processed,
+            refused: c.refused,
+            window: c.window,
+        }
+    }
+}
+
+impl From<IntakeReport> for crate::intake::IntakeCount {
+    fn from(r: IntakeReport) -> Self {
+        crate::intake::IntakeCount {
+            node_id: r.node_id,
+            node: r.node,
+            reader: r.reader_gid,
+            writer: r.writer_gid,
+            taken: r.taken,
+            ignored: r.ignored,
+            processed: r.processed,
+            refused: r.refused,
+            window: r.window,
+        }
+    }
 }
 
 /// `pbr_msgs/srv/ResetPbr` request (`msg/pbr_msgs/srv/ResetPbr.srv`): the operator reset of a block.

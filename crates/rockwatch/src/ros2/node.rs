@@ -18,8 +18,9 @@ use super::publish::Ros2Publisher;
 use super::qos::intake_qos;
 use super::reset::ResetServer;
 use super::session::Ros2Session;
+use crate::intake::WriterCounts;
 use crate::ports::ControlSender;
-use rockwatch_core::engine::{AccelPacket, EngineConfig};
+use rockwatch_core::engine::{AccelPacket, EngineConfig, Source, SourceTally};
 use rockwatch_core::partition::Partition;
 
 /// The node's ROS 2 side: parameters, the input subscriptions, the reset service and (returned
@@ -62,12 +63,15 @@ impl Ros2Node {
     /// With a `partition` (scale-out), the packet input is that partition's topic
     /// (`pbr/accel/p<i>of<N>`, resolved in the namespace) instead of `pbr/accel`; the outputs,
     /// parameters and service are the same as every other node's of the service.
+    /// The node's engine counts what it made of each writer's packets in `tally` (reported
+    /// on `/pbr/intake`).
     pub fn start(
         config: &Ros2Config,
         plan: &NetworkPlan,
         params: ParamValues,
         controls: ControlSender,
         partition: Option<Partition>,
+        tally: Arc<SourceTally>,
     ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
         let started = Started {
             config: config.clone(),
@@ -76,12 +80,23 @@ impl Ros2Node {
             controls,
             partition,
         };
-        Self::open(started, Arc::new(IntakeCounters::default()))
+        let writers = WriterCounts::new(
+            crate::intake::node_id(),
+            format!(
+                "{} (pid {})",
+                config.naming()?.node_fqn(),
+                std::process::id()
+            ),
+            tally,
+            config.input_depth as u64,
+        );
+        Self::open(started, Arc::new(IntakeCounters::default()), writers)
     }
 
     fn open(
         started: Started,
         counters: Arc<IntakeCounters>,
+        writers: WriterCounts,
     ) -> anyhow::Result<(Ros2Node, Ros2Publisher)> {
         let Started {
             config,
@@ -106,7 +121,7 @@ impl Ros2Node {
                 session,
                 started,
                 inputs,
-                log: IntakeLog::new(Arc::clone(&counters)),
+                log: IntakeLog::new(Arc::clone(&counters), writers),
                 counters,
                 reset,
                 params,
@@ -140,10 +155,19 @@ impl Ros2Node {
             controls: self.started.controls.clone(),
             partition: self.started.partition,
         };
-        let (mut node, publisher) = Self::open(started, Arc::clone(&self.counters))?;
-        node.log.writers = std::mem::take(&mut self.log.writers);
+        // The counts carry over (swapped in once the new participant stands).
+        let throwaway =
+            WriterCounts::new([0; 16], String::new(), Arc::new(SourceTally::default()), 0);
+        let (mut node, publisher) = Self::open(started, Arc::clone(&self.counters), throwaway)?;
+        std::mem::swap(&mut node.log.writers, &mut self.log.writers);
         *self = node; // the old participant goes (its threads have ended: nothing to join)
         Ok(publisher)
+    }
+
+    /// Whether an intake report will be due without any new message ([`WriterCounts::pending`]).
+    #[must_use]
+    pub fn intake_pending(&self) -> bool {
+        self.log.writers.pending()
     }
 
     /// Publishes the `/pbr/intake` reports due (see [`WriterCounts::due`]; `force`: every
@@ -151,8 +175,9 @@ impl Ros2Node {
     pub fn publish_intake_reports(&mut self, force: bool) {
         let intake = &self.intake;
         let mut failed = None;
-        self.log.writers.due(force, &mut |report| {
-            if let Err(e) = intake.publish(report) {
+        let reader = self.inputs.accel_gid();
+        self.log.writers.due(force, reader, &mut |report| {
+            if let Err(e) = intake.publish(report.into()) {
                 failed = Some(format!("{e:?}"));
             }
         });
@@ -271,7 +296,7 @@ impl Ros2Node {
         input: usize,
         max: usize,
         monitors: &dyn Fn(&str) -> bool,
-        submit: &mut impl FnMut(AccelPacket) -> anyhow::Result<()>,
+        submit: &mut impl FnMut(AccelPacket, Option<Source>) -> anyhow::Result<()>,
     ) -> anyhow::Result<bool> {
         self.inputs
             .drain(input, max, &mut self.log, monitors, submit)

@@ -9,27 +9,29 @@ use std::collections::{BTreeSet, VecDeque};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail};
-use ros2_client::dds::rustdds::{no_key, DataWriterStatus, RTPSEntity, StatusEvented};
+use ros2_client::dds::rustdds::{
+    dds::WriteError, no_key, DataWriterStatus, RTPSEntity, StatusEvented, GUID,
+};
 use ros2_client::Gid;
 
 use super::diagnostics::{DiagnosticArray, DiagnosticsWriter};
-use super::intake_report::IntakeWatch;
 use super::msg;
 use super::msg::IntakeReport;
 use super::names::{accel_topic, IntoNaming, Naming, INTAKE_TOPIC};
 use super::network::NetworkPlan;
 use super::qos::{intake_qos, replay_qos, sender_status_qos, REPLAY_HISTORY};
 use super::session::Ros2Session;
+use crate::intake::{ignored_line, refusal_line, Delivery, IntakeCount};
 use crate::logging::MuteLibraries;
 use crate::ports::PacketSink;
 use crate::status::StatusReport;
 use rockwatch_core::engine::AccelPacket;
 use rockwatch_core::partition::{Partition, PartitionMap};
 
-/// Most packets a replay has sent that the node has not yet reported taken. Below the node's
-/// reader depth (`[ros2] input_depth`, default 1000), so the node's DDS reader (keep last) can
-/// never overwrite a sample it has acknowledged but not handed over; it also bounds what the
-/// replay's writer holds (its history keeps every unacknowledged sample).
+/// Most packets a replay has sent that a node has not yet reported taken, whatever window the
+/// nodes grant (each node shares its reader depth, `[ros2] input_depth`, among the writers it
+/// hears: `IntakeCount::window`). It bounds what the replay's writer holds (its history
+/// keeps every unacknowledged sample) and what the replay keeps to send again.
 pub const CREDIT_WINDOW: u64 = REPLAY_HISTORY as u64 / 2;
 
 /// How often a replay checks that its DDS participant's threads still run.
@@ -38,6 +40,10 @@ pub const REPLAY_LIVENESS_CHECK: Duration = Duration::from_millis(100);
 /// After rebuilding its participant, how long a replay waits for the node's report on its
 /// previous writer (the node repeats its counts every second).
 pub const PREVIOUS_REPORT_WAIT: Duration = Duration::from_secs(3);
+
+/// Times in a row a replay builds its participant again when the new one dies before a node
+/// has subscribed.
+pub const MAX_REBUILD_ATTEMPTS: u32 = 20;
 
 /// A live sender (acquire) warns at most this often that the node ignores some of its packets.
 pub const IGNORED_WARNING_INTERVAL: Duration = Duration::from_secs(60);
@@ -53,11 +59,15 @@ pub const DEFAULT_INTAKE_WAIT: Duration = Duration::from_secs(30);
 ///
 /// The writer is a plain RustDDS data writer on the node's participant and ROS 2 topic
 /// (ros2-client's `Publisher` hides it, and its GUID names this replay in the node's reports).
-/// The node reports on `/pbr/intake` how many messages of this writer it has taken
-/// (`pbr_msgs/IntakeReport`); [`PacketSink::send`] waits while [`CREDIT_WINDOW`] packets are
-/// unreported (flow control end to end: nothing is overwritten in the node's reader, and the
-/// replay's memory stays bounded), and [`PacketSink::finish`] waits until the node has taken
-/// every packet sent, else fails naming how many it did not.
+/// Every node subscribed reports on `/pbr/intake` how many messages of this writer it has
+/// taken and processed, how many it refused, and the window it grants this writer
+/// (`pbr_msgs/IntakeReport`, `crate::intake`); [`PacketSink::send`] waits while the node
+/// furthest behind has a window's worth unreported (flow control end to end, per writer:
+/// nothing is overwritten in any node's reader, however many replays share it, and the
+/// replay's memory stays bounded), and [`PacketSink::finish`] waits until every node has
+/// processed every packet sent, else fails naming each node that did not and how much, or
+/// that refused packets. A subscriber that never reports (not a rockwatch node: `ros2 topic
+/// echo`, a bag recorder) is named in a warning and not waited for.
 ///
 /// To a service of N partitioned nodes ([`Ros2PacketSink::open_partitioned`]) the sink has one
 /// writer ("lane") per partition topic `pbr/accel/p<i>of<N>`, and sends each packet on its
@@ -95,56 +105,81 @@ pub struct Ros2PacketSink {
     _session: Ros2Session,
 }
 
-/// One writer of a replay and what the node reading it has taken.
+/// One writer of a replay and what the nodes reading it have made of its packets.
 struct Lane {
     topic: String,
     writer: no_key::DataWriterCdr<msg::AccelPacket>,
-    intake: IntakeWatch,
-    /// Distinct packets sent on this lane (each resent one counted once).
-    sent: u64,
-    /// Packets of the lane's writers before the current one that the node took: the current
-    /// writer's k-th message is packet `base + k - 1`.
-    base: u64,
-    /// Of those, packets the node ignored (a station it does not monitor).
-    ignored_base: u64,
+    /// Packets sent on this lane and what every node made of them.
+    delivery: Delivery,
     /// The stations sent on this lane (the first [`NAMED_STATIONS`]).
     stations: BTreeSet<String>,
     /// The last packets sent (at most [`CREDIT_WINDOW`]), the last one being packet `sent - 1`.
     recent: VecDeque<msg::AccelPacket>,
     /// Readers matched now, from the writer's publication-matched status events.
-    matched: i32,
-    /// A matched reader went away (the node stopped or died mid-replay).
+    matched: BTreeSet<[u8; 16]>,
+    /// A matched reader went away (a node stopped or died mid-replay).
     lost_reader: bool,
 }
 
 impl Lane {
-    /// Packets the node has reported taken, over every writer of this lane (as of the last
-    /// [`Ros2PacketSink::read_reports`]).
-    fn confirmed(&self) -> u64 {
-        self.base + self.intake.intake().taken
-    }
-
-    /// Packets the node has reported taken but ignored, over every writer of this lane.
-    fn ignored(&self) -> u64 {
-        self.ignored_base + self.intake.intake().ignored
+    fn new(topic: String, writer: no_key::DataWriterCdr<msg::AccelPacket>) -> Lane {
+        Lane {
+            delivery: Delivery::new(gid_of(writer.guid())),
+            topic,
+            writer,
+            stations: BTreeSet::new(),
+            recent: VecDeque::with_capacity(CREDIT_WINDOW as usize),
+            matched: BTreeSet::new(),
+            lost_reader: false,
+        }
     }
 
     /// Readers matched now (after taking the writer's pending status events).
-    fn matched_readers(&mut self) -> i32 {
+    fn matched_readers(&mut self) -> usize {
         while let Some(status) = self.writer.try_recv_status() {
-            if let DataWriterStatus::PublicationMatched { current, .. } = status {
-                self.matched = current.count();
-                self.lost_reader |= current.count_change() < 0;
+            if let DataWriterStatus::PublicationMatched {
+                current, reader, ..
+            } = status
+            {
+                let gid = gid_of(reader);
+                if current.count_change() > 0 {
+                    self.matched.insert(gid);
+                } else if current.count_change() < 0 {
+                    self.matched.remove(&gid);
+                    self.lost_reader = true;
+                }
             }
         }
-        self.matched
+        self.matched.len()
     }
 
-    fn write(&mut self, m: msg::AccelPacket) -> anyhow::Result<()> {
-        self.writer
-            .write(m, Some(ros2_client::dds::rustdds::Timestamp::now()))
-            .map_err(|e| anyhow!("ROS 2 publish on {}: {e:?}", self.topic))
+    /// Sends `m`; while the writer's history is full (a node stopped acknowledging), waits
+    /// up to `wait`.
+    fn write(&mut self, m: msg::AccelPacket, wait: Duration) -> anyhow::Result<()> {
+        let deadline = Instant::now() + wait;
+        let mut m = m;
+        loop {
+            match self
+                .writer
+                .write(m, Some(ros2_client::dds::rustdds::Timestamp::now()))
+            {
+                Ok(()) => return Ok(()),
+                Err(WriteError::WouldBlock { data }) if Instant::now() < deadline => m = data,
+                Err(WriteError::WouldBlock { .. }) => bail!(
+                    "ROS 2 publish on {}: the writer's history stayed full for {:.0} s: a node \
+                     stopped acknowledging (paused or overloaded?)",
+                    self.topic,
+                    wait.as_secs_f64()
+                ),
+                Err(e) => bail!("ROS 2 publish on {}: {e}", self.topic),
+            }
+        }
     }
+}
+
+/// The rmw gid of a DDS GUID (prefix, then entity id).
+fn gid_of(guid: GUID) -> [u8; 16] {
+    Gid::from(guid).to_bytes16()
 }
 
 /// A new participant, its subscription to the nodes' reports and its writers (one per topic).
@@ -176,18 +211,7 @@ impl Ros2PacketSink {
         let lanes = topics
             .into_iter()
             .zip(writers)
-            .map(|(topic, writer)| Lane {
-                intake: IntakeWatch::new(Gid::from(writer.guid())),
-                topic,
-                writer,
-                sent: 0,
-                base: 0,
-                ignored_base: 0,
-                stations: BTreeSet::new(),
-                recent: VecDeque::with_capacity(CREDIT_WINDOW as usize),
-                matched: 0,
-                lost_reader: false,
-            })
+            .map(|(topic, writer)| Lane::new(topic, writer))
             .collect();
         Ok(Ros2PacketSink {
             reports,
@@ -238,8 +262,9 @@ impl Ros2PacketSink {
     /// Takes the nodes' reports waiting and hands each to every lane's watch.
     fn read_reports(&mut self) {
         while let Ok(Some((report, _))) = self.reports.take() {
+            let report = IntakeCount::from(report);
             for lane in &mut self.lanes {
-                lane.intake.offer(&report);
+                lane.delivery.watch.offer(&report);
             }
         }
     }
@@ -273,7 +298,7 @@ impl Ros2PacketSink {
             return;
         }
         self.read_reports();
-        let ignored: u64 = self.lanes.iter().map(Lane::ignored).sum();
+        let ignored: u64 = self.lanes.iter().map(|l| l.delivery.ignored()).sum();
         if ignored > warned {
             tracing::warn!("{}", self.ignored_line(ignored));
             self.ignored_warned = (ignored, Some(Instant::now()));
@@ -282,29 +307,14 @@ impl Ros2PacketSink {
 
     /// One line on the `ignored` packets: the node does not monitor their station.
     fn ignored_line(&mut self, ignored: u64) -> String {
-        let sent: u64 = self.lanes.iter().map(|l| l.sent).sum();
+        let sent: u64 = self.lanes.iter().map(|l| l.delivery.sent).sum();
         let mut stations = BTreeSet::new();
         for lane in &self.lanes {
-            if lane.ignored() > 0 {
+            if lane.delivery.ignored() > 0 {
                 stations.extend(lane.stations.iter().map(String::as_str));
             }
         }
-        let named: Vec<&str> = stations.iter().take(5).copied().collect();
-        let more = stations.len().saturating_sub(named.len());
-        format!(
-            "the node ignored {ignored} of the {sent} packets sent: it does not monitor their station (neither in its [[stations]] nor bound to a block of its catalogue{}); among {}{} (the node's log names the station: unknown_station)",
-            if self.map.is_some() {
-                ", or the station belongs to another partition"
-            } else {
-                ""
-            },
-            named.join(", "),
-            if more > 0 {
-                format!(" and {more} more")
-            } else {
-                String::new()
-            }
-        )
+        ignored_line(ignored, sent, &stations, self.map.is_some())
     }
 
     /// Replaces the dead participant: new writers, the nodes' count of each dead writer's
@@ -316,28 +326,58 @@ impl Ros2PacketSink {
              rebuilding it and sending again what the node has not taken"
         );
         let topics: Vec<String> = self.lanes.iter().map(|l| l.topic.clone()).collect();
-        let (session, reports, writers) = Self::open_parts(&self.plan, &self.naming, &topics)?;
-        {
-            // The dead participant's teardown: RustDDS logs each endpoint it cannot remove.
-            let _quiet = MuteLibraries::new();
-            self.read_reports();
-            self.reports = reports;
-            // Made again on the new participant at the next report.
-            self.diagnostics = None;
-            for (lane, writer) in self.lanes.iter_mut().zip(writers) {
-                lane.intake.switch(Gid::from(writer.guid()));
-                // Endpoints before their participant (see the field order).
-                lane.writer = writer;
-                lane.matched = 0;
-                lane.lost_reader = false;
+        // The new participant may die too while it waits for the nodes (another signal):
+        // watched like any, and built again, a bounded number of times.
+        for attempt in 1..=MAX_REBUILD_ATTEMPTS {
+            let (session, reports, writers) = Self::open_parts(&self.plan, &self.naming, &topics)?;
+            {
+                // The dead participant's teardown: RustDDS logs each endpoint it cannot remove.
+                let _quiet = MuteLibraries::new();
+                self.read_reports();
+                self.reports = reports;
+                // Made again on the new participant at the next report.
+                self.diagnostics = None;
+                for (lane, writer) in self.lanes.iter_mut().zip(writers) {
+                    let writer_gid = gid_of(writer.guid());
+                    if attempt == 1 {
+                        lane.delivery.watch.switch(writer_gid);
+                    } else {
+                        // The previous attempt's writer sent nothing: the dead one stays the
+                        // previous writer.
+                        lane.delivery.watch.retarget(writer_gid);
+                    }
+                    // Endpoints before their participant (see the field order).
+                    lane.writer = writer;
+                    lane.matched.clear();
+                    lane.lost_reader = false;
+                }
+                self._session = session;
             }
-            self._session = session;
-        }
-        if !self.wait_for_subscriber(self.wait)? {
-            bail!(
-                "the replay's DDS participant was rebuilt, but no node subscribed again within {:.0} s",
-                self.wait.as_secs_f64()
-            );
+            let deadline = Instant::now() + self.wait;
+            let died = loop {
+                if self.lanes.iter_mut().all(|l| l.matched_readers() > 0) {
+                    break None;
+                }
+                if let Some(thread) = self._session.ended_thread() {
+                    break Some(thread);
+                }
+                if Instant::now() >= deadline {
+                    bail!(
+                        "the replay's DDS participant was rebuilt, but no node subscribed again within {:.0} s",
+                        self.wait.as_secs_f64()
+                    );
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            };
+            match died {
+                None => break,
+                Some(thread) if attempt < MAX_REBUILD_ATTEMPTS => tracing::error!(
+                    "the replay's rebuilt DDS participant died too (thread {thread} ended) before a node subscribed again: rebuilding it again ({attempt} of {MAX_REBUILD_ATTEMPTS})"
+                ),
+                Some(thread) => bail!(
+                    "the replay's DDS participant died {MAX_REBUILD_ATTEMPTS} times in a row (thread {thread} ended) before a node subscribed again: giving up"
+                ),
+            }
         }
         let deadline = Instant::now() + PREVIOUS_REPORT_WAIT;
         loop {
@@ -345,44 +385,47 @@ impl Ros2PacketSink {
             let heard = self
                 .lanes
                 .iter()
-                .all(|l| l.sent == 0 || l.intake.previous().is_some_and(|(_, heard)| heard));
+                .all(|l| l.delivery.sent == 0 || l.delivery.watch.previous_heard());
             if heard || Instant::now() >= deadline {
                 break;
             }
             std::thread::sleep(Duration::from_millis(20));
         }
         let (mut taken_all, mut sent_all, mut again_all) = (0, 0, 0);
+        let wait = self.wait;
         for lane in &mut self.lanes {
-            let (previous, _) = lane.intake.previous().unwrap_or_default();
-            lane.base += previous.taken;
-            lane.ignored_base += previous.ignored;
-            let first_kept = lane.sent - lane.recent.len() as u64;
-            if lane.base < first_kept {
+            // Every node has the packets up to the one that took fewest; the others are
+            // sent again from there (a node that had them drops them as duplicates).
+            let d = &mut lane.delivery;
+            d.base += d.watch.previous_least_taken();
+            let first_kept = d.sent - lane.recent.len() as u64;
+            if d.base < first_kept {
                 bail!(
-                    "the replay's DDS participant was rebuilt, but the node of {} has taken only {} of {} packets and the replay kept only the last {}",
+                    "the replay's DDS participant was rebuilt, but a node of {} has taken only {} of {} packets and the replay kept only the last {}",
                     lane.topic,
-                    lane.base,
-                    lane.sent,
+                    d.base,
+                    d.sent,
                     lane.recent.len()
                 );
             }
-            lane.base = lane.base.min(lane.sent);
+            d.base = d.base.min(d.sent);
+            let (base, sent) = (d.base, d.sent);
             let again: Vec<msg::AccelPacket> = lane
                 .recent
                 .iter()
-                .skip((lane.base - first_kept) as usize)
+                .skip((base - first_kept) as usize)
                 .cloned()
                 .collect();
             for m in &again {
-                lane.write(m.clone())?;
+                lane.write(m.clone(), wait)?;
             }
-            taken_all += lane.base;
-            sent_all += lane.sent;
+            taken_all += base;
+            sent_all += sent;
             again_all += again.len();
         }
         self.rebuilds += 1;
         tracing::info!(
-            "replay participant rebuilt: the node had taken {taken_all} of {sent_all} packets; {again_all} sent again"
+            "replay participant rebuilt: every node had taken {taken_all} of {sent_all} packets; {again_all} sent again"
         );
         Ok(())
     }
@@ -397,28 +440,29 @@ impl Ros2PacketSink {
     /// its `frame_id`.
     pub fn send_msg(&mut self, m: msg::AccelPacket) -> anyhow::Result<()> {
         let lane = self.lane_of(&m.header.frame_id);
-        self.lanes[lane].write(m)
+        let wait = self.wait;
+        self.lanes[lane].write(m, wait)
     }
 
     /// Packets sent so far, and of those the node(s) have reported taken.
     pub fn progress(&mut self) -> (u64, u64) {
         self.read_reports();
         self.lanes.iter().fold((0, 0), |(s, t), l| {
-            (s + l.sent, t + l.confirmed().min(l.sent))
+            (s + l.delivery.sent, t + l.delivery.confirmed())
         })
     }
 
     /// Waits until at most `unreported` packets of lane `lane` are not reported taken by its
-    /// node; false if the reports stood still for the wait ([`Ros2PacketSink::set_wait`]).
+    /// nodes; false if the reports stood still for the wait ([`Ros2PacketSink::set_wait`]).
     fn wait_for_intake(&mut self, lane: usize, unreported: u64) -> anyhow::Result<bool> {
         self.read_reports();
-        let mut taken = self.lanes[lane].confirmed();
+        let mut taken = self.lanes[lane].delivery.confirmed();
         let mut last_move = Instant::now();
-        while self.lanes[lane].sent - taken.min(self.lanes[lane].sent) > unreported {
+        while self.lanes[lane].delivery.unconfirmed() > unreported {
             std::thread::sleep(Duration::from_micros(200));
             self.keep_alive()?;
             self.read_reports();
-            let now = self.lanes[lane].confirmed();
+            let now = self.lanes[lane].delivery.confirmed();
             if now != taken {
                 taken = now;
                 last_move = Instant::now();
@@ -429,36 +473,92 @@ impl Ros2PacketSink {
         Ok(true)
     }
 
-    /// One line on why the node of lane `lane` has not taken everything.
+    /// Waits until every node that reported on lane `lane` has processed every packet sent
+    /// on it; false if their reports stood still for the wait ([`Ros2PacketSink::set_wait`]).
+    fn wait_for_processing(&mut self, lane: usize) -> anyhow::Result<bool> {
+        let mut last = None;
+        let mut last_move = Instant::now();
+        loop {
+            self.keep_alive()?;
+            self.read_reports();
+            let (processed, done) = self.lanes[lane].delivery.processing();
+            if done {
+                return Ok(true);
+            }
+            if last.as_ref() != Some(&processed) {
+                last = Some(processed);
+                last_move = Instant::now();
+            } else if last_move.elapsed() >= self.wait {
+                return Ok(false);
+            }
+            std::thread::sleep(Duration::from_micros(500));
+        }
+    }
+
+    /// One line on why the nodes of lane `lane` have not processed everything.
     fn shortfall(&mut self, lane: usize) -> String {
         let wait = self.wait.as_secs_f64();
         let partitioned = self.map.is_some();
         self.read_reports();
         let l = &mut self.lanes[lane];
-        let (sent, taken) = (l.sent, l.confirmed());
-        let why = if l.intake.heard == 0 {
-            format!(
-                "no report of the node on {INTAKE_TOPIC} (is the subscriber a rockwatch node of this version?)"
-            )
-        } else if l.matched_readers() == 0 || l.lost_reader {
-            "the node went away".to_string()
-        } else {
-            "lost on the way, e.g. the node's participant was rebuilt".to_string()
-        };
+        l.matched_readers();
+        let sent = l.delivery.sent;
         let whose = if partitioned {
-            format!(" of {}", l.topic)
+            format!(" on {}", l.topic)
         } else {
             String::new()
         };
+        if l.delivery.watch.nodes().next().is_none() {
+            return format!(
+                "sent {sent} packets{whose}, but no node reported on {INTAKE_TOPIC} what it took within {wait:.0} s ({}; is the subscriber a rockwatch node of this version?)",
+                if l.matched.is_empty() {
+                    "no subscriber left"
+                } else {
+                    "subscribed, silent"
+                }
+            );
+        }
         format!(
-            "sent {sent} packets, but the node{whose} did not acknowledge them all within {wait:.0} s: it took {taken}, {} not processed ({why})",
-            sent - taken.min(sent)
+            "sent {sent} packets{whose}, but not every node processed them within {wait:.0} s: {}",
+            l.delivery.behind(&l.matched).join("; ")
         )
+    }
+
+    /// One line on every node that refused packets, if any.
+    fn refusals(&self) -> Option<String> {
+        let lines: Vec<String> = self
+            .lanes
+            .iter()
+            .flat_map(|l| {
+                let on = if self.map.is_some() {
+                    format!(" on {}", l.topic)
+                } else {
+                    String::new()
+                };
+                l.delivery
+                    .refusals()
+                    .into_iter()
+                    .map(move |r| format!("{r}{on}"))
+            })
+            .collect();
+        (!lines.is_empty()).then(|| refusal_line(&lines))
+    }
+
+    /// Subscribers of every lane that never reported what they took (not rockwatch nodes).
+    fn silent_subscribers(&mut self) -> usize {
+        self.lanes
+            .iter_mut()
+            .map(|l| {
+                l.matched_readers();
+                l.delivery.silent(&l.matched)
+            })
+            .sum()
     }
 }
 
 impl PacketSink for Ros2PacketSink {
     /// Every lane's topic has a reader (with partitions: every partition's node is there).
+    /// A participant that dies meanwhile is rebuilt (and the wait goes on).
     fn wait_for_subscriber(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         let deadline = Instant::now() + timeout;
         loop {
@@ -468,6 +568,7 @@ impl PacketSink for Ros2PacketSink {
             if Instant::now() >= deadline {
                 return Ok(false);
             }
+            self.keep_alive()?;
             std::thread::sleep(Duration::from_millis(20));
         }
     }
@@ -481,7 +582,9 @@ impl PacketSink for Ros2PacketSink {
     fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()> {
         self.keep_alive()?;
         let lane = self.lane_of(&packet.station);
-        if !self.wait_for_intake(lane, CREDIT_WINDOW - 1)? {
+        self.read_reports();
+        let window = self.lanes[lane].delivery.window(CREDIT_WINDOW);
+        if !self.wait_for_intake(lane, window - 1)? {
             bail!("{}", self.shortfall(lane));
         }
         let m = msg::AccelPacket::from(packet);
@@ -493,8 +596,8 @@ impl PacketSink for Ros2PacketSink {
             l.recent.pop_front();
         }
         l.recent.push_back(m.clone());
-        l.write(m)?;
-        l.sent += 1;
+        l.write(m, self.wait)?;
+        l.delivery.sent += 1;
         Ok(())
     }
 
@@ -509,19 +612,29 @@ impl PacketSink for Ros2PacketSink {
         published
     }
 
-    /// Also fails when the node took everything but ignored some packets (a station it
-    /// does not monitor): nothing the replay sent about those stations was processed.
+    /// Waits until every node that reports has processed every packet; fails naming each
+    /// node that did not, that refused packets, or that ignored some (a station it does not
+    /// monitor: nothing the replay sent about it was processed).
     fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         self.wait = timeout;
         for lane in 0..self.lanes.len() {
-            if !self.wait_for_intake(lane, 0)? {
+            if self.lanes[lane].delivery.sent > 0 && !self.wait_for_processing(lane)? {
                 bail!("{}", self.shortfall(lane));
             }
         }
         self.read_reports();
-        let ignored: u64 = self.lanes.iter().map(Lane::ignored).sum();
+        if let Some(refusals) = self.refusals() {
+            bail!("{refusals}");
+        }
+        let ignored: u64 = self.lanes.iter().map(|l| l.delivery.ignored()).sum();
         if ignored > 0 {
             bail!("{}", self.ignored_line(ignored));
+        }
+        let silent = self.silent_subscribers();
+        if silent > 0 {
+            tracing::warn!(
+                "{silent} subscriber(s) of the replay's topic never reported on {INTAKE_TOPIC} what they took (not rockwatch nodes, e.g. `ros2 topic echo` or a recorder): not checked"
+            );
         }
         Ok(true)
     }
