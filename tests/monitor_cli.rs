@@ -411,7 +411,7 @@ fn mseed_in_counts_with_station_gain_matches_the_file_in_mps2() {
 #[test]
 fn a_crash_during_journal_compaction_loses_nothing() {
     use rockwatch::journal::{
-        read_journal, Journal, COMPACT_AT_BYTES, COMPACT_TMP, HISTORY_ALERTS,
+        read_journal, Journal, COMPACT_AT_BYTES, COMPACT_TMP, HISTORY_ALERTS, REHEARSAL_MARKER,
     };
     use rockwatch_core::dynamics::Mode;
     use rockwatch_core::engine::{
@@ -436,7 +436,9 @@ fn a_crash_during_journal_compaction_loses_nothing() {
         })
     };
     // Years of a block that kept falling and being reset; fallen in its last episode.
+    // (A rehearsal's directory, as `monitor` marks it: monitor never writes a node's.)
     let history = |dir: &Path| -> Vec<JournalRecord> {
+        std::fs::write(dir.join(REHEARSAL_MARKER), "").unwrap();
         let (mut j, _, _) = Journal::open(dir).unwrap();
         let mut episode = 0;
         while j.len_bytes() <= COMPACT_AT_BYTES {
@@ -551,5 +553,113 @@ fn a_device_given_as_a_file_is_refused_not_read_until_memory_runs_out() {
         String::from_utf8_lossy(&out.stderr).contains("the most read of such a file"),
         "{}",
         String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Issue 20 item 1: `monitor --config node.toml` wrote its alerts into the configuration's
+/// `state_dir`, which the next node published again as its own (starting with a rock fallen).
+/// The configuration's state directory is the node's: monitor never writes it; `--state-dir`
+/// gives a rehearsal a directory of its own, and one a node holds or held is refused.
+#[test]
+fn monitor_never_writes_a_nodes_state_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let node_state = dir.path().join("node-state");
+    let config = dir.path().join("node.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "catalogue = {:?}\nstate_dir = \"node-state\"\n",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml")
+        ),
+    )
+    .unwrap();
+    let monitor = |extra: &[&str]| {
+        let mut args = vec![
+            "monitor",
+            "--config",
+            config.to_str().unwrap(),
+            "--record",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
+            "--azimuth",
+            "228",
+            "--station",
+            "CI.RRS.00",
+            "--format",
+            "jsonl",
+        ];
+        args.extend(extra);
+        rockwatch(&args, &[])
+    };
+    // The configuration's state_dir: untouched, and the user is told why.
+    let out = monitor(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!alert_ids(&lines(&out)).is_empty());
+    assert!(
+        !node_state.exists(),
+        "monitor wrote the node's state directory"
+    );
+    assert!(
+        stderr.contains("is the node's: monitor does not write it"),
+        "{stderr}"
+    );
+
+    // A directory that holds a node's journal (what a node leaves: journal and lock file):
+    // refused, and left as it was.
+    let (journal, _, _) = rockwatch::journal::Journal::open(&node_state).unwrap();
+    drop(journal);
+    let listing = |d: &Path| {
+        let mut names: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        names.sort();
+        names
+    };
+    let before = listing(&node_state);
+    let journal_len = || {
+        std::fs::metadata(node_state.join(rockwatch::journal::JOURNAL_FILE))
+            .unwrap()
+            .len()
+    };
+    let out = monitor(&["--state-dir", node_state.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("holds or held a node's state"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert_eq!(listing(&node_state), before);
+    assert_eq!(journal_len(), 0);
+    // Held by a running process: said as such.
+    let (held, _, _) = rockwatch::journal::Journal::open(&node_state).unwrap();
+    let out = monitor(&["--state-dir", node_state.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("in use by another rockwatch process"),
+        "{stderr}"
+    );
+    drop(held);
+    assert_eq!(journal_len(), 0);
+
+    // A directory of its own: journaled, marked as a rehearsal, and usable again by monitor.
+    let rehearsal = dir.path().join("rehearsal-state");
+    let first = monitor(&["--state-dir", rehearsal.to_str().unwrap()]);
+    assert!(first.status.success());
+    assert!(!alert_ids(&lines(&first)).is_empty());
+    assert!(rehearsal
+        .join(rockwatch::journal::REHEARSAL_MARKER)
+        .is_file());
+    let second = monitor(&["--state-dir", rehearsal.to_str().unwrap()]);
+    assert!(
+        second.status.success(),
+        "{}",
+        String::from_utf8_lossy(&second.stderr)
+    );
+    assert!(
+        alert_ids(&lines(&second)).is_empty(),
+        "restored, not re-alerted"
     );
 }
