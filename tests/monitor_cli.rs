@@ -663,3 +663,59 @@ fn monitor_never_writes_a_nodes_state_directory() {
         "restored, not re-alerted"
     );
 }
+
+/// Issue 20 item 2: only the first problem of a catalogue was reported per run. The CLI lists
+/// every one (here three in two entries) under one error line, and exits 1.
+#[test]
+fn a_catalogue_with_several_problems_lists_them_all_in_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let catalogue = dir.path().join("catalogue.toml");
+    let entry = |id: &str, lat: &str, extra: &str| {
+        format!(
+            "[[pbr]]\nid = \"{id}\"\nname = \"N\"\nlat = {lat}\nlon = -118.48\n\
+             station = \"CI.RRS.00\"\nazimuth_deg = 228\nwidth_m = 0.3\nheight_m = 1.5\n\
+             mu_s = 0.7\nmu_k = 0.5\n{extra}\n"
+        )
+    };
+    std::fs::write(
+        &catalogue,
+        entry("a", "34.28", "") + &entry("b", "134.28", "source = \"x\"\nseed = -1"),
+    )
+    .unwrap();
+    let out = rockwatch(
+        &[
+            "monitor",
+            "--catalogue",
+            catalogue.to_str().unwrap(),
+            "--record",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
+            "--station",
+            "CI.RRS.00",
+        ],
+        &[],
+    );
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = stderr.lines().collect();
+    let path = catalogue.display();
+    assert_eq!(
+        lines,
+        [
+            format!("rockwatch: error: {path}: 3 problems in the catalogue:"),
+            format!(
+                "  {path}:1: pbr[0] (id \"a\"): missing field `source` (required: where the \
+                 numbers come from, e.g. a survey, a paper, or \"illustrative\" for made-up \
+                 values)"
+            ),
+            format!("  {path}:13: pbr[1] (id \"b\"): lat = 134.28 must be in [-90, 90] degrees"),
+            format!(
+                "  {path}:13: pbr[1] (id \"b\"): seed = -1 must be an integer from 0 to \
+                 18446744073709551615"
+            ),
+        ],
+        "{stderr}"
+    );
+}
