@@ -377,6 +377,15 @@ impl JournalError {
     }
 }
 
+/// The wall clock as UTC, ns since the Unix epoch (0 before 1970): the time of records made by
+/// an operator (resets) and the node's UTC epoch.
+#[must_use]
+pub fn utc_now_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}
+
 /// Refuses (`JournalError::Locked`) a state directory another process holds, without keeping
 /// it: a node calls it before it starts anything (DDS, notifications), then opens the journal.
 /// A directory that does not exist yet is free.
@@ -880,7 +889,10 @@ mod tests {
     use super::*;
 
     fn reset(id: &str) -> JournalRecord {
-        JournalRecord::Reset { pbr_id: id.into() }
+        JournalRecord::Reset {
+            pbr_id: id.into(),
+            time_ns: None,
+        }
     }
 
     #[test]
@@ -946,6 +958,7 @@ mod tests {
         j.append(&JournalRecord::EpisodeEnd {
             pbr_id: "b".into(),
             episode: 2,
+            data_time_ns: None,
         })
         .unwrap();
         drop(j);
@@ -956,7 +969,8 @@ mod tests {
                 reset("a"),
                 JournalRecord::EpisodeEnd {
                     pbr_id: "b".into(),
-                    episode: 2
+                    episode: 2,
+                    data_time_ns: None,
                 }
             ]
         );
@@ -1096,6 +1110,7 @@ mod tests {
                 r.push(JournalRecord::EpisodeEnd {
                     pbr_id: "q".into(),
                     episode: e / 2,
+                    data_time_ns: None,
                 });
             }
         }
