@@ -9,6 +9,7 @@ use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rockwatch::fragility::plots::write_plots;
 use rockwatch::fragility::report::{fragility_json, text_summary, write_runs_csv};
+use rockwatch::number_text::{block_label, short_number};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::dynamics::{BlockOptions, BlockParams};
 use rockwatch_core::fragility::{
@@ -267,7 +268,8 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
         let label = format!(
             "{id} ({}), {}, {} member{}",
             pbr.name(),
-            pbr.nominal().geometry_label(),
+            pbr.nominal()
+                .geometry_label_with(short_number, short_number),
             k,
             if k == 1 { "" } else { "s (Latin hypercube)" }
         );
@@ -303,12 +305,7 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
             return mesh_rock(args, &mesh);
         }
     };
-    let label = format!(
-        "{}, μs = {}, μk = {}",
-        params.geometry_label(),
-        params.mu_s,
-        params.mu_k
-    );
+    let label = block_label(&params);
     let info = json!({
         "b_plus_m": params.b_plus_m, "b_minus_m": params.b_minus_m,
         "com_height_m": params.com_height_m, "rho_m": params.rho_m,
@@ -344,9 +341,11 @@ fn mesh_rock(args: &FragilityArgs, mesh: &MeshPlan) -> anyhow::Result<Rock> {
     } = mesh.friction;
     let loaded = &mesh.mesh;
     let label = format!(
-        "{} ({} directions), μs = {mu_s}, μk = {mu_k}",
+        "{} ({} directions), μs = {}, μk = {}",
         loaded.path.display(),
-        directions.len()
+        directions.len(),
+        short_number(mu_s),
+        short_number(mu_k)
     );
     let info = json!({
         "mesh": loaded.path.display().to_string(), "mesh_sha256": file_sha256(&loaded.path)?,
@@ -379,7 +378,12 @@ fn rigid_mesh_rock(mesh: &MeshPlan) -> anyhow::Result<Rock> {
     }
     let body = mesh.body_3d()?;
     let loaded = &mesh.mesh;
-    let label = format!("{} in 3-D, μs = {mu_s}, μk = {mu_k}", loaded.path.display());
+    let label = format!(
+        "{} in 3-D, μs = {}, μk = {}",
+        loaded.path.display(),
+        short_number(mu_s),
+        short_number(mu_k)
+    );
     let info = json!({
         "mesh": loaded.path.display().to_string(), "mesh_sha256": file_sha256(&loaded.path)?,
         "cap": loaded.cap, "model": "3d", "up": loaded.up.as_str(),

@@ -8,6 +8,7 @@ use rockwatch_core::mesh::contact::{
     parse_azimuths, DirectionBody, RestingContact, SENSITIVITY_TOLERANCES_M,
 };
 
+use rockwatch::number_text::short_number;
 use rockwatch::rock_plots::{plot_alpha_rose, plot_section};
 
 use super::rock_flags::{describe_cap, LoadedMesh, MeshFlags};
@@ -204,26 +205,26 @@ fn text(mesh: &LoadedMesh, dirs: &[DirectionBody], sensitivity: &[Sensitivity]) 
     let mut out = String::new();
     let (rest, up) = (&mesh.rest, mesh.up);
     let m = &rest.mass;
-    let v3 = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
+    let v3 = |v: [f64; 3]| format!("({})", v.map(short_number).join(", "));
     let _ = writeln!(out, "mesh        {}", mesh.path.display());
     if let Some(cap) = &mesh.cap {
         let _ = writeln!(out, "capped      {}", describe_cap(cap));
     }
-    let _ = writeln!(out, "volume      {:.6} m³", m.volume_m3);
+    let _ = writeln!(out, "volume      {} m³", short_number(m.volume_m3));
     let _ = writeln!(out, "com         {} m", v3(m.com_m));
     let _ = writeln!(
         out,
         "resting     facet of {} hull vertices, {} contact vertices within {} m; vertical {} \
-         ({:.2}° from {}), north {}",
+         ({}° from {}), north {}",
         rest.facet_vertices,
         rest.contact_vertices(),
-        rest.tolerance_m,
+        short_number(rest.tolerance_m),
         v3(rest.up),
-        rest.tilt_deg,
+        short_number(rest.tilt_deg),
         up.as_str(),
         v3(rest.north)
     );
-    let _ = writeln!(out, "com height  {:.4} m", rest.h_m);
+    let _ = writeln!(out, "com height  {} m", short_number(rest.h_m));
     let _ = writeln!(
         out,
         "{:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8}",
@@ -245,11 +246,11 @@ fn text(mesh: &LoadedMesh, dirs: &[DirectionBody], sensitivity: &[Sensitivity]) 
     let w = weakest(dirs);
     let _ = writeln!(
         out,
-        "weakest     towards {:.2}°: α = {:.3}°, uplift at {:.3} m/s² ({:.4} g) (of the directions listed)",
-        w.azimuth_deg,
-        w.alpha_deg,
-        w.uplift_mps2,
-        w.uplift_mps2 / rockwatch_core::STANDARD_GRAVITY_MPS2
+        "weakest     towards {}°: α = {}°, uplift at {} m/s² ({} g) (of the directions listed)",
+        short_number(w.azimuth_deg),
+        short_number(w.alpha_deg),
+        short_number(w.uplift_mps2),
+        short_number(w.uplift_mps2 / rockwatch_core::STANDARD_GRAVITY_MPS2)
     );
     let _ = writeln!(
         out,
