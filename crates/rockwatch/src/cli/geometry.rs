@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use rockwatch_core::mesh::cap::Cap;
 use rockwatch_core::mesh::contact::{
-    parse_azimuths, DirectionBody, RestingContact, SENSITIVITY_TOLERANCES_M,
+    parse_azimuths, weakest_side, DirectionBody, RestingContact, SENSITIVITY_TOLERANCES_M,
 };
 
 use rockwatch::number_text::short_number;
@@ -97,21 +97,17 @@ struct Sensitivity {
     b_ratio_max: f64,
 }
 
-/// The weakest side of the directions `dirs` (non-empty).
+/// The weakest side of the directions `dirs` (non-empty: `--azimuths` gives at least one).
 fn weakest(dirs: &[DirectionBody]) -> Weakest {
-    let mut best = (f64::INFINITY, 0.0);
-    for d in dirs {
-        if d.alpha_plus_deg < best.0 {
-            best = (d.alpha_plus_deg, d.azimuth_deg);
-        }
-        if d.alpha_minus_deg < best.0 {
-            best = (d.alpha_minus_deg, (d.azimuth_deg + 180.0).rem_euclid(360.0));
-        }
-    }
+    let (azimuth_deg, alpha_deg) = weakest_side(
+        dirs.iter()
+            .map(|d| (d.azimuth_deg, d.alpha_plus_deg, d.alpha_minus_deg)),
+    )
+    .unwrap_or((0.0, f64::INFINITY));
     Weakest {
-        azimuth_deg: best.1,
-        alpha_deg: best.0,
-        uplift_mps2: rockwatch_core::STANDARD_GRAVITY_MPS2 * best.0.to_radians().tan(),
+        azimuth_deg,
+        alpha_deg,
+        uplift_mps2: rockwatch_core::STANDARD_GRAVITY_MPS2 * alpha_deg.to_radians().tan(),
     }
 }
 
