@@ -343,6 +343,36 @@ fn a_second_process_on_a_state_directory_is_refused() {
     let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
     refused(&run, "one node per state directory");
     drop(held);
+    // Released, the directory still holds a node's journal: `monitor` never writes it (issue
+    // 20 item 1), while a directory of its own is accepted.
     let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
+    refused(&run, "holds or held a node's state");
+    let own = dir.path().join("rehearsal");
+    let run = rockwatch(&monitor_args(
+        RINALDI,
+        &["--state-dir", own.to_str().unwrap()],
+    ));
     assert_eq!(run.code, Some(0), "{}", run.stderr);
+}
+
+/// Issue 20 item 1: a state directory `rockwatch monitor` wrote (a rehearsal's alerts) is not
+/// a node's history: `node` refuses it before its DDS participant exists.
+#[test]
+fn a_node_refuses_a_state_directory_monitor_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let rehearsal = dir.path().join("rehearsal");
+    let rehearsal_arg = rehearsal.to_str().unwrap();
+    let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", rehearsal_arg]));
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let run = rockwatch(&[
+        "node",
+        "--catalogue",
+        CATALOGUE,
+        "--state-dir",
+        rehearsal_arg,
+        "--log-level",
+        "rockwatch=info,rustdds=trace",
+    ]);
+    refused(&run, "written by `rockwatch monitor`");
+    assert!(!run.stderr.contains("DomainParticipant"), "{}", run.stderr);
 }

@@ -4,7 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use rockwatch_core::azimuth::Azimuth;
-use rockwatch_core::catalogue::{default_seed, Catalogue, CatalogueError, Distribution, Pbr};
+use rockwatch_core::catalogue::{
+    default_seed, Catalogue, CatalogueError, Distribution, Pbr, MAX_REPORTED_PROBLEMS,
+};
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::lhs::{latin_hypercube_seeded, standard_normal_quantile};
 use rockwatch_core::record::Record;
@@ -224,7 +226,11 @@ fn every_invalid_field_is_reported_with_entry_index_id_and_problem() {
             "seed = -1 must be an integer from 0 to 18446744073709551615",
         ),
         (&[("lat", None)], "missing field `lat`"),
-        (&[("source", None)], "missing field `source`"),
+        (
+            &[("source", None)],
+            "missing field `source` (required: where the numbers come from, e.g. a survey, a \
+             paper, or \"illustrative\" for made-up values)",
+        ),
         (
             &[("lat", Some("\"north\""))],
             "lat: invalid type: string \"north\", expected f64",
@@ -1384,4 +1390,247 @@ fn a_mesh_rock_may_be_integrated_in_3d_and_what_the_3d_model_cannot_take_is_refu
     );
     let from_csv = Catalogue::from_csv_str(&csv, "x.csv").unwrap();
     assert_eq!(from_csv.pbrs()[0].model(), RockModel::Rigid3d);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Issue 20 item 2: every problem of a file in one run; the docs and the parser agree.
+
+/// The problems of a rejected catalogue: one line each (the one problem, or those listed under
+/// the count line), and the total.
+fn problems(error: &CatalogueError) -> (Vec<String>, usize) {
+    match error {
+        CatalogueError::Problems { shown, total, .. } => {
+            (shown.iter().map(ToString::to_string).collect(), *total)
+        }
+        other => (vec![other.to_string()], 1),
+    }
+}
+
+#[test]
+fn every_problem_of_a_catalogue_is_reported_in_one_reading() {
+    // Entry 0: two fields missing and a latitude out of range; entry 1 valid; entry 2: μk
+    // above μs and a bad station; entry 3: entry 0's id again; entry 4: a type error.
+    let text = [
+        entry(&[
+            ("id", Some("\"first\"")),
+            ("source", None),
+            ("mu_k", None),
+            ("lat", Some("95")),
+        ]),
+        entry(&[("id", Some("\"ok\""))]),
+        entry(&[
+            ("id", Some("\"third\"")),
+            ("mu_k", Some("0.9")),
+            ("station", Some("\"ci.rrs.00\"")),
+        ]),
+        entry(&[("id", Some("\"first\""))]),
+        entry(&[("id", Some("\"fifth\"")), ("lon", Some("\"west\""))]),
+    ]
+    .join("\n");
+    let error = Catalogue::from_toml_str(&text, "test.toml").unwrap_err();
+    let (lines, total) = problems(&error);
+    let at = |n: usize, id: &str| {
+        format!(
+            "test.toml:{}: pbr[{n}] (id {id:?}): ",
+            header_line(&text, n)
+        )
+    };
+    let expected = [
+        format!("{}missing field `mu_k`", at(0, "first")),
+        format!(
+            "{}missing field `source` (required: where the numbers come from, e.g. a survey, a \
+             paper, or \"illustrative\" for made-up values)",
+            at(0, "first")
+        ),
+        format!("{}lat = 95 must be in [-90, 90] degrees", at(0, "first")),
+        format!("{}mu_k = 0.9 exceeds mu_s = 0.6", at(2, "third")),
+        format!(
+            "{}id \"first\" is already used by pbr[0] (line 1)",
+            at(3, "first")
+        ),
+        format!(
+            "{}lon: invalid type: string \"west\", expected f64",
+            at(4, "fifth")
+        ),
+    ];
+    assert_eq!(total, 7, "{error}");
+    // (The station's message is the StationId parser's own; its place is checked.)
+    assert!(
+        lines[3].starts_with(&at(2, "third")) && lines[3].contains("station"),
+        "{error}"
+    );
+    let without_station: Vec<&String> = lines
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != 3)
+        .map(|(_, l)| l)
+        .collect();
+    assert_eq!(
+        without_station,
+        expected.iter().collect::<Vec<_>>(),
+        "{error}"
+    );
+    let text_of_error = error.to_string();
+    assert!(
+        text_of_error.starts_with("test.toml: 7 problems in the catalogue:\n  test.toml:"),
+        "{text_of_error}"
+    );
+    assert!(!text_of_error.contains("more"), "{text_of_error}");
+
+    // CSV: a malformed row does not hide the rows after it.
+    let csv = format!(
+        "{CSV_HEADER}\n{CSV_ROW},extra\n{}\n{}\n",
+        CSV_ROW.replace("pinnacle-2", "b").replace(",34.28,", ",,"),
+        CSV_ROW
+            .replace("pinnacle-2", "c")
+            .replace("illustrative", "")
+    );
+    let error = Catalogue::from_csv_str(&csv, "test.csv").unwrap_err();
+    let (lines, total) = problems(&error);
+    assert_eq!(total, 3, "{error}");
+    assert!(
+        lines[0].starts_with("test.csv:2: invalid CSV row:"),
+        "{error}"
+    );
+    assert_eq!(
+        lines[1],
+        "test.csv:3: pbr[1] (id \"b\"): lat is missing (empty cell)"
+    );
+    assert_eq!(
+        lines[2],
+        "test.csv:4: pbr[2] (id \"c\"): source must not be blank (say where the numbers come from)"
+    );
+}
+
+#[test]
+fn problems_beyond_the_bound_are_counted_not_listed() {
+    let n = MAX_REPORTED_PROBLEMS + 10;
+    let text: Vec<String> = (0..n)
+        .map(|i| entry(&[("id", Some(&format!("\"r{i}\"")[..])), ("source", None)]))
+        .collect();
+    let error = Catalogue::from_toml_str(&text.join("\n"), "test.toml").unwrap_err();
+    let (lines, total) = problems(&error);
+    assert_eq!((lines.len(), total), (MAX_REPORTED_PROBLEMS, n));
+    assert!(
+        lines[MAX_REPORTED_PROBLEMS - 1].contains("(id \"r49\")"),
+        "{error}"
+    );
+    let text = error.to_string();
+    assert!(
+        text.starts_with(&format!("test.toml: {n} problems in the catalogue:\n")),
+        "{text}"
+    );
+    assert!(
+        text.ends_with(&format!(
+            "\n  … and 10 more (the first {MAX_REPORTED_PROBLEMS} are listed)"
+        )),
+        "{text}"
+    );
+    assert_eq!(text.lines().count(), 1 + MAX_REPORTED_PROBLEMS + 1);
+}
+
+/// The field table of docs/catalogue.md: (field, required, uncertain).
+fn documented_fields() -> Vec<(String, String, String)> {
+    let doc = std::fs::read_to_string(repo("docs/catalogue.md")).unwrap();
+    doc.lines()
+        .filter(|l| l.starts_with("| `"))
+        .map(|l| {
+            let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+            (
+                cells[1].trim_matches('`').to_owned(),
+                cells[2].to_owned(),
+                cells[3].to_owned(),
+            )
+        })
+        .collect()
+}
+
+/// Issue 20 item 2: the README called `source` optional, the parser required it. The user's
+/// reference, docs/catalogue.md, lists exactly the fields the TOML and CSV parsers know, each
+/// required one is refused when missing and each optional one is not, and a field documented
+/// as uncertain takes a range (the others refuse one by type).
+#[test]
+fn the_documented_fields_are_exactly_the_parsers() {
+    let documented = documented_fields();
+    let mut names: Vec<String> = documented.iter().map(|(f, _, _)| f.clone()).collect();
+    names.sort();
+    // The TOML parser's fields: serde lists them for an unknown one.
+    let message = toml_error(&entry(&[("zzz", Some("1"))]));
+    let known = message
+        .split("expected one of ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("{message}"));
+    let mut toml_fields: Vec<String> = known
+        .split(", ")
+        .map(|f| f.trim_matches('`').to_owned())
+        .collect();
+    toml_fields.sort();
+    assert_eq!(
+        names, toml_fields,
+        "docs/catalogue.md against the TOML parser"
+    );
+    // The CSV parser's columns: its header error lists them.
+    let message = csv_error(&format!("{CSV_HEADER},zzz\n{CSV_ROW},1\n"));
+    let known = message
+        .split("(known: ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("{message}"));
+    let (scalars, uncertain) = known.split_once(", and for P in ").unwrap();
+    let uncertain = uncertain.split(": ").next().unwrap();
+    let mut csv_fields: Vec<String> = scalars
+        .split(", ")
+        .chain(uncertain.split(", "))
+        .map(str::to_owned)
+        .collect();
+    csv_fields.sort();
+    assert_eq!(
+        names, csv_fields,
+        "docs/catalogue.md against the CSV parser"
+    );
+
+    for (field, required, uncertain) in &documented {
+        // Required: refused when missing from a valid planar entry.
+        let without = Catalogue::from_toml_str(&entry(&[(field, None)]), "t.toml");
+        match required.as_str() {
+            "yes" => {
+                let message = without.expect_err(field).to_string();
+                assert!(
+                    message.contains(&format!("missing field `{field}`")),
+                    "{message}"
+                );
+            }
+            "planar" => {
+                let message = without.expect_err(field).to_string();
+                assert!(
+                    message.contains(&format!("{field} is missing")),
+                    "{message}"
+                );
+            }
+            "geometry" | "no" => {
+                if BASE.iter().all(|(k, _)| k != field) {
+                    // Not in the valid entry: its absence is fine.
+                    assert!(without.is_ok(), "{field}: {:?}", without.err());
+                }
+            }
+            other => panic!("{field}: unknown 'required' value {other:?}"),
+        }
+        // Uncertain: a range is not a type error.
+        let range = Catalogue::from_toml_str(
+            &entry(&[(field, Some("{ min = 0.1, max = 0.2 }"))]),
+            "t.toml",
+        );
+        let type_error = range.as_ref().err().is_some_and(|e| {
+            let m = e.to_string();
+            m.contains("invalid type") || m.contains("did not match any variant")
+        });
+        match uncertain.as_str() {
+            "yes" => assert!(!type_error, "{field}: {:?}", range.err()),
+            "no" => assert!(
+                type_error,
+                "{field} takes a range: {:?}",
+                range.map(|c| c.len())
+            ),
+            other => panic!("{field}: unknown 'uncertain' value {other:?}"),
+        }
+    }
 }

@@ -647,3 +647,70 @@ fn a_mesh_rock_in_3d_gets_the_planar_status_along_a_face_normal_from_the_flags_a
     assert_eq!(strip(&from_catalogue), strip(&three));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 20 item 28: a mesh rock's `fragility --pbr` printed its first direction's b± as if
+/// the rock were one planar block. The label says what the rock is: its directions (one planar
+/// body each) and its weakest side, whatever direction is listed first; the same for `--mesh`.
+#[test]
+fn a_meshed_rock_is_labelled_by_its_directions_and_weakest_side_not_its_first_body() {
+    // The box of `write_box_obj`: towards north (0°) the 0.3 × 1.2 m rectangle, α = atan(0.25)
+    // = 14.04°; towards east (90°) 0.4 × 1.2 m, α = 18.43°. Listed east first.
+    let dir = temp_dir("mesh-label");
+    write_box_obj(&dir);
+    let catalogue = dir.join("cat.toml");
+    std::fs::write(
+        &catalogue,
+        "[[pbr]]\nid = \"box\"\nname = \"Box\"\nlat = 34.28\nlon = -118.48\n\
+         station = \"CI.RRS.00\"\nmesh = \"box.obj\"\nazimuths = [90, 0]\n\
+         mu_s = 0.8\nmu_k = 0.6\nsource = \"test\"\n",
+    )
+    .unwrap();
+    let record = format!("{RECORDS}/Rinaldi228.AT2");
+    let rock_line = |rock: &[&str], out: &str| -> String {
+        let out = dir.join(out);
+        let mut args = vec!["fragility"];
+        args.extend_from_slice(rock);
+        args.extend_from_slice(&[
+            "--records",
+            &record,
+            "--im",
+            "PGA",
+            "--scales",
+            "0.25:4:4",
+            "--bootstrap",
+            "0",
+            "--no-plots",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let (_, stdout, stderr) = cli(&args);
+        stdout
+            .lines()
+            .find(|l| l.starts_with("rock "))
+            .unwrap_or_else(|| panic!("no rock line: {stdout}{stderr}"))
+            .to_string()
+    };
+    let weakest = "2 directions (a planar body each, docs/meshes.md), weakest towards 0°: \
+                   α = 14.04°, uplift at 2.452 m/s²";
+    let line = rock_line(
+        &["--pbr", "box", "--catalogue", catalogue.to_str().unwrap()],
+        "pbr",
+    );
+    assert!(line.contains(weakest), "{line}");
+    assert!(line.contains("box.obj"), "{line}");
+    // Not the first direction's body (east: b± = 0.2 m, α = 18.43°) as if it were the rock.
+    assert!(!line.contains("18.43") && !line.contains("b+ ="), "{line}");
+    let line = rock_line(
+        &[
+            "--mesh",
+            dir.join("box.obj").to_str().unwrap(),
+            "--directions",
+            "90,0",
+            "--mu-s",
+            "0.8",
+        ],
+        "flag",
+    );
+    assert!(line.contains(weakest), "{line}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

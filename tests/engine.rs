@@ -474,6 +474,7 @@ fn a_fallen_block_stays_fallen_after_restart_until_reset() {
     // After an operator reset the block stands, and the record topples it again (episode 2).
     journal.push(JournalRecord::Reset {
         pbr_id: "slender".into(),
+        time_ns: None,
     });
     let mut reset = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
     reset.restore(&journal);
@@ -1435,9 +1436,14 @@ fn full_journal_of(
                     });
                 }
             }
-            Output::EpisodeEnd { pbr_id, episode } => records.push(JournalRecord::EpisodeEnd {
+            Output::EpisodeEnd {
+                pbr_id,
+                episode,
+                data_time_ns,
+            } => records.push(JournalRecord::EpisodeEnd {
                 pbr_id: pbr_id.clone(),
                 episode: *episode,
+                data_time_ns: Some(*data_time_ns),
             }),
             _ => {}
         }
@@ -1485,10 +1491,12 @@ fn a_compacted_journal_restores_the_same_engine_and_the_same_history() {
         if life < lives - 1 {
             journal.push(JournalRecord::Reset {
                 pbr_id: "slender".into(),
+                time_ns: None,
             });
             if life % 2 == 0 {
                 journal.push(JournalRecord::Reset {
                     pbr_id: "other".into(),
+                    time_ns: None,
                 });
             }
         }
@@ -1774,6 +1782,7 @@ fn a_fallen_3d_rock_stays_fallen_after_restart_until_reset() {
     assert!(restored.summaries()[0].overturned);
     journal.push(JournalRecord::Reset {
         pbr_id: "box3d".into(),
+        time_ns: None,
     });
     let mut reset = Engine::new(EngineConfig::default(), vec![], &pbrs).unwrap();
     reset.restore(&journal);

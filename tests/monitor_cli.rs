@@ -259,9 +259,13 @@ fn alerts_and_monitor_share_one_alert_schema_with_iso_times() {
             "{t}"
         );
     }
+    let reset = records.last().unwrap();
     assert_eq!(
-        records.last().unwrap(),
-        &serde_json::json!({"type": "reset", "pbr_id": "rrs-slender-pillar"})
+        (&reset["type"], &reset["pbr_id"]),
+        (
+            &serde_json::json!("reset"),
+            &serde_json::json!("rrs-slender-pillar")
+        )
     );
     assert!(records
         .iter()
@@ -271,7 +275,7 @@ fn alerts_and_monitor_share_one_alert_schema_with_iso_times() {
     assert!(text.status.success());
     let text = String::from_utf8(text.stdout).unwrap();
     assert!(
-        text.lines().next().unwrap().contains("data time (UTC)"),
+        text.lines().next().unwrap().contains("time (UTC)"),
         "{text}"
     );
     for a in &journaled {
@@ -411,7 +415,7 @@ fn mseed_in_counts_with_station_gain_matches_the_file_in_mps2() {
 #[test]
 fn a_crash_during_journal_compaction_loses_nothing() {
     use rockwatch::journal::{
-        read_journal, Journal, COMPACT_AT_BYTES, COMPACT_TMP, HISTORY_ALERTS,
+        read_journal, Journal, COMPACT_AT_BYTES, COMPACT_TMP, HISTORY_ALERTS, REHEARSAL_MARKER,
     };
     use rockwatch_core::dynamics::Mode;
     use rockwatch_core::engine::{
@@ -436,7 +440,9 @@ fn a_crash_during_journal_compaction_loses_nothing() {
         })
     };
     // Years of a block that kept falling and being reset; fallen in its last episode.
+    // (A rehearsal's directory, as `monitor` marks it: monitor never writes a node's.)
     let history = |dir: &Path| -> Vec<JournalRecord> {
+        std::fs::write(dir.join(REHEARSAL_MARKER), "").unwrap();
         let (mut j, _, _) = Journal::open(dir).unwrap();
         let mut episode = 0;
         while j.len_bytes() <= COMPACT_AT_BYTES {
@@ -452,6 +458,7 @@ fn a_crash_during_journal_compaction_loses_nothing() {
             }
             j.append_unsynced(&JournalRecord::Reset {
                 pbr_id: "old-rock".into(),
+                time_ns: None,
             })
             .unwrap();
         }
@@ -552,4 +559,369 @@ fn a_device_given_as_a_file_is_refused_not_read_until_memory_runs_out() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+/// Issue 20 item 1: `monitor --config node.toml` wrote its alerts into the configuration's
+/// `state_dir`, which the next node published again as its own (starting with a rock fallen).
+/// The configuration's state directory is the node's: monitor never writes it; `--state-dir`
+/// gives a rehearsal a directory of its own, and one a node holds or held is refused.
+#[test]
+fn monitor_never_writes_a_nodes_state_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let node_state = dir.path().join("node-state");
+    let config = dir.path().join("node.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "catalogue = {:?}\nstate_dir = \"node-state\"\n",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml")
+        ),
+    )
+    .unwrap();
+    let monitor = |extra: &[&str]| {
+        let mut args = vec![
+            "monitor",
+            "--config",
+            config.to_str().unwrap(),
+            "--record",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
+            "--azimuth",
+            "228",
+            "--station",
+            "CI.RRS.00",
+            "--format",
+            "jsonl",
+        ];
+        args.extend(extra);
+        rockwatch(&args, &[])
+    };
+    // The configuration's state_dir: untouched, and the user is told why.
+    let out = monitor(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!alert_ids(&lines(&out)).is_empty());
+    assert!(
+        !node_state.exists(),
+        "monitor wrote the node's state directory"
+    );
+    assert!(
+        stderr.contains("is the node's: monitor does not write it"),
+        "{stderr}"
+    );
+
+    // A directory that holds a node's journal (what a node leaves: journal and lock file):
+    // refused, and left as it was.
+    let (journal, _, _) = rockwatch::journal::Journal::open(&node_state).unwrap();
+    drop(journal);
+    let listing = |d: &Path| {
+        let mut names: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        names.sort();
+        names
+    };
+    let before = listing(&node_state);
+    let journal_len = || {
+        std::fs::metadata(node_state.join(rockwatch::journal::JOURNAL_FILE))
+            .unwrap()
+            .len()
+    };
+    let out = monitor(&["--state-dir", node_state.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("holds or held a node's state"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert_eq!(listing(&node_state), before);
+    assert_eq!(journal_len(), 0);
+    // Held by a running process: said as such.
+    let (held, _, _) = rockwatch::journal::Journal::open(&node_state).unwrap();
+    let out = monitor(&["--state-dir", node_state.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("in use by another rockwatch process"),
+        "{stderr}"
+    );
+    drop(held);
+    assert_eq!(journal_len(), 0);
+
+    // A directory of its own: journaled, marked as a rehearsal, and usable again by monitor.
+    let rehearsal = dir.path().join("rehearsal-state");
+    let first = monitor(&["--state-dir", rehearsal.to_str().unwrap()]);
+    assert!(first.status.success());
+    assert!(!alert_ids(&lines(&first)).is_empty());
+    assert!(rehearsal
+        .join(rockwatch::journal::REHEARSAL_MARKER)
+        .is_file());
+    let second = monitor(&["--state-dir", rehearsal.to_str().unwrap()]);
+    assert!(
+        second.status.success(),
+        "{}",
+        String::from_utf8_lossy(&second.stderr)
+    );
+    assert!(
+        alert_ids(&lines(&second)).is_empty(),
+        "restored, not re-alerted"
+    );
+}
+
+/// Issue 20 item 2: only the first problem of a catalogue was reported per run. The CLI lists
+/// every one (here three in two entries) under one error line, and exits 1.
+#[test]
+fn a_catalogue_with_several_problems_lists_them_all_in_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let catalogue = dir.path().join("catalogue.toml");
+    let entry = |id: &str, lat: &str, extra: &str| {
+        format!(
+            "[[pbr]]\nid = \"{id}\"\nname = \"N\"\nlat = {lat}\nlon = -118.48\n\
+             station = \"CI.RRS.00\"\nazimuth_deg = 228\nwidth_m = 0.3\nheight_m = 1.5\n\
+             mu_s = 0.7\nmu_k = 0.5\n{extra}\n"
+        )
+    };
+    std::fs::write(
+        &catalogue,
+        entry("a", "34.28", "") + &entry("b", "134.28", "source = \"x\"\nseed = -1"),
+    )
+    .unwrap();
+    let out = rockwatch(
+        &[
+            "monitor",
+            "--catalogue",
+            catalogue.to_str().unwrap(),
+            "--record",
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../tests/data/records/Rinaldi228.AT2"
+            ),
+            "--station",
+            "CI.RRS.00",
+        ],
+        &[],
+    );
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = stderr.lines().collect();
+    let path = catalogue.display();
+    assert_eq!(
+        lines,
+        [
+            format!("rockwatch: error: {path}: 3 problems in the catalogue:"),
+            format!(
+                "  {path}:1: pbr[0] (id \"a\"): missing field `source` (required: where the \
+                 numbers come from, e.g. a survey, a paper, or \"illustrative\" for made-up \
+                 values)"
+            ),
+            format!("  {path}:13: pbr[1] (id \"b\"): lat = 134.28 must be in [-90, 90] degrees"),
+            format!(
+                "  {path}:13: pbr[1] (id \"b\"): seed = -1 must be an integer from 0 to \
+                 18446744073709551615"
+            ),
+        ],
+        "{stderr}"
+    );
+}
+
+/// The README's table of journal records: `type` → its keys.
+fn documented_record_keys() -> std::collections::BTreeMap<String, Vec<String>> {
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
+    readme
+        .lines()
+        .filter(|l| l.starts_with("| `") && l.split('|').count() == 5)
+        .filter_map(|l| {
+            let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+            let kind = cells[1].trim_matches('`');
+            ["alert", "episode_end", "reset", "published"]
+                .contains(&kind)
+                .then(|| {
+                    let mut keys: Vec<String> = cells[2]
+                        .split(", ")
+                        .map(|k| k.trim_matches('`').to_owned())
+                        .collect();
+                    keys.push("type".into());
+                    keys.sort();
+                    (kind.to_owned(), keys)
+                })
+        })
+        .collect()
+}
+
+/// Issue 20 item 7: reset rows had no time, there were no filters, and the `published`
+/// records `alerts --format json` shows were not in the documented schema.
+#[test]
+fn alerts_filter_by_time_block_and_level_and_every_record_has_its_documented_keys() {
+    use rockwatch::journal::Journal;
+    use rockwatch_core::engine::{AlertLevel, JournalRecord};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    // 60 s of quiet: the blocks that did not fall end their episode.
+    let mut args: Vec<String> = [
+        "monitor",
+        "--config",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml"),
+        "--record",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/records/Rinaldi228.AT2"
+        ),
+        "--azimuth",
+        "228",
+        "--station",
+        "CI.RRS.00",
+        "--tail",
+        "60",
+        "--state-dir",
+    ]
+    .map(String::from)
+    .to_vec();
+    args.push(d.to_owned());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    assert!(rockwatch(&args, &[]).status.success());
+    let before_ns = rockwatch::journal::utc_now_ns();
+    let reset = rockwatch(
+        &["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"],
+        &[],
+    );
+    assert!(reset.status.success());
+    let after_ns = rockwatch::journal::utc_now_ns();
+    // A node's publication marker, and a reset journaled before resets had a time.
+    {
+        let (mut j, _, _) = Journal::open(dir.path()).unwrap();
+        j.append(&JournalRecord::Published {
+            pbr_id: "rrs-slender-pillar".into(),
+            episode: 1,
+            level: AlertLevel::Overturned,
+        })
+        .unwrap();
+        j.append(&JournalRecord::Reset {
+            pbr_id: "rrs-sliding-slab".into(),
+            time_ns: None,
+        })
+        .unwrap();
+    }
+    let json = |extra: &[&str]| -> (Vec<serde_json::Value>, String) {
+        let mut args = vec!["alerts", "--state-dir", d, "--format", "json"];
+        args.extend(extra);
+        let out = rockwatch(&args, &[]);
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{stderr}");
+        (serde_json::from_slice(&out.stdout).unwrap(), stderr)
+    };
+    let (all, _) = json(&[]);
+    let kinds = |records: &[serde_json::Value]| -> Vec<String> {
+        records
+            .iter()
+            .map(|r| r["type"].as_str().unwrap().to_owned())
+            .collect()
+    };
+    // Every record has exactly the keys the README documents for its type (the timeless
+    // reset excepted: it has no time).
+    let documented = documented_record_keys();
+    assert_eq!(documented.len(), 4, "{documented:?}");
+    for kind in ["alert", "episode_end", "reset", "published"] {
+        assert!(
+            kinds(&all).contains(&kind.to_owned()),
+            "no {kind} in {all:?}"
+        );
+    }
+    for r in &all {
+        let mut keys: Vec<String> = r.as_object().unwrap().keys().cloned().collect();
+        keys.sort();
+        let expected = &documented[r["type"].as_str().unwrap()];
+        if r["type"] == "reset" && r.get("time").is_none() {
+            assert_eq!(r["pbr_id"], "rrs-sliding-slab");
+            continue;
+        }
+        assert_eq!(&keys, expected, "{r}");
+    }
+    // The reset's time: when the command ran, in ISO and ns.
+    let reset = all
+        .iter()
+        .find(|r| r["type"] == "reset" && r["pbr_id"] == "rrs-slender-pillar")
+        .unwrap();
+    let t = reset["time_ns"].as_i64().unwrap();
+    assert!((before_ns..=after_ns).contains(&t), "{reset}");
+    assert!(reset["time"].as_str().unwrap().ends_with('Z'));
+    // The text shows it on the reset row; the timeless one shows `-`.
+    let text = String::from_utf8(rockwatch(&["alerts", "--state-dir", d], &[]).stdout).unwrap();
+    let row = |pbr: &str| {
+        text.lines()
+            .find(|l| l.starts_with(pbr) && l.contains("reset by operator"))
+            .unwrap_or_else(|| panic!("{text}"))
+            .to_owned()
+    };
+    assert!(
+        row("rrs-slender-pillar").ends_with(reset["time"].as_str().unwrap()),
+        "{text}"
+    );
+    assert!(row("rrs-sliding-slab").ends_with(" -"), "{text}");
+    let ends = all.iter().filter(|r| r["type"] == "episode_end");
+    for end in ends {
+        assert!(text.contains(end["data_time"].as_str().unwrap()), "{text}");
+    }
+
+    // --pbr: that block's records only.
+    let (pillar, _) = json(&["--pbr", "rrs-slender-pillar"]);
+    assert!(!pillar.is_empty());
+    assert!(pillar.iter().all(|r| r["pbr_id"] == "rrs-slender-pillar"));
+    assert_eq!(
+        pillar.len(),
+        all.iter()
+            .filter(|r| r["pbr_id"] == "rrs-slender-pillar")
+            .count()
+    );
+    // --level: alerts at that level or above (and the marker of the one kept), the other
+    // records kept.
+    let (overturned, _) = json(&["--level", "overturn_imminent"]);
+    let levels: Vec<&str> = overturned
+        .iter()
+        .filter(|r| r["type"] == "alert")
+        .map(|r| r["level"].as_str().unwrap())
+        .collect();
+    assert!(levels.contains(&"overturned") && levels.contains(&"overturn_imminent"));
+    assert!(!levels.contains(&"motion_onset"), "{levels:?}");
+    assert_eq!(
+        kinds(&overturned)
+            .iter()
+            .filter(|k| *k == "published")
+            .count(),
+        1
+    );
+    assert_eq!(
+        kinds(&overturned)
+            .iter()
+            .filter(|k| *k == "episode_end")
+            .count(),
+        kinds(&all).iter().filter(|k| *k == "episode_end").count()
+    );
+    let (onset, _) = json(&["--level", "overturned", "--pbr", "rrs-sliding-slab"]);
+    assert!(onset.iter().all(|r| r["type"] != "alert"), "{onset:?}");
+    // --since the pillar's overturn: the later alerts, the episode ends (later) and the
+    // timed reset; the timeless reset is left out and counted.
+    let overturn = all
+        .iter()
+        .find(|r| r["type"] == "alert" && r["level"] == "overturned")
+        .unwrap();
+    let (since, stderr) = json(&["--since", overturn["data_time"].as_str().unwrap()]);
+    let since_alerts: Vec<&serde_json::Value> =
+        since.iter().filter(|r| r["type"] == "alert").collect();
+    assert_eq!(since_alerts.len(), 1, "{since:?}");
+    assert_eq!(since_alerts[0], overturn);
+    assert!(since.iter().any(|r| r["type"] == "episode_end"));
+    assert!(since.iter().any(|r| r == reset));
+    assert!(!since
+        .iter()
+        .any(|r| r["pbr_id"] == "rrs-sliding-slab" && r["type"] == "reset"));
+    assert!(
+        stderr.contains("1 episode ends or resets journaled before"),
+        "{stderr}"
+    );
+    // A time that is not one: one line, exit 1.
+    let bad = rockwatch(&["alerts", "--state-dir", d, "--since", "yesterday"], &[]);
+    assert!(!bad.status.success());
+    assert_eq!(String::from_utf8_lossy(&bad.stderr).lines().count(), 1);
 }

@@ -319,7 +319,7 @@ fn operator_reset_stands_the_block_again(shards: usize) {
             .unwrap()
             .0
             .iter()
-            .filter(|r| matches!(r, rockwatch_core::engine::JournalRecord::Reset { pbr_id } if pbr_id == SLENDER))
+            .filter(|r| matches!(r, rockwatch_core::engine::JournalRecord::Reset { pbr_id, .. } if pbr_id == SLENDER))
             .count()
     };
     let mut node = NodeRuntime::start(&options).unwrap();

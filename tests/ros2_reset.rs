@@ -67,7 +67,7 @@ fn has_alert(records: &[RecordJson], pbr: &str, episode: u32, level: AlertLevel)
 
 fn has_episode_end(records: &[RecordJson], pbr: &str, episode: u32) -> bool {
     records.iter().any(|r| {
-        matches!(r, RecordJson::EpisodeEnd { pbr_id, episode: e } if pbr_id == pbr && *e == episode)
+        matches!(r, RecordJson::EpisodeEnd { pbr_id, episode: e, .. } if pbr_id == pbr && *e == episode)
     })
 }
 
@@ -141,7 +141,7 @@ fn reset_cli(pbr: &str) -> (bool, String, String) {
 fn resets(records: &[RecordJson], pbr: &str) -> usize {
     records
         .iter()
-        .filter(|r| matches!(r, RecordJson::Reset { pbr_id } if pbr_id == pbr))
+        .filter(|r| matches!(r, RecordJson::Reset { pbr_id, .. } if pbr_id == pbr))
         .count()
 }
 
@@ -244,7 +244,7 @@ fn reset_through_the_node_s_service_lets_a_fallen_block_overturn_again_in_a_new_
             RecordJson::Alert(a) if a.pbr_id == SLENDER && a.level == AlertLevel::Overturned => {
                 Some(format!("overturned {}", a.episode))
             }
-            RecordJson::Reset { pbr_id } if pbr_id == SLENDER => Some("reset".into()),
+            RecordJson::Reset { pbr_id, .. } if pbr_id == SLENDER => Some("reset".into()),
             _ => None,
         })
         .collect();
@@ -358,7 +358,7 @@ fn rclpy_client_with_the_generated_service_type_resets_a_fallen_block() {
     let records = journal(&state);
     assert_eq!(resets(&records, SLENDER), 1, "{records:?}");
     assert!(
-        matches!(records.last(), Some(RecordJson::Reset { pbr_id }) if pbr_id == SLENDER),
+        matches!(records.last(), Some(RecordJson::Reset { pbr_id, .. }) if pbr_id == SLENDER),
         "{records:?}"
     );
 }

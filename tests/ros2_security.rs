@@ -59,7 +59,7 @@ fn journal(state: &Path) -> (Vec<(String, u64)>, Vec<String>) {
                     AlertLevel::Overturned => 3,
                 },
             )),
-            JournalRecord::Reset { pbr_id } => resets.push(pbr_id),
+            JournalRecord::Reset { pbr_id, .. } => resets.push(pbr_id),
             _ => {}
         }
     }

@@ -173,3 +173,61 @@ fn bad_input_is_a_one_line_error() {
         );
     }
 }
+
+/// Issue 20 item 6: 1-sample-per-second accelerometer channels (LN?) were listed usable. A
+/// channel below 50 Hz is unusable, with the minimum and the reason; a 1 Hz velocity channel
+/// is refused for its rate, not offered "with differentiation".
+#[test]
+fn channels_sampled_too_slowly_for_rocking_are_unusable_with_the_minimum() {
+    const MIKB: &str = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/stationxml/gmprocess_CI.MIKB_level-channel.xml"
+    );
+    let v = json(&["stations", "--stationxml", MIKB, MN, "--format", "json"]);
+    let channels = v["channels"].as_array().unwrap();
+    let find = |id: &str, rate: f64| {
+        channels
+            .iter()
+            .find(|c| c["id"] == id && c["sample_rate_hz"].as_f64() == Some(rate))
+            .unwrap_or_else(|| panic!("{id} at {rate} Hz"))
+            .clone()
+    };
+    for (id, rate) in [("CI.MIKB..LNE", 1.0), ("CI.MIKB..BNE", 40.0)] {
+        let c = find(id, rate);
+        assert_eq!(c["usable"], false, "{c}");
+        assert_eq!(c["usable_with_differentiation"], false, "{c}");
+        let reason = c["reason"].as_str().unwrap();
+        assert!(
+            reason.starts_with(&format!(
+                "sampling rate {rate} Hz is below the 50 Hz minimum: the ground acceleration \
+                 that rocks or slides a block has peaks up to ≈ 25 Hz"
+            )),
+            "{reason}"
+        );
+    }
+    // Accelerometers at 100 and 200 Hz stay usable.
+    for rate in [100.0, 200.0] {
+        assert_eq!(find("CI.MIKB..HNE", rate)["usable"], true);
+    }
+    // A 1 Hz velocity channel: its rate is the reason (differentiating would not mend it);
+    // a 100 Hz one stays usable with differentiation.
+    let lhe = find("MN.AQU..LHE", 1.0);
+    assert_eq!(lhe["usable_with_differentiation"], false, "{lhe}");
+    assert!(lhe["reason"]
+        .as_str()
+        .unwrap()
+        .starts_with("sampling rate 1 Hz"));
+    let hhe = find("MN.AQU..HHE", 100.0);
+    assert_eq!(hhe["usable_with_differentiation"], true, "{hhe}");
+    // The table says it on the channel's line.
+    let out = rockwatch(&["stations", "--stationxml", MIKB]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("CI.MIKB..LNE"))
+        .unwrap();
+    assert!(
+        line.contains("no: sampling rate 1 Hz is below the 50 Hz minimum"),
+        "{line}"
+    );
+}

@@ -25,10 +25,14 @@
 //!   in degrees clockwise from north (a planar block's own azimuth; for a rock from a mesh,
 //!   the direction that overturned or rocks most).
 //!
-//! The other records of a state directory's journal: `{"type": "episode_end", "pbr_id",
-//! "episode"}` (the block is back at rest on a quiet station) and `{"type": "reset",
-//! "pbr_id"}` (an operator reset a fallen block). Readers must ignore keys they do not know:
-//! `monitor` adds `t_s` and `latency_us` to its alert lines, and keys may be added later.
+//! The other records of a state directory's journal (`alerts --format json`; README, "Alert
+//! JSON", lists every key): `{"type": "episode_end", "pbr_id", "episode", "data_time",
+//! "data_time_ns"}` (the block is back at rest on a quiet station, at that data time),
+//! `{"type": "reset", "pbr_id", "time", "time_ns"}` (an operator reset a fallen block, at
+//! that wall-clock time) and `{"type": "published", "pbr_id", "episode", "level"}` (the node
+//! handed that alert to its publishers). The times are absent from records journaled before
+//! rockwatch kept them. Readers must ignore keys they do not know: `monitor` adds `t_s` and
+//! `latency_us` to its alert lines, and keys may be added later.
 
 use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::{Alert, AlertLevel, JournalRecord};
@@ -101,10 +105,24 @@ pub enum RecordJson {
     EpisodeEnd {
         pbr_id: String,
         episode: u32,
+        /// ISO 8601 UTC data time of the sample at which it ended (absent from records
+        /// journaled before rockwatch kept it).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        data_time: Option<String>,
+        /// The same as ns since the Unix epoch.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        data_time_ns: Option<i64>,
     },
     /// An operator reset a fallen block.
     Reset {
         pbr_id: String,
+        /// ISO 8601 UTC wall-clock time of the reset (the node's clock, or the `reset
+        /// --state-dir` command's); absent from records journaled before rockwatch kept it.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        time: Option<String>,
+        /// The same as ns since the Unix epoch.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        time_ns: Option<i64>,
     },
     /// The alert (pbr_id, episode, level) was handed to the publishers (the node's marker for
     /// at-least-once publication across crashes).
@@ -119,12 +137,20 @@ impl From<&JournalRecord> for RecordJson {
     fn from(r: &JournalRecord) -> RecordJson {
         match r {
             JournalRecord::Alert(a) => RecordJson::Alert(a.into()),
-            JournalRecord::EpisodeEnd { pbr_id, episode } => RecordJson::EpisodeEnd {
+            JournalRecord::EpisodeEnd {
+                pbr_id,
+                episode,
+                data_time_ns,
+            } => RecordJson::EpisodeEnd {
                 pbr_id: pbr_id.clone(),
                 episode: *episode,
+                data_time: data_time_ns.map(format_time_ns),
+                data_time_ns: *data_time_ns,
             },
-            JournalRecord::Reset { pbr_id } => RecordJson::Reset {
+            JournalRecord::Reset { pbr_id, time_ns } => RecordJson::Reset {
                 pbr_id: pbr_id.clone(),
+                time: time_ns.map(format_time_ns),
+                time_ns: *time_ns,
             },
             JournalRecord::Published {
                 pbr_id,
@@ -202,14 +228,30 @@ mod tests {
         let end = RecordJson::from(&JournalRecord::EpisodeEnd {
             pbr_id: "a".into(),
             episode: 3,
+            data_time_ns: Some(758_809_855_500_000_000),
         });
         assert_eq!(
             serde_json::to_value(&end).unwrap(),
-            serde_json::json!({"type": "episode_end", "pbr_id": "a", "episode": 3})
+            serde_json::json!({"type": "episode_end", "pbr_id": "a", "episode": 3,
+                "data_time": "1994-01-17T12:30:55.500000000Z",
+                "data_time_ns": 758_809_855_500_000_000_i64})
         );
-        let reset = RecordJson::from(&JournalRecord::Reset { pbr_id: "b".into() });
+        let reset = RecordJson::from(&JournalRecord::Reset {
+            pbr_id: "b".into(),
+            time_ns: Some(0),
+        });
         assert_eq!(
             serde_json::to_value(&reset).unwrap(),
+            serde_json::json!({"type": "reset", "pbr_id": "b",
+                "time": "1970-01-01T00:00:00.000000000Z", "time_ns": 0})
+        );
+        // Records journaled before the times were kept: the keys are absent.
+        let old = RecordJson::from(&JournalRecord::Reset {
+            pbr_id: "b".into(),
+            time_ns: None,
+        });
+        assert_eq!(
+            serde_json::to_value(&old).unwrap(),
             serde_json::json!({"type": "reset", "pbr_id": "b"})
         );
     }

@@ -38,6 +38,12 @@ pub const JOURNAL_FILE: &str = "journal.log";
 /// File name of the lock inside the state directory (empty; only its `flock` matters).
 pub const LOCK_FILE: &str = "lock";
 
+/// File name of the marker `rockwatch monitor` leaves in a state directory of its own (a
+/// rehearsal's journal): `monitor` writes only a directory that is new, empty or so marked
+/// ([`claim_rehearsal_dir`]), and `rockwatch node` refuses a marked one
+/// ([`refuse_rehearsal_dir`]): a rehearsal's alerts never reach a node's state.
+pub const REHEARSAL_MARKER: &str = "rehearsal";
+
 /// The compacted journal while it is written (renamed over [`JOURNAL_FILE`] once synced).
 pub const COMPACT_TMP: &str = "journal.log.compact";
 
@@ -99,6 +105,19 @@ pub enum JournalError {
          swallow every alert): point the state directory elsewhere or remove it"
     )]
     NotAFile { path: PathBuf },
+    #[error(
+        "{dir}: holds or held a node's state (it is not empty and has no `rehearsal` marker \
+         of `rockwatch monitor`): monitor never writes a node's state directory; give \
+         --state-dir a new or empty directory of its own"
+    )]
+    NodeState { dir: PathBuf },
+    #[error(
+        "{dir}: written by `rockwatch monitor` (a rehearsal's alerts; marker \
+         {dir}/rehearsal), not a node's state: a node on it would publish the rehearsal's \
+         alerts again and start with its rocks fallen; give the node a state directory of its \
+         own"
+    )]
+    Rehearsal { dir: PathBuf },
 }
 
 /// What opening a journal found.
@@ -306,16 +325,22 @@ pub struct StateLock {
     _file: Option<File>,
 }
 
-/// Takes the exclusive locks of the state directory `dir` (the directory and its lock
-/// file), without waiting.
-fn lock_state_dir(dir: &Path) -> Result<StateLock, JournalError> {
-    let locked = |file: File, path: &Path| match file.try_lock() {
+/// Takes the exclusive lock of `file` (the state directory `dir` or its lock file), without
+/// waiting: [`JournalError::Locked`] if another process holds it.
+fn try_lock(file: File, path: &Path, dir: &Path) -> Result<File, JournalError> {
+    match file.try_lock() {
         Ok(()) => Ok(file),
         Err(std::fs::TryLockError::WouldBlock) => Err(JournalError::Locked {
             dir: dir.to_path_buf(),
         }),
         Err(std::fs::TryLockError::Error(e)) => Err(io(path)(e)),
-    };
+    }
+}
+
+/// Takes the exclusive locks of the state directory `dir` (the directory and its lock
+/// file), without waiting.
+fn lock_state_dir(dir: &Path) -> Result<StateLock, JournalError> {
+    let locked = |file: File, path: &Path| try_lock(file, path, dir);
     let directory = locked(File::open(dir).map_err(io(dir))?, dir)?;
     let path = dir.join(LOCK_FILE);
     let file = match OpenOptions::new()
@@ -352,6 +377,15 @@ impl JournalError {
     }
 }
 
+/// The wall clock as UTC, ns since the Unix epoch (0 before 1970): the time of records made by
+/// an operator (resets) and the node's UTC epoch.
+#[must_use]
+pub fn utc_now_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}
+
 /// Refuses (`JournalError::Locked`) a state directory another process holds, without keeping
 /// it: a node calls it before it starts anything (DDS, notifications), then opens the journal.
 /// A directory that does not exist yet is free.
@@ -360,6 +394,51 @@ pub fn check_state_dir_free(dir: &Path) -> Result<(), JournalError> {
         return Ok(());
     }
     lock_state_dir(dir).map(drop)
+}
+
+/// Claims `dir` for `rockwatch monitor --state-dir` (a rehearsal's journal), creating it with
+/// its [`REHEARSAL_MARKER`] if it is new or empty. Refused: a directory another process holds
+/// now ([`JournalError::Locked`]), and any other non-empty directory without the marker
+/// ([`JournalError::NodeState`]: a node's journal or lock file — one a node holds or held —
+/// or files that are not rockwatch's). Creates nothing in a refused directory.
+pub fn claim_rehearsal_dir(dir: &Path) -> Result<(), JournalError> {
+    let marker = dir.join(REHEARSAL_MARKER);
+    if dir.exists() && !marker.exists() {
+        let mut entries = std::fs::read_dir(dir).map_err(io(dir))?;
+        if entries.next().is_some() {
+            // Held now: said as such (the directory's lock and an existing lock file's; no
+            // lock file is created).
+            try_lock(File::open(dir).map_err(io(dir))?, dir, dir)?;
+            let lock = dir.join(LOCK_FILE);
+            if let Ok(file) = OpenOptions::new().write(true).open(&lock) {
+                try_lock(file, &lock, dir)?;
+            }
+            return Err(JournalError::NodeState {
+                dir: dir.to_path_buf(),
+            });
+        }
+    }
+    if !marker.exists() {
+        std::fs::create_dir_all(dir).map_err(io(dir))?;
+        std::fs::write(
+            &marker,
+            "This state directory was written by `rockwatch monitor` (an offline rehearsal). \
+             `rockwatch node` refuses it.\n",
+        )
+        .map_err(io(&marker))?;
+    }
+    Ok(())
+}
+
+/// Refuses ([`JournalError::Rehearsal`]) a state directory `rockwatch monitor` wrote
+/// ([`REHEARSAL_MARKER`]): `rockwatch node` calls it before it opens the journal.
+pub fn refuse_rehearsal_dir(dir: &Path) -> Result<(), JournalError> {
+    if dir.join(REHEARSAL_MARKER).exists() {
+        return Err(JournalError::Rehearsal {
+            dir: dir.to_path_buf(),
+        });
+    }
+    Ok(())
 }
 
 impl Journal {
@@ -810,7 +889,10 @@ mod tests {
     use super::*;
 
     fn reset(id: &str) -> JournalRecord {
-        JournalRecord::Reset { pbr_id: id.into() }
+        JournalRecord::Reset {
+            pbr_id: id.into(),
+            time_ns: None,
+        }
     }
 
     #[test]
@@ -876,6 +958,7 @@ mod tests {
         j.append(&JournalRecord::EpisodeEnd {
             pbr_id: "b".into(),
             episode: 2,
+            data_time_ns: None,
         })
         .unwrap();
         drop(j);
@@ -886,7 +969,8 @@ mod tests {
                 reset("a"),
                 JournalRecord::EpisodeEnd {
                     pbr_id: "b".into(),
-                    episode: 2
+                    episode: 2,
+                    data_time_ns: None,
                 }
             ]
         );
@@ -1026,6 +1110,7 @@ mod tests {
                 r.push(JournalRecord::EpisodeEnd {
                     pbr_id: "q".into(),
                     episode: e / 2,
+                    data_time_ns: None,
                 });
             }
         }

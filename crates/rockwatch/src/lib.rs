@@ -17,6 +17,7 @@ pub mod metrics;
 pub mod node;
 pub mod node_config;
 pub mod notify;
+pub mod number_text;
 pub mod plot;
 pub mod ports;
 pub mod replay;

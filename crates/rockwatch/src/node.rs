@@ -487,9 +487,14 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
         let record = match &output {
             _ if self.emit.journal.is_none() => None,
             Output::Alert(alert) => Some(JournalRecord::Alert(alert.clone())),
-            Output::EpisodeEnd { pbr_id, episode } => Some(JournalRecord::EpisodeEnd {
+            Output::EpisodeEnd {
+                pbr_id,
+                episode,
+                data_time_ns,
+            } => Some(JournalRecord::EpisodeEnd {
                 pbr_id: pbr_id.clone(),
                 episode: *episode,
+                data_time_ns: Some(*data_time_ns),
             }),
             _ => None,
         };
@@ -712,9 +717,7 @@ impl NodeRuntime {
             emit: Emitter {
                 journal,
                 epoch: Instant::now(),
-                epoch_utc_ns: std::time::SystemTime::now()
-                    .duration_since(std::time::UNIX_EPOCH)
-                    .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)),
+                epoch_utc_ns: crate::journal::utc_now_ns(),
                 log: RateLimitedLog::new(),
                 notice_log: options.notices,
                 notice_counts: BTreeMap::new(),
@@ -1016,9 +1019,11 @@ impl NodeRuntime {
     /// to the engine (see [`NodeRuntime::operator_reset`] for the checked request). An error
     /// means the state directory failed and nothing was applied.
     pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
+        let time_ns = self.emit.epoch_utc_ns + self.emit.now_ns();
         if let Some(j) = &mut self.emit.journal {
             j.append_now(&JournalRecord::Reset {
                 pbr_id: pbr_id.to_string(),
+                time_ns: Some(time_ns),
             })?;
         }
         self.emit.overturned.remove(pbr_id);

@@ -11,6 +11,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use rockwatch_core::dynamics::{BlockParams, Mode};
+
+use crate::number_text::block_label;
 use rockwatch_core::rocking3d::{GroundAccel3d, Trace3d};
 use rockwatch_core::simulate::Trace;
 use rockwatch_core::STANDARD_GRAVITY_MPS2;
@@ -137,22 +139,6 @@ type Panel<'a> = (&'static str, Vec<Series<'a>>, &'static [f64]);
 /// Size of a simulation plot (pixels; SVG user units).
 const SIZE: (u32, u32) = (1000, 800);
 
-/// `x` with four significant digits at most, without trailing zeros (`0.5806125` → `0.5806`,
-/// `1.25` → `1.25`, `2000` → `2000`): numbers in titles and labels.
-#[must_use]
-pub fn short_number(x: f64) -> String {
-    if !x.is_finite() || x == 0.0 {
-        return format!("{x}");
-    }
-    let decimals = (3 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;
-    let text = format!("{x:.decimals$}");
-    if text.contains('.') {
-        text.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        text
-    }
-}
-
 /// Writes the three-panel plot of `trace` to `path`: PNG if it ends in `.png`, SVG if it
 /// ends in `.svg` ([`by_extension`]).
 pub fn plot_simulation(
@@ -175,12 +161,7 @@ pub fn plot_simulation(
         accel.push((&vertical_g, RGBColor(153, 153, 153), "vertical"));
     }
     let history = History {
-        title: format!(
-            "{title} — {}, μs = {}, μk = {}",
-            params.geometry_label_with(short_number, short_number),
-            short_number(params.mu_s),
-            short_number(params.mu_k)
-        ),
+        title: format!("{title} — {}", block_label(params)),
         t_s: &trace.t_s,
         modes: &trace.mode,
         panels: [
@@ -342,20 +323,5 @@ impl History<'_> {
         }
         root.present()?;
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::short_number;
-
-    #[test]
-    fn short_numbers_keep_four_significant_digits_without_trailing_zeros() {
-        assert_eq!(short_number(0.580_612_549_439_202_5), "0.5806");
-        assert_eq!(short_number(1.25), "1.25");
-        assert_eq!(short_number(2000.0), "2000");
-        assert_eq!(short_number(123_456.7), "123457");
-        assert_eq!(short_number(-0.000_123_456), "-0.0001235");
-        assert_eq!(short_number(0.0), "0");
     }
 }

@@ -12,7 +12,8 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::plot::{by_extension, short_number, DrawResult, PlotError};
+use crate::number_text::short_number;
+use crate::plot::{by_extension, DrawResult, PlotError};
 use rockwatch_core::mesh::contact::DirectionBody;
 
 const CURVE: RGBColor = RGBColor(0, 114, 178);

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use super::distribution::Distribution;
-use super::validate::{Integer, RawAzimuths, RawPbr};
+use super::validate::{Integer, Problem, RawAzimuths, RawPbr};
 use super::{Catalogue, CatalogueError, EntryContext, LoadWork};
 
 impl Catalogue {
@@ -53,10 +53,23 @@ impl Catalogue {
             .map_err(|message| syntax(Some(header_line), message))?;
         let mut entries = Vec::new();
         for (index, record) in reader.records().enumerate() {
-            let record = record.map_err(|e| {
-                let line = e.position().map(csv::Position::line);
-                syntax(line, format!("invalid CSV row: {e}"))
-            })?;
+            let record = match record {
+                Ok(record) => record,
+                Err(e) => {
+                    // Reported, and the next rows are read on.
+                    let line = e.position().map(csv::Position::line);
+                    let context = EntryContext {
+                        source_name,
+                        line: line.map(|l| l as usize),
+                        index,
+                        id: None,
+                        sub_separator: '_',
+                    };
+                    let problem = syntax(line, format!("invalid CSV row: {e}"));
+                    entries.push((context, Err(vec![problem])));
+                    continue;
+                }
+            };
             let line = record.position().map(|p| p.line() as usize);
             let id = columns
                 .cell(&record, "id")
@@ -69,9 +82,12 @@ impl Catalogue {
                 id,
                 sub_separator: '_',
             };
-            let raw = columns
-                .raw_pbr(&record)
-                .map_err(|(field, message)| context.error(Some(field), message))?;
+            let raw = columns.raw_pbr(&record).map_err(|found| {
+                found
+                    .into_iter()
+                    .map(|(field, message)| context.error(Some(field), message))
+                    .collect()
+            });
             entries.push((context, raw));
         }
         Catalogue::build(source_name, entries, base_dir, work)
@@ -254,55 +270,108 @@ impl CsvColumns {
         }
     }
 
-    fn raw_pbr(&self, record: &csv::StringRecord) -> Result<RawPbr, (String, String)> {
-        let required = |stem: &str| -> Result<Distribution, (String, String)> {
-            self.distribution(record, stem)?.ok_or_else(|| {
-                (
-                    stem.to_owned(),
-                    format!(
-                        "{stem} is missing (fill {stem}, {stem}_min + {stem}_max, or \
-                         {stem}_mean + {stem}_sd)"
-                    ),
-                )
-            })
+    /// The row as written, or every problem of its cells.
+    fn raw_pbr(&self, record: &csv::StringRecord) -> Result<RawPbr, Vec<Problem>> {
+        let mut problems: Vec<Problem> = Vec::new();
+        let mut take = |result: Result<Option<Distribution>, Problem>| {
+            result
+                .map_err(|problem| problems.push(problem))
+                .ok()
+                .flatten()
         };
-        Ok(RawPbr {
-            id: self.string(record, "id"),
-            name: self.string(record, "name"),
-            lat: self.number(record, "lat")?,
-            lon: self.number(record, "lon")?,
-            station: self.string(record, "station"),
-            azimuth_deg: self
-                .value(record, "azimuth_deg")
+        let heading_deg = take(self.distribution(record, "heading_deg"));
+        let contact_tolerance_m = take(self.distribution(record, "contact_tolerance_m"));
+        let width_m = take(self.distribution(record, "width_m"));
+        let height_m = take(self.distribution(record, "height_m"));
+        let half_diagonal_m = take(self.distribution(record, "half_diagonal_m"));
+        let alpha_deg = take(self.distribution(record, "alpha_deg"));
+        let b_plus_m = take(self.distribution(record, "b_plus_m"));
+        let b_minus_m = take(self.distribution(record, "b_minus_m"));
+        let h_m = take(self.distribution(record, "h_m"));
+        let rho_m = take(self.distribution(record, "rho_m"));
+        let mu_s = take(self.required(record, "mu_s"));
+        let mu_k = take(self.required(record, "mu_k"));
+        let restitution = take(self.distribution(record, "restitution"));
+        let mut take = |result: Result<Option<f64>, Problem>| {
+            result
+                .map_err(|problem| problems.push(problem))
+                .ok()
+                .flatten()
+        };
+        let lat = take(self.number(record, "lat").map(Some));
+        let lon = take(self.number(record, "lon").map(Some));
+        let azimuth_deg = take(
+            self.value(record, "azimuth_deg")
                 .map(|text| parse_number("azimuth_deg", text))
-                .transpose()?,
+                .transpose(),
+        );
+        let mut take = |result: Result<Option<Integer>, Problem>| {
+            result
+                .map_err(|problem| problems.push(problem))
+                .ok()
+                .flatten()
+        };
+        let ensemble = take(self.integer(record, "ensemble"));
+        let seed = take(self.integer(record, "seed"));
+        let cap = self
+            .value(record, "cap")
+            .map(|text| parse_bool("cap", text))
+            .transpose()
+            .map_err(|problem| problems.push(problem))
+            .ok()
+            .flatten();
+        if !problems.is_empty() {
+            return Err(problems);
+        }
+        Ok(RawPbr {
+            id: Some(self.string(record, "id")),
+            name: Some(self.string(record, "name")),
+            lat,
+            lon,
+            station: Some(self.string(record, "station")),
+            azimuth_deg,
             mesh: self.value(record, "mesh").map(str::to_owned),
             up: self.value(record, "up").map(str::to_owned),
             azimuths: self
                 .value(record, "azimuths")
                 .map(|text| RawAzimuths::Text(text.to_owned())),
-            cap: self
-                .value(record, "cap")
-                .map(|text| parse_bool("cap", text))
-                .transpose()?,
+            cap,
             model: self.value(record, "model").map(str::to_owned),
-            heading_deg: self.distribution(record, "heading_deg")?,
-            contact_tolerance_m: self.distribution(record, "contact_tolerance_m")?,
-            width_m: self.distribution(record, "width_m")?,
-            height_m: self.distribution(record, "height_m")?,
-            half_diagonal_m: self.distribution(record, "half_diagonal_m")?,
-            alpha_deg: self.distribution(record, "alpha_deg")?,
-            b_plus_m: self.distribution(record, "b_plus_m")?,
-            b_minus_m: self.distribution(record, "b_minus_m")?,
-            h_m: self.distribution(record, "h_m")?,
-            rho_m: self.distribution(record, "rho_m")?,
-            mu_s: required("mu_s")?,
-            mu_k: required("mu_k")?,
-            restitution: self.distribution(record, "restitution")?,
-            source: self.string(record, "source"),
-            ensemble: self.integer(record, "ensemble")?,
-            seed: self.integer(record, "seed")?,
+            heading_deg,
+            contact_tolerance_m,
+            width_m,
+            height_m,
+            half_diagonal_m,
+            alpha_deg,
+            b_plus_m,
+            b_minus_m,
+            h_m,
+            rho_m,
+            mu_s,
+            mu_k,
+            restitution,
+            source: Some(self.string(record, "source")),
+            ensemble,
+            seed,
         })
+    }
+
+    /// The distribution of a required parameter `stem` in this row.
+    fn required(
+        &self,
+        record: &csv::StringRecord,
+        stem: &str,
+    ) -> Result<Option<Distribution>, Problem> {
+        match self.distribution(record, stem)? {
+            Some(d) => Ok(Some(d)),
+            None => Err((
+                stem.to_owned(),
+                format!(
+                    "{stem} is missing (fill {stem}, {stem}_min + {stem}_max, or \
+                     {stem}_mean + {stem}_sd)"
+                ),
+            )),
+        }
     }
 }
 

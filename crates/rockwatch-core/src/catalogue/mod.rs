@@ -9,7 +9,8 @@
 //!
 //! # TOML format
 //!
-//! A catalogue is an array of `[[pbr]]` tables, and nothing else at the top level:
+//! The user's reference is `docs/catalogue.md` (every field, with its unit and domain, checked
+//! against this parser by `tests/catalogue.rs`). A catalogue is an array of `[[pbr]]` tables, and nothing else at the top level:
 //!
 //! ```toml
 //! [[pbr]]
@@ -59,6 +60,8 @@
 //!   parameters (the mesh's uncertain fields, in that LHS column order). The rock has one
 //!   planar body per direction ([`Pbr::directions`]; direction az is the mesh's azimuth
 //!   az − heading); [`Pbr::nominal`] and [`Pbr::members`] are those of its first direction.
+//!   `model` (`"2d"`, the default, or `"3d"`: one rigid body, docs/rocking-3d.md) chooses how
+//!   a mesh rock is integrated.
 //! - `mu_s` (> 0), `mu_k` (in [0, 4/3): μk ≥ 4/3 makes slide-rocking ill-posed, the Painlevé
 //!   paradox; a general body's own bound 2√(c(1 + c)), c = ρ²/R², is checked on the nominal
 //!   block), optional `restitution` (in [0, 1]). Every geometry field and these are each
@@ -82,11 +85,14 @@
 //! unknown or repeated column names are rejected at the header, as is a header without `id`,
 //! `name`, `lat`, `lon`, `station` or `source`. `azimuth_deg` (required in a planar block's
 //! row), `restitution`, `ensemble`, `seed` and the mesh columns `mesh`, `up`, `azimuths`,
-//! `heading_deg`, `contact_tolerance_m` are optional. A CSV and a TOML file describing the same PBRs load equal.
+//! `cap`, `model`, `heading_deg`, `contact_tolerance_m` are optional. A CSV and a TOML file describing the same PBRs load equal.
 //!
 //! # Errors
 //!
-//! Nothing here panics on bad input. A problem with one entry is reported as
+//! Nothing here panics on bad input. Every problem of a file is found in one reading: each
+//! entry is checked whole and every entry is checked; one problem is the error itself, several
+//! are [`CatalogueError::Problems`] (the first [`MAX_REPORTED_PROBLEMS`] listed, the rest
+//! counted). A problem with one entry is reported as
 //! `SOURCE:LINE: pbr[INDEX] (id "ID"): PROBLEM`, e.g.
 //! `catalogue.toml:31: pbr[3] (id "pinnacle-2"): mu_k = 0.9 exceeds mu_s = 0.6`, where INDEX is
 //! the 0-based position of the entry in the file and LINE the line where the entry starts
@@ -172,6 +178,18 @@ pub enum CatalogueError {
     /// The file holds no entry.
     #[error("{source_name}: the catalogue has no PBR entries")]
     Empty { source_name: String },
+    /// Several problems, in file order: every one found in one reading, the first
+    /// [`MAX_REPORTED_PROBLEMS`] of them listed (each an [`CatalogueError::Entry`] or, for a
+    /// malformed CSV row, a [`CatalogueError::Syntax`]). One problem alone is reported as
+    /// itself.
+    #[error("{}", render_problems(source_name, shown, *total))]
+    Problems {
+        source_name: String,
+        /// The first problems, at most [`MAX_REPORTED_PROBLEMS`].
+        shown: Vec<CatalogueError>,
+        /// Every problem found, shown or not.
+        total: usize,
+    },
     /// One entry is invalid.
     #[error(
         "{source_name}{}: pbr[{index}]{}: {message}",
@@ -192,6 +210,63 @@ pub enum CatalogueError {
         message: String,
     },
 }
+
+/// Most problems of one catalogue listed in its error ([`CatalogueError::Problems`]); the
+/// others are counted.
+pub const MAX_REPORTED_PROBLEMS: usize = 50;
+
+/// The text of [`CatalogueError::Problems`]: a first line with the count, then one indented
+/// line per problem shown, and how many more there are.
+fn render_problems(source_name: &str, shown: &[CatalogueError], total: usize) -> String {
+    let mut text = format!("{source_name}: {total} problems in the catalogue:");
+    for problem in shown {
+        text.push_str("\n  ");
+        text.push_str(&problem.to_string());
+    }
+    if total > shown.len() {
+        text.push_str(&format!(
+            "\n  … and {} more (the first {} are listed)",
+            total - shown.len(),
+            shown.len()
+        ));
+    }
+    text
+}
+
+/// The problems of one reading, in file order: the first [`MAX_REPORTED_PROBLEMS`] kept, the
+/// others counted.
+#[derive(Default)]
+struct Problems {
+    shown: Vec<CatalogueError>,
+    total: usize,
+}
+
+impl Problems {
+    fn push(&mut self, problem: CatalogueError) {
+        self.total += 1;
+        if self.shown.len() < MAX_REPORTED_PROBLEMS {
+            self.shown.push(problem);
+        }
+    }
+
+    /// `Ok(())` without a problem, the problem itself if alone, else all of them.
+    fn into_result(self, source_name: &str) -> Result<(), CatalogueError> {
+        let mut shown = self.shown;
+        match (self.total, shown.len()) {
+            (0, _) => Ok(()),
+            (1, 1) => Err(shown.remove(0)),
+            (total, _) => Err(CatalogueError::Problems {
+                source_name: source_name.to_owned(),
+                shown,
+                total,
+            }),
+        }
+    }
+}
+
+/// One entry as a reader found it: its context, and the entry as written or the reader's
+/// problems with it.
+type ReadEntry<'a> = (EntryContext<'a>, Result<RawPbr, Vec<CatalogueError>>);
 
 /// A validated catalogue: the entries in file order, ids unique.
 #[derive(Debug, Clone, PartialEq)]
@@ -234,12 +309,13 @@ impl Catalogue {
         }
     }
 
-    /// Validates the parsed entries and checks that the ids are unique, in file order (the
-    /// first problem is reported). Linear: an id is compared only with the earlier ids of
-    /// the same FNV-1a hash (none, but for a duplicate or a 64-bit collision).
+    /// Validates the read entries and checks that the ids are unique, in file order, reporting
+    /// every problem found ([`CatalogueError::Problems`], bounded). Linear: an id is compared
+    /// only with the earlier ids of the same FNV-1a hash (none, but for a duplicate or a
+    /// 64-bit collision).
     fn build(
         source_name: &str,
-        entries: Vec<(EntryContext<'_>, RawPbr)>,
+        entries: Vec<ReadEntry<'_>>,
         base_dir: Option<&Path>,
         work: &mut LoadWork,
     ) -> Result<Catalogue, CatalogueError> {
@@ -248,28 +324,40 @@ impl Catalogue {
                 source_name: source_name.to_owned(),
             });
         }
+        let mut problems = Problems::default();
         let mut pbrs: Vec<Pbr> = Vec::with_capacity(entries.len());
-        let mut lines: Vec<Option<usize>> = Vec::with_capacity(entries.len());
+        // Every entry's id (valid or not), its index and line, for the uniqueness check.
+        let mut ids: Vec<(String, usize, Option<usize>)> = Vec::with_capacity(entries.len());
         let mut by_hash: HashMap<u64, Vec<usize>> = HashMap::with_capacity(entries.len());
-        for (context, raw) in entries {
-            let pbr = validate(raw, context.sub_separator, base_dir)
-                .map_err(|(field, message)| context.error(Some(field), message))?;
-            let same_hash = by_hash.entry(fnv1a64(pbr.id.as_bytes())).or_default();
+        for (context, read) in entries {
+            let validated = read.and_then(|raw| {
+                validate(raw, context.sub_separator, base_dir).map_err(|found| {
+                    found
+                        .into_iter()
+                        .map(|(field, message)| context.error(Some(field), message))
+                        .collect()
+                })
+            });
+            match validated {
+                Ok(pbr) => pbrs.push(pbr),
+                Err(found) => found.into_iter().for_each(|p| problems.push(p)),
+            }
+            let Some(id) = &context.id else { continue };
+            let same_hash = by_hash.entry(fnv1a64(id.as_bytes())).or_default();
             let earlier = same_hash.iter().copied().find(|&i| {
                 work.id_comparisons += 1;
-                pbrs[i].id == pbr.id
+                ids[i].0 == *id
             });
             if let Some(first) = earlier {
-                let at = lines[first]
-                    .map(|l| format!(" (line {l})"))
-                    .unwrap_or_default();
-                let message = format!("id {:?} is already used by pbr[{first}]{at}", pbr.id);
-                return Err(context.error(Some("id".to_owned()), message));
+                let (_, index, line) = &ids[first];
+                let at = line.map(|l| format!(" (line {l})")).unwrap_or_default();
+                let message = format!("id {id:?} is already used by pbr[{index}]{at}");
+                problems.push(context.error(Some("id".to_owned()), message));
             }
-            same_hash.push(pbrs.len());
-            lines.push(context.line);
-            pbrs.push(pbr);
+            same_hash.push(ids.len());
+            ids.push((id.clone(), context.index, context.line));
         }
+        problems.into_result(source_name)?;
         Ok(Catalogue {
             source_name: source_name.to_owned(),
             pbrs,

@@ -61,10 +61,10 @@ impl Catalogue {
                 id,
                 sub_separator: '.',
             };
-            let raw: RawPbr = serde_path_to_error::deserialize(table).map_err(|e| {
+            let raw = serde_path_to_error::deserialize::<_, RawPbr>(table).map_err(|e| {
                 let path = e.path().to_string();
                 let message = e.inner().message().to_owned();
-                if path == "." || path.is_empty() {
+                vec![if path == "." || path.is_empty() {
                     context.error(None, message)
                 } else if message.starts_with("unknown field") {
                     // serde's message already names the field.
@@ -72,8 +72,8 @@ impl Catalogue {
                 } else {
                     let message = format!("{path}: {message}");
                     context.error(Some(path), message)
-                }
-            })?;
+                }]
+            });
             entries.push((context, raw));
         }
         work.line_bytes_scanned += lines.scanned;

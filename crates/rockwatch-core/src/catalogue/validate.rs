@@ -1,6 +1,6 @@
 //! One entry as written ([`RawPbr`], shared by the TOML and CSV readers) → a validated
-//! [`Pbr`]: every rule of the catalogue format (module doc of [`crate::catalogue`]), each
-//! failure as (field, message) for the reader to place (file, line, entry, id).
+//! [`Pbr`]: every rule of the catalogue format (module doc of [`crate::catalogue`]), every
+//! failure of the entry as (field, message) for the reader to place (file, line, entry, id).
 //!
 //! Units as written: degrees for `lat`, `lon`, `azimuth_deg`, `alpha_deg`, `heading_deg`;
 //! metres for sizes and `contact_tolerance_m`; μs, μk, e dimensionless. A field's sub-fields
@@ -34,15 +34,21 @@ pub(super) const DEFAULT_MESH_DIRECTIONS: AzimuthSteps = AzimuthSteps {
     step: 15.0,
 };
 
-/// One entry as written, before validation (shared by the TOML and CSV readers).
+/// One entry as written, before validation (shared by the TOML and CSV readers). Every field
+/// is optional here, so that validation can report every missing required field at once.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawPbr {
-    pub(super) id: String,
-    pub(super) name: String,
-    pub(super) lat: f64,
-    pub(super) lon: f64,
-    pub(super) station: String,
+    #[serde(default)]
+    pub(super) id: Option<String>,
+    #[serde(default)]
+    pub(super) name: Option<String>,
+    #[serde(default)]
+    pub(super) lat: Option<f64>,
+    #[serde(default)]
+    pub(super) lon: Option<f64>,
+    #[serde(default)]
+    pub(super) station: Option<String>,
     #[serde(default)]
     pub(super) azimuth_deg: Option<f64>,
     #[serde(default)]
@@ -75,11 +81,14 @@ pub(super) struct RawPbr {
     pub(super) h_m: Option<Distribution>,
     #[serde(default)]
     pub(super) rho_m: Option<Distribution>,
-    pub(super) mu_s: Distribution,
-    pub(super) mu_k: Distribution,
+    #[serde(default)]
+    pub(super) mu_s: Option<Distribution>,
+    #[serde(default)]
+    pub(super) mu_k: Option<Distribution>,
     #[serde(default)]
     pub(super) restitution: Option<Distribution>,
-    pub(super) source: String,
+    #[serde(default)]
+    pub(super) source: Option<String>,
     #[serde(default)]
     pub(super) ensemble: Option<Integer>,
     #[serde(default)]
@@ -131,166 +140,233 @@ impl<'de> Deserialize<'de> for Integer {
     }
 }
 
-/// Validates one entry; the error is (field, message).
+/// One problem of an entry: (field, message).
+pub(super) type Problem = (String, String);
+
+/// The value of `result`, or `None` with its problem added to `problems`.
+fn check<T>(problems: &mut Vec<Problem>, result: Result<T, Problem>) -> Option<T> {
+    result.map_err(|problem| problems.push(problem)).ok()
+}
+
+/// Validates one entry: every problem found, in field order (a check that depends on another
+/// field's value is skipped when that field is itself wrong; the mesh is read and the nominal
+/// block built only once everything else is right).
 pub(super) fn validate(
     raw: RawPbr,
     sep: char,
     base_dir: Option<&Path>,
-) -> Result<Pbr, (String, String)> {
-    let fail = |field: &str, message: String| Err((field.to_owned(), message));
-
-    if raw.id.is_empty() {
-        return fail("id", "id must not be empty".to_owned());
+) -> Result<Pbr, Vec<Problem>> {
+    let mut problems: Vec<Problem> = Vec::new();
+    let missing = |field: &str| -> Problem {
+        let why = if field == "source" {
+            " (required: where the numbers come from, e.g. a survey, a paper, or \
+             \"illustrative\" for made-up values)"
+        } else {
+            ""
+        };
+        (field.to_owned(), format!("missing field `{field}`{why}"))
+    };
+    for (field, given) in [
+        ("id", raw.id.is_some()),
+        ("name", raw.name.is_some()),
+        ("lat", raw.lat.is_some()),
+        ("lon", raw.lon.is_some()),
+        ("station", raw.station.is_some()),
+        ("mu_s", raw.mu_s.is_some()),
+        ("mu_k", raw.mu_k.is_some()),
+        ("source", raw.source.is_some()),
+    ] {
+        if !given {
+            problems.push(missing(field));
+        }
     }
-    if raw.id.chars().any(|c| c.is_whitespace() || c.is_control()) {
-        return fail(
-            "id",
-            format!(
-                "id {:?} must not contain whitespace or control characters",
-                raw.id
-            ),
-        );
+    let id = raw.id.clone().unwrap_or_default();
+    if raw.id.as_deref() == Some("") {
+        problems.push(("id".to_owned(), "id must not be empty".to_owned()));
+    }
+    if id.chars().any(|c| c.is_whitespace() || c.is_control()) {
+        problems.push((
+            "id".to_owned(),
+            format!("id {id:?} must not contain whitespace or control characters"),
+        ));
     }
     for (field, text) in [("name", &raw.name), ("source", &raw.source)] {
-        if text.trim().is_empty() {
+        if text.as_deref().is_some_and(|t| t.trim().is_empty()) {
             let why = if field == "source" {
                 " (say where the numbers come from)"
             } else {
                 ""
             };
-            return fail(field, format!("{field} must not be blank{why}"));
+            problems.push((field.to_owned(), format!("{field} must not be blank{why}")));
         }
     }
-    if !(raw.lat.is_finite() && (-90.0..=90.0).contains(&raw.lat)) {
-        return fail(
-            "lat",
-            format!("lat = {} must be in [-90, 90] degrees", raw.lat),
-        );
-    }
-    if !(raw.lon.is_finite() && (-180.0..=180.0).contains(&raw.lon)) {
-        return fail(
-            "lon",
-            format!("lon = {} must be in [-180, 180] degrees", raw.lon),
-        );
-    }
-    let station = StationId::parse(&raw.station)
-        .map_err(|why| ("station".to_owned(), format!("station {why}")))?;
-    let geometry = raw_geometry(&raw)?;
-    let model = rock_model(&raw)?;
-    let azimuths: Vec<Azimuth> = match (&raw.mesh, raw.azimuth_deg, &raw.azimuths) {
-        (Some(_), Some(_), _) => {
-            return fail(
-                "azimuth_deg",
-                "azimuth_deg cannot be combined with mesh: give the directions as azimuths = \
-                 [...] or azimuths = { from, to, step }"
-                    .to_owned(),
-            )
+    if let Some(lat) = raw.lat {
+        if !(lat.is_finite() && (-90.0..=90.0).contains(&lat)) {
+            problems.push((
+                "lat".to_owned(),
+                format!("lat = {lat} must be in [-90, 90] degrees"),
+            ));
         }
-        // A mesh rock may fall in any direction: every 15° unless the entry says otherwise.
-        (Some(_), None, None) => directions(&RawAzimuths::Steps(DEFAULT_MESH_DIRECTIONS))?,
-        (Some(_), None, Some(written)) => directions(written)?,
-        (None, _, Some(_)) => {
-            return fail(
-                "azimuths",
-                "azimuths needs mesh (a planar block has azimuth_deg)".to_owned(),
-            )
+    }
+    if let Some(lon) = raw.lon {
+        if !(lon.is_finite() && (-180.0..=180.0).contains(&lon)) {
+            problems.push((
+                "lon".to_owned(),
+                format!("lon = {lon} must be in [-180, 180] degrees"),
+            ));
         }
-        (None, None, None) => return fail("azimuth_deg", "azimuth_deg is missing".to_owned()),
-        (None, Some(degrees), None) => match Azimuth::from_degrees(degrees) {
-            Ok(azimuth) if (0.0..360.0).contains(&degrees) => vec![azimuth],
-            _ => {
-                return fail(
-                    "azimuth_deg",
-                    format!(
-                        "azimuth_deg = {degrees} must be in [0, 360) degrees clockwise from north"
-                    ),
-                )
-            }
-        },
+    }
+    let station = match &raw.station {
+        Some(text) => check(
+            &mut problems,
+            StationId::parse(text).map_err(|why| ("station".to_owned(), format!("station {why}"))),
+        ),
+        None => None,
     };
-    let azimuth = azimuths[0];
-    for (field, d) in geometry.fields() {
-        check_distribution(field, &d, domain_of(field), sep)?;
+    let geometry = check(&mut problems, raw_geometry(&raw));
+    let model = check(&mut problems, rock_model(&raw));
+    let azimuths = check(&mut problems, entry_directions(&raw));
+    if let Some(geometry) = &geometry {
+        for (field, d) in geometry.fields() {
+            check(
+                &mut problems,
+                check_distribution(field, &d, domain_of(field), sep),
+            );
+        }
     }
-    check_distribution("mu_s", &raw.mu_s, MU_S_DOMAIN, sep)?;
-    check_distribution("mu_k", &raw.mu_k, MU_K_DOMAIN, sep)?;
-    if let Some(e) = &raw.restitution {
-        check_distribution("restitution", e, RESTITUTION_DOMAIN, sep)?;
+    // μk is compared with μs only when both are valid.
+    let mut friction_valid = true;
+    for (field, d, domain) in [
+        ("mu_s", &raw.mu_s, MU_S_DOMAIN),
+        ("mu_k", &raw.mu_k, MU_K_DOMAIN),
+        ("restitution", &raw.restitution, RESTITUTION_DOMAIN),
+    ] {
+        if let Some(d) = d {
+            let valid = check(&mut problems, check_distribution(field, d, domain, sep)).is_some();
+            friction_valid &= valid || field == "restitution";
+        }
     }
-    let (mu_s, mu_k) = (raw.mu_s.nominal(), raw.mu_k.nominal());
-    // A midpoint such as (0.4 + 0.8)/2 = 0.6000000000000001 must not count as exceeding 0.6:
-    // an excess of a few ulps is rounding, and the nominal μk is then taken equal to μs.
-    if mu_k > mu_s * (1.0 + 4.0 * f64::EPSILON) {
-        let nominal = if raw.mu_s.is_fixed() && raw.mu_k.is_fixed() {
-            ""
-        } else {
-            "nominal "
-        };
-        return fail(
-            "mu_k",
-            format!("{nominal}mu_k = {mu_k} exceeds {nominal}mu_s = {mu_s}"),
-        );
+    if let (Some(mu_s_d), Some(mu_k_d), true) = (raw.mu_s, raw.mu_k, friction_valid) {
+        let (mu_s, mu_k) = (mu_s_d.nominal(), mu_k_d.nominal());
+        // A midpoint such as (0.4 + 0.8)/2 = 0.6000000000000001 must not count as exceeding
+        // 0.6: an excess of a few ulps is rounding, and the nominal μk is then taken equal to
+        // μs.
+        if mu_k > mu_s * (1.0 + 4.0 * f64::EPSILON) {
+            let nominal = if mu_s_d.is_fixed() && mu_k_d.is_fixed() {
+                ""
+            } else {
+                "nominal "
+            };
+            problems.push((
+                "mu_k".to_owned(),
+                format!("{nominal}mu_k = {mu_k} exceeds {nominal}mu_s = {mu_s}"),
+            ));
+        }
     }
-    let n_uncertain = geometry
-        .fields()
-        .iter()
-        .map(|(_, d)| d)
-        .chain([raw.mu_s, raw.mu_k].iter())
-        .chain(raw.restitution.iter())
-        .filter(|d| !d.is_fixed())
-        .count();
     let ensemble = match raw.ensemble.map(|k| k.0) {
-        None => 1,
-        Some(k) if (1..=MAX_ENSEMBLE as i128).contains(&k) => k as usize,
+        None => Some(1),
+        Some(k) if (1..=MAX_ENSEMBLE as i128).contains(&k) => Some(k as usize),
         Some(k) => {
-            return fail(
-                "ensemble",
+            problems.push((
+                "ensemble".to_owned(),
                 format!("ensemble = {k} must be an integer from 1 to {MAX_ENSEMBLE}"),
-            )
+            ));
+            None
         }
     };
-    if ensemble > 1 && n_uncertain == 0 {
-        return fail(
-            "ensemble",
-            format!(
-                "ensemble = {ensemble} but no parameter is uncertain: give a range or a normal \
-                 for at least one of {}, mu_s, mu_k, restitution, or drop ensemble",
-                geometry
-                    .fields()
-                    .iter()
-                    .map(|(name, _)| *name)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        );
+    if let (Some(geometry), Some(ensemble)) = (&geometry, ensemble) {
+        let n_uncertain = geometry
+            .fields()
+            .iter()
+            .map(|(_, d)| Some(*d))
+            .chain([raw.mu_s, raw.mu_k, raw.restitution])
+            .flatten()
+            .filter(|d| !d.is_fixed())
+            .count();
+        if ensemble > 1 && n_uncertain == 0 {
+            problems.push((
+                "ensemble".to_owned(),
+                format!(
+                    "ensemble = {ensemble} but no parameter is uncertain: give a range or a \
+                     normal for at least one of {}, mu_s, mu_k, restitution, or drop ensemble",
+                    geometry
+                        .fields()
+                        .iter()
+                        .map(|(name, _)| *name)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
     }
     let seed = match raw.seed.map(|s| s.0) {
-        None => default_seed(&raw.id),
-        Some(s) => match u64::try_from(s) {
-            Ok(s) => s,
-            Err(_) => {
-                return fail(
-                    "seed",
+        None => Some(default_seed(&id)),
+        Some(s) => check(
+            &mut problems,
+            u64::try_from(s).map_err(|_| {
+                (
+                    "seed".to_owned(),
                     format!("seed = {s} must be an integer from 0 to {}", u64::MAX),
                 )
-            }
-        },
+            }),
+        ),
     };
+    if raw.cap.is_some() && raw.mesh.is_none() {
+        problems.push((
+            "cap".to_owned(),
+            "cap needs mesh (it closes an open scan)".to_owned(),
+        ));
+    }
+    let (
+        Some(name),
+        Some(lat),
+        Some(lon),
+        Some(station),
+        Some(geometry),
+        Some(model),
+        Some(azimuths),
+        Some(mu_s_d),
+        Some(mu_k_d),
+        Some(source),
+        Some(ensemble),
+        Some(seed),
+        true,
+    ) = (
+        raw.name.clone(),
+        raw.lat,
+        raw.lon,
+        station,
+        geometry,
+        model,
+        azimuths,
+        raw.mu_s,
+        raw.mu_k,
+        raw.source.clone(),
+        ensemble,
+        seed,
+        problems.is_empty(),
+    )
+    else {
+        return Err(problems);
+    };
+    let azimuth = azimuths[0];
+    let (mu_s, mu_k) = (mu_s_d.nominal(), mu_k_d.nominal());
     let fields = geometry.fields();
     let nominal_geometry: Vec<f64> = fields.iter().map(|(_, d)| d.nominal()).collect();
-    if raw.cap.is_some() && raw.mesh.is_none() {
-        return fail("cap", "cap needs mesh (it closes an open scan)".to_owned());
-    }
+    let one = |problem: Problem| vec![problem];
     let mesh = match &raw.mesh {
-        Some(file) => Some(load_mesh(
-            file,
-            raw.up.as_deref(),
-            raw.cap.unwrap_or(false),
-            azimuths,
-            nominal_geometry[1],
-            model,
-            base_dir,
-        )?),
+        Some(file) => Some(
+            load_mesh(
+                file,
+                raw.up.as_deref(),
+                raw.cap.unwrap_or(false),
+                azimuths,
+                nominal_geometry[1],
+                model,
+                base_dir,
+            )
+            .map_err(one)?,
+        ),
         None => None,
     };
     let nominal = match &mesh {
@@ -312,28 +388,56 @@ pub(super) fn validate(
         ),
     }
     .map_err(|e| {
-        (
+        one((
             fields[0].0.to_owned(),
             format!("nominal block rejected: {e}"),
-        )
+        ))
     })?;
     Ok(Pbr {
-        id: raw.id,
-        name: raw.name,
-        lat_deg: raw.lat,
-        lon_deg: raw.lon,
+        id,
+        name,
+        lat_deg: lat,
+        lon_deg: lon,
         station,
         azimuth,
         geometry,
-        mu_s: raw.mu_s,
-        mu_k: raw.mu_k,
+        mu_s: mu_s_d,
+        mu_k: mu_k_d,
         restitution: raw.restitution,
-        source: raw.source,
+        source,
         ensemble,
         seed,
         nominal,
         mesh,
     })
+}
+
+/// The entry's toppling directions: a planar block's `azimuth_deg`, or a mesh rock's
+/// `azimuths` (default every 15°).
+fn entry_directions(raw: &RawPbr) -> Result<Vec<Azimuth>, Problem> {
+    let fail = |field: &str, message: &str| Err((field.to_owned(), message.to_owned()));
+    match (&raw.mesh, raw.azimuth_deg, &raw.azimuths) {
+        (Some(_), Some(_), _) => fail(
+            "azimuth_deg",
+            "azimuth_deg cannot be combined with mesh: give the directions as azimuths = \
+             [...] or azimuths = { from, to, step }",
+        ),
+        // A mesh rock may fall in any direction: every 15° unless the entry says otherwise.
+        (Some(_), None, None) => directions(&RawAzimuths::Steps(DEFAULT_MESH_DIRECTIONS)),
+        (Some(_), None, Some(written)) => directions(written),
+        (None, _, Some(_)) => fail(
+            "azimuths",
+            "azimuths needs mesh (a planar block has azimuth_deg)",
+        ),
+        (None, None, None) => fail("azimuth_deg", "azimuth_deg is missing"),
+        (None, Some(degrees), None) => match Azimuth::from_degrees(degrees) {
+            Ok(azimuth) if (0.0..360.0).contains(&degrees) => Ok(vec![azimuth]),
+            _ => Err((
+                "azimuth_deg".to_owned(),
+                format!("azimuth_deg = {degrees} must be in [0, 360) degrees clockwise from north"),
+            )),
+        },
+    }
 }
 
 /// The directions of a mesh entry: each a finite azimuth, taken modulo 360, distinct, at most

@@ -278,14 +278,9 @@ impl BlockParams {
 
     /// A one-line description of the geometry for titles and summaries:
     /// `B = … m, H = … m` for a rectangle, else `b+ = … m, b- = … m, h = … m, rho = … m`,
-    /// followed by the uplift angles in degrees.
-    #[must_use]
-    pub fn geometry_label(&self) -> String {
-        self.geometry_label_with(|m| m.to_string(), |deg| format!("{deg:.2}"))
-    }
-
-    /// [`BlockParams::geometry_label`] with the lengths (m) written by `number` and the
-    /// angles (°) by `angle` (e.g. both rounded for a plot's title).
+    /// followed by the uplift angles in degrees; the lengths (m) written by `number` and the
+    /// angles (°) by `angle` (the shell rounds both to its text precision:
+    /// `rockwatch::number_text`).
     #[must_use]
     pub fn geometry_label_with(
         &self,

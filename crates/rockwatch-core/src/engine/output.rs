@@ -196,6 +196,8 @@ pub enum Output {
     EpisodeEnd {
         pbr_id: String,
         episode: u32,
+        /// Data time of the sample at which it ended (ns since the Unix epoch, UTC).
+        data_time_ns: i64,
     },
     /// A station went stale or recovered; the states of its blocks follow (`engine::health`).
     Health(super::health::HealthChange),
@@ -210,9 +212,22 @@ pub enum JournalRecord {
     /// An alert, written before it is published.
     Alert(Alert),
     /// The end of a block's episode.
-    EpisodeEnd { pbr_id: String, episode: u32 },
+    EpisodeEnd {
+        pbr_id: String,
+        episode: u32,
+        /// Data time of the sample at which it ended (ns since the Unix epoch, UTC); absent
+        /// from records written before it was kept.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        data_time_ns: Option<i64>,
+    },
     /// An operator reset a (fallen) block: it stands again, its episode is closed.
-    Reset { pbr_id: String },
+    Reset {
+        pbr_id: String,
+        /// Wall-clock UTC time of the reset, as the process that journaled it read its clock
+        /// (ns since the Unix epoch); absent from records written before it was kept.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        time_ns: Option<i64>,
+    },
     /// The alert (`pbr_id`, `episode`, `level`) journaled earlier has been handed to the
     /// publishers. Written after them and not synced: if a crash loses it, the alert is
     /// published again at restart (at least once, never silently lost).
@@ -262,7 +277,7 @@ pub fn fallen_blocks(records: &[JournalRecord]) -> HashSet<String> {
             JournalRecord::Alert(a) if a.level == AlertLevel::Overturned => {
                 fallen.insert(a.pbr_id.clone());
             }
-            JournalRecord::Reset { pbr_id } => {
+            JournalRecord::Reset { pbr_id, .. } => {
                 fallen.remove(pbr_id);
             }
             _ => {}
@@ -315,12 +330,12 @@ pub fn compact_journal(records: &[JournalRecord], history: usize) -> Vec<Journal
             || match r {
                 JournalRecord::Alert(_) => false,
                 // Only an end of the last episode closes it (restore takes the largest).
-                JournalRecord::EpisodeEnd { pbr_id, episode } => {
-                    last.get(pbr_id.as_str()).is_some_and(|l| episode >= l)
-                }
+                JournalRecord::EpisodeEnd {
+                    pbr_id, episode, ..
+                } => last.get(pbr_id.as_str()).is_some_and(|l| episode >= l),
                 // A reset after a kept alert may stand a kept overturned block again; one
                 // before every kept alert of its block changes nothing derived from them.
-                JournalRecord::Reset { pbr_id } => {
+                JournalRecord::Reset { pbr_id, .. } => {
                     first_kept.get(pbr_id.as_str()).is_some_and(|f| i > *f)
                 }
                 JournalRecord::Published {
@@ -385,7 +400,10 @@ mod tests {
 
     #[test]
     fn a_block_is_fallen_from_its_overturned_alert_until_a_reset() {
-        let reset = |id: &str| JournalRecord::Reset { pbr_id: id.into() };
+        let reset = |id: &str| JournalRecord::Reset {
+            pbr_id: id.into(),
+            time_ns: None,
+        };
         let records = [
             alert("a", AlertLevel::MotionOnset),
             alert("a", AlertLevel::Overturned),

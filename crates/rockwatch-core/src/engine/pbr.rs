@@ -639,6 +639,7 @@ impl PbrRuntime {
             out.push(Output::EpisodeEnd {
                 pbr_id: self.id.clone(),
                 episode: self.episode,
+                data_time_ns: at.t_ns,
             });
         }
     }

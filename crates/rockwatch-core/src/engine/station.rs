@@ -235,10 +235,12 @@ impl StationRuntime {
                     JournalRecord::Alert(a) if a.pbr_id == pbr.id => {
                         last_episode = last_episode.max(a.episode);
                     }
-                    JournalRecord::EpisodeEnd { pbr_id, episode } if *pbr_id == pbr.id => {
+                    JournalRecord::EpisodeEnd {
+                        pbr_id, episode, ..
+                    } if *pbr_id == pbr.id => {
                         ended = ended.max(*episode);
                     }
-                    JournalRecord::Reset { pbr_id } if *pbr_id == pbr.id => {
+                    JournalRecord::Reset { pbr_id, .. } if *pbr_id == pbr.id => {
                         ended = last_episode;
                     }
                     _ => {}

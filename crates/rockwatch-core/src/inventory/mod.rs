@@ -106,6 +106,14 @@ pub const MAX_ABS_GAIN_MPS2_PER_COUNT: f64 = 1e3;
 /// record is refused (clock drift of a real digitizer is far below 1e-4).
 pub const MAX_RATE_MISMATCH: f64 = 1e-4;
 
+/// Lowest sampling rate (Hz) of a usable channel. The ground acceleration that starts a block
+/// rocking or sliding (its alerts' onset is a threshold on it) has its peaks up to ≈ 25 Hz —
+/// the band strong-motion processing keeps — which is the Nyquist frequency of a 50 Hz
+/// channel. A slower channel loses those peaks: the bundled Landers LCN345 record (200 Hz,
+/// PGA 7.7 m/s²) low-passed and decimated keeps 99 % of its PGA at 50 Hz, 84 % at 40 Hz, 55 %
+/// at 20 Hz and 4 % at 1 Hz (an LN? channel); docs/stationxml.md, "Sampling rate".
+pub const MIN_SAMPLE_RATE_HZ: f64 = 50.0;
+
 /// Why a channel epoch cannot be used to calibrate and orient its data.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Unusable {
@@ -121,6 +129,12 @@ pub enum Unusable {
     AbsurdGain { value: f64, gain: f64 },
     #[error("no {field}")]
     Missing { field: &'static str },
+    #[error(
+        "sampling rate {rate_hz} Hz is below the {MIN_SAMPLE_RATE_HZ} Hz minimum: the ground \
+         acceleration that rocks or slides a block has peaks up to ≈ 25 Hz, the Nyquist \
+         frequency of {MIN_SAMPLE_RATE_HZ} Hz; slower channels lose them (docs/stationxml.md)"
+    )]
+    RateTooLow { rate_hz: f64 },
     #[error("{field} = {value} is out of range ({range})")]
     OutOfRange {
         field: &'static str,
@@ -314,7 +328,7 @@ impl ChannelEpoch {
 
     /// Everything needed to calibrate and orient this channel's data, or the first reason
     /// it cannot be: the gain ([`ChannelEpoch::gain_mps2_per_count`]), an azimuth, a dip in
-    /// [−90°, 90°] and a positive sampling rate.
+    /// [−90°, 90°] and a sampling rate of at least [`MIN_SAMPLE_RATE_HZ`].
     pub fn calibration(&self) -> Result<Calibration, Unusable> {
         self.calibration_with(false)
     }
@@ -335,6 +349,11 @@ impl ChannelEpoch {
                 field: "SampleRate",
                 value: sample_rate_hz,
                 range: "> 0 Hz",
+            });
+        }
+        if sample_rate_hz < MIN_SAMPLE_RATE_HZ {
+            return Err(Unusable::RateTooLow {
+                rate_hz: sample_rate_hz,
             });
         }
         let azimuth = Azimuth::from_degrees(azimuth_deg).map_err(|_| Unusable::OutOfRange {

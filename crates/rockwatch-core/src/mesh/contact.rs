@@ -179,6 +179,27 @@ pub struct DirectionBody {
     pub alpha_minus_deg: f64,
 }
 
+/// The weakest side of a rock's planar bodies, each given as (azimuth of its +x axis, α₊, α₋),
+/// degrees: `(azimuth, α)` of the side with the smallest uplift angle — the +x side tips
+/// towards the body's azimuth, the −x side towards the opposite one — the first such side on a
+/// tie; `None` without a body. g·tan α is the rock's least quasi-static uplift acceleration
+/// among those directions.
+#[must_use]
+pub fn weakest_side(bodies: impl IntoIterator<Item = (f64, f64, f64)>) -> Option<(f64, f64)> {
+    let mut best: Option<(f64, f64)> = None;
+    for (azimuth_deg, alpha_plus_deg, alpha_minus_deg) in bodies {
+        for (alpha, towards) in [
+            (alpha_plus_deg, azimuth_deg),
+            (alpha_minus_deg, (azimuth_deg + 180.0).rem_euclid(360.0)),
+        ] {
+            if best.is_none_or(|(_, a)| alpha < a) {
+                best = Some((towards, alpha));
+            }
+        }
+    }
+    best
+}
+
 impl DirectionBody {
     /// The planar block of this direction with its friction and impact
     /// ([`BlockParams::from_body`], docs/general-body.md).

@@ -2,6 +2,7 @@
 //! the operator reset of a fallen block (in a state directory, or live through a running
 //! node's ROS 2 service `/pbr/reset`).
 
+use std::collections::HashSet;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -11,8 +12,9 @@ use rockwatch::journal::{read_journal, Journal};
 use rockwatch::log_text::printable;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ros2::{network_plan_from_env, Ros2ResetClient, RESET_SERVICE};
-use rockwatch_core::engine::JournalRecord;
+use rockwatch_core::engine::{Alert, AlertLevel, JournalRecord};
 use rockwatch_core::record::mseed::format_time_ns;
+use rockwatch_core::utc::parse_utc_ns;
 
 use super::OutputFormat;
 
@@ -22,12 +24,117 @@ pub struct AlertsArgs {
     /// State directory written by `rockwatch monitor` or the node.
     #[arg(long = "state-dir", value_name = "DIR")]
     state_dir: PathBuf,
-    /// Output format: a table (data time in ISO 8601 UTC), or one JSON array of records in the
+    /// Only the records at or after this time (ISO 8601, e.g. 2024-05-01T12:00:00Z; no zone =
+    /// UTC): alerts and episode ends by their data time, resets by the time they were made.
+    /// Records journaled before rockwatch kept their time have none and are left out (counted
+    /// on stderr).
+    #[arg(long, value_name = "ISO_TIME")]
+    since: Option<String>,
+    /// Only the records of this block (its catalogue `id`); repeat for several.
+    #[arg(long, value_name = "ID")]
+    pbr: Vec<String>,
+    /// Only the alerts at this level or a more severe one (motion_onset < overturn_imminent <
+    /// overturned); episode ends and resets are kept.
+    #[arg(long, value_name = "LEVEL", value_parser = parse_level)]
+    level: Option<AlertLevel>,
+    /// Output format: a table (times in ISO 8601 UTC), or one JSON array of records in the
     /// shared schema: `{"type": "alert", "pbr_id", "level", "episode", "data_time", …}`,
-    /// `{"type": "episode_end", "pbr_id", "episode"}`, `{"type": "reset", "pbr_id"}` (see
-    /// README, "Alert JSON").
+    /// `{"type": "episode_end", "pbr_id", "episode", "data_time", "data_time_ns"}`,
+    /// `{"type": "reset", "pbr_id", "time", "time_ns"}`, `{"type": "published", "pbr_id",
+    /// "episode", "level"}` (see README, "Alert JSON").
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     format: OutputFormat,
+}
+
+/// An alert level by its name.
+fn parse_level(text: &str) -> Result<AlertLevel, String> {
+    AlertLevel::ALL
+        .into_iter()
+        .find(|l| l.as_str() == text)
+        .ok_or_else(|| {
+            format!("{text:?} is not a level: motion_onset, overturn_imminent or overturned")
+        })
+}
+
+/// Which journal records `alerts` lists.
+struct RecordFilter {
+    /// Records before this time (ns since the Unix epoch) are left out.
+    since_ns: Option<i64>,
+    /// Only these blocks (all when empty).
+    pbrs: Vec<String>,
+    /// Only alerts at this level or above.
+    level: Option<AlertLevel>,
+}
+
+impl RecordFilter {
+    fn from_args(args: &AlertsArgs) -> anyhow::Result<RecordFilter> {
+        let since_ns = match &args.since {
+            Some(text) => Some(
+                parse_utc_ns(text)
+                    .and_then(|t| i64::try_from(t).ok())
+                    .with_context(|| format!("--since {text:?} is not an ISO 8601 time"))?,
+            ),
+            None => None,
+        };
+        Ok(RecordFilter {
+            since_ns,
+            pbrs: args.pbr.clone(),
+            level: args.level,
+        })
+    }
+
+    /// Whether a record of block `pbr_id` at `time_ns` (None: not known) passes the block and
+    /// time filters.
+    fn passes(&self, pbr_id: &str, time_ns: Option<i64>) -> bool {
+        (self.pbrs.is_empty() || self.pbrs.iter().any(|p| p == pbr_id))
+            && match (self.since_ns, time_ns) {
+                (None, _) => true,
+                (Some(since), Some(t)) => t >= since,
+                (Some(_), None) => false,
+            }
+    }
+
+    /// The records kept, in order, and how many were left out for having no time (with
+    /// `--since`). A `published` marker is kept with its alert.
+    fn apply<'a>(&self, records: &'a [JournalRecord]) -> (Vec<&'a JournalRecord>, usize) {
+        let kept_alert = |a: &Alert| {
+            self.passes(&a.pbr_id, Some(a.data_time_ns)) && self.level.is_none_or(|l| a.level >= l)
+        };
+        let alerts: HashSet<(&str, u32, AlertLevel)> = records
+            .iter()
+            .filter_map(|r| match r {
+                JournalRecord::Alert(a) if kept_alert(a) => {
+                    Some((a.pbr_id.as_str(), a.episode, a.level))
+                }
+                _ => None,
+            })
+            .collect();
+        let mut timeless = 0;
+        let kept = records
+            .iter()
+            .filter(|r| match r {
+                JournalRecord::Alert(a) => kept_alert(a),
+                JournalRecord::Published {
+                    pbr_id,
+                    episode,
+                    level,
+                } => alerts.contains(&(pbr_id.as_str(), *episode, *level)),
+                JournalRecord::EpisodeEnd {
+                    pbr_id,
+                    data_time_ns: time_ns,
+                    ..
+                }
+                | JournalRecord::Reset { pbr_id, time_ns } => {
+                    let kept = self.passes(pbr_id, *time_ns);
+                    if !kept && time_ns.is_none() && self.passes(pbr_id, Some(i64::MAX)) {
+                        timeless += 1;
+                    }
+                    kept
+                }
+            })
+            .collect();
+        (kept, timeless)
+    }
 }
 
 /// Reset a fallen block: it stands again at rest and a new episode can raise alerts.
@@ -77,6 +184,7 @@ pub fn run_alerts(args: AlertsArgs) -> anyhow::Result<()> {
     if !args.state_dir.is_dir() {
         bail!("{}: not a directory", args.state_dir.display());
     }
+    let filter = RecordFilter::from_args(&args)?;
     let (records, report) = read_journal(&args.state_dir)?;
     if report.repaired() {
         eprintln!(
@@ -84,47 +192,73 @@ pub fn run_alerts(args: AlertsArgs) -> anyhow::Result<()> {
             args.state_dir.display()
         );
     }
+    let (records, timeless) = filter.apply(&records);
+    if timeless > 0 {
+        eprintln!(
+            "rockwatch: note: {timeless} episode ends or resets journaled before rockwatch kept \
+             their time are left out by --since"
+        );
+    }
     match args.format {
         OutputFormat::Json => {
-            let records: Vec<RecordJson> = records.iter().map(RecordJson::from).collect();
+            let records: Vec<RecordJson> = records.into_iter().map(RecordJson::from).collect();
             outln!("{}", serde_json::to_string_pretty(&records)?);
         }
-        OutputFormat::Text => {
-            outln!(
-                "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8}  {:<30}",
-                "pbr",
-                "station",
-                "episode",
-                "level",
-                "mode",
-                "θ/α",
-                "data time (UTC)"
-            );
-            for r in &records {
-                match r {
-                    JournalRecord::Alert(a) => outln!(
-                        "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8.3}  {:<30}",
-                        a.pbr_id,
-                        a.station,
-                        a.episode,
-                        a.level.as_str(),
-                        a.mode.as_str(),
-                        a.theta_over_alpha,
-                        format_time_ns(a.data_time_ns)
-                    ),
-                    JournalRecord::EpisodeEnd { pbr_id, episode } => {
-                        outln!("{pbr_id:<24} {:<12} {episode:>7} episode ended", "")
-                    }
-                    JournalRecord::Reset { pbr_id } => {
-                        outln!("{pbr_id:<24} {:<12} {:>7} reset by operator", "", "")
-                    }
-                    // Bookkeeping of the node (see docs/reliability.md): in the JSON only.
-                    JournalRecord::Published { .. } => {}
-                }
-            }
-        }
+        OutputFormat::Text => print_table(&records),
     }
     Ok(())
+}
+
+/// The records as a table; times in ISO 8601 UTC: an alert's and an episode end's data time,
+/// a reset's wall-clock time (`-`: journaled before rockwatch kept it).
+fn print_table(records: &[&JournalRecord]) {
+    let time = |t: Option<i64>| t.map_or_else(|| "-".to_string(), format_time_ns);
+    outln!(
+        "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8}  time (UTC)",
+        "pbr",
+        "station",
+        "episode",
+        "level",
+        "mode",
+        "θ/α",
+    );
+    for r in records {
+        match r {
+            JournalRecord::Alert(a) => outln!(
+                "{:<24} {:<12} {:>7} {:<18} {:<11} {:>8.3}  {}",
+                a.pbr_id,
+                a.station,
+                a.episode,
+                a.level.as_str(),
+                a.mode.as_str(),
+                a.theta_over_alpha,
+                format_time_ns(a.data_time_ns)
+            ),
+            JournalRecord::EpisodeEnd {
+                pbr_id,
+                episode,
+                data_time_ns,
+            } => outln!(
+                "{pbr_id:<24} {:<12} {episode:>7} {:<18} {:<11} {:>8}  {}",
+                "",
+                "episode ended",
+                "",
+                "",
+                time(*data_time_ns)
+            ),
+            JournalRecord::Reset { pbr_id, time_ns } => outln!(
+                "{pbr_id:<24} {:<12} {:>7} {:<18} {:<11} {:>8}  {}",
+                "",
+                "",
+                "reset by operator",
+                "",
+                "",
+                time(*time_ns)
+            ),
+            // Bookkeeping of the node (see docs/reliability.md): in the JSON only.
+            JournalRecord::Published { .. } => {}
+        }
+    }
 }
 
 pub fn run_reset(args: ResetArgs) -> anyhow::Result<()> {
@@ -151,6 +285,7 @@ fn reset_offline(state_dir: &std::path::Path, pbr: &str) -> anyhow::Result<()> {
     }
     journal.append(&JournalRecord::Reset {
         pbr_id: pbr.to_string(),
+        time_ns: Some(rockwatch::journal::utc_now_ns()),
     })?;
     outln!("block {pbr} reset in {}", state_dir.display());
     Ok(())

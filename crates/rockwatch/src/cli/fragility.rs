@@ -9,6 +9,7 @@ use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rockwatch::fragility::plots::write_plots;
 use rockwatch::fragility::report::{fragility_json, text_summary, write_runs_csv};
+use rockwatch::number_text::{block_label, short_number};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::dynamics::{BlockOptions, BlockParams};
 use rockwatch_core::fragility::{
@@ -16,7 +17,7 @@ use rockwatch_core::fragility::{
     Intensity, RockDirection, RockMember, DEFAULT_BOOTSTRAP, DEFAULT_SURFACE_GRID,
     DEFAULT_T_EXTRA_S,
 };
-use rockwatch_core::mesh::contact::parse_azimuths;
+use rockwatch_core::mesh::contact::{parse_azimuths, weakest_side};
 use rockwatch_core::record::Record;
 use rockwatch_core::STANDARD_GRAVITY_MPS2;
 use serde_json::json;
@@ -205,6 +206,33 @@ fn direction_json(azimuth_deg: f64, p: &BlockParams) -> serde_json::Value {
     })
 }
 
+/// A meshed rock's planar directions (azimuth of each body's +x axis in degrees, and the body)
+/// in words: how many, and its weakest side — the azimuth it tips towards, α and the uplift
+/// acceleration g·tan α (m/s²) — rather than one direction's body as if it were the rock.
+fn directions_label<'a>(
+    directions: impl Iterator<Item = (f64, &'a BlockParams)> + Clone,
+) -> String {
+    let count = directions.clone().count();
+    let weakest = weakest_side(directions.map(|(azimuth_deg, p)| {
+        (
+            azimuth_deg,
+            p.plus.alpha_rad.to_degrees(),
+            p.minus.alpha_rad.to_degrees(),
+        )
+    }));
+    match weakest {
+        Some((towards, alpha_deg)) => format!(
+            "{count} direction{} (a planar body each, docs/meshes.md), weakest towards {}°: α = \
+             {}°, uplift at {} m/s²",
+            if count == 1 { "" } else { "s" },
+            short_number(towards),
+            short_number(alpha_deg),
+            short_number(STANDARD_GRAVITY_MPS2 * alpha_deg.to_radians().tan())
+        ),
+        None => "no direction".to_string(),
+    }
+}
+
 /// The SHA-256 of a file, lower-case hex: the exact mesh a result used.
 fn file_sha256(path: &Path) -> anyhow::Result<String> {
     use sha2::{Digest, Sha256};
@@ -264,10 +292,24 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
                     .collect(),
             })
             .collect();
+        // A meshed rock is its directions, not its first direction's body.
+        let geometry = match mesh {
+            Some(m) => format!(
+                "{}: {}",
+                m.path.display(),
+                directions_label(
+                    directions
+                        .iter()
+                        .map(|d| (frame_deg(d.azimuth.degrees()), &d.nominal))
+                )
+            ),
+            None => pbr
+                .nominal()
+                .geometry_label_with(short_number, short_number),
+        };
         let label = format!(
-            "{id} ({}), {}, {} member{}",
+            "{id} ({}), {geometry}, {} member{}",
             pbr.name(),
-            pbr.nominal().geometry_label(),
             k,
             if k == 1 { "" } else { "s (Latin hypercube)" }
         );
@@ -303,12 +345,7 @@ fn rock(args: &FragilityArgs) -> anyhow::Result<Rock> {
             return mesh_rock(args, &mesh);
         }
     };
-    let label = format!(
-        "{}, μs = {}, μk = {}",
-        params.geometry_label(),
-        params.mu_s,
-        params.mu_k
-    );
+    let label = block_label(&params);
     let info = json!({
         "b_plus_m": params.b_plus_m, "b_minus_m": params.b_minus_m,
         "com_height_m": params.com_height_m, "rho_m": params.rho_m,
@@ -344,9 +381,11 @@ fn mesh_rock(args: &FragilityArgs, mesh: &MeshPlan) -> anyhow::Result<Rock> {
     } = mesh.friction;
     let loaded = &mesh.mesh;
     let label = format!(
-        "{} ({} directions), μs = {mu_s}, μk = {mu_k}",
+        "{}: {}, μs = {}, μk = {}",
         loaded.path.display(),
-        directions.len()
+        directions_label(directions.iter().map(|d| (d.azimuth_deg, &d.params))),
+        short_number(mu_s),
+        short_number(mu_k)
     );
     let info = json!({
         "mesh": loaded.path.display().to_string(), "mesh_sha256": file_sha256(&loaded.path)?,
@@ -379,7 +418,12 @@ fn rigid_mesh_rock(mesh: &MeshPlan) -> anyhow::Result<Rock> {
     }
     let body = mesh.body_3d()?;
     let loaded = &mesh.mesh;
-    let label = format!("{} in 3-D, μs = {mu_s}, μk = {mu_k}", loaded.path.display());
+    let label = format!(
+        "{} in 3-D, μs = {}, μk = {}",
+        loaded.path.display(),
+        short_number(mu_s),
+        short_number(mu_k)
+    );
     let info = json!({
         "mesh": loaded.path.display().to_string(), "mesh_sha256": file_sha256(&loaded.path)?,
         "cap": loaded.cap, "model": "3d", "up": loaded.up.as_str(),

@@ -5,9 +5,10 @@ use std::path::PathBuf;
 
 use rockwatch_core::mesh::cap::Cap;
 use rockwatch_core::mesh::contact::{
-    parse_azimuths, DirectionBody, RestingContact, SENSITIVITY_TOLERANCES_M,
+    parse_azimuths, weakest_side, DirectionBody, RestingContact, SENSITIVITY_TOLERANCES_M,
 };
 
+use rockwatch::number_text::short_number;
 use rockwatch::rock_plots::{plot_alpha_rose, plot_section};
 
 use super::rock_flags::{describe_cap, LoadedMesh, MeshFlags};
@@ -96,21 +97,17 @@ struct Sensitivity {
     b_ratio_max: f64,
 }
 
-/// The weakest side of the directions `dirs` (non-empty).
+/// The weakest side of the directions `dirs` (non-empty: `--azimuths` gives at least one).
 fn weakest(dirs: &[DirectionBody]) -> Weakest {
-    let mut best = (f64::INFINITY, 0.0);
-    for d in dirs {
-        if d.alpha_plus_deg < best.0 {
-            best = (d.alpha_plus_deg, d.azimuth_deg);
-        }
-        if d.alpha_minus_deg < best.0 {
-            best = (d.alpha_minus_deg, (d.azimuth_deg + 180.0).rem_euclid(360.0));
-        }
-    }
+    let (azimuth_deg, alpha_deg) = weakest_side(
+        dirs.iter()
+            .map(|d| (d.azimuth_deg, d.alpha_plus_deg, d.alpha_minus_deg)),
+    )
+    .unwrap_or((0.0, f64::INFINITY));
     Weakest {
-        azimuth_deg: best.1,
-        alpha_deg: best.0,
-        uplift_mps2: rockwatch_core::STANDARD_GRAVITY_MPS2 * best.0.to_radians().tan(),
+        azimuth_deg,
+        alpha_deg,
+        uplift_mps2: rockwatch_core::STANDARD_GRAVITY_MPS2 * alpha_deg.to_radians().tan(),
     }
 }
 
@@ -204,26 +201,26 @@ fn text(mesh: &LoadedMesh, dirs: &[DirectionBody], sensitivity: &[Sensitivity]) 
     let mut out = String::new();
     let (rest, up) = (&mesh.rest, mesh.up);
     let m = &rest.mass;
-    let v3 = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
+    let v3 = |v: [f64; 3]| format!("({})", v.map(short_number).join(", "));
     let _ = writeln!(out, "mesh        {}", mesh.path.display());
     if let Some(cap) = &mesh.cap {
         let _ = writeln!(out, "capped      {}", describe_cap(cap));
     }
-    let _ = writeln!(out, "volume      {:.6} m³", m.volume_m3);
+    let _ = writeln!(out, "volume      {} m³", short_number(m.volume_m3));
     let _ = writeln!(out, "com         {} m", v3(m.com_m));
     let _ = writeln!(
         out,
         "resting     facet of {} hull vertices, {} contact vertices within {} m; vertical {} \
-         ({:.2}° from {}), north {}",
+         ({}° from {}), north {}",
         rest.facet_vertices,
         rest.contact_vertices(),
-        rest.tolerance_m,
+        short_number(rest.tolerance_m),
         v3(rest.up),
-        rest.tilt_deg,
+        short_number(rest.tilt_deg),
         up.as_str(),
         v3(rest.north)
     );
-    let _ = writeln!(out, "com height  {:.4} m", rest.h_m);
+    let _ = writeln!(out, "com height  {} m", short_number(rest.h_m));
     let _ = writeln!(
         out,
         "{:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8}",
@@ -245,11 +242,11 @@ fn text(mesh: &LoadedMesh, dirs: &[DirectionBody], sensitivity: &[Sensitivity]) 
     let w = weakest(dirs);
     let _ = writeln!(
         out,
-        "weakest     towards {:.2}°: α = {:.3}°, uplift at {:.3} m/s² ({:.4} g) (of the directions listed)",
-        w.azimuth_deg,
-        w.alpha_deg,
-        w.uplift_mps2,
-        w.uplift_mps2 / rockwatch_core::STANDARD_GRAVITY_MPS2
+        "weakest     towards {}°: α = {}°, uplift at {} m/s² ({} g) (of the directions listed)",
+        short_number(w.azimuth_deg),
+        short_number(w.alpha_deg),
+        short_number(w.uplift_mps2),
+        short_number(w.uplift_mps2 / rockwatch_core::STANDARD_GRAVITY_MPS2)
     );
     let _ = writeln!(
         out,

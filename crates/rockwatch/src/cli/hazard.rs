@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
+use rockwatch::number_text::short_number;
 use rockwatch_core::hazard::{
     canonical_im, fragility_from_json, overturn_rate, parse_openquake_csv, parse_two_column_csv,
     HazardCurve, ImUnit,
@@ -153,27 +154,38 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
                 "fragility   {} ({}): median {} {}, beta {}",
                 fragility_name,
                 fragility.im,
-                fragility.curve.median,
+                short_number(fragility.curve.median),
                 fragility.unit,
-                fragility.curve.beta
+                short_number(fragility.curve.beta)
             );
             let site = curve
                 .site
                 .map(|(lon, lat)| format!(", site {lon}, {lat}"))
                 .unwrap_or_default();
             outln!(
+                // The unit factor is exact (9.80665 = g by definition): printed whole.
                 "hazard      {} ({} levels {} to {} {}{site}; × {factor} → {})",
                 curve_name,
                 curve.levels.len(),
-                curve.levels[0],
-                curve.levels[curve.levels.len() - 1],
+                short_number(curve.levels[0]),
+                short_number(curve.levels[curve.levels.len() - 1]),
                 curve.unit,
                 fragility.unit
             );
-            outln!("λ           {:.4e} overturns per year", rate.annual_rate);
-            outln!("return      {:.4e} years", rate.return_period_years());
+            outln!(
+                "λ           {} overturns per year",
+                short_number(rate.annual_rate)
+            );
+            outln!(
+                "return      {} years",
+                short_number(rate.return_period_years())
+            );
             for (t, p) in &survival {
-                outln!("survival    {p:.6} after {t} years");
+                outln!(
+                    "survival    {} after {t} years (P(overturn) {})",
+                    short_number(*p),
+                    short_number(1.0 - p)
+                );
             }
             outln!(
                 "tails       {:.2} % of λ comes from beyond the curve's levels (power-law continuation)",

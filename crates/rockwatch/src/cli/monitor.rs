@@ -75,7 +75,11 @@ pub struct MonitorArgs {
     /// Seconds of quiet appended after the record.
     #[arg(long, default_value_t = 10.0, value_name = "S")]
     tail: f64,
-    /// State directory: alerts are journaled there (and restored from it on the next run).
+    /// State directory of this rehearsal: alerts are journaled there (and restored from it on
+    /// the next run). Only this flag gives one: the configuration's `state_dir` is the node's
+    /// and never written. DIR must be new, empty or an earlier `monitor`'s (marked by a file
+    /// `rehearsal`, which `rockwatch node` refuses); a directory a node holds or held is
+    /// refused.
     #[arg(long = "state-dir", value_name = "DIR")]
     state_dir: Option<PathBuf>,
     /// Output: a readable log and table, or JSON lines (one per alert, a summary last; the
@@ -187,12 +191,24 @@ fn usable(outcome: &MonitorOutcome, station: &StationId) -> anyhow::Result<()> {
 
 /// Checks the flags and loads the configuration and the catalogue.
 fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
-    let config = match &args.config {
+    let mut config = match &args.config {
         Some(path) => NodeConfig::load(path)?,
         None => NodeConfig::default(),
     };
     if !config.notify.is_empty() {
         eprintln!("rockwatch: note: [[notify]] receivers are used by `rockwatch node` only");
+    }
+    // The configuration's state directory is the node's: a rehearsal's alerts there would be
+    // published again by the next node and leave its rocks fallen (issue 20 item 1).
+    if let (Some(dir), None) = (config.state_dir.take(), &args.state_dir) {
+        eprintln!(
+            "rockwatch: note: the configuration's state_dir ({}) is the node's: monitor does \
+             not write it (--state-dir DIR journals this run in a directory of its own)",
+            dir.display()
+        );
+    }
+    if let Some(dir) = &args.state_dir {
+        rockwatch::journal::claim_rehearsal_dir(dir)?;
     }
     let options = NodeOptions {
         config,

@@ -139,7 +139,9 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     }
     let state_dir = options.state_dir_path();
     if let Some(dir) = &state_dir {
-        // Refused here, before DDS and the notifications start, if another node holds it.
+        // Refused here, before DDS and the notifications start, if another node holds it or
+        // `rockwatch monitor` wrote it (a rehearsal's alerts are not the node's history).
+        rockwatch::journal::refuse_rehearsal_dir(dir)?;
         rockwatch::journal::check_state_dir_free(dir)?;
     }
     let journal = match &state_dir {

@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
+use rockwatch::number_text::short_number;
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::mesh::cap::Cap;
 use rockwatch_core::mesh::contact::{
@@ -128,13 +129,13 @@ impl MeshFlags {
 #[must_use]
 pub fn describe_cap(c: &Cap) -> String {
     format!(
-        "open scan closed by its lowest boundary loop ({} vertices, {} loop{} in all; cap {:.4} m², \
-         loop heights within {:.4} m of their mean)",
+        "open scan closed by its lowest boundary loop ({} vertices, {} loop{} in all; cap {} m², \
+         loop heights within {} m of their mean)",
         c.loop_vertices,
         c.loops,
         if c.loops == 1 { "" } else { "s" },
-        c.area_m2,
-        c.height_spread_m
+        short_number(c.area_m2),
+        short_number(c.height_spread_m)
     )
 }
 

@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use rockwatch::plot::{plot_simulation, plot_simulation_3d, short_number};
+use rockwatch::number_text::{block_label, short_number};
+use rockwatch::plot::{plot_simulation, plot_simulation_3d};
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::ode::Tolerance;
 use rockwatch_core::record::Record;
@@ -194,7 +195,7 @@ fn run_3d(mesh: &MeshPlan, args: SimulateArgs) -> anyhow::Result<()> {
                 "record      {} ({} samples, dt {} s) at azimuth {azimuth}°{}{}",
                 first.source,
                 first.len(),
-                first.dt_s,
+                short_number(first.dt_s),
                 match (&second, args.azimuth2) {
                     (Some(r), Some(az)) => format!(", {} at azimuth {az}°", r.source),
                     _ => String::new(),
@@ -206,61 +207,69 @@ fn run_3d(mesh: &MeshPlan, args: SimulateArgs) -> anyhow::Result<()> {
             );
             let _ = writeln!(
                 out,
-                "rock        {} (3-D rigid body, resting facet h = {:.4} m, weakest α = {:.3}°), μs = {}, μk = {}",
+                "rock        {} (3-D rigid body, resting facet h = {} m, weakest α = {}°), μs = {}, μk = {}",
                 mesh.mesh.path.display(),
-                mesh.mesh.rest.h_m,
-                summary.alpha_min.to_degrees(),
-                friction.mu_s,
-                friction.mu_k
+                short_number(mesh.mesh.rest.h_m),
+                short_number(summary.alpha_min.to_degrees()),
+                short_number(friction.mu_s),
+                short_number(friction.mu_k)
             );
             let status = if summary.overturned {
                 format!(
-                    "OVERTURNED (tilt last passed α at t = {:.3} s)",
-                    summary.overturn_time.unwrap_or(f64::NAN)
+                    "OVERTURNED (tilt last passed α at t = {} s)",
+                    short_number(summary.overturn_time.unwrap_or(f64::NAN))
                 )
             } else {
                 "standing".to_string()
             };
             let _ = writeln!(out, "result      {status}");
-            let _ =
-                writeln!(
+            let _ = writeln!(
                 out,
-                "max tilt    {:.6} rad towards azimuth {:.1}°; max tilt/α {:.4} (azimuth {:.1}°){}",
-                summary.max_tilt,
-                summary.max_tilt_azimuth_deg,
-                summary.max_tilt_over_alpha,
-                summary.max_tilt_over_alpha_azimuth_deg,
-                if summary.exceeded_alpha { " (exceeded α)" } else { "" }
+                "max tilt    {} rad towards azimuth {}°; max tilt/α {} (azimuth {}°){}",
+                short_number(summary.max_tilt),
+                short_number(summary.max_tilt_azimuth_deg),
+                short_number(summary.max_tilt_over_alpha),
+                short_number(summary.max_tilt_over_alpha_azimuth_deg),
+                if summary.exceeded_alpha {
+                    " (exceeded α)"
+                } else {
+                    ""
+                }
             );
             let _ = writeln!(
                 out,
-                "max slide   {:.6} m (centre of mass, horizontal), residual {:.6} m",
-                summary.max_slide, summary.residual_slide
+                "max slide   {} m (centre of mass, horizontal), residual {} m",
+                short_number(summary.max_slide),
+                short_number(summary.residual_slide)
             );
             let _ = writeln!(
                 out,
-                "twist       {:.6} rad at the end, max |twist| {:.6} rad",
-                summary.twist, summary.max_abs_twist
+                "twist       {} rad at the end, max |twist| {} rad",
+                short_number(summary.twist),
+                short_number(summary.max_abs_twist)
             );
             let p = summary.final_position;
             let q = summary.final_rotation;
             let _ = writeln!(
                 out,
-                "final pose  centre of mass ({:.6}, {:.6}, {:.6}) m (east, north, up), rotation (w, x, y, z) ({:.6}, {:.6}, {:.6}, {:.6})",
-                p[0], p[1], p[2], q[0], q[1], q[2], q[3]
+                "final pose  centre of mass ({}) m (east, north, up), rotation (w, x, y, z) ({})",
+                p.map(short_number).join(", "),
+                q.map(short_number).join(", ")
             );
             let _ = writeln!(
                 out,
                 "flight      {}",
                 match summary.first_flight_time {
-                    Some(t) => format!("yes, first at t = {t:.4} s"),
+                    Some(t) => format!("yes, first at t = {} s", short_number(t)),
                     None => "no".to_string(),
                 }
             );
             let _ = writeln!(
                 out,
-                "simulated   {:.2} s, {} time steps, {} returns to rest",
-                summary.duration, summary.n_steps, summary.n_rest_entries
+                "simulated   {} s, {} time steps, {} returns to rest",
+                short_number(summary.duration),
+                summary.n_steps,
+                summary.n_rest_entries
             );
             out!("{out}");
         }
@@ -378,31 +387,29 @@ fn text_summary(s: &Summary, p: &BlockParams, record: &Record) -> String {
         "record      {} ({} samples, dt {} s)",
         record.source,
         record.len(),
-        record.dt_s
+        short_number(record.dt_s)
     );
     let _ = writeln!(
         out,
-        "block       {}, μs = {}, μk = {}, impact ratio {:.4} (+ → −), {:.4} (− → +)",
-        p.geometry_label(),
-        p.mu_s,
-        p.mu_k,
-        p.impact_ratio(1.0),
-        p.impact_ratio(-1.0)
+        "block       {}, impact ratio {} (+ → −), {} (− → +)",
+        block_label(p),
+        short_number(p.impact_ratio(1.0)),
+        short_number(p.impact_ratio(-1.0))
     );
     let status = match s.status {
         Status::Ok => "standing".to_string(),
         Status::Overturned => format!(
-            "OVERTURNED (|θ| last passed α at t = {:.3} s)",
-            s.overturn_time.unwrap_or(f64::NAN)
+            "OVERTURNED (|θ| last passed α at t = {} s)",
+            short_number(s.overturn_time.unwrap_or(f64::NAN))
         ),
         Status::Flight => "lost contact (free flight): run stopped".to_string(),
     };
     let _ = writeln!(out, "result      {status}");
     let _ = writeln!(
         out,
-        "max |θ|     {:.6} rad = {:.4} α{}",
-        s.max_abs_theta,
-        s.max_abs_theta_over_alpha,
+        "max |θ|     {} rad = {} α{}",
+        short_number(s.max_abs_theta),
+        short_number(s.max_abs_theta_over_alpha),
         if s.exceeded_alpha {
             " (exceeded α)"
         } else {
@@ -411,15 +418,20 @@ fn text_summary(s: &Summary, p: &BlockParams, record: &Record) -> String {
     );
     let _ = writeln!(
         out,
-        "max |slide| {:.6} m, residual {:.6} m",
-        s.max_abs_slide, s.residual_slide
+        "max |slide| {} m, residual {} m",
+        short_number(s.max_abs_slide),
+        short_number(s.residual_slide)
     );
     let _ = writeln!(
         out,
         "impacts     {} ({} significant, {} flat landings)",
         s.n_impacts, s.n_impacts_significant, s.n_flat_landings
     );
-    let _ = writeln!(out, "modes       (simulated {:.2} s)", s.duration);
+    let _ = writeln!(
+        out,
+        "modes       (simulated {} s)",
+        short_number(s.duration)
+    );
     for (t, mode) in s.modes.iter().take(40) {
         let _ = writeln!(out, "  {t:>10.4} s  {}", mode.as_str());
     }

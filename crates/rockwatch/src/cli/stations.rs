@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use rockwatch_core::inventory::{ChannelEpoch, Inventory};
+use rockwatch_core::inventory::{ChannelEpoch, Inventory, Unusable};
 use rockwatch_core::utc::{format_utc_ns, parse_utc_ns};
 
 use super::OutputFormat;
@@ -12,7 +12,9 @@ use super::OutputFormat;
 /// Show the channel epochs of StationXML documents and whether each is usable.
 ///
 /// A channel is usable when its InstrumentSensitivity takes an acceleration (M/S**2, nm/s**2,
-/// …) to counts and it has an azimuth, a dip and a sampling rate; the gain applied to its
+/// …) to counts and it has an azimuth, a dip and a sampling rate of at least 50 Hz (slower
+/// channels — LN?, LH?, BN? at 40 Hz — lose the peaks of the ground acceleration that rocks a
+/// block: docs/stationxml.md, "Sampling rate"); the gain applied to its
 /// counts is then `to_mps2(input units) / sensitivity` in (m/s²)/count. Velocity channels
 /// (M/S, …) are usable only differentiated to acceleration (`[inventory]
 /// differentiate_velocity = true` of acquire, `--differentiate-velocity` of monitor, replay,
@@ -62,8 +64,18 @@ pub fn run(args: StationsArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Why `c` cannot be used, if it cannot: a velocity channel's reason is that of its
+/// differentiated use when that fails too (a 1 Hz velocity channel is refused for its rate,
+/// which differentiation does not mend).
+fn unusable(c: &ChannelEpoch) -> Option<Unusable> {
+    match (c.calibration(), c.calibration_with(true)) {
+        (Ok(_), _) => None,
+        (Err(Unusable::Velocity { .. }), Err(why)) | (Err(why), _) => Some(why),
+    }
+}
+
 fn epoch_json(c: &ChannelEpoch) -> serde_json::Value {
-    let usable = c.calibration();
+    let reason = unusable(c);
     let s = c.sensitivity.as_ref();
     serde_json::json!({
         "id": c.id(),
@@ -76,8 +88,8 @@ fn epoch_json(c: &ChannelEpoch) -> serde_json::Value {
         "sensitivity_frequency_hz": s.and_then(|s| s.frequency_hz),
         "input_units": s.map(|s| s.input_units.clone()),
         "gain_mps2_per_count": c.gain_mps2_per_count().ok(),
-        "usable": usable.is_ok(),
-        "reason": usable.err().map(|e| e.to_string()),
+        "usable": reason.is_none(),
+        "reason": reason.map(|e| e.to_string()),
         "usable_with_differentiation": c.calibration_with(true).is_ok(),
     })
 }
@@ -100,12 +112,12 @@ fn print_table(epochs: &[&ChannelEpoch]) {
     );
     for c in epochs {
         let s = c.sensitivity.as_ref();
-        let usable = match (c.calibration(), c.calibration_with(true)) {
-            (Ok(_), _) => "yes".to_string(),
-            (Err(_), Ok(_)) => {
+        let usable = match (unusable(c), c.calibration_with(true)) {
+            (None, _) => "yes".to_string(),
+            (Some(_), Ok(_)) => {
                 "with differentiation only: velocity channel (differentiate_velocity / --differentiate-velocity)".to_string()
             }
-            (Err(reason), Err(_)) => format!("no: {reason}"),
+            (Some(reason), Err(_)) => format!("no: {reason}"),
         };
         outln!(
             "{:<20} {:<19} {:<19} {:>8} {:>7} {:>6} {:>13} {:<8} {:>12}  {usable}",

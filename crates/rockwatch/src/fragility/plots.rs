@@ -10,7 +10,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::report::{im_slug, stripe_fractions};
-use crate::plot::{both_formats, short_number, DrawResult, PlotError};
+use crate::number_text::short_number;
+use crate::plot::{both_formats, DrawResult, PlotError};
 use rockwatch_core::fragility::{
     cell_counts, wilson_interval, FragilityConfig, FragilityResult, ImFragility, Prepared,
     RunResult, Surface, Z_95,

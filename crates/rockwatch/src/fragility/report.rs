@@ -10,6 +10,8 @@ use rockwatch_core::fragility::{
 };
 use serde_json::{json, Map, Value};
 
+use crate::number_text::short_number;
+
 /// A file name for an IM: `SA(1.0)` → `SA_1p0`, `PGV/PGA` → `PGV_PGA`.
 #[must_use]
 pub fn im_slug(name: &str) -> String {
@@ -227,17 +229,20 @@ pub fn text_summary(
         "{:<14} {:>12} {:>8} {:>25} {:>17}  unit",
         "IM", "median", "beta", "95% CI median", "95% CI beta"
     );
-    let fmt_ci =
-        |c: Option<[f64; 2]>| c.map_or("-".to_string(), |[a, b]| format!("[{a:.4}, {b:.4}]"));
+    let fmt_ci = |c: Option<[f64; 2]>| {
+        c.map_or("-".to_string(), |[a, b]| {
+            format!("[{}, {}]", short_number(a), short_number(b))
+        })
+    };
     for &i in &result.ranking {
         let f = &result.ims[i];
         if let Ok(fit) = &f.fit {
             let _ = writeln!(
                 out,
-                "{:<14} {:>12.5} {:>8.4} {:>25} {:>17}  {}",
+                "{:<14} {:>12} {:>8} {:>25} {:>17}  {}",
                 f.im.name(),
-                fit.median,
-                fit.beta,
+                short_number(fit.median),
+                short_number(fit.beta),
                 fmt_ci(f.ci_median),
                 fmt_ci(f.ci_beta),
                 f.im.unit()
@@ -266,16 +271,16 @@ pub fn text_summary(
             Ok(fit) => {
                 let _ = writeln!(
                     out,
-                    "surface     P = Φ({:.4} + {:.4} ln {} + {:.4} ln {}): median {} ∝ {}^{:.3}, β = {:.4}",
-                    fit.coef[0],
-                    fit.coef[1],
+                    "surface     P = Φ({} + {} ln {} + {} ln {}): median {} ∝ {}^{}, β = {}",
+                    short_number(fit.coef[0]),
+                    short_number(fit.coef[1]),
                     config.ims[a].name(),
-                    fit.coef[2],
+                    short_number(fit.coef[2]),
                     config.ims[b].name(),
                     config.ims[a].name(),
                     config.ims[b].name(),
-                    -fit.coef[2] / fit.coef[1],
-                    fit.beta1()
+                    short_number(-fit.coef[2] / fit.coef[1]),
+                    short_number(fit.beta1())
                 );
             }
             Err(e) => {

@@ -13,7 +13,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::report::display_name;
-use crate::plot::{both_formats, short_number, DrawResult, PlotError};
+use crate::number_text::short_number;
+use crate::plot::{both_formats, DrawResult, PlotError};
 use rockwatch_core::study::fragility::Z_95;
 use rockwatch_core::study::{BlockAnalysis, Category, StudyAnalysis, StudyConfig, StudyData};
 
