@@ -327,3 +327,101 @@ fn a_replay_whose_packets_the_node_refuses_exits_1() {
         "{node_err}"
     );
 }
+
+/// Issue 24 item 8: a replay's resident memory does not grow with its length. RustDDS keeps a
+/// reliable writer's acknowledged samples until its cache cleaning, every 6 s, so a replay flat
+/// out holds up to about 6 s of what it sent; after that its resident size stays flat however
+/// long it runs (here `--loop 1000`, sampled every 2 s for 26 s).
+#[test]
+fn a_long_replay_flat_out_stays_within_a_fixed_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
+    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let rec = repo().join("tests/data/records/Rinaldi228.AT2");
+    let script = format!(
+        "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
+         '{bin}' replay --config '{c}' --record '{r}' --azimuth 228 --station CI.RRS.00 \
+             --transport ros2 --speed max --loop 1000 --restamp original --wait-s 60 \
+             > '{d}/replay.out' 2> '{d}/replay.err' & REPLAY=$!
+         for i in $(seq 1 13); do sleep 2; \
+             echo RSS $((i * 2)) $(awk '/VmRSS/ {{print $2}}' /proc/$REPLAY/status); done
+         kill -TERM $REPLAY; wait $REPLAY
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?",
+        c = config.display(),
+        r = rec.display()
+    );
+    let out = run_in_netns(&script, 240, &[]);
+    let (stdout, _) = text(&out);
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap_or_default();
+    let samples: Vec<(u64, u64)> = stdout
+        .lines()
+        .filter_map(|l| {
+            let mut words = l.strip_prefix("RSS ")?.split(' ');
+            Some((words.next()?.parse().ok()?, words.next()?.parse().ok()?))
+        })
+        .collect();
+    assert_eq!(
+        samples.len(),
+        13,
+        "the replay ended early or its memory was not read\n{stdout}\n{}",
+        read("replay.err")
+    );
+    // After two cache cleanings (12 s) the peak so far is the bound; the rest may not exceed it
+    // by more than allocator slack.
+    let peak = |from: u64, to: u64| {
+        samples
+            .iter()
+            .filter(|(t, _)| (from..=to).contains(t))
+            .map(|(_, kb)| *kb)
+            .max()
+            .unwrap_or(0)
+    };
+    let (early, late) = (peak(2, 14), peak(16, 26));
+    eprintln!(
+        "replay resident: peak {early} kB up to 14 s, {late} kB from 16 to 26 s: {samples:?}"
+    );
+    assert!(
+        late <= early + early / 5 + 8 * 1024,
+        "the replay's memory grows with its length: {samples:?}"
+    );
+}
+
+/// Issue 24 item 5: a node paused during a flat-out replay ended it with `WouldBlock` and a raw
+/// packet dump. The replay keeps within the node's window, so it waits on the node's reports,
+/// and when they stand still for `--wait-s` it exits 1 with one line naming the node and what
+/// it did not process.
+#[test]
+fn a_replay_whose_node_is_paused_longer_than_its_wait_fails_with_one_clean_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
+    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let rec = repo().join("tests/data/records/Rinaldi228.AT2");
+    let script = format!(
+        "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
+         '{bin}' replay --config '{c}' --record '{r}' --azimuth 228 --station CI.RRS.00 \
+             --transport ros2 --speed max --loop 200 --restamp original --wait-s 2 \
+             > '{d}/replay.out' 2> '{d}/replay.err' & REPLAY=$!
+         sleep 1; kill -STOP $NODE; sleep 6; kill -CONT $NODE
+         RC=0; wait $REPLAY || RC=$?; echo REPLAY_RC=$RC
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?",
+        c = config.display(),
+        r = rec.display()
+    );
+    let out = run_in_netns(&script, 240, &[]);
+    let (stdout, _) = text(&out);
+    let replay_err = std::fs::read_to_string(dir.path().join("replay.err")).unwrap_or_default();
+    assert!(stdout.contains("REPLAY_RC=1"), "{stdout}\n{replay_err}");
+    let errors: Vec<&str> = replay_err
+        .lines()
+        .filter(|l| l.starts_with("rockwatch: error:"))
+        .collect();
+    assert_eq!(errors.len(), 1, "{replay_err}");
+    assert!(
+        errors[0].contains("/rockwatch (pid") && errors[0].contains("not processed ("),
+        "{replay_err}"
+    );
+    assert!(
+        !replay_err.contains("WouldBlock") && !replay_err.contains("AccelPacket {"),
+        "no raw error or packet dump\n{replay_err}"
+    );
+}
