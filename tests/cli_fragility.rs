@@ -714,3 +714,68 @@ fn a_meshed_rock_is_labelled_by_its_directions_and_weakest_side_not_its_first_bo
     assert!(line.contains(weakest), "{line}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 20 item 19: `--records DIR` took a vertical record (AT2 header "UP") as a horizontal
+/// component. A vertical is recognised by its header and paired with the horizontal record of
+/// the same event and station (said on stderr), never used as a horizontal; one with no
+/// horizontal of its own is refused, naming it.
+#[test]
+fn a_vertical_record_among_the_records_is_paired_never_taken_as_horizontal() {
+    let dir = temp_dir("vertical");
+    let records = dir.join("records");
+    std::fs::create_dir_all(&records).unwrap();
+    for f in [
+        "Rinaldi228.AT2",
+        "RinaldiUP.AT2",
+        "RSN1084_NORTHR_SCS142.AT2",
+    ] {
+        std::fs::copy(format!("{RECORDS}/{f}"), records.join(f)).unwrap();
+    }
+    let run = |out: &str| {
+        cli(&[
+            "fragility",
+            "--width",
+            "0.4",
+            "--height",
+            "1.6",
+            "--mu-s",
+            "0.7",
+            "--records",
+            records.to_str().unwrap(),
+            "--im",
+            "PGA",
+            "--scales",
+            "0.5:2:3",
+            "--azimuths",
+            "0",
+            "--bootstrap",
+            "0",
+            "--no-plots",
+            "--out",
+            dir.join(out).to_str().unwrap(),
+        ])
+    };
+    let (_, _, stderr) = run("paired");
+    assert!(
+        stderr.contains("RinaldiUP.AT2 is the vertical component of Rinaldi228.AT2"),
+        "{stderr}"
+    );
+    let text = std::fs::read_to_string(dir.join("paired/fragility.json")).unwrap();
+    let file: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(
+        file["records"],
+        serde_json::json!(["RSN1084_NORTHR_SCS142.AT2", "Rinaldi228.AT2"]),
+        "the vertical is not a record of its own"
+    );
+
+    // Without its horizontal record, the vertical is refused.
+    std::fs::remove_file(records.join("Rinaldi228.AT2")).unwrap();
+    let (ok, _, stderr) = run("alone");
+    assert!(!ok);
+    assert!(
+        stderr.contains("RinaldiUP.AT2: a vertical component")
+            && stderr.contains("no horizontal record of the same event and station"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

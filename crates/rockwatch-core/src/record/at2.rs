@@ -33,6 +33,62 @@ impl At2 {
     }
 }
 
+/// The component a record's header names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Component {
+    /// Up or down: `UP`, `DWN`, `V`, `VER`, `Z`, `UD`, `RRS-UP`, a SEED channel `HNZ`, ….
+    Vertical,
+    /// An azimuth (`228`), a direction (`N`, `EW`, `RRS-N`) or a SEED channel `HN1`, `HNE`, ….
+    Horizontal,
+    /// Not said, or not recognised.
+    Unknown,
+}
+
+impl At2 {
+    /// The component the header names: PEER's second header line ends with it
+    /// (`Northridge-01, 1/17/1994, Rinaldi Receiving Sta, UP`).
+    #[must_use]
+    pub fn component(&self) -> Component {
+        let token = self.header[1]
+            .rsplit(',')
+            .next()
+            .unwrap_or("")
+            .trim()
+            .to_ascii_uppercase();
+        // A station prefix (`RRS-UP`, `TCU029-N`) is not part of the component.
+        let token = token.rsplit(['-', '_', ' ']).next().unwrap_or("");
+        const VERTICAL: [&str; 10] = [
+            "UP", "DWN", "DOWN", "DN", "V", "VER", "VERT", "VRT", "UD", "Z",
+        ];
+        const HORIZONTAL: [&str; 8] = ["N", "S", "E", "W", "NS", "EW", "SN", "WE"];
+        // A SEED channel code: band, instrument (N accelerometer, H/L seismometer, G gravimeter),
+        // orientation.
+        let seed_channel = token.len() == 3
+            && token.is_ascii()
+            && matches!(token.as_bytes()[1], b'N' | b'H' | b'L' | b'G');
+        if VERTICAL.contains(&token) || (seed_channel && token.ends_with('Z')) {
+            Component::Vertical
+        } else if token.parse::<f64>().is_ok()
+            || HORIZONTAL.contains(&token)
+            || (seed_channel && token.ends_with(['N', 'E', '1', '2']))
+        {
+            Component::Horizontal
+        } else {
+            Component::Unknown
+        }
+    }
+
+    /// The event and station the header names (its second line without the component):
+    /// records of one station's instrument share it.
+    #[must_use]
+    pub fn station_key(&self) -> &str {
+        self.header[1]
+            .rsplit_once(',')
+            .map_or(self.header[1].as_str(), |(key, _)| key)
+            .trim()
+    }
+}
+
 /// Reads a PEER NGA `.AT2` file. Accepts both header forms found in the wild
 /// (`NPTS=  1559, DT= .02000 SEC, <filter text>` and `3000   0.0100   NPTS, DT`),
 /// free-format or fixed-width values (including fields that run together, such as
@@ -217,6 +273,48 @@ pub fn write_at2(path: &Path, record: &Record, header_lines: [&str; 3]) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn with_line(line: &str) -> At2 {
+        At2 {
+            header: ["PEER".into(), line.into(), "G".into()],
+            dt_s: 0.01,
+            values_g: vec![0.0],
+        }
+    }
+
+    #[test]
+    fn the_component_is_read_from_peer_s_second_header_line() {
+        for (line, expected) in [
+            (
+                "Northridge-01, 1/17/1994, Rinaldi Receiving Sta, UP",
+                Component::Vertical,
+            ),
+            (
+                "Northridge-01, 1/17/1994, Rinaldi Receiving Sta, 228",
+                Component::Horizontal,
+            ),
+            (
+                "Chi-Chi Taiwan, 9/20/1999, TCU029, N",
+                Component::Horizontal,
+            ),
+            ("Chi-Chi Taiwan, 9/20/1999, TCU029, V", Component::Vertical),
+            ("Landers, 6/28/1992, Lucerne, LCN-DWN", Component::Vertical),
+            ("Somewhere, 1/1/2000, XYZ, HNZ", Component::Vertical),
+            ("Somewhere, 1/1/2000, XYZ, HN1", Component::Horizontal),
+            (
+                "Imperial Valley-06, 10/15/1979, El Centro Array #6, 230",
+                Component::Horizontal,
+            ),
+            ("free text without a component", Component::Unknown),
+            ("Somewhere, 1/1/2000, Station LAZ", Component::Unknown),
+        ] {
+            assert_eq!(with_line(line).component(), expected, "{line}");
+        }
+        assert_eq!(
+            with_line("Northridge-01, 1/17/1994, Rinaldi Receiving Sta, UP").station_key(),
+            "Northridge-01, 1/17/1994, Rinaldi Receiving Sta"
+        );
+    }
 
     #[test]
     fn npts_dt_new_form_with_filter_text() {

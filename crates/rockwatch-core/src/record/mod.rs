@@ -20,7 +20,7 @@ pub mod mseed;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-pub use at2::{parse_at2_text, read_at2, write_at2, At2};
+pub use at2::{parse_at2_text, read_at2, write_at2, At2, Component};
 pub use csv::{read_csv, write_csv};
 
 /// Re-exported: AT2 values (in g) are converted to m/s² with this value.

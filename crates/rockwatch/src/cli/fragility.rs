@@ -18,7 +18,7 @@ use rockwatch_core::fragility::{
     DEFAULT_T_EXTRA_S,
 };
 use rockwatch_core::mesh::contact::{parse_azimuths, weakest_side};
-use rockwatch_core::record::Record;
+use rockwatch_core::record::{read_at2, At2, Component, Record};
 use rockwatch_core::STANDARD_GRAVITY_MPS2;
 use serde_json::json;
 
@@ -69,7 +69,9 @@ pub struct FragilityArgs {
     #[command(flatten)]
     friction: FrictionFlags,
     /// The records: a directory (every .AT2 and .csv file in it, by name, except those given
-    /// as --vertical-records) or a comma-separated list of files.
+    /// as --vertical-records) or a comma-separated list of files. An AT2 record whose header
+    /// names a vertical component (UP, V, DWN, …) is never taken as horizontal: without
+    /// --vertical-records it is paired with the records of the same event and station.
     #[arg(
         long,
         value_name = "DIR|FILE,…",
@@ -513,6 +515,14 @@ fn file_name(p: &Path) -> String {
     )
 }
 
+/// The header of an AT2 record file (None for another format).
+fn at2_header(path: &Path) -> anyhow::Result<Option<At2>> {
+    let is_at2 = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("at2"));
+    Ok(if is_at2 { Some(read_at2(path)?) } else { None })
+}
+
 /// Reads the records and pairs the vertical components.
 fn read_records(args: &FragilityArgs) -> anyhow::Result<Vec<FragilityRecord>> {
     let (named, ordered): (Vec<&String>, Vec<&String>) =
@@ -552,12 +562,42 @@ fn read_records(args: &FragilityArgs) -> anyhow::Result<Vec<FragilityRecord>> {
             paths.len()
         );
     }
+    // A vertical component among the records (a PEER header ending in UP, V, DWN, …) is never
+    // taken as a horizontal one: without --vertical-records it is paired with the horizontal
+    // records of the same event and station, else refused.
+    let mut verticals = Vec::new();
+    let mut horizontals = Vec::with_capacity(paths.len());
+    for path in paths {
+        match at2_header(&path)? {
+            Some(at2) if at2.component() == Component::Vertical => {
+                if !args.vertical_records.is_empty() {
+                    bail!(
+                        "{}: a vertical component (its AT2 header says {:?}) among the records: give it with --vertical-records, not as a record",
+                        path.display(),
+                        at2.header[1]
+                    );
+                }
+                verticals.push((path, at2.station_key().to_string()));
+            }
+            header => horizontals.push((path, header.map(|h| h.station_key().to_string()))),
+        }
+    }
+    let paths = horizontals;
     let mut records = Vec::with_capacity(paths.len());
-    for (i, path) in paths.iter().enumerate() {
+    for (i, (path, key)) in paths.iter().enumerate() {
         let name = file_name(path);
         let mut record = Record::read(path)?;
         let vertical = if !ordered.is_empty() {
             Some(PathBuf::from(ordered[i]))
+        } else if let Some((v, _)) = verticals
+            .iter()
+            .find(|(_, vkey)| key.as_deref() == Some(vkey.as_str()))
+        {
+            eprintln!(
+                "rockwatch: {} is the vertical component of {name} (the same event and station in their AT2 headers): paired",
+                file_name(v)
+            );
+            Some(v.clone())
         } else {
             named
                 .iter()
@@ -568,6 +608,20 @@ fn read_records(args: &FragilityArgs) -> anyhow::Result<Vec<FragilityRecord>> {
             record.attach_vertical(&v)?;
         }
         records.push(FragilityRecord { name, record });
+    }
+    for (v, key) in &verticals {
+        if !paths
+            .iter()
+            .any(|(_, k)| k.as_deref() == Some(key.as_str()))
+        {
+            bail!(
+                "{}: a vertical component (its AT2 header names {key:?}) with no horizontal record of the same event and station: it cannot be used as a horizontal one; remove it, add its horizontal records, or pair it with --vertical-records NAME=FILE",
+                v.display()
+            );
+        }
+    }
+    if records.is_empty() {
+        bail!("no horizontal record among --records");
     }
     for v in &named {
         let n = v.split_once('=').map_or("", |(n, _)| n);
