@@ -362,7 +362,11 @@ fn security_that_cannot_be_set_up_is_refused_under_enforce_and_said_under_permis
          ROS_SECURITY_STRATEGY=Permissive ROS_SECURITY_KEYSTORE='{d}/none' \
              '{bin}' reset --node --pbr x --wait-s 0.2 2> '{d}/e3' && echo RC3=0 || echo RC3=$?
          ROS_SECURITY_STRATEGY=enforce '{bin}' reset --node --pbr x --wait-s 0.2 2> '{d}/e4' && echo RC4=0 || echo RC4=$?
-         for f in e1 e2 e3 e4; do sed \"s/^/$f: /\" '{d}'/$f; done"
+         ROS_SECURITY_STRATEGY=Enforce '{bin}' reset --node --pbr x --wait-s 0.2 \
+             --ros-args --enclave /rockwatch/elsewhere 2> '{d}/e5' && echo RC5=0 || echo RC5=$?
+         ROS_SECURITY_STRATEGY=Enforce ROS_SECURITY_ENCLAVE_OVERRIDE=/rockwatch/nobody '{bin}' reset \
+             --node --pbr x --wait-s 0.2 --ros-args --enclave /rockwatch/elsewhere 2> '{d}/e6' && echo RC6=0 || echo RC6=$?
+         for f in e1 e2 e3 e4 e5 e6; do sed \"s/^/$f: /\" '{d}'/$f; done"
     );
     let out = run_in_netns(
         &script,
@@ -404,6 +408,18 @@ fn security_that_cannot_be_set_up_is_refused_under_enforce_and_said_under_permis
         lines("e3: ")
             .iter()
             .any(|l| l.contains("no node offered /pbr/reset")),
+        "{stdout}"
+    );
+    // Issue 20 item 13: --ros-args --enclave picks the enclave, as in rcl; the override
+    // variable still wins.
+    assert!(stdout.contains("RC5=1"), "{stdout}");
+    assert!(
+        lines("e5: ")[0].contains("enclave /rockwatch/elsewhere"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("RC6=1"), "{stdout}");
+    assert!(
+        lines("e6: ")[0].contains("enclave /rockwatch/nobody"),
         "{stdout}"
     );
     assert!(stdout.contains("RC4=1"), "{stdout}");

@@ -110,6 +110,10 @@ pub struct Ros2Config {
     /// Remap rules (`--ros-args -r from:=to`): command line only.
     #[serde(skip)]
     pub remaps: Vec<Remap>,
+    /// The SROS2 enclave (`--ros-args --enclave NAME`), instead of the command's own
+    /// (`ROS_SECURITY_ENCLAVE_OVERRIDE` still wins): command line only.
+    #[serde(skip)]
+    pub enclave: Option<String>,
 }
 
 impl Default for Ros2Config {
@@ -124,6 +128,7 @@ impl Default for Ros2Config {
             imu: Vec::new(),
             node_name: None,
             remaps: Vec::new(),
+            enclave: None,
         }
     }
 }

@@ -110,7 +110,7 @@ pub fn network_plan_from_env(
     let domain = std::env::var("ROS_DOMAIN_ID").ok();
     let range = std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").ok();
     let mut plan = network_plan(config, domain.as_deref(), range.as_deref())?;
-    plan.security = security_from_env(enclave)?;
+    plan.security = security_from_env(config.enclave.as_deref().unwrap_or(enclave))?;
     Ok(plan)
 }
 

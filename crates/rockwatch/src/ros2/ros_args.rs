@@ -5,8 +5,9 @@
 //! Supported: `-r`/`--remap [node:]from:=to` (with `__ns:=/x`, `__node:=n`, `__name:=n`),
 //! `-p`/`--param name:=value` (the value read as YAML, as rcl does), `--params-file FILE` (the
 //! ROS 2 parameter YAML: `node: {ros__parameters: {...}}`, nested namespaces, `/**` and `/*`
-//! wildcards) and `--log-level [logger:=]level`. Other rcl arguments (`--enclave`,
-//! `--log-config-file`, the `--enable/--disable-*-logs` switches) and anything unknown are an
+//! wildcards), `--log-level [logger:=]level` and `-e`/`--enclave NAME` (the SROS2 enclave of
+//! the participant, as rcl: `ROS_SECURITY_ENCLAVE_OVERRIDE` still wins). Other rcl arguments
+//! (`--log-config-file`, the `--enable/--disable-*-logs` switches) and anything unknown are an
 //! error naming them, as rclcpp's `UnknownROSArgsError` is.
 
 use std::path::{Path, PathBuf};
@@ -17,6 +18,7 @@ use yaml_rust2::{Yaml, YamlLoader};
 
 use super::config::Ros2Config;
 use super::names::{check_namespace, check_node_name, Remap, NODE_NAME};
+use super::security::check_enclave;
 
 /// A ROS 2 log level (`--log-level`): rcutils' severities.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -80,6 +82,8 @@ pub struct RosArgs {
     pub log_level: Option<RosLogLevel>,
     /// `--log-level NAME:=LEVEL`: per logger.
     pub logger_levels: Vec<(String, RosLogLevel)>,
+    /// `--enclave NAME`: the participant's SROS2 enclave (the last one given).
+    pub enclave: Option<String>,
 }
 
 /// The program's own arguments and the ROS arguments of a command line (rcl's split:
@@ -105,12 +109,7 @@ pub fn split_ros_args<S: AsRef<std::ffi::OsStr> + Clone>(args: &[S]) -> (Vec<S>,
 }
 
 /// rcl arguments rockwatch knows but does not implement.
-const UNSUPPORTED: [(&str, &str); 10] = [
-    ("-e", "rockwatch has no ROS 2 security (SROS2) enclaves"),
-    (
-        "--enclave",
-        "rockwatch has no ROS 2 security (SROS2) enclaves",
-    ),
+const UNSUPPORTED: [(&str, &str); 8] = [
     (
         "--log-config-file",
         "logging is configured with --log-level",
@@ -168,6 +167,12 @@ impl RosArgs {
                     out.params_files.push(PathBuf::from(file));
                     i += 2;
                 }
+                "-e" | "--enclave" => {
+                    let name = value("an enclave, e.g. /rockwatch/node")?;
+                    check_enclave(name).with_context(|| format!("--ros-args {flag} {name:?}"))?;
+                    out.enclave = Some(name.to_string());
+                    i += 2;
+                }
                 "--log-level" => {
                     let rule = value("a level, or logger:=level")?;
                     match rule.split_once(":=") {
@@ -189,7 +194,7 @@ impl RosArgs {
         }
         if !unknown.is_empty() {
             bail!(
-                "unknown ROS arguments: {} (rockwatch takes -r/--remap, -p/--param, --params-file and --log-level after --ros-args; end them with --)",
+                "unknown ROS arguments: {} (rockwatch takes -r/--remap, -p/--param, --params-file, --log-level and -e/--enclave after --ros-args; end them with --)",
                 unknown
                     .iter()
                     .map(|a| format!("'{a}'"))
@@ -257,6 +262,9 @@ impl RosArgs {
             config.node_name = Some(name.clone());
         }
         config.remaps.extend(self.remaps.iter().cloned());
+        if let Some(enclave) = &self.enclave {
+            config.enclave = Some(enclave.clone());
+        }
     }
 
     /// Every parameter assignment for the node `node_fqn` (`/ns/name`), in the order they
@@ -523,11 +531,23 @@ mod tests {
             e.contains("unknown ROS arguments: '--frobnicate', '-x'"),
             "{e}"
         );
-        let e = format!("{:#}", RosArgs::parse(&args("--enclave /e")).unwrap_err());
+        let e = format!(
+            "{:#}",
+            RosArgs::parse(&args("--log-config-file f")).unwrap_err()
+        );
         assert!(
-            e.contains("--enclave") && e.contains("does not support"),
+            e.contains("--log-config-file") && e.contains("does not support"),
             "{e}"
         );
+        // Issue 20 item 13: --enclave is taken (a well-formed name), as rcl takes it.
+        let parsed = RosArgs::parse(&args("--enclave /site/node -e /site/other")).unwrap();
+        assert_eq!(parsed.enclave.as_deref(), Some("/site/other"));
+        let mut config = Ros2Config::default();
+        parsed.apply_naming(&mut config);
+        assert_eq!(config.enclave.as_deref(), Some("/site/other"));
+        for bad in ["--enclave relative", "--enclave /a/../b", "-e"] {
+            assert!(RosArgs::parse(&args(bad)).is_err(), "{bad}");
+        }
         for (bad, what) in [
             ("-r", "needs a value"),
             ("-r a=b", "from:=to"),

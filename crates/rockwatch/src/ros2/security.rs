@@ -120,15 +120,8 @@ pub fn security_plan(
         Some(e) if !e.is_empty() => e,
         _ => default_enclave,
     };
-    let valid = enclave.starts_with('/')
-        && enclave.len() > 1
-        && enclave[1..]
-            .split('/')
-            .all(|p| !p.is_empty() && p != "." && p != "..");
-    if !valid {
-        // A malformed name is a mistake, whatever the strategy.
-        return Err(SecurityError::BadEnclave(enclave.to_owned()));
-    }
+    // A malformed name is a mistake, whatever the strategy.
+    check_enclave(enclave)?;
     let keystore = match env.keystore.as_deref().map(str::trim) {
         Some(k) if !k.is_empty() => Path::new(k),
         _ => return fallback(SecurityError::NoKeystore),
@@ -150,6 +143,20 @@ pub fn security_plan(
         enclave: enclave.to_owned(),
         dir,
     }))
+}
+
+/// Checks that `enclave` is an absolute path of names (`/rockwatch/node`), without `.`/`..`.
+pub fn check_enclave(enclave: &str) -> Result<(), SecurityError> {
+    let valid = enclave.starts_with('/')
+        && enclave.len() > 1
+        && enclave[1..]
+            .split('/')
+            .all(|p| !p.is_empty() && p != "." && p != "..");
+    if valid {
+        Ok(())
+    } else {
+        Err(SecurityError::BadEnclave(enclave.to_owned()))
+    }
 }
 
 /// [`security_plan`] for this process's environment; a permissive fallback is said on stderr
