@@ -779,3 +779,61 @@ fn a_vertical_record_among_the_records_is_paired_never_taken_as_horizontal() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 20 item 24: runs that lose ground contact (free flight) were left out of the fits
+/// with a stderr warning only, biasing the median upwards at the strongest stripes. The fit
+/// still leaves them out (their outcome is unknown), and fragility.json and the text say how
+/// many there were and bound the bias: each IM's median if every flight run had overturned.
+#[test]
+fn flight_runs_are_counted_and_the_bias_of_leaving_them_out_is_bounded() {
+    let dir = temp_dir("flight");
+    let out = dir.join("out");
+    let records = format!(
+        "{RECORDS}/Rinaldi228.AT2,{RECORDS}/RSN879_LANDERS_LCN345.AT2,{RECORDS}/RSN1084_NORTHR_SCS142.AT2"
+    );
+    let pair = vertical_pair();
+    let (ok, stdout, stderr) = cli(&[
+        "fragility",
+        "--width",
+        "0.4",
+        "--height",
+        "1.6",
+        "--mu-s",
+        "0.7",
+        "--records",
+        &records,
+        "--vertical-records",
+        &pair,
+        "--im",
+        "PGA",
+        "--stripes",
+        "PGA:2:60:8",
+        "--azimuths",
+        "0",
+        "--bootstrap",
+        "0",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    let text = std::fs::read_to_string(out.join("fragility.json")).unwrap();
+    let file: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let flights = file["runs"]["flight"].as_u64().unwrap();
+    assert!(flights > 0, "the strongest stripes lift the block: {text}");
+    assert_eq!(file["flight_runs"]["count"].as_u64(), Some(flights));
+    let median = file["ims"]["PGA"]["median"].as_f64().unwrap();
+    let bound = file["ims"]["PGA"]["median_if_flight_overturned"]
+        .as_f64()
+        .unwrap();
+    // More overturns at the strongest shaking can only lower the median.
+    assert!(bound <= median, "{bound} vs {median}");
+    assert!(
+        stdout.contains(&format!(
+            "flight      PGA: median {} with the {flights} flight runs left out",
+            rockwatch::number_text::short_number(median)
+        )),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -517,23 +517,42 @@ pub struct CellCounts {
     pub events: f64,
 }
 
-/// `counts[r][j]` of the runs.
+/// `counts[r][j]` of the runs: flight runs left out (the criterion of the fits).
 #[must_use]
 pub fn cell_counts(
     config: &FragilityConfig,
     n_records: usize,
     runs: &[RunResult],
 ) -> Vec<Vec<CellCounts>> {
+    counts_with(config, n_records, runs, FlightRuns::LeftOut)
+}
+
+/// What the counts make of a run that lost ground contact (free flight is detected, not
+/// modelled: its outcome is unknown).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum FlightRuns {
+    /// Not a trial (the fits' criterion).
+    LeftOut,
+    /// An overturn (the other bound: see [`ImFragility::median_flight_overturned`]).
+    Overturned,
+}
+
+fn counts_with(
+    config: &FragilityConfig,
+    n_records: usize,
+    runs: &[RunResult],
+    flight: FlightRuns,
+) -> Vec<Vec<CellCounts>> {
     let mut counts = vec![vec![CellCounts::default(); config.intensity.len()]; n_records];
     for run in runs {
         let c = &mut counts[run.record][run.level];
-        match run.status {
-            RunStatus::Standing => c.trials += 1.0,
-            RunStatus::Overturned => {
+        match (run.status, flight) {
+            (RunStatus::Standing, _) => c.trials += 1.0,
+            (RunStatus::Overturned, _) | (RunStatus::Flight, FlightRuns::Overturned) => {
                 c.trials += 1.0;
                 c.events += 1.0;
             }
-            RunStatus::Flight | RunStatus::Failed => {}
+            (RunStatus::Flight, FlightRuns::LeftOut) | (RunStatus::Failed, _) => {}
         }
     }
     counts
@@ -623,6 +642,11 @@ pub struct ImFragility {
     pub bootstrap_failed: usize,
     /// True when the IM is the stripe IM (its groups are the stripes).
     pub is_stripe_im: bool,
+    /// With runs that lost ground contact (flight): the median of the fit that counts each
+    /// of them as an overturn. The fit leaves them out, which biases its median upwards
+    /// where they happen (the strongest shaking) if they would have overturned; the true
+    /// median lies between the two. None without flight runs (or without that fit).
+    pub median_flight_overturned: Option<f64>,
 }
 
 impl ImFragility {
@@ -721,6 +745,9 @@ pub fn analyse(
 ) -> FragilityResult {
     let n_records = prepared.ims.len();
     let counts = cell_counts(config, n_records, runs);
+    let any_flight = runs.iter().any(|r| r.status == RunStatus::Flight);
+    let flight_counts =
+        any_flight.then(|| counts_with(config, n_records, runs, FlightRuns::Overturned));
     let ones = vec![1.0; n_records];
     let fitted: Vec<usize> = (0..config.ims.len())
         .filter(|&i| config.ims[i].scale_exponent() != 0.0)
@@ -753,6 +780,7 @@ pub fn analyse(
                 bootstrap: Vec::new(),
                 bootstrap_failed: 0,
                 is_stripe_im,
+                median_flight_overturned: None,
             });
             continue;
         };
@@ -773,6 +801,10 @@ pub fn analyse(
             bootstrap: boot,
             bootstrap_failed: failed,
             is_stripe_im,
+            median_flight_overturned: flight_counts
+                .as_ref()
+                .and_then(|c| fit_im(config, prepared, c, &ones, i).ok())
+                .map(|f| f.median),
         });
     }
     let mut ranking: Vec<usize> = (0..ims.len()).filter(|&i| ims[i].fit.is_ok()).collect();

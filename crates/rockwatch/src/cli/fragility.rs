@@ -759,7 +759,8 @@ pub fn run(args: FragilityArgs) -> anyhow::Result<()> {
     if result.n_failed > 0 || result.n_flight > 0 {
         eprintln!(
             "rockwatch: warning: {} runs failed and {} lost contact (free flight); both are left \
-             out of the fits (runs.csv lists them)",
+             out of the fits (runs.csv lists them; fragility.json's flight_runs and each IM's \
+             median_if_flight_overturned bound the bias of leaving the flights out)",
             result.n_failed, result.n_flight
         );
     }

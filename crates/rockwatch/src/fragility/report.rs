@@ -63,6 +63,7 @@ pub fn fragility_json(
                         "likelihood": if f.is_stripe_im { "binomial over stripes" } else { "binomial over (record, scale) groups" },
                         "log_likelihood": fit.log_likelihood,
                         "bootstrap": {"replicates": f.bootstrap.len() + f.bootstrap_failed, "failed": f.bootstrap_failed},
+                        "median_if_flight_overturned": f.median_flight_overturned,
                     }),
                 );
             }
@@ -123,6 +124,11 @@ pub fn fragility_json(
         "members": config.members.len(),
         "scale_factor_range": [num(scale_range.0), num(scale_range.1)],
         "runs": {"total": result.n_runs, "usable": usable, "overturned": result.n_overturned, "flight": result.n_flight, "failed": result.n_failed},
+        "flight_runs": {
+            "count": result.n_flight,
+            "criterion": "left out of the fits: free flight is detected, not modelled, so its outcome is unknown",
+            "bias": "leaving them out biases each median upwards where they happen (the strongest shaking) if they would have overturned; ims.<IM>.median_if_flight_overturned is the median of the fit that counts each as an overturn: the true median lies between the two",
+        },
         "bootstrap": {"replicates": config.bootstrap, "seed": config.seed, "resampling": "records, with replacement"},
     })
 }
@@ -247,6 +253,22 @@ pub fn text_summary(
                 fmt_ci(f.ci_beta),
                 f.im.unit()
             );
+        }
+    }
+    if result.n_flight > 0 {
+        for &i in &result.ranking {
+            let f = &result.ims[i];
+            if let (Ok(fit), Some(bound)) = (&f.fit, f.median_flight_overturned) {
+                let _ = writeln!(
+                    out,
+                    "flight      {}: median {} with the {} flight runs left out, {} if each had overturned ({}): the true median lies between",
+                    f.im.name(),
+                    short_number(fit.median),
+                    result.n_flight,
+                    short_number(bound),
+                    f.im.unit()
+                );
+            }
         }
     }
     for f in &result.ims {
