@@ -273,7 +273,13 @@ fn mode_and_level_constants_match_the_msg_files() {
         ("OVERTURN_IMMINENT", 2, AlertLevel::OverturnImminent),
         ("OVERTURNED", 3, AlertLevel::Overturned),
     ];
-    assert_eq!(alert.constants.len(), expected_levels.len());
+    assert_eq!(alert.constants.len(), expected_levels.len() + 1);
+    // RESET: an operator reset published with the alerts, not an engine level.
+    assert_eq!(
+        alert.constants["RESET"],
+        ("uint8".to_string(), "4".to_string())
+    );
+    assert_eq!(rockwatch::wire_codes::LEVEL_RESET, 4);
     for (name, value, level) in expected_levels {
         assert_eq!(
             alert.constants[name],

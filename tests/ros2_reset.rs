@@ -362,3 +362,74 @@ fn rclpy_client_with_the_generated_service_type_resets_a_fallen_block() {
         "{records:?}"
     );
 }
+
+/// Issue 20 item 18: after a reset and a restart, the transient-local alert history of
+/// `/pbr/alerts` republished "overturned" for the reset block, and a late subscriber believed
+/// it still down. The reset is published with the alerts (level RESET), live and in the
+/// history a restarted node publishes again, after the block's fall: the history ends in the
+/// truth.
+#[test]
+fn a_reset_is_published_with_the_alerts_and_ends_the_block_s_history_after_a_restart() {
+    if !reexec_in_netns(
+        "a_reset_is_published_with_the_alerts_and_ends_the_block_s_history_after_a_restart",
+        120,
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path());
+    let state = dir.path().join("state");
+    write_fallen_journal(&state);
+    let plan = network_plan(&Ros2Config::loopback_only(), None, None).unwrap();
+    let story = |alerts: &[rockwatch::ros2::msg::PbrAlert]| -> Vec<(String, u32)> {
+        alerts
+            .iter()
+            .filter(|a| a.pbr_id == SLENDER)
+            .map(|a| {
+                (
+                    rockwatch::ros2::msg::level_name(a.level).to_string(),
+                    a.episode,
+                )
+            })
+            .collect()
+    };
+
+    let mut node = NodeProcess::start(&config, &state, dir.path().join("a.err"));
+    // A subscriber there before the reset gets the history, then the reset, live.
+    let mut listener = rockwatch::ros2::Ros2AlertListener::open(&plan, "/").unwrap();
+    let history = collect(&mut listener, Duration::from_secs(3));
+    assert_eq!(
+        story(&history),
+        [("overturned".into(), 1)],
+        "{}",
+        node.stderr()
+    );
+    let (ok, stdout, stderr) = reset_cli(SLENDER);
+    assert!(ok, "{stdout}\n{stderr}\n{}", node.stderr());
+    let live = collect(&mut listener, Duration::from_secs(3));
+    assert_eq!(story(&live), [("reset".into(), 1)], "{}", node.stderr());
+    let reset = live.iter().find(|a| a.pbr_id == SLENDER).unwrap();
+    assert_eq!(
+        (reset.station.as_str(), reset.mode),
+        ("CI.RRS.00", rockwatch::ros2::msg::MODE_REST)
+    );
+    drop(listener);
+    let status = node.signal_and_wait("TERM", Duration::from_secs(20));
+    assert!(status.is_some_and(|s| s.success()), "{}", node.stderr());
+
+    // Restarted: a late subscriber's history ends in the reset.
+    let node = NodeProcess::start(&config, &state, dir.path().join("b.err"));
+    let mut late = rockwatch::ros2::Ros2AlertListener::open(&plan, "/").unwrap();
+    let history = collect(&mut late, Duration::from_secs(4));
+    assert_eq!(
+        story(&history),
+        [("overturned".into(), 1), ("reset".into(), 1)],
+        "{}",
+        node.stderr()
+    );
+    assert!(
+        node.stderr().contains("with 1 operator resets among them"),
+        "{}",
+        node.stderr()
+    );
+}

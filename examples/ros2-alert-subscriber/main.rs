@@ -18,7 +18,6 @@ use rockwatch::ros2::{
     alerts_qos, msg, network_plan_from_env, Naming, NetworkPlan, Ros2Config, Ros2Session,
     ALERTS_TOPIC, READER_ENCLAVE,
 };
-use rockwatch_core::engine::AlertLevel;
 use rockwatch_core::record::mseed::format_time_ns;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::NodeOptions;
@@ -223,9 +222,10 @@ fn describe(plan: &NetworkPlan) -> String {
     format!("domain {}, {interfaces}", plan.domain_id)
 }
 
-/// The name of a `PbrAlert.level` code (`msg/pbr_msgs/msg/PbrAlert.msg`).
+/// The name of a `PbrAlert.level` code (`msg/pbr_msgs/msg/PbrAlert.msg`; RESET: an operator
+/// reset of a fallen block).
 fn level_name(code: u8) -> &'static str {
-    msg::level_of_code(code).map_or("unknown", AlertLevel::as_str)
+    msg::level_name(code)
 }
 
 /// The name of a `PbrAlert.mode` code (`msg/pbr_msgs/msg/PbrAlert.msg`).

@@ -43,9 +43,9 @@ use crate::node_config::NodeConfig;
 use crate::status::{AlertLatency, NodeStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
-    fallen_blocks, journaled_alerts, AccelPacket, Alert, AlertLevel, Engine, HealthChange,
-    JournalRecord, Notice, Output, OutputSink, PbrSpec, PbrSummary, ShardedEngine, Source,
-    SourceTally, StationHealth, Verdict,
+    fallen_blocks, journaled_history, AccelPacket, Alert, AlertLevel, Engine, HealthChange,
+    HistoryEntry, JournalRecord, Notice, Output, OutputSink, PbrSpec, PbrSummary, ResetEvent,
+    ShardedEngine, Source, SourceTally, StationHealth, Verdict,
 };
 
 /// Journaled alerts a starting node publishes again on ROS 2 (the depth of the
@@ -114,6 +114,21 @@ impl ResetOutcome {
             }
         }
     }
+}
+
+/// The blocks fallen according to the journal ([`fallen_blocks`]), each with the station and
+/// episode of its last `overturned` alert.
+fn fallen_with_their_fall(records: &[JournalRecord]) -> HashMap<String, (String, u32)> {
+    let fallen = fallen_blocks(records);
+    let mut falls = HashMap::new();
+    for record in records {
+        if let JournalRecord::Alert(a) = record {
+            if a.level == AlertLevel::Overturned && fallen.contains(&a.pbr_id) {
+                falls.insert(a.pbr_id.clone(), (a.station.clone(), a.episode));
+            }
+        }
+    }
+    falls
 }
 
 /// Where the runtime's settings come from: the configuration file, overridden by flags.
@@ -339,9 +354,12 @@ struct Emitter {
     stats: NodeStats,
     /// States and intensities held back until the batch's alerts are out (reused).
     deferred: Vec<Output>,
-    /// Blocks overturned and not reset since: restored from the journal, then every
-    /// `overturned` alert the engine raises (inline or on a worker) until an operator reset.
-    overturned: HashSet<String>,
+    /// Blocks overturned and not reset since, with the station and episode of their fall:
+    /// restored from the journal, then every `overturned` alert the engine raises (inline or
+    /// on a worker) until an operator reset.
+    overturned: HashMap<String, (String, u32)>,
+    /// Operator resets journaled and applied, to publish ([`NodeRuntime::take_resets`]).
+    resets: Vec<ResetEvent>,
     /// Each station's last alert and its latencies (for the status).
     last_alerts: HashMap<String, AlertLatency>,
     /// The stations' health as the sharded engine's workers last reported it.
@@ -479,7 +497,9 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
     fn push(&mut self, output: Output) {
         if let Output::Alert(a) = &output {
             if a.level == AlertLevel::Overturned {
-                self.emit.overturned.insert(a.pbr_id.clone());
+                self.emit
+                    .overturned
+                    .insert(a.pbr_id.clone(), (a.station.clone(), a.episode));
             }
         }
         // Without a state directory there is nothing to journal: no copy of the alert (an
@@ -633,9 +653,8 @@ pub struct NodeRuntime {
     last_flush: Instant,
     /// [`NodeOptions::reject_future`]: the tolerance (ns), when on.
     max_ahead_ns: Option<i64>,
-    /// The journal's last [`REPUBLISH_DEPTH`] alerts, each with whether it was published
-    /// (until taken by [`NodeRuntime::take_journaled_alerts`]).
-    journaled: Vec<(Alert, bool)>,
+    /// The journal's alert history (until taken by [`NodeRuntime::take_journaled_history`]).
+    journaled: Vec<HistoryEntry>,
     /// `Published` markers that could not be journaled.
     marker_errors: u64,
     /// Judges the stations report after report.
@@ -675,14 +694,14 @@ impl NodeRuntime {
             Some((journal, records)) => (Some(journal), records),
             None => (None, Vec::new()),
         };
-        let overturned = fallen_blocks(&records);
+        let overturned = fallen_with_their_fall(&records);
         if options.shards > MAX_SHARDS {
             anyhow::bail!(
                 "--shards must be 0 (one per core) to {MAX_SHARDS}, got {}",
                 options.shards
             );
         }
-        let journaled = journaled_alerts(&records, REPUBLISH_DEPTH);
+        let journaled = journaled_history(&records, REPUBLISH_DEPTH);
         let shards = if options.shards == 0 {
             std::thread::available_parallelism().map_or(1, usize::from)
         } else {
@@ -727,6 +746,7 @@ impl NodeRuntime {
                 stats: NodeStats::default(),
                 deferred: Vec::new(),
                 overturned,
+                resets: Vec::new(),
                 last_alerts: HashMap::new(),
                 health_reports: BTreeMap::new(),
                 stale_after_s: config.engine.stale_after_s,
@@ -746,10 +766,17 @@ impl NodeRuntime {
         })
     }
 
-    /// The journal's last [`REPUBLISH_DEPTH`] alerts at start, in order, each with whether it
-    /// was published before (a `Published` marker); empty after the first call.
-    pub fn take_journaled_alerts(&mut self) -> Vec<(Alert, bool)> {
+    /// The journal's alert history at start ([`journaled_history`]: the last
+    /// [`REPUBLISH_DEPTH`] alerts, each with whether it was published before, and the
+    /// operator resets among them), in order; empty after the first call.
+    pub fn take_journaled_history(&mut self) -> Vec<HistoryEntry> {
         std::mem::take(&mut self.journaled)
+    }
+
+    /// The operator resets journaled and applied since the last call, to publish with the
+    /// alerts (`Publication::Reset`): a block's history ends in the truth.
+    pub fn take_resets(&mut self) -> Vec<ResetEvent> {
+        std::mem::take(&mut self.emit.resets)
     }
 
     /// Journals (unsynced) that `alert` has been handed to the publishers. A failure is
@@ -980,7 +1007,7 @@ impl NodeRuntime {
         self.pbr_ids
             .iter()
             .any(|id| id == pbr_id)
-            .then(|| self.emit.overturned.contains(pbr_id))
+            .then(|| self.emit.overturned.contains_key(pbr_id))
     }
 
     /// An operator's request to reset block `pbr_id`: an overturned block is reset
@@ -1026,7 +1053,14 @@ impl NodeRuntime {
                 time_ns: Some(time_ns),
             })?;
         }
-        self.emit.overturned.remove(pbr_id);
+        if let Some((station, episode)) = self.emit.overturned.remove(pbr_id) {
+            self.emit.resets.push(ResetEvent {
+                pbr_id: pbr_id.to_string(),
+                station,
+                episode,
+                time_ns,
+            });
+        }
         match &mut self.engine {
             Some(EngineMode::Inline(e)) => {
                 e.reset_pbr(pbr_id);

@@ -8,7 +8,9 @@
 
 use std::sync::mpsc;
 
-use rockwatch_core::engine::{AccelPacket, Alert, AlertConfig, PbrState, StationIntensity};
+use rockwatch_core::engine::{
+    AccelPacket, Alert, AlertConfig, PbrState, ResetEvent, StationIntensity,
+};
 
 /// Appended to the `message` of a ROS 2 `PbrAlert` published with `journal_pending` (the
 /// message type has no flag field; changing it would break interoperability).
@@ -31,6 +33,10 @@ pub enum Publication {
     },
     State(PbrState),
     Intensity(StationIntensity),
+    /// An operator reset of a fallen block, already journaled: published with the alerts
+    /// (ROS 2 `PbrAlert.level` RESET, iceoryx2 level code 4) so that a block's alert history
+    /// ends in the truth.
+    Reset(ResetEvent),
 }
 
 /// A transport's output side: publishes what the runtime hands it (alerts already journaled).

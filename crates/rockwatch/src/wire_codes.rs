@@ -23,6 +23,9 @@ pub const MODE_FLIGHT: u8 = 5;
 pub const LEVEL_MOTION_ONSET: u8 = 1;
 pub const LEVEL_OVERTURN_IMMINENT: u8 = 2;
 pub const LEVEL_OVERTURNED: u8 = 3;
+/// `PbrAlert.RESET`: an operator reset of a fallen block (`Publication::Reset`), not an engine
+/// alert level.
+pub const LEVEL_RESET: u8 = 4;
 
 /// The wire code of a mode.
 #[must_use]
@@ -53,6 +56,17 @@ pub fn level_of_code(code: u8) -> Option<AlertLevel> {
     AlertLevel::ALL.into_iter().find(|l| level_code(*l) == code)
 }
 
+/// The name of a `PbrAlert.level` code: an alert level's (`overturned`, …), `reset`, or
+/// `unknown`.
+#[must_use]
+pub fn level_name(code: u8) -> &'static str {
+    match level_of_code(code) {
+        Some(level) => level.as_str(),
+        None if code == LEVEL_RESET => "reset",
+        None => "unknown",
+    }
+}
+
 /// The block mode of a wire code, if it is one.
 #[must_use]
 pub fn mode_of_code(code: u8) -> Option<Mode> {
@@ -73,6 +87,13 @@ mod tests {
         }
         assert_eq!(mode_of_code(MODE_FLIGHT + 1), None);
         assert_eq!(level_of_code(0), None);
-        assert_eq!(level_of_code(LEVEL_OVERTURNED + 1), None);
+        assert_eq!(
+            level_of_code(LEVEL_OVERTURNED + 1),
+            None,
+            "RESET is no engine level"
+        );
+        assert_eq!(level_name(LEVEL_RESET), "reset");
+        assert_eq!(level_name(LEVEL_OVERTURNED), "overturned");
+        assert_eq!(level_name(0), "unknown");
     }
 }

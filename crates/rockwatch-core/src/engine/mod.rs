@@ -43,8 +43,9 @@ pub use config::{
 };
 pub use health::{HealthChange, StationHealth};
 pub use output::{
-    compact_journal, fallen_blocks, journaled_alerts, Alert, AlertKey, AlertLevel, JournalRecord,
-    Notice, NoticeKind, Output, OutputSink, PbrState, StationIntensity,
+    compact_journal, fallen_blocks, journaled_alerts, journaled_history, Alert, AlertKey,
+    AlertLevel, HistoryEntry, JournalRecord, Notice, NoticeKind, Output, OutputSink, PbrState,
+    ResetEvent, StationIntensity,
 };
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use pbr::{DirectionSummary, PbrSummary};

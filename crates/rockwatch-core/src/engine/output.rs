@@ -239,10 +239,44 @@ pub enum JournalRecord {
 }
 
 /// The last `depth` alerts of the journal `records`, in order, each with whether a
-/// [`JournalRecord::Published`] marker follows it: the history a restarted node publishes
-/// again, and the alerts of it never published.
+/// [`JournalRecord::Published`] marker follows it: the alerts of [`journaled_history`].
 #[must_use]
 pub fn journaled_alerts(records: &[JournalRecord], depth: usize) -> Vec<(Alert, bool)> {
+    journaled_history(records, depth)
+        .into_iter()
+        .filter_map(|entry| match entry {
+            HistoryEntry::Alert(alert, published) => Some((alert, published)),
+            HistoryEntry::Reset(_) => None,
+        })
+        .collect()
+}
+
+/// An operator reset of a fallen block as published with the alerts: a block's history on
+/// `/pbr/alerts` ends in the truth (a late subscriber does not believe a reset block down).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResetEvent {
+    pub pbr_id: String,
+    /// The block's station, and the episode in which it fell (of its last alert).
+    pub station: String,
+    pub episode: u32,
+    /// Wall-clock UTC time of the reset (ns since the Unix epoch; 0 if the journal did not
+    /// keep it).
+    pub time_ns: i64,
+}
+
+/// One entry of the alert history a node publishes again at start.
+#[derive(Debug, Clone, PartialEq)]
+pub enum HistoryEntry {
+    /// A journaled alert, and whether it was published before (a `Published` marker).
+    Alert(Alert, bool),
+    /// An operator reset of a block that has an alert before it.
+    Reset(ResetEvent),
+}
+
+/// The journal's last `depth` alerts, in journal order, each with whether it was published,
+/// and the operator resets among them (after the first of them), in place.
+#[must_use]
+pub fn journaled_history(records: &[JournalRecord], depth: usize) -> Vec<HistoryEntry> {
     let published: HashSet<AlertKey> = records
         .iter()
         .filter_map(|r| match r {
@@ -254,17 +288,38 @@ pub fn journaled_alerts(records: &[JournalRecord], depth: usize) -> Vec<(Alert, 
             _ => None,
         })
         .collect();
-    let alerts: Vec<&Alert> = records
+    let alerts = records
         .iter()
-        .filter_map(|r| match r {
-            JournalRecord::Alert(a) => Some(a),
-            _ => None,
-        })
-        .collect();
-    alerts[alerts.len().saturating_sub(depth)..]
-        .iter()
-        .map(|a| ((*a).clone(), published.contains(&a.key())))
-        .collect()
+        .filter(|r| matches!(r, JournalRecord::Alert(_)))
+        .count();
+    let skip = alerts.saturating_sub(depth);
+    let mut seen = 0usize;
+    // Per block, its last alert so far (station and episode of a reset).
+    let mut last: HashMap<&str, &Alert> = HashMap::new();
+    let mut history = Vec::new();
+    for record in records {
+        match record {
+            JournalRecord::Alert(a) => {
+                last.insert(a.pbr_id.as_str(), a);
+                seen += 1;
+                if seen > skip {
+                    history.push(HistoryEntry::Alert(a.clone(), published.contains(&a.key())));
+                }
+            }
+            JournalRecord::Reset { pbr_id, time_ns } if seen > skip => {
+                if let Some(a) = last.get(pbr_id.as_str()) {
+                    history.push(HistoryEntry::Reset(ResetEvent {
+                        pbr_id: pbr_id.clone(),
+                        station: a.station.clone(),
+                        episode: a.episode,
+                        time_ns: time_ns.unwrap_or(0),
+                    }));
+                }
+            }
+            _ => {}
+        }
+    }
+    history
 }
 
 /// Ids of the blocks that are fallen according to the journal `records` (read in order): an

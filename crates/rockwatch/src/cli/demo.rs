@@ -313,7 +313,7 @@ fn print_alert(alert: &msg::PbrAlert, record_origin_ns: i64) {
     outln!(
         "{:>9}  ALERT {:<17} {:<22} {:<10} {:>+6.2} {:>+6.3} m {:>4.2} m/s²",
         record_t,
-        msg::level_of_code(alert.level).map_or("?", AlertLevel::as_str),
+        msg::level_name(alert.level),
         printable(&alert.pbr_id, PBR_ID_CHARS),
         msg::mode_of_code(alert.mode).map_or("?", Mode::as_str),
         alert.theta_over_alpha,

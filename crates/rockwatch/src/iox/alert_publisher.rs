@@ -45,18 +45,21 @@ impl IoxAlertPublisher {
 
 impl Publisher for IoxAlertPublisher {
     fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
-        let Publication::Alert {
-            alert,
-            latency_ns,
-            journal_pending,
-        } = publication
-        else {
-            return Ok(());
+        let wire = match publication {
+            Publication::Alert {
+                alert,
+                latency_ns,
+                journal_pending,
+            } => {
+                let mut wire = PbrAlertIox::from_alert(alert, *latency_ns, self.sequence);
+                if *journal_pending {
+                    wire.flags |= super::ALERT_FLAG_JOURNAL_PENDING;
+                }
+                wire
+            }
+            Publication::Reset(reset) => PbrAlertIox::from_reset(reset, self.sequence),
+            Publication::State(_) | Publication::Intensity(_) => return Ok(()),
         };
-        let mut wire = PbrAlertIox::from_alert(alert, *latency_ns, self.sequence);
-        if *journal_pending {
-            wire.flags |= super::ALERT_FLAG_JOURNAL_PENDING;
-        }
         self.sequence += 1;
         self.publisher
             .send_copy(wire)

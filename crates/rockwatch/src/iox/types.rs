@@ -9,7 +9,7 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
-use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel};
+use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel, ResetEvent};
 
 /// The mode code of [`PbrAlertIox::mode`] (the table shared with ROS 2).
 pub use crate::wire_codes::mode_code;
@@ -304,6 +304,35 @@ impl PbrAlertIox {
         };
         write_padded(&alert.station, &mut out.station);
         if write_padded(&alert.pbr_id, &mut out.pbr_id) {
+            out.flags |= ALERT_FLAG_ID_TRUNCATED;
+        }
+        out
+    }
+
+    /// The wire form of an operator reset (level code 4, `LEVEL_RESET`; mode REST; the
+    /// reset's wall-clock time as `data_time_ns`).
+    #[must_use]
+    pub fn from_reset(reset: &ResetEvent, sequence: u64) -> PbrAlertIox {
+        let mut out = PbrAlertIox {
+            sequence,
+            data_time_ns: reset.time_ns,
+            latency_ns: 0,
+            theta_over_alpha: 0.0,
+            slide_m: 0.0,
+            overturn_probability: 0.0,
+            pga_mps2: 0.0,
+            pgv_mps: 0.0,
+            episode: reset.episode,
+            flags: 0,
+            level: crate::wire_codes::LEVEL_RESET,
+            mode: mode_code(rockwatch_core::dynamics::Mode::Rest),
+            reserved: [0; 6],
+            station: [0; STATION_BYTES],
+            pbr_id: [0; PBR_ID_BYTES],
+            direction_deg: 0.0,
+        };
+        write_padded(&reset.station, &mut out.station);
+        if write_padded(&reset.pbr_id, &mut out.pbr_id) {
             out.flags |= ALERT_FLAG_ID_TRUNCATED;
         }
         out

@@ -39,7 +39,7 @@ use crate::ros2::{
     IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, ALERTS_TOPIC,
 };
 use crate::sd_notify::SystemdNotifier;
-use rockwatch_core::engine::{AccelPacket, Alert, PbrSummary, Source};
+use rockwatch_core::engine::{AccelPacket, Alert, HistoryEntry, PbrSummary, Source};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
 /// dead-node check are looked at least this often.
@@ -396,6 +396,7 @@ impl Reactor {
             apply_controls(&controls, &mut runtime);
             if resets_due {
                 resets_due = ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
+                publish_resets(&mut runtime, &mut out);
             }
             ros2.send_due_replies();
             turn(
@@ -475,6 +476,7 @@ impl Reactor {
         // Requests waiting at the stop are answered (a bounded number; the responses go out
         // now, held ones too).
         ros2.serve_resets(&mut |pbr_id| reset_response(&mut runtime, pbr_id));
+        publish_resets(&mut runtime, &mut out);
         ros2.flush_replies();
         ros2.publish_intake_reports(true);
         if let Some(input) = &mut iox_input {
@@ -501,15 +503,34 @@ impl Reactor {
     }
 }
 
-/// At start: publishes the journal's last alerts again on ROS 2, in order, rebuilding the
-/// transient-local history of `/pbr/alerts` that a late subscriber gets; an alert never
-/// published before (journaled, then a crash) goes to every publisher, and is marked
-/// published. Subscribers de-duplicate by (pbr_id, level, header.stamp) — see
-/// docs/reliability.md.
+/// Publishes the operator resets just journaled and applied on every output, with the alerts.
+fn publish_resets(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
+    for reset in runtime.take_resets() {
+        out.publish(Publication::Reset(reset));
+    }
+    out.flush();
+}
+
+/// At start: publishes the journal's last alerts again on ROS 2, in order, with the operator
+/// resets among them, rebuilding the transient-local history of `/pbr/alerts` that a late
+/// subscriber gets (a reset block's history ends in its reset); an alert never published
+/// before (journaled, then a crash) goes to every publisher, and is marked published.
+/// Subscribers de-duplicate by (pbr_id, episode, level) — see docs/reliability.md.
 fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
-    let journaled = runtime.take_journaled_alerts();
-    let (all, mut unpublished) = (journaled.len(), 0);
-    for (alert, published) in journaled {
+    let journaled = runtime.take_journaled_history();
+    let (mut all, mut unpublished, mut resets) = (0, 0, 0);
+    for entry in journaled {
+        let (alert, published) = match entry {
+            HistoryEntry::Alert(alert, published) => (alert, published),
+            HistoryEntry::Reset(reset) => {
+                resets += 1;
+                if let Err(e) = out.ros2.publish(&Publication::Reset(reset)) {
+                    Outlet::failed(&mut out.errors, &mut out.log, &e);
+                }
+                continue;
+            }
+        };
+        all += 1;
         // A journaled alert: not `journal_pending`.
         let publication = Publication::Alert {
             alert,
@@ -528,7 +549,7 @@ fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
     }
     if all > 0 {
         tracing::info!(
-            "journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers); {unpublished} of them had never been published (a crash), now sent to every output"
+            "journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers), with {resets} operator resets among them; {unpublished} of the alerts had never been published (a crash), now sent to every output"
         );
     }
 }

@@ -13,9 +13,9 @@ use rockwatch_core::engine;
 
 /// The mode and level codes of the messages (one table for both transports).
 pub use crate::wire_codes::{
-    level_code, level_of_code, mode_code, mode_of_code, LEVEL_MOTION_ONSET, LEVEL_OVERTURNED,
-    LEVEL_OVERTURN_IMMINENT, MODE_FLIGHT, MODE_OVERTURNED, MODE_REST, MODE_ROCK, MODE_SLIDE,
-    MODE_SLIDE_ROCK,
+    level_code, level_name, level_of_code, mode_code, mode_of_code, LEVEL_MOTION_ONSET,
+    LEVEL_OVERTURNED, LEVEL_OVERTURN_IMMINENT, MODE_FLIGHT, MODE_OVERTURNED, MODE_REST, MODE_ROCK,
+    MODE_SLIDE, MODE_SLIDE_ROCK,
 };
 
 /// The ROS 2 package of the messages (DDS type names `pbr_msgs::msg::dds_::<Name>_`) and of
@@ -282,6 +282,31 @@ impl From<&engine::PbrState> for PbrState {
             overturn_probability: s.overturn_probability,
             not_monitored: s.not_monitored,
             direction_deg: s.direction_deg,
+        }
+    }
+}
+
+impl From<&engine::ResetEvent> for PbrAlert {
+    /// Level [`LEVEL_RESET`](crate::wire_codes::LEVEL_RESET), mode REST, stamped with the
+    /// reset's wall-clock time.
+    fn from(r: &engine::ResetEvent) -> PbrAlert {
+        PbrAlert {
+            header: Header::new(r.time_ns, &r.station),
+            pbr_id: r.pbr_id.clone(),
+            station: r.station.clone(),
+            level: crate::wire_codes::LEVEL_RESET,
+            mode: mode_code(rockwatch_core::dynamics::Mode::Rest),
+            theta_over_alpha: 0.0,
+            slide: 0.0,
+            overturn_probability: 0.0,
+            pga: 0.0,
+            pgv: 0.0,
+            message: format!(
+                "reset {}: reset by the operator after its fall in episode {}: it stands again",
+                r.pbr_id, r.episode
+            ),
+            direction_deg: 0.0,
+            episode: r.episode,
         }
     }
 }

@@ -44,6 +44,10 @@ impl Publisher for Ros2Publisher {
                     m
                 })
                 .map_err(|e| format!("{ALERTS_TOPIC}: {e:?}")),
+            Publication::Reset(r) => self
+                .alerts
+                .publish(msg::PbrAlert::from(r))
+                .map_err(|e| format!("{ALERTS_TOPIC}: {e:?}")),
             Publication::State(s) => self
                 .states
                 .publish(msg::PbrState::from(s))
