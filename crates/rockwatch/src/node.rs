@@ -40,7 +40,7 @@ use crate::journal::{Appended, Journal, JournalWriter};
 use crate::log_text::{printable, MESSAGE_CHARS, PBR_ID_CHARS, STATION_CHARS};
 use crate::logging::RateLimitedLog;
 use crate::node_config::NodeConfig;
-use crate::status::{AlertLatency, NodeStatus, StatusBuilder};
+use crate::status::{AlertLatency, NodeStatus, RockStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
     fallen_blocks, journaled_alerts, AccelPacket, Alert, AlertLevel, Engine, HealthChange,
@@ -348,6 +348,8 @@ struct Emitter {
     health_reports: BTreeMap<String, StationHealth>,
     /// `engine.stale_after_s`, for the log lines.
     stale_after_s: f64,
+    /// Each block of the node as its states and alerts last described it (for the status).
+    rocks: BTreeMap<String, RockStatus>,
 }
 
 impl Emitter {
@@ -462,6 +464,9 @@ impl<P: FnMut(Publication)> EmitSink<'_, P> {
             match output {
                 Output::State(s) => {
                     emit.stats.states += 1;
+                    if let Some(rock) = emit.rocks.get_mut(&s.pbr_id) {
+                        rock.observe(s.mode, s.theta_over_alpha, Some(s.not_monitored));
+                    }
                     publish(Publication::State(s));
                 }
                 Output::Intensity(i) => {
@@ -480,6 +485,9 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
         if let Output::Alert(a) = &output {
             if a.level == AlertLevel::Overturned {
                 self.emit.overturned.insert(a.pbr_id.clone());
+            }
+            if let Some(rock) = self.emit.rocks.get_mut(&a.pbr_id) {
+                rock.observe(a.mode, a.theta_over_alpha, None);
             }
         }
         // Without a state directory there is nothing to journal: no copy of the alert (an
@@ -542,6 +550,26 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             }
         }
     }
+}
+
+/// The status of each block of `specs` (id order): as in `known` if it was there (a reload
+/// keeps the blocks it keeps), else standing (or fallen, if in `overturned`).
+fn rock_statuses(
+    specs: &[PbrSpec],
+    overturned: &HashSet<String>,
+    mut known: BTreeMap<String, RockStatus>,
+) -> BTreeMap<String, RockStatus> {
+    specs
+        .iter()
+        .map(|spec| {
+            let station = spec.station.to_string();
+            let rock = match known.remove(&spec.id) {
+                Some(rock) if rock.station == station => rock,
+                _ => RockStatus::new(spec.id.clone(), station, overturned.contains(&spec.id)),
+            };
+            (spec.id.clone(), rock)
+        })
+        .collect()
 }
 
 /// Logs one alert as it is handed to the publishers (target `rockwatch::alert`, level warn):
@@ -676,6 +704,7 @@ impl NodeRuntime {
             None => (None, Vec::new()),
         };
         let overturned = fallen_blocks(&records);
+        let rocks = rock_statuses(&specs, &overturned, BTreeMap::new());
         if options.shards > MAX_SHARDS {
             anyhow::bail!(
                 "--shards must be 0 (one per core) to {MAX_SHARDS}, got {}",
@@ -730,6 +759,7 @@ impl NodeRuntime {
                 last_alerts: HashMap::new(),
                 health_reports: BTreeMap::new(),
                 stale_after_s: config.engine.stale_after_s,
+                rocks,
             },
             status: StatusBuilder::default(),
             busy_ns: 0,
@@ -956,6 +986,8 @@ impl NodeRuntime {
             ),
             None => anyhow::bail!("the engine has stopped"),
         };
+        let known = std::mem::take(&mut self.emit.rocks);
+        self.emit.rocks = rock_statuses(&blocks, &self.emit.overturned, known);
         self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
         self.foreign_pbr_ids = foreign_blocks;
         self.emit.stale_after_s = config.stale_after_s;
@@ -1027,6 +1059,9 @@ impl NodeRuntime {
             })?;
         }
         self.emit.overturned.remove(pbr_id);
+        if let Some(rock) = self.emit.rocks.get_mut(pbr_id) {
+            *rock = RockStatus::new(rock.pbr_id.clone(), rock.station.clone(), false);
+        }
         match &mut self.engine {
             Some(EngineMode::Inline(e)) => {
                 e.reset_pbr(pbr_id);
@@ -1117,6 +1152,7 @@ impl NodeRuntime {
         NodeStatus {
             stamp_ns: epoch_utc_ns + now,
             stations,
+            rocks: self.emit.rocks.values().cloned().collect(),
             journal_configured: self.emit.journal.is_some(),
             journal_failures: stats.journal_failures,
             journal_backlog: stats.journal_backlog,
