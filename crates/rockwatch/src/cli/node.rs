@@ -125,7 +125,12 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
             None => "DDS Security off".into(),
         }
     );
-    if let Some(warning) = plan.exposure_warning() {
+    let partition = options
+        .config
+        .partitioning()
+        .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
+        .map(|(partition, _)| partition);
+    if let Some(warning) = plan.exposure_warning(&naming, partition)? {
         tracing::warn!("{warning}");
     }
     if plan.security.is_some() {
