@@ -249,4 +249,14 @@ fn expected_library_noise_of_a_loopback_only_node_is_kept_at_debug_and_explained
         0,
         "{context}"
     );
+    // And within the flood limit of a library call site (10 lines per 10 s; the node runs
+    // for less than 20 s): the `log` logger is rockwatch's LibraryLog, not a bare bridge.
+    let no_locators = count(
+        &debug,
+        "debug: rustdds::rtps::writer: send_message_to_readers",
+    );
+    assert!(
+        no_locators <= 2 * logging::LIBRARY_BURST as usize,
+        "{no_locators} lines\n{context}"
+    );
 }
