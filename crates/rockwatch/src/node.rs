@@ -75,6 +75,15 @@ pub struct Reloaded {
     pub foreign_blocks: HashSet<String>,
 }
 
+/// What a reload ([`NodeRuntime::reload`]) did.
+#[derive(Debug, Clone)]
+pub struct ReloadOutcome {
+    /// The blocks kept, added, replaced and dropped.
+    pub blocks: rockwatch_core::engine::ReloadReport,
+    /// The settings whose running value changed (engine and stations), old → new.
+    pub changes: Vec<crate::node_config::SettingChange>,
+}
+
 /// Most engine shards (worker threads) a runtime starts.
 pub const MAX_SHARDS: usize = 256;
 
@@ -674,6 +683,9 @@ pub struct NodeRuntime {
     data_s: f64,
     /// What became of each sender's packets (the engine's, when sharded).
     tally: Arc<SourceTally>,
+    /// The stations as configured now (at start, then by each reload), for the reload's
+    /// account of what it changed.
+    stations: Vec<rockwatch_core::engine::StationConfig>,
 }
 
 impl NodeRuntime {
@@ -723,7 +735,7 @@ impl NodeRuntime {
             .owned_stations()
             .map_err(|e| anyhow::anyhow!("configuration: {e}"))?;
         let (engine, tally) = if shards == 1 {
-            let mut engine = Engine::new(config.engine, stations, &specs)?;
+            let mut engine = Engine::new(config.engine, stations.clone(), &specs)?;
             engine.restore(&records);
             (
                 EngineMode::Inline(Box::new(engine)),
@@ -766,6 +778,7 @@ impl NodeRuntime {
             data_s: 0.0,
             tally,
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+            stations,
             foreign_pbr_ids: HashSet::new(),
             last_flush: Instant::now(),
             max_ahead_ns: options
@@ -969,23 +982,28 @@ impl NodeRuntime {
     /// keep their state, new ones start at rest, removed ones are dropped; thresholds and
     /// stations as the files now say). On error (an invalid configuration, or several engine
     /// shards) nothing changes.
-    pub fn reload(
-        &mut self,
-        reloaded: Reloaded,
-    ) -> anyhow::Result<rockwatch_core::engine::ReloadReport> {
+    pub fn reload(&mut self, reloaded: Reloaded) -> anyhow::Result<ReloadOutcome> {
         let Reloaded {
             engine: config,
             stations,
             blocks,
             foreign_blocks,
         } = reloaded;
-        let report = match &mut self.engine {
-            Some(EngineMode::Inline(engine)) => engine.reload(config, stations, &blocks)?,
+        let (blocks_report, changes) = match &mut self.engine {
+            Some(EngineMode::Inline(engine)) => {
+                // The running values (ROS 2 parameter changes included) against the new ones.
+                let changes = crate::node_config::setting_changes(
+                    (engine.config(), &self.stations),
+                    (&config, &stations),
+                );
+                (engine.reload(config, stations.clone(), &blocks)?, changes)
+            }
             Some(EngineMode::Sharded(_)) => anyhow::bail!(
                 "a reload needs one engine shard (--shards 1); restart the node to apply the new configuration"
             ),
             None => anyhow::bail!("the engine has stopped"),
         };
+        self.stations = stations;
         let known = std::mem::take(&mut self.emit.rocks);
         self.emit.rocks = rock_statuses(&blocks, &self.emit.overturned, known);
         self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
@@ -994,7 +1012,10 @@ impl NodeRuntime {
         if self.max_ahead_ns.is_some() {
             self.max_ahead_ns = Some((config.plausibility.max_ahead_s * 1e9) as i64);
         }
-        Ok(report)
+        Ok(ReloadOutcome {
+            blocks: blocks_report,
+            changes,
+        })
     }
 
     /// Whether block `pbr_id` is in the catalogue but owned by another partition's node (which
