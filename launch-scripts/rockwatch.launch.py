@@ -14,7 +14,12 @@ Launch arguments:
   state_dir     the state directory (alert journal); empty: the configuration's
   params_file   a ROS 2 parameter file (YAML); empty: none
   alerts_topic  where pbr/alerts is remapped to (default: pbr/alerts, not remapped)
-  imminent_theta_ratio  the alert threshold |θ|/α, in (0, 1] (a parameter with a descriptor)
+  imminent_theta_ratio  the alert threshold |θ|/α, in (0, 1] (a parameter with a descriptor);
+                empty (the default): not passed, so the params file's value, else the
+                configuration's ([engine.alerts]), stands
+
+Only what the user set is passed: params_file when given, then imminent_theta_ratio when given
+(after the file, so a value given on the command line wins over the file's).
 """
 ARGUMENTS = [
     ("namespace", "/", "the node's namespace: its topics become NAMESPACE/pbr/..."),
@@ -22,7 +27,9 @@ ARGUMENTS = [
     ("state_dir", "", "the state directory (alert journal); empty: the configuration's"),
     ("params_file", "", "a ROS 2 parameter file (YAML); empty: none"),
     ("alerts_topic", "pbr/alerts", "where pbr/alerts is remapped to"),
-    ("imminent_theta_ratio", "0.8", "overturn_imminent at |theta|/alpha >= this, in (0, 1]"),
+    ("imminent_theta_ratio", "",
+     "overturn_imminent at |theta|/alpha >= this, in (0, 1]; empty: not passed (the params "
+     "file's value, else the configuration's)"),
 ]
 
 
@@ -31,9 +38,11 @@ def node_options(namespace, config, state_dir, params_file, alerts_topic, immine
     arguments = ["node", "--config", config]
     if state_dir:
         arguments += ["--state-dir", state_dir]
-    parameters = [{"alerts.imminent_theta_ratio": float(imminent_theta_ratio)}]
-    if params_file:
-        parameters.insert(0, params_file)
+    # Only what the user set: a default here would override the params file and the
+    # configuration (launch_ros passes the sources in order; the last one wins).
+    parameters = [params_file] if params_file else []
+    if imminent_theta_ratio:
+        parameters.append({"alerts.imminent_theta_ratio": float(imminent_theta_ratio)})
     return dict(
         package="rockwatch",
         executable="rockwatch",

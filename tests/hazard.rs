@@ -12,6 +12,7 @@ use std::process::Command;
 
 use rockwatch_core::hazard::{
     overturn_rate, parse_openquake_csv, parse_two_column_csv, HazardCurve, ImUnit, Lognormal,
+    SiteSelection,
 };
 
 const G: f64 = 9.80665;
@@ -119,10 +120,14 @@ fn openquake_pgv_in_cm_per_s_is_converted_to_the_fragility_in_m_per_s() {
     let (k0, k, theta, beta) = (2e-6, 2.2, 0.5, 0.3);
     let levels_cm: Vec<f64> = log_levels(0.5, 500.0, 25);
     let text = openquake_text("PGV", 50.0, &levels_cm, |x_cm| k0 * (x_cm / 100.0).powf(-k));
-    let curve = parse_openquake_csv(&text, "oq.csv", 0, None).unwrap();
+    let curve = parse_openquake_csv(&text, "oq.csv", SiteSelection::Row(0), None).unwrap();
     assert_eq!(curve.unit, ImUnit::CentimetrePerSecond);
     assert_eq!(curve.investigation_time_years, Some(50.0));
-    assert_eq!(curve.site, Some((-118.48, 34.28)));
+    let site = curve.site.unwrap();
+    assert_eq!(
+        (site.row, site.rows, site.lon, site.lat, site.distance_km),
+        (0, 1, -118.48, 34.28, None)
+    );
     let si = curve.converted_to(ImUnit::MetrePerSecond).unwrap();
     let rate = overturn_rate(&si, &Lognormal::new(theta, beta).unwrap()).annual_rate;
     let exact = k0 * theta.powf(-k) * (0.5 * k * k * beta * beta).exp();
@@ -137,22 +142,28 @@ fn openquake_pgv_in_cm_per_s_is_converted_to_the_fragility_in_m_per_s() {
     // The investigation time: from --investigation-time when the file lacks it; a
     // disagreement is refused.
     let bare = text.replace("investigation_time=50, ", "");
-    assert!(parse_openquake_csv(&bare, "oq.csv", 0, None)
-        .unwrap_err()
-        .to_string()
-        .contains("investigation_time"));
+    assert!(
+        parse_openquake_csv(&bare, "oq.csv", SiteSelection::Row(0), None)
+            .unwrap_err()
+            .to_string()
+            .contains("investigation_time")
+    );
     assert_eq!(
-        parse_openquake_csv(&bare, "oq.csv", 0, Some(50.0)).unwrap(),
+        parse_openquake_csv(&bare, "oq.csv", SiteSelection::Row(0), Some(50.0)).unwrap(),
         curve
     );
-    assert!(parse_openquake_csv(&text, "oq.csv", 0, Some(30.0))
-        .unwrap_err()
-        .to_string()
-        .contains("disagrees"));
-    assert!(parse_openquake_csv(&text, "oq.csv", 1, None)
-        .unwrap_err()
-        .to_string()
-        .contains("site 1 requested, the file has 1 site rows"));
+    assert!(
+        parse_openquake_csv(&text, "oq.csv", SiteSelection::Row(0), Some(30.0))
+            .unwrap_err()
+            .to_string()
+            .contains("disagrees")
+    );
+    assert!(
+        parse_openquake_csv(&text, "oq.csv", SiteSelection::Row(1), None)
+            .unwrap_err()
+            .to_string()
+            .contains("site 1 requested, the file has 1 site rows")
+    );
 }
 
 #[test]
@@ -175,7 +186,7 @@ fn malformed_curves_are_refused_with_a_reason() {
     .unwrap();
     assert_eq!(ok.levels, vec![0.1, 0.2]);
     let oq = |t: &str| {
-        parse_openquake_csv(t, "oq.csv", 0, None)
+        parse_openquake_csv(t, "oq.csv", SiteSelection::Row(0), None)
             .unwrap_err()
             .to_string()
     };
@@ -353,4 +364,125 @@ fn cli_reads_a_study_fragility_and_a_two_column_curve_and_refuses_mismatches() {
         !ok && stderr.contains("is a function of \"phv\", not \"PGA\""),
         "{stderr}"
     );
+}
+
+/// Issue 20 item 23: `--lon --lat` take the OpenQuake file's nearest site, and say which and
+/// how far (text and JSON); `--site N` still takes row N; both at once, or either with a
+/// two-column curve (one site), are refused.
+#[test]
+fn cli_takes_the_nearest_site_to_lon_lat_and_says_its_distance() {
+    let dir = temp_dir("nearest");
+    let (k, theta, beta) = (2.0, 0.6 * G, 0.4);
+    let fragility = write(
+        &dir,
+        "fragility.json",
+        &format!(r#"{{"ims": {{"PGA": {{"median": {theta}, "beta": {beta}, "unit": "m/s2"}}}}}}"#),
+    );
+    // Three sites, each its own power law k0 im^(−k): the answer says which row was used.
+    let sites = [
+        (-118.0, 34.0, 1e-4),
+        (-117.0, 34.0, 2e-4),
+        (-116.0, 35.0, 4e-4),
+    ];
+    let levels_g = log_levels(0.005, 5.0, 30);
+    let one_site = openquake_text("PGA", 1.0, &levels_g, |g| sites[0].2 * (g * G).powf(-k));
+    let mut text: String = one_site.lines().take(2).map(|l| format!("{l}\n")).collect();
+    for (lon, lat, k0) in sites {
+        text.push_str(&format!("{lon},{lat},0"));
+        for &x in &levels_g {
+            let poe = -(-k0 * (x * G).powf(-k)).exp_m1();
+            text.push_str(&format!(",{poe:.17e}"));
+        }
+        text.push('\n');
+    }
+    let curve = write(&dir, "hazard_curve-mean-PGA_3.csv", &text);
+    let lambda = |k0: f64| k0 * theta.powf(-k) * (0.5 * k * k * beta * beta).exp();
+    let base = [
+        "hazard",
+        "--fragility",
+        &fragility,
+        "--im",
+        "PGA",
+        "--hazard-curve",
+        &curve,
+        "--age-years",
+        "10000",
+    ];
+    let run = |extra: &[&str]| cli(&[&base[..], extra].concat());
+
+    // 0.1° north of site 2 (row 2): 0.1° of a meridian on the 6371.0088 km sphere.
+    let (ok, stdout, stderr) = run(&["--lon", "-116", "--lat", "35.1", "--format", "json"]);
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let rate = json["annual_overturn_rate"].as_f64().unwrap();
+    assert!(
+        ((rate - lambda(4e-4)) / lambda(4e-4)).abs() < 1e-9,
+        "{json}"
+    );
+    let site = &json["site"];
+    assert_eq!(
+        (site["row"].as_u64(), site["rows"].as_u64()),
+        (Some(2), Some(3)),
+        "{json}"
+    );
+    assert_eq!(
+        (site["lon"].as_f64(), site["lat"].as_f64()),
+        (Some(-116.0), Some(35.0))
+    );
+    assert_eq!(
+        (
+            site["requested_lon"].as_f64(),
+            site["requested_lat"].as_f64()
+        ),
+        (Some(-116.0), Some(35.1))
+    );
+    let meridian_km = 6371.0088 * 0.1_f64.to_radians();
+    let d = site["distance_km"].as_f64().unwrap();
+    assert!((d - meridian_km).abs() < 1e-6, "{d} vs {meridian_km}");
+
+    // The text says the site and the distance; between sites 0 and 1, nearer to 1 (0.4° of
+    // longitude at 34° N: 6371.0088 km · 0.4° · cos 34° = 36.87 km).
+    let (ok, stdout, stderr) = run(&["--lon", "-117.4", "--lat", "34"]);
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains("site 1 of 3 at -117, 34, the nearest to -117.4, 34 (36.87 km)"),
+        "{stdout}"
+    );
+
+    // --site N: that row, no distance.
+    let (ok, stdout, stderr) = run(&["--site", "1", "--format", "json"]);
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(json["site"]["row"], 1);
+    assert!(json["site"]["distance_km"].is_null(), "{json}");
+    let rate = json["annual_overturn_rate"].as_f64().unwrap();
+    assert!(((rate - lambda(2e-4)) / lambda(2e-4)).abs() < 1e-9);
+
+    // Refused: --site with --lon/--lat, --lon without --lat, a position off the globe, and a
+    // site choice for a two-column curve.
+    let (ok, _, stderr) = run(&["--site", "1", "--lon", "-117", "--lat", "34"]);
+    assert!(!ok && stderr.contains("cannot be used with"), "{stderr}");
+    let (ok, _, stderr) = run(&["--lon", "-117"]);
+    assert!(!ok && stderr.contains("--lat"), "{stderr}");
+    let (ok, _, stderr) = run(&["--lon", "-117", "--lat", "95"]);
+    assert!(!ok && stderr.contains("latitude in [-90, 90]"), "{stderr}");
+    let two = write(&dir, "two.csv", "0.01,1e-2\n0.1,1e-4\n1,1e-6\n");
+    let (ok, _, stderr) = cli(&[
+        "hazard",
+        "--fragility",
+        &fragility,
+        "--im",
+        "PGA",
+        "--hazard-curve",
+        &two,
+        "--hazard-unit",
+        "g",
+        "--age-years",
+        "10000",
+        "--lon",
+        "-117",
+        "--lat",
+        "34",
+    ]);
+    assert!(!ok && stderr.contains("two-column"), "{stderr}");
 }

@@ -9,6 +9,8 @@ use std::sync::{Arc, Mutex};
 
 use rockwatch::logging::{self, LogFormat, LogOptions, MuteLibraries};
 
+mod ros2_util;
+
 /// A writer into a shared buffer.
 #[derive(Clone, Default)]
 struct Buffer(Arc<Mutex<Vec<u8>>>);
@@ -163,4 +165,98 @@ fn log_flags_and_variables_through_the_binary() {
         &[("RUST_LOG", "x=loud"), ("ROCKWATCH_LOG", "loud")],
     );
     assert_eq!((code, stderr.as_str()), (Some(0), ""));
+}
+
+/// Issue 20 item 29: a node on a loopback-only DDS domain started with `RUST_LOG=warn` and fed
+/// a replay printed hundreds of RustDDS "No locators for RtpsReaderProxy" warnings (195 in
+/// this run), though they are expected there. Now: none of RustDDS's lines, one line of ours
+/// per kind of expected noise saying what it means; with `rustdds=debug` the library's lines
+/// are still there, at debug (kept, not deleted).
+#[test]
+fn expected_library_noise_of_a_loopback_only_node_is_kept_at_debug_and_explained_once() {
+    use ros2_util::*;
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
+    let d = dir.path().display();
+    let bin = rockwatch().display().to_string();
+    let rec = repo().join("tests/data/records");
+    let rec = rec.display();
+    let run = |filter: &str, label: &str| {
+        format!(
+            "RUST_LOG='{filter}' '{bin}' node --config '{config}' 2> '{d}/{label}.err' & NODE=$!
+             sleep 1
+             '{bin}' replay --record '{rec}/Rinaldi228.AT2' --vertical '{rec}/RinaldiUP.AT2' \
+                 --azimuth 228 --station CI.RRS.00 --transport ros2 --speed max --tail 2 \
+                 --wait-s 20 >/dev/null 2>&1
+             sleep 1
+             kill -TERM $NODE; wait $NODE; echo {label}_RC=$?",
+            config = config.display()
+        )
+    };
+    let script = format!(
+        "{}\n{}",
+        run("warn", "WARN"),
+        run("warn,rustdds=debug", "DEBUG")
+    );
+    let out = run_in_netns(
+        &script,
+        120,
+        &[("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST".into())],
+    );
+    let (stdout, stderr) = text(&out);
+    let read = |name: &str| std::fs::read_to_string(dir.path().join(name)).unwrap_or_default();
+    let (warn, debug) = (read("WARN.err"), read("DEBUG.err"));
+    let context = format!(
+        "--- stdout\n{stdout}\n--- stderr\n{stderr}\n--- RUST_LOG=warn\n{warn}\n--- with rustdds=debug: {} lines",
+        debug.lines().count()
+    );
+    assert!(
+        out.status.success() && stdout.contains("WARN_RC=0") && stdout.contains("DEBUG_RC=0"),
+        "{context}"
+    );
+    let count = |text: &str, needle: &str| text.lines().filter(|l| l.contains(needle)).count();
+    // The node ran and raised its alerts; RustDDS said nothing at warn.
+    assert!(
+        count(&warn, "ALERT overturned rrs-slender-pillar") == 1,
+        "{context}"
+    );
+    assert_eq!(count(&warn, "warning: rustdds::"), 0, "{context}");
+    // One line of ours per kind, "No locators" among them, each once.
+    let ours: Vec<&str> = warn
+        .lines()
+        .filter(|l| l.starts_with("rockwatch: warning: library noise: "))
+        .collect();
+    assert_eq!(count(&warn, "No locators"), 1, "{context}");
+    assert!(
+        ours.iter().any(|l| l.contains("\"send_message_to_readers: No locators for …\" (rustdds::rtps::writer) is expected on a loopback-only DDS domain")
+            && l.contains("RUST_LOG=rustdds=debug")),
+        "{context}"
+    );
+    for line in &ours {
+        let head = &line[..line.find(" is expected").unwrap_or(line.len())];
+        assert_eq!(count(&warn, head), 1, "said once: {head}\n{context}");
+    }
+    // Kept at debug, not deleted: shown where debug is asked for.
+    assert!(
+        count(
+            &debug,
+            "rockwatch: debug: rustdds::rtps::writer: send_message_to_readers: No locators for"
+        ) >= 1,
+        "{context}"
+    );
+    assert_eq!(
+        count(&debug, "warning: rustdds::rtps::writer"),
+        0,
+        "{context}"
+    );
+    // And within the flood limit of a library call site (10 lines per 10 s; the node runs
+    // for less than 20 s): the `log` logger is rockwatch's LibraryLog, not a bare bridge.
+    let no_locators = count(
+        &debug,
+        "debug: rustdds::rtps::writer: send_message_to_readers",
+    );
+    assert!(
+        no_locators <= 2 * logging::LIBRARY_BURST as usize,
+        "{no_locators} lines\n{context}"
+    );
 }

@@ -9,7 +9,8 @@
 //!   (at the new threshold), the old one keeps its state (still fallen: the same record again
 //!   raises nothing for it). A configuration out of range and a catalogue that does not parse
 //!   are refused with a log line, the running one kept; a catalogue without the first block
-//!   drops it.
+//!   drops it. Each reload logs the settings it changed, old → new.
+//! - JSON logs: the stop counters and a reload's changed settings are structured fields.
 
 mod ros2_util;
 use ros2_util::*;
@@ -144,7 +145,12 @@ fn sighup_reloads_catalogue_and_thresholds_keeping_the_blocks_state() {
     hup(&node);
     let err = wait_for(&node, "the reload", |e| e.contains("rockwatch: reloaded:"));
     assert!(
-        err.contains("reloaded: 1 blocks kept with their state, 1 new at rest (pillar-two), 0 changed and at rest again, 0 dropped"),
+        err.contains("reloaded: 1 settings changed; 1 blocks kept with their state, 1 new at rest (pillar-two), 0 changed and at rest again, 0 dropped"),
+        "{err}"
+    );
+    // The setting that changed, old → new (issue 20 item 11).
+    assert!(
+        err.contains("rockwatch: reload: engine.alerts.imminent_theta_ratio 0.8 → 0.5\n"),
         "{err}"
     );
 
@@ -210,9 +216,10 @@ fn sighup_reloads_catalogue_and_thresholds_keeping_the_blocks_state() {
         e.matches("rockwatch: reloaded:").count() == 2
     });
     assert!(
-        err.contains("1 blocks kept with their state, 0 new at rest, 0 changed and at rest again, 1 dropped (pillar-one)"),
+        err.contains("reloaded: 0 settings changed; 1 blocks kept with their state, 0 new at rest, 0 changed and at rest again, 1 dropped (pillar-one)"),
         "{err}"
     );
+    assert_eq!(err.matches("rockwatch: reload: ").count(), 1, "{err}");
     let status = node
         .signal_and_wait("TERM", Duration::from_secs(20))
         .unwrap();
@@ -222,6 +229,107 @@ fn sighup_reloads_catalogue_and_thresholds_keeping_the_blocks_state() {
     // Four SIGHUPs, all taken by the signal thread: none reached a DDS thread (RustDDS would
     // have ended the participant on EINTR).
     assert!(!err.contains("transport dead"), "{err}");
+}
+
+/// Issue 20 item 11: with `--log-format json` the node's stop counters are fields of their
+/// records, not only words of a message, and a reload logs each changed setting with the
+/// fields `setting`, `old`, `new`.
+#[test]
+fn json_logs_carry_the_stop_counters_and_each_setting_a_reload_changed_as_fields() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("catalogue.toml"), block("pillar-one", "XB.ONE.00")).unwrap();
+    node_toml(d, 0.8);
+    let reloaded = std::fs::read_to_string(d.join("node.toml"))
+        .unwrap()
+        .replace("imminent_theta_ratio = 0.8", "imminent_theta_ratio = 0.5")
+        .replace(
+            "[engine.alerts]",
+            "[engine]\nstale_after_s = 30.0\n[engine.alerts]",
+        );
+    std::fs::write(d.join("reloaded.toml"), reloaded).unwrap();
+    let (bin, dd) = (rockwatch().display().to_string(), d.display());
+    let rec = repo().join("tests/data/records");
+    let rec = rec.display();
+    let script = format!(
+        "'{bin}' --log-format json node --config '{dd}/node.toml' 2> '{dd}/node.err' & NODE=$!
+         '{bin}' replay --config '{dd}/node.toml' --record '{rec}/Rinaldi228.AT2' \
+             --vertical '{rec}/RinaldiUP.AT2' --azimuth 228 --station XB.ONE.00 \
+             --transport ros2 --speed max --tail 2 --wait-s 20 >/dev/null 2>&1
+         cp '{dd}/reloaded.toml' '{dd}/node.toml'
+         kill -HUP $NODE
+         i=0; until grep -q 'reloaded:' '{dd}/node.err'; do i=$((i+1)); [ $i -lt 200 ] || break; sleep 0.1; done
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?"
+    );
+    let out = run_in_netns(&script, 90, &[]);
+    let (stdout, stderr) = text(&out);
+    let err = std::fs::read_to_string(d.join("node.err")).unwrap_or_default();
+    let context = format!("--- stdout\n{stdout}\n--- stderr\n{stderr}\n--- node\n{err}");
+    assert!(
+        out.status.success() && stdout.contains("NODE_RC=0"),
+        "{context}"
+    );
+    let records: Vec<serde_json::Value> = err
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}\n{context}")))
+        .collect();
+    let fields_of = |message_start: &str| -> Vec<&serde_json::Value> {
+        records
+            .iter()
+            .map(|r| &r["fields"])
+            .filter(|f| {
+                f["message"]
+                    .as_str()
+                    .is_some_and(|m| m.starts_with(message_start))
+            })
+            .collect()
+    };
+
+    // The reload: one record per changed setting, and the count in the summary.
+    let changes: Vec<(String, String, String)> = fields_of("reload: ")
+        .iter()
+        .map(|f| {
+            let s = |k: &str| f[k].as_str().unwrap_or("?").to_string();
+            (s("setting"), s("old"), s("new"))
+        })
+        .collect();
+    let expected = |a: &str, b: &str, c: &str| (a.to_string(), b.to_string(), c.to_string());
+    assert_eq!(
+        changes,
+        [
+            expected("engine.alerts.imminent_theta_ratio", "0.8", "0.5"),
+            expected("engine.stale_after_s", "60.0", "30.0"),
+        ],
+        "{context}"
+    );
+    let summary = fields_of("reloaded: ");
+    assert_eq!(summary.len(), 1, "{context}");
+    assert_eq!(summary[0]["settings_changed"], 2, "{context}");
+    assert_eq!(summary[0]["blocks_kept"], 1, "{context}");
+
+    // The stop counters as fields, equal to the words of the message.
+    let stopped = fields_of("stopped: ");
+    assert_eq!(stopped.len(), 1, "{context}");
+    let packets = stopped[0]["ros2_packets"].as_u64().unwrap_or(0);
+    assert!(packets > 100, "{context}");
+    assert!(
+        stopped[0]["message"]
+            .as_str()
+            .is_some_and(|m| m.starts_with(&format!("stopped: {packets} packets received"))),
+        "{context}"
+    );
+    assert_eq!(
+        (&stopped[0]["blocks"], &stopped[0]["overturned"]),
+        (&serde_json::json!(1), &serde_json::json!(1)),
+        "{context}"
+    );
+    assert_eq!(stopped[0]["ros2_undecodable"], 0, "{context}");
+    let input = fields_of("engine input: ");
+    assert_eq!(input.len(), 1, "{context}");
+    assert_eq!(input[0]["packets"].as_u64(), Some(packets), "{context}");
+    for key in ["rejected", "duplicate", "late", "unknown_station"] {
+        assert_eq!(input[0][key], 0, "{key}\n{context}");
+    }
 }
 
 #[test]

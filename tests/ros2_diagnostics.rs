@@ -10,7 +10,9 @@
 //!   every journaled alert is logged once (level, pbr id, station, data time, both latencies);
 //! - CI.RRS.00 goes stale (a log line; STALE on /diagnostics; a /pbr/state of each of its four
 //!   blocks with not_monitored = true) and recovers (a log line; states with not_monitored =
-//!   false); CI.SYL.00, which never sent, is STALE with "no data yet";
+//!   false); before its first packet it is NO DATA YET (health value; STALE is the nearest
+//!   diagnostic_msgs level), not OK; CI.SYL.00, which never sent, is STALE with "no data yet"
+//!   once stale_after_s has passed;
 //! - /diagnostics carries the node's items (journal, transports, engine) and per station the
 //!   data latency, sample rate and counters, decoded by the peer's own type support;
 //! - /rosout carries the alert records (level WARN = 30) under the node's logger name;
@@ -23,7 +25,7 @@
 mod ros2_util;
 use ros2_util::*;
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 const RRS_BLOCKS: [&str; 4] = [
     "rrs-slender-pillar",
@@ -50,55 +52,6 @@ fn peer_ready() -> Option<std::path::PathBuf> {
         return None;
     }
     pbr_msgs_install()
-}
-
-/// One metric sample of the Prometheus text format: name, labels, value.
-type Sample = (String, BTreeMap<String, String>, f64);
-
-/// Parses the Prometheus text exposition format (0.0.4): `# HELP`/`# TYPE` lines, then
-/// `name{label="value",…} number` samples; a sample's family must have been typed first.
-fn parse_prometheus(text: &str) -> Result<Vec<Sample>, String> {
-    let mut typed = BTreeSet::new();
-    let mut samples = Vec::new();
-    for line in text.lines() {
-        if let Some(rest) = line.strip_prefix("# TYPE ") {
-            let (name, kind) = rest.split_once(' ').ok_or(line)?;
-            if !["counter", "gauge"].contains(&kind) {
-                return Err(format!("unknown type: {line}"));
-            }
-            typed.insert(name.to_string());
-            continue;
-        }
-        if line.starts_with("# HELP ") || line.is_empty() {
-            continue;
-        }
-        let (head, value) = line.rsplit_once(' ').ok_or(line)?;
-        let value: f64 = value.parse().map_err(|_| format!("bad value: {line}"))?;
-        let (name, labels) = match head.split_once('{') {
-            None => (head.to_string(), BTreeMap::new()),
-            Some((name, rest)) => {
-                let body = rest.strip_suffix('}').ok_or(line)?;
-                let mut labels = BTreeMap::new();
-                for pair in body.split("\",").filter(|p| !p.is_empty()) {
-                    let (k, v) = pair.split_once("=\"").ok_or(line)?;
-                    labels.insert(k.to_string(), v.trim_end_matches('"').to_string());
-                }
-                (name.to_string(), labels)
-            }
-        };
-        if !typed.contains(&name) {
-            return Err(format!("sample before its # TYPE: {line}"));
-        }
-        samples.push((name, labels, value));
-    }
-    Ok(samples)
-}
-
-fn station_value(samples: &[Sample], name: &str, station: &str) -> Option<f64> {
-    samples
-        .iter()
-        .find(|(n, l, _)| n == name && l.get("station").map(String::as_str) == Some(station))
-        .map(|s| s.2)
 }
 
 #[test]
@@ -310,15 +263,26 @@ fn node_logs_json_reports_station_health_on_diagnostics_rosout_state_and_metrics
             .cloned()
     };
     let rrs_name = "rockwatch: station CI.RRS.00";
-    let rrs_levels: Vec<u64> = arrays
+    let rrs_levels: Vec<(u64, String)> = arrays
         .iter()
         .filter_map(|a| find(a, rrs_name))
-        .map(|s| s["level"].as_u64().unwrap())
+        .map(|s| {
+            (
+                s["level"].as_u64().unwrap(),
+                s["values"]["health"].as_str().unwrap_or("").to_string(),
+            )
+        })
         .collect();
-    // Receiving data (OK), then STALE (3) while silent.
-    let stale_at = rrs_levels.iter().position(|&l| l == 3);
+    // No data yet before the replay (STALE = 3 on /diagnostics, health "NO DATA YET", not
+    // OK), then receiving data (OK), then STALE while silent.
+    assert_eq!(
+        rrs_levels.first().map(|(l, h)| (*l, h.as_str())),
+        Some((3, "NO DATA YET")),
+        "CI.RRS.00 levels {rrs_levels:?}\n{context}"
+    );
+    let stale_at = rrs_levels.iter().position(|(l, h)| *l == 3 && h == "STALE");
     assert!(
-        stale_at.is_some_and(|i| rrs_levels[..i].contains(&0)),
+        stale_at.is_some_and(|i| rrs_levels[..i].contains(&(0, "OK".to_string()))),
         "CI.RRS.00 levels {rrs_levels:?}\n{context}"
     );
     let live = arrays
@@ -347,7 +311,7 @@ fn node_logs_json_reports_station_health_on_diagnostics_rosout_state_and_metrics
     let stale = arrays
         .iter()
         .filter_map(|a| find(a, rrs_name))
-        .find(|s| s["level"] == 3)
+        .find(|s| s["level"] == 3 && s["values"]["health"] == "STALE")
         .unwrap();
     assert!(
         stale["message"].as_str().unwrap().contains("not monitored"),
@@ -356,7 +320,9 @@ fn node_logs_json_reports_station_health_on_diagnostics_rosout_state_and_metrics
     let last = arrays.last().unwrap();
     let syl = find(last, "rockwatch: station CI.SYL.00").unwrap();
     assert!(
-        syl["level"] == 3 && syl["message"].as_str().unwrap().contains("no data yet"),
+        syl["level"] == 3
+            && syl["values"]["health"] == "STALE"
+            && syl["message"].as_str().unwrap().contains("no data yet"),
         "{syl}"
     );
     for item in ["journal", "transports", "engine"] {

@@ -177,6 +177,40 @@ fn without_security_an_unauthenticated_peer_forges_packets_and_resets_blocks() {
     );
 }
 
+/// Issue 20 item 17: a node in a namespace, with a remapped input, warns of the names it
+/// really uses (it used to name `/pbr/accel` whatever its namespace).
+#[test]
+fn the_security_warning_names_the_resolved_topics_of_a_node_in_a_namespace() {
+    let dir = tempfile::tempdir().unwrap();
+    node_toml(dir.path(), "SUBNET");
+    let d = dir.path().display();
+    let bin = rockwatch().display().to_string();
+    let script = format!(
+        "'{bin}' node --config '{d}/node.toml' --ros-args -r __ns:=/site_a \
+             -r pbr/alerts:=/all_sites/alerts 2> '{d}/node.err' & NODE=$!
+         i=0; until grep -q 'DDS Security is off' '{d}/node.err'; do i=$((i+1)); [ $i -lt 100 ] || break; sleep 0.1; done
+         kill -TERM $NODE; wait $NODE && echo NODE_RC=0 || echo NODE_RC=$?
+         cat '{d}/node.err' >&2"
+    );
+    let out = run_in_netns(&script, 60, &[]);
+    let (stdout, stderr) = text(&out);
+    assert!(
+        out.status.success() && stdout.contains("NODE_RC=0"),
+        "{stdout}\n{stderr}"
+    );
+    let warning = stderr
+        .lines()
+        .find(|l| l.contains("DDS Security is off"))
+        .unwrap_or_else(|| panic!("no security warning\n{stderr}"));
+    assert!(
+        warning.contains("publish /site_a/pbr/accel packets")
+            && warning.contains("(/site_a/pbr/reset)")
+            && warning.contains("(/all_sites/alerts)")
+            && !warning.contains(" /pbr/accel"),
+        "{warning}"
+    );
+}
+
 #[test]
 fn with_security_enforced_an_unauthenticated_peer_is_kept_out_and_a_station_is_served() {
     if !peer_available(

@@ -464,3 +464,65 @@ pub fn alert_history(state: &std::path::Path) -> Vec<(String, u64, String)> {
         })
         .collect()
 }
+
+/// One metric sample of the Prometheus text format: name, labels, value.
+pub type Sample = (String, std::collections::BTreeMap<String, String>, f64);
+
+/// Parses the Prometheus text exposition format (0.0.4): `# HELP`/`# TYPE` lines, then
+/// `name{label="value",…} number` samples; a sample's family must have been typed first.
+pub fn parse_prometheus(text: &str) -> Result<Vec<Sample>, String> {
+    let mut typed = std::collections::BTreeSet::new();
+    let mut samples = Vec::new();
+    for line in text.lines() {
+        if let Some(rest) = line.strip_prefix("# TYPE ") {
+            let (name, kind) = rest.split_once(' ').ok_or(line)?;
+            if !["counter", "gauge"].contains(&kind) {
+                return Err(format!("unknown type: {line}"));
+            }
+            typed.insert(name.to_string());
+            continue;
+        }
+        if line.starts_with("# HELP ") || line.is_empty() {
+            continue;
+        }
+        let (head, value) = line.rsplit_once(' ').ok_or(line)?;
+        let value: f64 = value.parse().map_err(|_| format!("bad value: {line}"))?;
+        let (name, labels) = match head.split_once('{') {
+            None => (head.to_string(), std::collections::BTreeMap::new()),
+            Some((name, rest)) => {
+                let body = rest.strip_suffix('}').ok_or(line)?;
+                let mut labels = std::collections::BTreeMap::new();
+                for pair in body.split("\",").filter(|p| !p.is_empty()) {
+                    let (k, v) = pair.split_once("=\"").ok_or(line)?;
+                    labels.insert(k.to_string(), v.trim_end_matches('"').to_string());
+                }
+                (name.to_string(), labels)
+            }
+        };
+        if !typed.contains(&name) {
+            return Err(format!("sample before its # TYPE: {line}"));
+        }
+        samples.push((name, labels, value));
+    }
+    Ok(samples)
+}
+
+pub fn station_value(samples: &[Sample], name: &str, station: &str) -> Option<f64> {
+    samples
+        .iter()
+        .find(|(n, l, _)| n == name && l.get("station").map(String::as_str) == Some(station))
+        .map(|s| s.2)
+}
+
+/// The value of the sample `name` whose labels include every pair of `labels`, if any.
+pub fn labelled_value(samples: &[Sample], name: &str, labels: &[(&str, &str)]) -> Option<f64> {
+    samples
+        .iter()
+        .find(|(n, l, _)| {
+            n == name
+                && labels
+                    .iter()
+                    .all(|(k, v)| l.get(*k).map(String::as_str) == Some(*v))
+        })
+        .map(|s| s.2)
+}

@@ -136,8 +136,46 @@ pub struct HazardCurve {
     pub annual_rates: Vec<f64>,
     /// Investigation time the file's probabilities referred to (yr), for OpenQuake files.
     pub investigation_time_years: Option<f64>,
-    /// (lon, lat) of the site, for OpenQuake files.
-    pub site: Option<(f64, f64)>,
+    /// The site row of an OpenQuake file the curve is from.
+    pub site: Option<Site>,
+}
+
+/// Which site row of an OpenQuake file (one row per site) to take.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SiteSelection {
+    /// Row N (0-based) of the site rows.
+    Row(usize),
+    /// The site nearest to this point (longitude, latitude in degrees, WGS84) by great-circle
+    /// distance ([`great_circle_km`]); the first of equally near ones.
+    Nearest { lon: f64, lat: f64 },
+}
+
+/// The site row taken from an OpenQuake file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Site {
+    /// Its row among the file's site rows (0-based), and how many rows the file has.
+    pub row: usize,
+    pub rows: usize,
+    /// Its longitude and latitude (degrees), as in the file.
+    pub lon: f64,
+    pub lat: f64,
+    /// Great-circle distance (km) from the point asked for, when it was chosen as the nearest
+    /// ([`SiteSelection::Nearest`]).
+    pub distance_km: Option<f64>,
+}
+
+/// Mean Earth radius (km, IUGG R₁) of [`great_circle_km`].
+pub const EARTH_RADIUS_KM: f64 = 6371.0088;
+
+/// Great-circle distance (km) between two points given as (longitude, latitude) in degrees,
+/// on a sphere of radius [`EARTH_RADIUS_KM`] (haversine; within 0.5 % of the ellipsoid).
+#[must_use]
+pub fn great_circle_km(a: (f64, f64), b: (f64, f64)) -> f64 {
+    let (lon1, lat1) = (a.0.to_radians(), a.1.to_radians());
+    let (lon2, lat2) = (b.0.to_radians(), b.1.to_radians());
+    let h = ((lat2 - lat1) / 2.0).sin().powi(2)
+        + lat1.cos() * lat2.cos() * ((lon2 - lon1) / 2.0).sin().powi(2);
+    2.0 * EARTH_RADIUS_KM * h.sqrt().min(1.0).asin()
 }
 
 impl HazardCurve {
@@ -228,13 +266,14 @@ impl HazardCurve {
     }
 }
 
-/// Parses an OpenQuake hazard-curve CSV (`hazard_curve-mean-<IMT>_*.csv`), taking the row of
-/// site `site_index` (0-based). `investigation_time_years` overrides or supplies the
-/// investigation time; if the file states one too, the two must agree.
+/// Parses an OpenQuake hazard-curve CSV (`hazard_curve-mean-<IMT>_*.csv`), taking the site
+/// row `site` selects (a row number, or the nearest to a point). `investigation_time_years`
+/// overrides or supplies the investigation time; if the file states one too, the two must
+/// agree.
 pub fn parse_openquake_csv(
     text: &str,
     source_name: &str,
-    site_index: usize,
+    site: SiteSelection,
     investigation_time_years: Option<f64>,
 ) -> Result<HazardCurve, HazardError> {
     let parse_err = |line: usize, message: String| HazardError::Parse {
@@ -303,20 +342,24 @@ pub fn parse_openquake_csv(
     let rows: Vec<(usize, &str)> = lines
         .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
         .collect();
-    let &(row_line, row) = rows.get(site_index).ok_or_else(|| {
-        HazardError::Invalid(format!(
-            "{source_name}: site {site_index} requested, the file has {} site rows",
-            rows.len()
-        ))
-    })?;
-    let cells: Vec<&str> = row.split(',').map(str::trim).collect();
-    if cells.len() != columns.len() {
-        return Err(parse_err(
-            row_line + 1,
-            format!("{} cells, the header has {}", cells.len(), columns.len()),
-        ));
-    }
-    let number = |k: usize| {
+    // Every row's cells, checked against the header when used.
+    let row_cells = |index: usize| -> Result<(usize, Vec<&str>), HazardError> {
+        let &(row_line, row) = rows.get(index).ok_or_else(|| {
+            HazardError::Invalid(format!(
+                "{source_name}: site {index} requested, the file has {} site rows",
+                rows.len()
+            ))
+        })?;
+        let cells: Vec<&str> = row.split(',').map(str::trim).collect();
+        if cells.len() != columns.len() {
+            return Err(parse_err(
+                row_line + 1,
+                format!("{} cells, the header has {}", cells.len(), columns.len()),
+            ));
+        }
+        Ok((row_line, cells))
+    };
+    let cell_number = |row_line: usize, cells: &[&str], k: usize| {
         cells[k].parse::<f64>().map_err(|_| {
             parse_err(
                 row_line + 1,
@@ -324,7 +367,43 @@ pub fn parse_openquake_csv(
             )
         })
     };
-    let site = (number(0)?, number(1)?);
+    let (site_index, distance_km) = match site {
+        SiteSelection::Row(index) => (index, None),
+        SiteSelection::Nearest { lon, lat } => {
+            // (A NaN is in no range.)
+            if !((-180.0..=360.0).contains(&lon) && (-90.0..=90.0).contains(&lat)) {
+                return Err(HazardError::Invalid(format!(
+                    "site position lon {lon}, lat {lat}: longitude must be in [-180, 360] and \
+                     latitude in [-90, 90] degrees"
+                )));
+            }
+            let mut nearest: Option<(usize, f64)> = None;
+            for index in 0..rows.len() {
+                let (row_line, cells) = row_cells(index)?;
+                let at = (
+                    cell_number(row_line, &cells, 0)?,
+                    cell_number(row_line, &cells, 1)?,
+                );
+                let d = great_circle_km((lon, lat), at);
+                if nearest.is_none_or(|(_, best)| d < best) {
+                    nearest = Some((index, d));
+                }
+            }
+            let (index, d) = nearest.ok_or_else(|| {
+                HazardError::Invalid(format!("{source_name}: the file has no site rows"))
+            })?;
+            (index, Some(d))
+        }
+    };
+    let (row_line, cells) = row_cells(site_index)?;
+    let number = |k: usize| cell_number(row_line, &cells, k);
+    let site = Site {
+        row: site_index,
+        rows: rows.len(),
+        lon: number(0)?,
+        lat: number(1)?,
+        distance_km,
+    };
     let mut rates = Vec::with_capacity(levels.len());
     for (k, column) in columns.iter().enumerate().skip(3) {
         let poe = number(k)?;

@@ -15,6 +15,10 @@
 //!   `latency_ms`, …) are in the JSON objects.
 //! - **Muting** ([`MuteLibraries`]): while a guard lives, the libraries' records (not
 //!   rockwatch's) are dropped: a DDS participant's teardown logs an error per endpoint.
+//! - **Expected noise** ([`EXPECTED_NOISE`], [`expect`]): a library's warnings that a
+//!   configuration makes expected (RustDDS's "No locators for RtpsReaderProxy" on a
+//!   loopback-only DDS domain, set by the ROS 2 session) are written at debug; the first one
+//!   that would have been written is replaced by one line of ours saying what it means.
 //! - **Floods** ([`LibraryLog`]): a library's call site (target, file, line) writes at most
 //!   [`LIBRARY_BURST`] records per [`LIBRARY_WINDOW`]; the next record it lets through is
 //!   preceded by a line saying how many were dropped. A library stuck in a loop (RustDDS logs
@@ -52,7 +56,6 @@ use tracing_subscriber::fmt::format::Writer;
 use tracing_subscriber::fmt::{FmtContext, FormatEvent, FormatFields};
 use tracing_subscriber::layer::{Context, Layer, SubscriberExt};
 use tracing_subscriber::registry::LookupSpan;
-use tracing_subscriber::util::SubscriberInitExt;
 
 /// The older environment variable of the log level: one level for every target.
 pub const LOG_ENV: &str = "ROCKWATCH_LOG";
@@ -291,23 +294,26 @@ where
         .with(filter)
         .with(Mute)
         .with(RosoutLayer);
+    // `set_global_default`, not `try_init`: with tracing-subscriber's `tracing-log` feature,
+    // `try_init` installs its own `log` logger (a bare LogTracer), and then `LibraryLog` (the
+    // flood limit, the expected noise) could not be installed.
     let installed = match options.format {
-        LogFormat::Text => registry
-            .with(
+        LogFormat::Text => tracing::subscriber::set_global_default(
+            registry.with(
                 tracing_subscriber::fmt::layer()
                     .with_writer(writer)
                     .event_format(TextLine),
-            )
-            .try_init(),
-        LogFormat::Json => registry
-            .with(
+            ),
+        ),
+        LogFormat::Json => tracing::subscriber::set_global_default(
+            registry.with(
                 tracing_subscriber::fmt::layer()
                     .json()
                     .with_writer(writer)
                     .with_current_span(false)
                     .with_span_list(false),
-            )
-            .try_init(),
+            ),
+        ),
     };
     if installed.is_ok() {
         // Fails only if a `log` logger is installed already (then theirs stays).
@@ -381,6 +387,31 @@ impl log::Log for LibraryLog {
         if !self.bridge.enabled(record.metadata()) {
             return;
         }
+        if let Some(noise) = expected_noise(record) {
+            noise.explain_once(record);
+            // The same record at debug: shown only where debug is asked for.
+            let demoted = log::Record::builder()
+                .args(*record.args())
+                .level(log::Level::Debug)
+                .target(record.target())
+                .module_path_static(record.module_path_static())
+                .file_static(record.file_static())
+                .line(record.line())
+                .build();
+            if self.bridge.enabled(demoted.metadata()) {
+                self.admit_and_log(&demoted);
+            }
+            return;
+        }
+        self.admit_and_log(record);
+    }
+
+    fn flush(&self) {}
+}
+
+impl LibraryLog {
+    /// Writes `record` within its call site's [`FloodLimit`].
+    fn admit_and_log(&self, record: &log::Record<'_>) {
         let site = (
             record.target().to_owned(),
             record.file_static(),
@@ -392,7 +423,7 @@ impl log::Log for LibraryLog {
             Err(_) => Some(0),
         };
         match admitted {
-            Some(0) => self.bridge.log(record),
+            Some(0) => log::Log::log(&self.bridge, record),
             Some(dropped) => {
                 tracing::warn!(
                     target: "rockwatch::logging",
@@ -402,13 +433,149 @@ impl log::Log for LibraryLog {
                     record.line().unwrap_or(0),
                     LIBRARY_WINDOW.as_secs()
                 );
-                self.bridge.log(record);
+                log::Log::log(&self.bridge, record);
             }
             None => {}
         }
     }
+}
 
-    fn flush(&self) {}
+/// A configuration in which some library records are expected ([`expect`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Expectation {
+    /// A DDS participant on loopback interfaces only (`ROS_AUTOMATIC_DISCOVERY_RANGE` =
+    /// `LOCALHOST` or `OFF`, `[ros2] discovery_range`): set by `ros2::Ros2Session::open`.
+    LoopbackOnlyDds = 0,
+}
+
+impl Expectation {
+    /// The configuration in words, after "expected".
+    #[must_use]
+    pub fn describe(self) -> &'static str {
+        match self {
+            Expectation::LoopbackOnlyDds => {
+                "on a loopback-only DDS domain (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, \
+                 [ros2] discovery_range = \"LOCALHOST\")"
+            }
+        }
+    }
+}
+
+/// The [`Expectation`]s in force, one bit each.
+static EXPECTED: AtomicU8 = AtomicU8::new(0);
+
+/// From now on the process runs in `expectation`: the library records it makes expected
+/// ([`EXPECTED_NOISE`]) are kept at debug, and explained once.
+pub fn expect(expectation: Expectation) {
+    EXPECTED.fetch_or(1 << expectation as u8, Ordering::Relaxed);
+}
+
+/// A library's record that is expected in a configuration: there it is written at debug
+/// (seen with e.g. `RUST_LOG=rustdds=debug`), and the first one that would have been written
+/// at its own level is replaced by one line of ours, at that level, saying what it means.
+#[derive(Debug)]
+pub struct ExpectedNoise {
+    /// The configuration in which it is expected.
+    pub when: Expectation,
+    /// The record's target starts with this, and its message with `message`.
+    pub target: &'static str,
+    pub message: &'static str,
+    /// What it means there (our line; the library's message is quoted before it).
+    pub meaning: &'static str,
+    /// Our line has been written.
+    said: std::sync::atomic::AtomicBool,
+}
+
+impl ExpectedNoise {
+    const fn new(
+        when: Expectation,
+        target: &'static str,
+        message: &'static str,
+        meaning: &'static str,
+    ) -> ExpectedNoise {
+        ExpectedNoise {
+            when,
+            target,
+            message,
+            meaning,
+            said: std::sync::atomic::AtomicBool::new(false),
+        }
+    }
+
+    /// Writes our line the first time (at `record`'s level, target `rockwatch::logging`).
+    fn explain_once(&self, record: &log::Record<'_>) {
+        if self.said.swap(true, Ordering::Relaxed) {
+            return;
+        }
+        let (target, message, meaning) = (self.target, self.message, self.meaning);
+        let line = format!(
+            "library noise: \"{message} …\" ({target}) is expected {}: {meaning}. These \
+             lines are kept at debug (RUST_LOG={}=debug shows them)",
+            self.when.describe(),
+            target.split("::").next().unwrap_or(target)
+        );
+        match record.level() {
+            log::Level::Error => tracing::error!(target: "rockwatch::logging", "{line}"),
+            log::Level::Warn => tracing::warn!(target: "rockwatch::logging", "{line}"),
+            _ => tracing::info!(target: "rockwatch::logging", "{line}"),
+        }
+    }
+}
+
+/// The library records expected in a configuration (see [`ExpectedNoise`]). RustDDS 0.15 on a
+/// loopback-only participant:
+/// - `No locators for RtpsReaderProxy`: a peer on this host that advertises only loopback
+///   addresses is sent to on 127.0.0.1 once one of its packets has shown that it is on this
+///   host; until then each send to it finds no other address and says so;
+/// - `No multicast joins succeeded`: the loopback interface takes no multicast; participants on
+///   it find each other through the discovery ports on 127.0.0.1;
+/// - `Message size = N` (`send_to_locator`, `try_send_to_locator`): a datagram above 1500
+///   bytes, an Ethernet MTU; loopback's MTU is 65536.
+pub static EXPECTED_NOISE: [ExpectedNoise; 4] = [
+    ExpectedNoise::new(
+        Expectation::LoopbackOnlyDds,
+        "rustdds::rtps::writer",
+        "send_message_to_readers: No locators for",
+        "a peer on this host that advertises only loopback addresses is sent to on \
+         127.0.0.1 once one of its packets has shown that it is on this host; until then \
+         RustDDS finds no other address for it and says so at each send",
+    ),
+    ExpectedNoise::new(
+        Expectation::LoopbackOnlyDds,
+        "rustdds::network::udp_listener",
+        "No multicast joins succeeded",
+        "the loopback interface takes no multicast, and loopback-only participants find each \
+         other through the DDS discovery ports on 127.0.0.1",
+    ),
+    ExpectedNoise::new(
+        Expectation::LoopbackOnlyDds,
+        "rustdds::network::udp_sender",
+        "send_to_locator: Message size",
+        "RustDDS notes datagrams above 1500 bytes (an Ethernet MTU); loopback's MTU is 65536",
+    ),
+    ExpectedNoise::new(
+        Expectation::LoopbackOnlyDds,
+        "rustdds::network::udp_sender",
+        "try_send_to_locator: Message size",
+        "RustDDS notes datagrams above 1500 bytes (an Ethernet MTU); loopback's MTU is 65536",
+    ),
+];
+
+/// The entry of [`EXPECTED_NOISE`] `record` is, in the configuration in force, if any.
+fn expected_noise(record: &log::Record<'_>) -> Option<&'static ExpectedNoise> {
+    let expected = EXPECTED.load(Ordering::Relaxed);
+    if expected == 0 {
+        return None;
+    }
+    EXPECTED_NOISE.iter().find(|n| {
+        expected & (1 << n.when as u8) != 0
+            && record.target().starts_with(n.target)
+            && record
+                .args()
+                .as_str()
+                .map_or_else(|| record.args().to_string(), str::to_owned)
+                .starts_with(n.message)
+    })
 }
 
 /// The text format: `rockwatch: [level: ][target: ]message` (target for the libraries only).

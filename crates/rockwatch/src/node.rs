@@ -40,7 +40,7 @@ use crate::journal::{Appended, Journal, JournalWriter};
 use crate::log_text::{printable, MESSAGE_CHARS, PBR_ID_CHARS, STATION_CHARS};
 use crate::logging::RateLimitedLog;
 use crate::node_config::NodeConfig;
-use crate::status::{AlertLatency, NodeStatus, StatusBuilder};
+use crate::status::{AlertLatency, NodeStatus, RockStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
     fallen_blocks, journaled_history, AccelPacket, Alert, AlertLevel, Engine, HealthChange,
@@ -73,6 +73,15 @@ pub struct Reloaded {
     pub stations: Vec<rockwatch_core::engine::StationConfig>,
     pub blocks: Vec<PbrSpec>,
     pub foreign_blocks: HashSet<String>,
+}
+
+/// What a reload ([`NodeRuntime::reload`]) did.
+#[derive(Debug, Clone)]
+pub struct ReloadOutcome {
+    /// The blocks kept, added, replaced and dropped.
+    pub blocks: rockwatch_core::engine::ReloadReport,
+    /// The settings whose running value changed (engine and stations), old → new.
+    pub changes: Vec<crate::node_config::SettingChange>,
 }
 
 /// Most engine shards (worker threads) a runtime starts.
@@ -366,6 +375,8 @@ struct Emitter {
     health_reports: BTreeMap<String, StationHealth>,
     /// `engine.stale_after_s`, for the log lines.
     stale_after_s: f64,
+    /// Each block of the node as its states and alerts last described it (for the status).
+    rocks: BTreeMap<String, RockStatus>,
 }
 
 impl Emitter {
@@ -480,6 +491,9 @@ impl<P: FnMut(Publication)> EmitSink<'_, P> {
             match output {
                 Output::State(s) => {
                     emit.stats.states += 1;
+                    if let Some(rock) = emit.rocks.get_mut(&s.pbr_id) {
+                        rock.observe(s.mode, s.theta_over_alpha, Some(s.not_monitored));
+                    }
                     publish(Publication::State(s));
                 }
                 Output::Intensity(i) => {
@@ -500,6 +514,9 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 self.emit
                     .overturned
                     .insert(a.pbr_id.clone(), (a.station.clone(), a.episode));
+            }
+            if let Some(rock) = self.emit.rocks.get_mut(&a.pbr_id) {
+                rock.observe(a.mode, a.theta_over_alpha, None);
             }
         }
         // Without a state directory there is nothing to journal: no copy of the alert (an
@@ -562,6 +579,26 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             }
         }
     }
+}
+
+/// The status of each block of `specs` (id order): as in `known` if it was there (a reload
+/// keeps the blocks it keeps), else standing (or fallen, if in `overturned`).
+fn rock_statuses(
+    specs: &[PbrSpec],
+    overturned: &HashMap<String, (String, u32)>,
+    mut known: BTreeMap<String, RockStatus>,
+) -> BTreeMap<String, RockStatus> {
+    specs
+        .iter()
+        .map(|spec| {
+            let station = spec.station.to_string();
+            let rock = match known.remove(&spec.id) {
+                Some(rock) if rock.station == station => rock,
+                _ => RockStatus::new(spec.id.clone(), station, overturned.contains_key(&spec.id)),
+            };
+            (spec.id.clone(), rock)
+        })
+        .collect()
 }
 
 /// Logs one alert as it is handed to the publishers (target `rockwatch::alert`, level warn):
@@ -665,6 +702,9 @@ pub struct NodeRuntime {
     data_s: f64,
     /// What became of each sender's packets (the engine's, when sharded).
     tally: Arc<SourceTally>,
+    /// The stations as configured now (at start, then by each reload), for the reload's
+    /// account of what it changed.
+    stations: Vec<rockwatch_core::engine::StationConfig>,
 }
 
 impl NodeRuntime {
@@ -695,6 +735,7 @@ impl NodeRuntime {
             None => (None, Vec::new()),
         };
         let overturned = fallen_with_their_fall(&records);
+        let rocks = rock_statuses(&specs, &overturned, BTreeMap::new());
         if options.shards > MAX_SHARDS {
             anyhow::bail!(
                 "--shards must be 0 (one per core) to {MAX_SHARDS}, got {}",
@@ -713,7 +754,7 @@ impl NodeRuntime {
             .owned_stations()
             .map_err(|e| anyhow::anyhow!("configuration: {e}"))?;
         let (engine, tally) = if shards == 1 {
-            let mut engine = Engine::new(config.engine, stations, &specs)?;
+            let mut engine = Engine::new(config.engine, stations.clone(), &specs)?;
             engine.restore(&records);
             (
                 EngineMode::Inline(Box::new(engine)),
@@ -750,12 +791,14 @@ impl NodeRuntime {
                 last_alerts: HashMap::new(),
                 health_reports: BTreeMap::new(),
                 stale_after_s: config.engine.stale_after_s,
+                rocks,
             },
             status: StatusBuilder::default(),
             busy_ns: 0,
             data_s: 0.0,
             tally,
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+            stations,
             foreign_pbr_ids: HashSet::new(),
             last_flush: Instant::now(),
             max_ahead_ns: options
@@ -966,30 +1009,40 @@ impl NodeRuntime {
     /// keep their state, new ones start at rest, removed ones are dropped; thresholds and
     /// stations as the files now say). On error (an invalid configuration, or several engine
     /// shards) nothing changes.
-    pub fn reload(
-        &mut self,
-        reloaded: Reloaded,
-    ) -> anyhow::Result<rockwatch_core::engine::ReloadReport> {
+    pub fn reload(&mut self, reloaded: Reloaded) -> anyhow::Result<ReloadOutcome> {
         let Reloaded {
             engine: config,
             stations,
             blocks,
             foreign_blocks,
         } = reloaded;
-        let report = match &mut self.engine {
-            Some(EngineMode::Inline(engine)) => engine.reload(config, stations, &blocks)?,
+        let (blocks_report, changes) = match &mut self.engine {
+            Some(EngineMode::Inline(engine)) => {
+                // The running values (ROS 2 parameter changes included) against the new ones.
+                let changes = crate::node_config::setting_changes(
+                    (engine.config(), &self.stations),
+                    (&config, &stations),
+                );
+                (engine.reload(config, stations.clone(), &blocks)?, changes)
+            }
             Some(EngineMode::Sharded(_)) => anyhow::bail!(
                 "a reload needs one engine shard (--shards 1); restart the node to apply the new configuration"
             ),
             None => anyhow::bail!("the engine has stopped"),
         };
+        self.stations = stations;
+        let known = std::mem::take(&mut self.emit.rocks);
+        self.emit.rocks = rock_statuses(&blocks, &self.emit.overturned, known);
         self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
         self.foreign_pbr_ids = foreign_blocks;
         self.emit.stale_after_s = config.stale_after_s;
         if self.max_ahead_ns.is_some() {
             self.max_ahead_ns = Some((config.plausibility.max_ahead_s * 1e9) as i64);
         }
-        Ok(report)
+        Ok(ReloadOutcome {
+            blocks: blocks_report,
+            changes,
+        })
     }
 
     /// Whether block `pbr_id` is in the catalogue but owned by another partition's node (which
@@ -1060,6 +1113,9 @@ impl NodeRuntime {
                 episode,
                 time_ns,
             });
+        }
+        if let Some(rock) = self.emit.rocks.get_mut(pbr_id) {
+            *rock = RockStatus::new(rock.pbr_id.clone(), rock.station.clone(), false);
         }
         match &mut self.engine {
             Some(EngineMode::Inline(e)) => {
@@ -1151,6 +1207,7 @@ impl NodeRuntime {
         NodeStatus {
             stamp_ns: epoch_utc_ns + now,
             stations,
+            rocks: self.emit.rocks.values().cloned().collect(),
             journal_configured: self.emit.journal.is_some(),
             journal_failures: stats.journal_failures,
             journal_backlog: stats.journal_backlog,

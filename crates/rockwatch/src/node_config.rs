@@ -39,6 +39,106 @@ use rockwatch_core::station_id::StationId;
 
 use rockwatch_core::engine::{EngineConfig, StationConfig};
 
+/// A setting a reload changed: its name as in the file (`engine.alerts.imminent_theta_ratio`,
+/// `[[station]] CI.RRS.00 gain_mps2_per_count`), its old and its new value (as TOML would
+/// write them; `none` for an absent one).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SettingChange {
+    pub setting: String,
+    pub old: String,
+    pub new: String,
+}
+
+/// The settings that differ between the running engine configuration and stations (`old`)
+/// and a reloaded one (`new`): every `[engine]` key (nested tables flattened with dots) and
+/// every key of a `[[station]]` (matched by id; a station added or removed is one change,
+/// `none` on its absent side). In the files' order of keys, stations by id.
+#[must_use]
+pub fn setting_changes(
+    old: (&EngineConfig, &[StationConfig]),
+    new: (&EngineConfig, &[StationConfig]),
+) -> Vec<SettingChange> {
+    let mut changes = Vec::new();
+    diff_values(
+        "engine",
+        ".",
+        &to_json(old.0),
+        &to_json(new.0),
+        &mut changes,
+    );
+    let by_id = |stations: &[StationConfig]| -> BTreeMap<String, serde_json::Value> {
+        stations
+            .iter()
+            .map(|s| (s.id.to_string(), to_json(s)))
+            .collect()
+    };
+    let (before, after) = (by_id(old.1), by_id(new.1));
+    let ids: std::collections::BTreeSet<&String> = before.keys().chain(after.keys()).collect();
+    for id in ids {
+        let name = format!("[[station]] {id}");
+        match (before.get(id), after.get(id)) {
+            (Some(a), Some(b)) => diff_values(&name, " ", a, b, &mut changes),
+            (a, b) => changes.push(SettingChange {
+                setting: name,
+                old: a.map_or("none".into(), |_| "configured".into()),
+                new: b.map_or("none".into(), |_| "configured".into()),
+            }),
+        }
+    }
+    changes
+}
+
+/// A configuration section as JSON (for [`setting_changes`]); the sections serialise with the
+/// files' key names.
+fn to_json<T: serde::Serialize>(section: &T) -> serde_json::Value {
+    serde_json::to_value(section).unwrap_or(serde_json::Value::Null)
+}
+
+/// Appends to `out` every leaf of `old` and `new` under `prefix` whose value differs (a key
+/// joined to `prefix` by `separator`, deeper keys by dots).
+fn diff_values(
+    prefix: &str,
+    separator: &str,
+    old: &serde_json::Value,
+    new: &serde_json::Value,
+    out: &mut Vec<SettingChange>,
+) {
+    use serde_json::Value;
+    match (old, new) {
+        (Value::Object(a), Value::Object(b)) => {
+            let keys: Vec<&String> = a
+                .keys()
+                .chain(b.keys().filter(|k| !a.contains_key(*k)))
+                .collect();
+            for key in keys {
+                let name = format!("{prefix}{separator}{key}");
+                diff_values(
+                    &name,
+                    ".",
+                    a.get(key).unwrap_or(&Value::Null),
+                    b.get(key).unwrap_or(&Value::Null),
+                    out,
+                );
+            }
+        }
+        (a, b) if a != b => out.push(SettingChange {
+            setting: prefix.to_string(),
+            old: setting_text(a),
+            new: setting_text(b),
+        }),
+        _ => {}
+    }
+}
+
+/// A value as the file would write it (a string unquoted, an absent value `none`).
+fn setting_text(value: &serde_json::Value) -> String {
+    match value {
+        serde_json::Value::Null => "none".into(),
+        serde_json::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
 /// A parsed configuration file.
 #[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -197,6 +297,39 @@ pub fn partition_map(count: u32, assign: &BTreeMap<String, u32>) -> Result<Parti
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn setting_changes_name_each_changed_key_old_and_new() {
+        let old = EngineConfig::default();
+        let mut new = old;
+        new.alerts.imminent_theta_ratio = 0.5;
+        let station = |gain: Option<f64>| {
+            let mut s = StationConfig::default_for(StationId::parse("XB.ONE.00").unwrap());
+            s.gain_mps2_per_count = gain;
+            s
+        };
+        let two = StationConfig::default_for(StationId::parse("XB.TWO.00").unwrap());
+        let changes = setting_changes(
+            (&old, &[station(None)]),
+            (&new, &[station(Some(2e-6)), two]),
+        );
+        let text: Vec<String> = changes
+            .iter()
+            .map(|c| format!("{} {} → {}", c.setting, c.old, c.new))
+            .collect();
+        assert_eq!(
+            text,
+            [
+                format!(
+                    "engine.alerts.imminent_theta_ratio {} → 0.5",
+                    old.alerts.imminent_theta_ratio
+                ),
+                "[[station]] XB.ONE.00 gain_mps2_per_count none → 2e-6".to_string(),
+                "[[station]] XB.TWO.00 none → configured".to_string(),
+            ]
+        );
+        assert!(setting_changes((&old, &[]), (&old, &[])).is_empty());
+    }
 
     /// Loads `text` as a file; the error as its message.
     fn load(text: &str) -> Result<NodeConfig, String> {

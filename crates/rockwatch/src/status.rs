@@ -8,7 +8,9 @@
 //!
 //! The judgement (one policy, used by both outputs):
 //! - a station: **STALE** while no data arrive for `engine.stale_after_s`; **ERROR** if packets
-//!   were rejected (invalid or implausible) since the last report; **WARN** if samples were
+//!   were rejected (invalid or implausible) since the last report; **NO DATA YET** while no
+//!   packet of it has been accepted since the node started (and `engine.stale_after_s` has not
+//!   passed: then it is STALE); **WARN** if samples were
 //!   clipped, a gap broke the stream or samples were missing since the last report, or its
 //!   last packet arrived more than [`LATENCY_WARN_S`] after its last sample; else **OK**;
 //! - the journal: **ERROR** while records wait for a failing state directory or were lost;
@@ -20,8 +22,11 @@
 use std::collections::HashMap;
 use std::fmt::Write as _;
 
+use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::StationHealth;
 use rockwatch_core::utc::format_utc_ns;
+
+use crate::wire_codes::mode_code;
 
 /// A station whose last packet arrived this long after its last sample (s) is WARN.
 pub const LATENCY_WARN_S: f64 = 10.0;
@@ -29,13 +34,20 @@ pub const LATENCY_WARN_S: f64 = 10.0;
 /// Real-time factor under which the engine is WARN (it keeps up, but with little margin).
 pub const MARGIN_WARN: f64 = 2.0;
 
-/// `diagnostic_msgs/DiagnosticStatus` levels (OK=0, WARN=1, ERROR=2, STALE=3).
+/// The judgement of an item. Its discriminant is its code on `/metrics`
+/// (`rockwatch_station_status`): the `diagnostic_msgs/DiagnosticStatus` levels (OK=0, WARN=1,
+/// ERROR=2, STALE=3), and 4 for a station never heard from ([`Level::NoDataYet`]), which
+/// `/diagnostics` can only carry as STALE ([`Level::diagnostic_level`]) with its own message
+/// and `health` value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Level {
     Ok = 0,
     Warn = 1,
     Error = 2,
     Stale = 3,
+    /// No packet accepted since the node started, and `engine.stale_after_s` not yet passed:
+    /// nothing is known of the station (it is not OK, and not yet stale).
+    NoDataYet = 4,
 }
 
 impl Level {
@@ -46,7 +58,26 @@ impl Level {
             Level::Warn => "WARN",
             Level::Error => "ERROR",
             Level::Stale => "STALE",
+            Level::NoDataYet => "NO DATA YET",
         }
+    }
+
+    /// The `diagnostic_msgs/DiagnosticStatus` level byte (OK=0, WARN=1, ERROR=2, STALE=3): a
+    /// station with no data yet is STALE there (diagnostic_msgs' level for an item without
+    /// data); its message and `health` value say which.
+    #[must_use]
+    pub fn diagnostic_level(self) -> u8 {
+        match self {
+            Level::NoDataYet => Level::Stale as u8,
+            other => other as u8,
+        }
+    }
+
+    /// The code of `rockwatch_station_status` on `/metrics` (0 OK, 1 WARN, 2 ERROR, 3 STALE,
+    /// 4 NO DATA YET).
+    #[must_use]
+    pub fn metrics_code(self) -> u8 {
+        self as u8
     }
 }
 
@@ -74,12 +105,69 @@ pub struct StationStatus {
     pub last_alert: Option<AlertLatency>,
 }
 
+/// One rock (catalogue block) as the engine's states and alerts last described it: the
+/// per-rock series of `/metrics`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RockStatus {
+    pub pbr_id: String,
+    /// Its station (`NET.STA.LOC`).
+    pub station: String,
+    /// Its mode (on `/metrics` as its `pbr_msgs/PbrState` wire code, [`crate::wire_codes`]).
+    pub mode: Mode,
+    /// |θ/α| of its last state or alert (dimensionless; 1 is the static overturning angle).
+    pub theta_over_alpha: f64,
+    /// The largest |θ/α| of its current motion, or of its last one while it is at rest
+    /// (dimensionless; 0 if it has not moved since the node started). Taken from the states
+    /// (every mode change and every `engine.state_interval_s` while it moves) and alerts.
+    pub peak_theta_over_alpha: f64,
+    /// Its station is stale: the rock is not monitored.
+    pub not_monitored: bool,
+}
+
+impl RockStatus {
+    /// A rock standing at rest (or fallen, `overturned`), before any state of this run.
+    #[must_use]
+    pub fn new(pbr_id: String, station: String, overturned: bool) -> RockStatus {
+        RockStatus {
+            pbr_id,
+            station,
+            mode: if overturned {
+                Mode::Overturned
+            } else {
+                Mode::Rest
+            },
+            theta_over_alpha: 0.0,
+            peak_theta_over_alpha: 0.0,
+            not_monitored: false,
+        }
+    }
+
+    /// Takes in one state or alert: its `mode` and signed `theta_over_alpha` (a motion that
+    /// starts from rest starts a new peak); `not_monitored` from a state (an alert: None).
+    pub fn observe(&mut self, mode: Mode, theta_over_alpha: f64, not_monitored: Option<bool>) {
+        let magnitude = theta_over_alpha.abs();
+        if self.mode == Mode::Rest && mode != Mode::Rest {
+            self.peak_theta_over_alpha = 0.0;
+        }
+        if magnitude.is_finite() {
+            self.theta_over_alpha = magnitude;
+            self.peak_theta_over_alpha = self.peak_theta_over_alpha.max(magnitude);
+        }
+        self.mode = mode;
+        if let Some(flag) = not_monitored {
+            self.not_monitored = flag;
+        }
+    }
+}
+
 /// The node's status at one instant.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NodeStatus {
     /// UTC (ns) of the report.
     pub stamp_ns: i64,
     pub stations: Vec<StationStatus>,
+    /// The node's rocks, in id order.
+    pub rocks: Vec<RockStatus>,
     /// A state directory is configured.
     pub journal_configured: bool,
     pub journal_failures: u64,
@@ -211,6 +299,13 @@ impl NodeStatus {
                         .filter(|s| s.level == Level::Stale)
                         .count(),
                 ),
+                kv(
+                    "stations_no_data_yet",
+                    self.stations
+                        .iter()
+                        .filter(|s| s.level == Level::NoDataYet)
+                        .count(),
+                ),
             ],
         });
         for s in &self.stations {
@@ -219,6 +314,7 @@ impl NodeStatus {
                 v.map_or(String::new(), |x| format!("{x:.digits$}"))
             };
             let mut values = vec![
+                kv("health", s.level.as_str()),
                 kv("data_latency_s", opt(s.data_latency_s, 3)),
                 kv("seconds_since_last_packet", opt(s.silent_s, 3)),
                 kv(
@@ -235,6 +331,7 @@ impl NodeStatus {
                 kv("gaps_broken", h.gaps_broken),
                 kv("missing_samples", h.missing_samples),
                 kv("late_packets", h.late_packets),
+                kv("duplicate_packets", h.duplicate_packets),
                 kv("blocks", h.blocks),
                 kv("monitored", h.monitored),
                 kv("stale_events", h.stale_events),
@@ -332,9 +429,9 @@ impl NodeStatus {
         };
         metric(
             "station_status",
-            "0 OK, 1 WARN, 2 ERROR, 3 STALE",
+            "0 OK, 1 WARN, 2 ERROR, 3 STALE, 4 NO DATA YET (no packet since the start)",
             "gauge",
-            &per(&|s| Some(f64::from(s.level as u8))),
+            &per(&|s| Some(f64::from(s.level.metrics_code()))),
         );
         metric(
             "station_monitored",
@@ -397,6 +494,18 @@ impl NodeStatus {
             &per(&|s| Some(s.health.missing_samples as f64)),
         );
         metric(
+            "station_late_packets_total",
+            "Packets that arrived after later data had been processed (dropped wholly or partly)",
+            "counter",
+            &per(&|s| Some(s.health.late_packets as f64)),
+        );
+        metric(
+            "station_duplicate_packets_total",
+            "Packets whose every sample had been processed already (dropped)",
+            "counter",
+            &per(&|s| Some(s.health.duplicate_packets as f64)),
+        );
+        metric(
             "station_stale_events_total",
             "Times the station went stale",
             "counter",
@@ -413,6 +522,45 @@ impl NodeStatus {
             "Last alert: arrival to published",
             "gauge",
             &per(&|s| s.last_alert.map(|a| a.arrival_to_published_s)),
+        );
+        let rock = |f: &dyn Fn(&RockStatus) -> f64| -> Vec<(String, f64)> {
+            self.rocks
+                .iter()
+                .map(|r| {
+                    (
+                        format!(
+                            "{{pbr=\"{}\",station=\"{}\"}}",
+                            label(&r.pbr_id),
+                            label(&r.station)
+                        ),
+                        f(r),
+                    )
+                })
+                .collect()
+        };
+        metric(
+            "rock_state",
+            "Mode, as pbr_msgs/PbrState: 0 rest, 1 slide, 2 rock, 3 slide-rock, 4 overturned, 5 flight",
+            "gauge",
+            &rock(&|r| f64::from(mode_code(r.mode))),
+        );
+        metric(
+            "rock_theta_over_alpha",
+            "|theta|/alpha of the last state (1 = static overturning angle)",
+            "gauge",
+            &rock(&|r| r.theta_over_alpha),
+        );
+        metric(
+            "rock_peak_theta_over_alpha",
+            "Largest |theta|/alpha of the current motion, or of the last one while at rest",
+            "gauge",
+            &rock(&|r| r.peak_theta_over_alpha),
+        );
+        metric(
+            "rock_not_monitored",
+            "1 while the rock's station is stale (the rock is not monitored)",
+            "gauge",
+            &rock(&|r| b(r.not_monitored)),
         );
         out
     }
@@ -493,6 +641,15 @@ impl StatusBuilder {
                     new(3)
                 ),
             )
+        } else if health.last_arrival_ns.is_none() {
+            (
+                Level::NoDataYet,
+                format!(
+                    "no data yet: no packet since the node started; its {} blocks wait for \
+                     their first data (stale after engine.stale_after_s)",
+                    health.blocks
+                ),
+            )
         } else if data_latency_s.is_some_and(|l| l > LATENCY_WARN_S) {
             (
                 Level::Warn,
@@ -501,8 +658,6 @@ impl StatusBuilder {
                     data_latency_s.unwrap_or(0.0)
                 ),
             )
-        } else if health.packets == 0 {
-            (Level::Ok, "waiting for data".into())
         } else {
             (Level::Ok, "receiving data".into())
         };
@@ -575,6 +730,33 @@ mod tests {
     }
 
     #[test]
+    fn a_station_never_heard_from_has_no_data_yet_until_it_is_stale() {
+        let mut b = StatusBuilder::default();
+        let mut h = health("XX.A.00");
+        (h.last_arrival_ns, h.last_sample_ns, h.packets) = (None, None, 0);
+        let s = b.station(h.clone(), 6_000_000_000, 0, None);
+        assert_eq!(s.level, Level::NoDataYet);
+        assert_eq!(s.level.diagnostic_level(), Level::Stale as u8);
+        assert_eq!(s.level.metrics_code(), 4);
+        assert!(s.message.starts_with("no data yet"), "{}", s.message);
+        h.monitored = false;
+        assert_eq!(b.station(h, 90_000_000_000, 0, None).level, Level::Stale);
+    }
+
+    #[test]
+    fn a_rock_keeps_the_peak_of_its_last_motion_until_it_moves_again() {
+        let mut r = RockStatus::new("r".into(), "XX.A.00".into(), false);
+        r.observe(Mode::Rock, -0.4, None);
+        r.observe(Mode::Rock, 0.2, Some(false));
+        r.observe(Mode::Rest, 0.0, Some(false));
+        assert_eq!((r.theta_over_alpha, r.peak_theta_over_alpha), (0.0, 0.4));
+        r.observe(Mode::Rest, 0.0, Some(true));
+        assert!(r.not_monitored);
+        r.observe(Mode::Slide, 0.1, None);
+        assert_eq!((r.mode, r.peak_theta_over_alpha), (Mode::Slide, 0.1));
+    }
+
+    #[test]
     fn prometheus_text_has_help_type_and_labelled_samples() {
         let mut b = StatusBuilder::default();
         let station = b.station(
@@ -586,6 +768,7 @@ mod tests {
         let status = NodeStatus {
             stamp_ns: 0,
             stations: vec![station],
+            rocks: vec![RockStatus::new("r\\1".into(), "XX.\"Q\".00".into(), false)],
             journal_configured: true,
             journal_failures: 0,
             journal_backlog: 0,
@@ -606,6 +789,10 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("rockwatch_engine_realtime_factor 12.5\n"));
+        assert!(
+            text.contains("rockwatch_rock_state{pbr=\"r\\\\1\",station=\"XX.\\\"Q\\\".00\"} 0\n"),
+            "{text}"
+        );
         let items = status.items();
         assert_eq!(items.len(), 4);
         assert_eq!(items[3].hardware_id, "XX.\"Q\".00");

@@ -8,7 +8,7 @@ use anyhow::{bail, Context};
 use rockwatch::number_text::short_number;
 use rockwatch_core::hazard::{
     canonical_im, fragility_from_json, overturn_rate, parse_openquake_csv, parse_two_column_csv,
-    HazardCurve, ImUnit,
+    HazardCurve, ImUnit, Site, SiteSelection,
 };
 
 use super::OutputFormat;
@@ -47,9 +47,27 @@ pub struct HazardArgs {
     /// lacks it (if both are given they must agree).
     #[arg(long = "investigation-time", value_name = "Y")]
     investigation_time: Option<f64>,
-    /// Row (0-based) of the site in an OpenQuake file with several sites.
-    #[arg(long, default_value_t = 0, value_name = "N")]
-    site: usize,
+    /// Row (0-based) of the site in an OpenQuake file with several sites (default 0; or
+    /// --lon/--lat).
+    #[arg(long, value_name = "N", conflicts_with_all = ["lon", "lat"])]
+    site: Option<usize>,
+    /// Longitude (degrees) of the rock: the OpenQuake file's nearest site (great-circle
+    /// distance, said in the output) is used. With --lat.
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "lat",
+        allow_negative_numbers = true
+    )]
+    lon: Option<f64>,
+    /// Latitude (degrees) of the rock, with --lon.
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "lon",
+        allow_negative_numbers = true
+    )]
+    lat: Option<f64>,
     /// Exposure ages T (years), comma-separated: prints exp(−λT) for each.
     #[arg(
         long = "age-years",
@@ -72,7 +90,11 @@ fn read_curve(args: &HazardArgs, text: &str, name: &str) -> anyhow::Result<Hazar
             .lines()
             .any(|l| l.trim_start().starts_with("lon,lat,depth"));
     if openquake {
-        let curve = parse_openquake_csv(text, name, args.site, args.investigation_time)?;
+        let site = match (args.lon, args.lat) {
+            (Some(lon), Some(lat)) => SiteSelection::Nearest { lon, lat },
+            _ => SiteSelection::Row(args.site.unwrap_or(0)),
+        };
+        let curve = parse_openquake_csv(text, name, site, args.investigation_time)?;
         if let Some(imt) = &curve.imt {
             if canonical_im(imt) != canonical_im(&args.im) {
                 bail!("{name}: the hazard curve is for {imt}, not {}", args.im);
@@ -92,6 +114,12 @@ fn read_curve(args: &HazardArgs, text: &str, name: &str) -> anyhow::Result<Hazar
     } else {
         if args.investigation_time.is_some() {
             bail!("--investigation-time applies to OpenQuake files; {name} has annual rates");
+        }
+        if args.site.is_some() || args.lon.is_some() {
+            bail!(
+                "--site and --lon/--lat choose a site of an OpenQuake file; {name} is one \
+                 site's two-column curve"
+            );
         }
         let unit = args.hazard_unit.as_deref().with_context(|| {
             format!(
@@ -146,6 +174,7 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
                 "hazard_unit": curve.unit.to_string(),
                 "hazard_to_fragility_factor": factor,
                 "hazard_levels": curve.levels.len(),
+                "site": curve.site.map(|site| site_json(&site, &args)),
             });
             outln!("{}", serde_json::to_string_pretty(&json)?);
         }
@@ -160,7 +189,7 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
             );
             let site = curve
                 .site
-                .map(|(lon, lat)| format!(", site {lon}, {lat}"))
+                .map(|site| site_text(&site, &args))
                 .unwrap_or_default();
             outln!(
                 // The unit factor is exact (9.80665 = g by definition): printed whole.
@@ -201,6 +230,33 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The site of an OpenQuake curve in the `hazard` line: `, site 2 of 3 at -118.5, 34.3`, and
+/// for the nearest to --lon/--lat `, the nearest to -118.48, 34.28 (1.234 km)`.
+fn site_text(site: &Site, args: &HazardArgs) -> String {
+    let mut text = format!(
+        ", site {} of {} at {}, {}",
+        site.row, site.rows, site.lon, site.lat
+    );
+    if let (Some(d), Some(lon), Some(lat)) = (site.distance_km, args.lon, args.lat) {
+        text += &format!(", the nearest to {lon}, {lat} ({} km)", short_number(d));
+    }
+    text
+}
+
+/// The site of an OpenQuake curve in the JSON: its row (0-based) among `rows`, lon, lat
+/// (degrees), and with --lon/--lat the point asked for and its distance to the site (km).
+fn site_json(site: &Site, args: &HazardArgs) -> serde_json::Value {
+    serde_json::json!({
+        "row": site.row,
+        "rows": site.rows,
+        "lon": site.lon,
+        "lat": site.lat,
+        "requested_lon": args.lon,
+        "requested_lat": args.lat,
+        "distance_km": site.distance_km,
+    })
 }
 
 /// An age as a JSON key: `10000`, `12500.5`.

@@ -125,7 +125,12 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
             None => "DDS Security off".into(),
         }
     );
-    if let Some(warning) = plan.exposure_warning() {
+    let partition = options
+        .config
+        .partitioning()
+        .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
+        .map(|(partition, _)| partition);
+    if let Some(warning) = plan.exposure_warning(&naming, partition)? {
         tracing::warn!("{warning}");
     }
     if plan.security.is_some() {
@@ -200,12 +205,26 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     let report = serve_supervised(&options, &plan, &stop, &mut [&mut notifier], supervision)?;
     for r in notifier.shutdown(STOP_GRACE) {
         tracing::info!(
+            receiver = r.name.as_str(),
+            delivered = r.delivered,
+            failed_attempts = r.failed_attempts,
+            queue_overflows = r.overflows,
+            spool_errors = r.spool_errors,
+            undelivered = r.pending,
             "notify {}: {} delivered, {} failed attempts, {} queue overflows, {} spool errors, {} undelivered (kept for the next start)",
             r.name, r.delivered, r.failed_attempts, r.overflows, r.spool_errors, r.pending
         );
     }
     let fallen = report.summaries.iter().filter(|s| s.overturned).count();
+    // The stop counters: in the message for a reader, and as fields for a log shipper
+    // (--log-format json).
     tracing::info!(
+        ros2_packets = report.ros2_packets,
+        ros2_undecodable = report.ros2_decode_errors,
+        ros2_rebuilds = report.ros2_rebuilds,
+        ros2_redelivered = report.ros2_redelivered,
+        blocks = report.summaries.len(),
+        overturned = fallen,
         "stopped: {} packets received over ROS 2 ({} undecodable, {} participant rebuilds, {} redelivered and skipped), {} blocks, {} overturned",
         report.ros2_packets,
         report.ros2_decode_errors,
@@ -216,6 +235,15 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     );
     let input = report.input;
     tracing::info!(
+        packets = input.packets,
+        rejected = input.rejected_packets,
+        implausible = input.implausible_packets,
+        future = input.future_packets,
+        malformed_station = input.malformed_station_packets,
+        unknown_station = input.unknown_station_packets,
+        duplicate = input.duplicate_packets,
+        late = input.late_packets,
+        grid_rewinds = input.grid_rewinds,
         "engine input: {} packets, {} rejected as invalid ({} beyond the physical bound), {} stamped too far ahead (not processed), {} with a malformed station id, {} from unknown stations, {} duplicate, {} late, {} time-grid rewinds",
         input.packets,
         input.rejected_packets,
@@ -228,11 +256,20 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         input.grid_rewinds
     );
     if let Some(iox) = report.iox {
+        let rejected = iox.rejected_count_mismatch
+            + iox.rejected_station
+            + iox.rejected_structure
+            + iox.rejected_values;
         tracing::info!(
+            iox_received = iox.received,
+            iox_submitted = iox.submitted,
+            iox_rejected = rejected,
+            iox_sequence_gaps = iox.sequence_gaps,
+            iox_dead_publishers_cleaned = iox.dead_nodes_cleaned,
             "iceoryx2: {} packets received, {} submitted, {} rejected, {} sequence gaps, {} dead publishers cleaned",
             iox.received,
             iox.submitted,
-            iox.rejected_count_mismatch + iox.rejected_station + iox.rejected_structure + iox.rejected_values,
+            rejected,
             iox.sequence_gaps,
             iox.dead_nodes_cleaned
         );
@@ -240,6 +277,10 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
     let stats = report.stats;
     if stats.journal_failures > 0 {
         tracing::warn!(
+            journal_failed_writes = stats.journal_failures,
+            journal_pending_alerts = stats.journal_pending_alerts,
+            journal_backlog = stats.journal_backlog,
+            journal_lost = stats.journal_dropped,
             "state directory: {} failed writes, {} alerts published before they could be journaled, {} records still not journaled, {} lost (backlog full)",
             stats.journal_failures,
             stats.journal_pending_alerts,

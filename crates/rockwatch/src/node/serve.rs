@@ -580,8 +580,21 @@ fn apply_reload(runtime: &mut NodeRuntime, ros2: &mut Ros2Node, supervision: &mu
         )),
     };
     match result {
-        Ok((report, engine)) => {
+        Ok((outcome, engine)) => {
             ros2.set_engine_parameters(&engine);
+            // Each changed setting, old → new (one record each: fields setting, old, new).
+            for c in &outcome.changes {
+                tracing::info!(
+                    setting = c.setting.as_str(),
+                    old = c.old.as_str(),
+                    new = c.new.as_str(),
+                    "reload: {} {} → {}",
+                    c.setting,
+                    c.old,
+                    c.new
+                );
+            }
+            let report = &outcome.blocks;
             let list = |ids: &[String]| {
                 if ids.is_empty() {
                     String::new()
@@ -590,7 +603,13 @@ fn apply_reload(runtime: &mut NodeRuntime, ros2: &mut Ros2Node, supervision: &mu
                 }
             };
             tracing::info!(
-                "reloaded: {} blocks kept with their state, {} new at rest{}, {} changed and at rest again{}, {} dropped{}",
+                settings_changed = outcome.changes.len(),
+                blocks_kept = report.kept.len(),
+                blocks_added = report.added.len(),
+                blocks_replaced = report.replaced.len(),
+                blocks_dropped = report.dropped.len(),
+                "reloaded: {} settings changed; {} blocks kept with their state, {} new at rest{}, {} changed and at rest again{}, {} dropped{}",
+                outcome.changes.len(),
                 report.kept.len(),
                 report.added.len(),
                 list(&report.added),

@@ -73,7 +73,7 @@ impl From<StatusReport> for DiagnosticArray {
                 .items
                 .into_iter()
                 .map(|item| DiagnosticStatus {
-                    level: item.level as u8,
+                    level: item.level.diagnostic_level(),
                     name: format!("{}: {}", report.prefix, item.name),
                     message: item.message,
                     hardware_id: item.hardware_id,

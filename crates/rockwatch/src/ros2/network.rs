@@ -5,7 +5,10 @@
 
 use std::net::{IpAddr, Ipv4Addr};
 
+use rockwatch_core::partition::Partition;
+
 use super::config::{DiscoveryRange, Ros2Config};
+use super::names::{accel_topic, Naming, ALERTS_TOPIC, RESET_SERVICE};
 use super::security::{security_from_env, DdsSecurity, SecurityError};
 
 /// Which DDS domain and interfaces a participant uses.
@@ -31,16 +34,27 @@ impl NetworkPlan {
 
     /// The line `rockwatch node` prints at start when its participant is reachable from other
     /// hosts without DDS Security (anyone there can publish packets and reset blocks), if so.
-    #[must_use]
-    pub fn exposure_warning(&self) -> Option<String> {
-        (self.security.is_none() && self.beyond_localhost()).then(|| {
+    /// It names the node's topics and service as `naming` resolves them (namespace and remaps),
+    /// the input topic being `partition`'s ([`accel_topic`]). Error: a name does not resolve.
+    pub fn exposure_warning(
+        &self,
+        naming: &Naming,
+        partition: Option<Partition>,
+    ) -> anyhow::Result<Option<String>> {
+        if self.security.is_some() || !self.beyond_localhost() {
+            return Ok(None);
+        }
+        let accel = naming.resolve(&accel_topic(partition))?;
+        let reset = naming.resolve(RESET_SERVICE)?;
+        let alerts = naming.resolve(ALERTS_TOPIC)?;
+        Ok(Some(format!(
             "DDS Security is off and the node listens beyond localhost: \
-             any host that reaches these interfaces can publish /pbr/accel packets, reset \
-             blocks and read alerts. Enable SROS2 (launch-scripts/keystore.sh, \
-             ROS_SECURITY_ENABLE=true, ROS_SECURITY_KEYSTORE, ROS_SECURITY_STRATEGY=Enforce) or \
-             keep DDS on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)"
-                .to_owned()
-        })
+             any host that reaches these interfaces can publish {accel} packets, reset \
+             blocks ({reset}) and read alerts ({alerts}). Enable SROS2 \
+             (launch-scripts/keystore.sh, ROS_SECURITY_ENABLE=true, ROS_SECURITY_KEYSTORE, \
+             ROS_SECURITY_STRATEGY=Enforce) or keep DDS on loopback \
+             (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)"
+        )))
     }
 }
 
@@ -146,23 +160,37 @@ mod tests {
 
     #[test]
     fn unsecured_participants_beyond_localhost_are_warned_about() {
+        let naming = Naming::default();
+        let warning = |plan: &NetworkPlan| plan.exposure_warning(&naming, None).unwrap();
         let mut plan = network_plan(&Ros2Config::default(), None, Some("LOCALHOST")).unwrap();
-        assert!(plan.exposure_warning().is_none());
+        assert!(warning(&plan).is_none());
         plan.only_networks = None;
-        assert!(plan
-            .exposure_warning()
-            .unwrap()
-            .contains("beyond localhost"));
+        let text = warning(&plan).unwrap();
+        assert!(text.contains("beyond localhost"), "{text}");
+        assert!(text.contains("publish /pbr/accel packets"), "{text}");
         plan.only_networks = Some(vec![
             "127.0.0.1".parse().unwrap(),
             "10.0.0.5".parse().unwrap(),
         ]);
-        assert!(plan.exposure_warning().is_some());
+        assert!(warning(&plan).is_some());
+        // In a namespace, partitioned: the names the node really uses.
+        let site = Naming::new("/site_a", "rockwatch", Vec::new()).unwrap();
+        let text = plan
+            .exposure_warning(&site, Some(Partition::new(1, 3).unwrap()))
+            .unwrap()
+            .unwrap();
+        assert!(
+            text.contains("publish /site_a/pbr/accel/p1of3 packets")
+                && text.contains("(/site_a/pbr/reset)")
+                && text.contains("(/site_a/pbr/alerts)")
+                && !text.contains(" /pbr/"),
+            "{text}"
+        );
         plan.security = Some(DdsSecurity {
             enclave: "/rockwatch/node".into(),
             dir: "/k/enclaves/rockwatch/node".into(),
         });
-        assert!(plan.exposure_warning().is_none());
+        assert!(warning(&plan).is_none());
     }
 
     #[test]

@@ -54,6 +54,10 @@ impl Ros2Session {
         if let Some(networks) = &plan.only_networks {
             builder = builder.with_only_networks(networks.iter().copied());
         }
+        if !plan.beyond_localhost() {
+            // RustDDS's warnings that a loopback-only participant makes expected: at debug.
+            crate::logging::expect(crate::logging::Expectation::LoopbackOnlyDds);
+        }
         if let Some(security) = &plan.security {
             // The SROS2 file names; keys are not encrypted (RustDDS reads no encrypted key).
             builder = builder.builtin_security(
