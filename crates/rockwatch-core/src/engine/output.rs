@@ -67,7 +67,8 @@ pub struct Alert {
     /// Slip of the contact point u (m).
     pub slide_m: f64,
     pub overturn_probability: f64,
-    /// Station's running PGA and PGV, larger horizontal component (m/s², m/s).
+    /// Station's running PGA (m/s²), the peak of the horizontal vector (orientation-
+    /// independent, = RotD100), and PGV (m/s), the larger horizontal component's.
     pub pga_mps2: f64,
     pub pgv_mps: f64,
     /// UTC time of the triggering sample (ns).
@@ -119,7 +120,9 @@ pub struct PbrState {
 pub struct StationIntensity {
     pub station: String,
     pub data_time_ns: i64,
-    /// Larger of the two horizontal components (m/s², m/s, m, m/s, m/s).
+    /// PGA (m/s²): the peak of the horizontal vector |(a_E, a_N)| (orientation-independent;
+    /// = RotD100); PGV, PGD, CAV, Arias: the larger of the two horizontal components (m/s, m,
+    /// m/s, m/s).
     pub pga_mps2: f64,
     pub pgv_mps: f64,
     pub pgd_m: f64,

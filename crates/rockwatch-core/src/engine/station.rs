@@ -43,8 +43,13 @@ pub(crate) struct StationRuntime {
     pub(crate) name: String,
     sequencer: Sequencer,
     /// Running intensity measures of the east and north components (the published values
-    /// are the larger horizontal's; no vertical measure is published, so none is kept).
+    /// are the larger horizontal's, but PGA; no vertical measure is published, so none is
+    /// kept).
     ims: Option<[RunningIms; 2]>,
+    /// The published PGA (m/s²): the peak of the horizontal vector, max |(a_E, a_N)| over the
+    /// intensity window — independent of the sensor's orientation, and equal to RotD100 of
+    /// PGA (the peak over every rotation of the largest component).
+    peak_horizontal_mps2: f64,
     last: Option<Sample>,
     pub(crate) pbrs: Vec<PbrRuntime>,
     /// The blocks at rest that share one rest check per sample.
@@ -83,6 +88,7 @@ impl StationRuntime {
             config,
             sequencer: Sequencer::new(stream),
             ims: None,
+            peak_horizontal_mps2: 0.0,
             last: None,
             pbrs,
             quiet_since_ns: None,
@@ -297,6 +303,7 @@ impl StationRuntime {
             self.rest = RestGroup::continuing(&old.rest, limits);
             self.sequencer = old.sequencer;
             self.ims = old.ims;
+            self.peak_horizontal_mps2 = old.peak_horizontal_mps2;
             self.last = old.last;
             self.quiet_since_ns = old.quiet_since_ns;
             self.last_intensity_ns = old.last_intensity_ns;
@@ -392,6 +399,7 @@ impl StationRuntime {
                     (Ok(e), Ok(n)) => Some([e, n]),
                     _ => None,
                 };
+                self.peak_horizontal_mps2 = 0.0;
                 self.input_discontinuity();
             }
             Gap::None => {}
@@ -481,10 +489,11 @@ impl StationRuntime {
         Some(Sample { east, north, up })
     }
 
-    /// Larger of the horizontal components' running PGA and PGV.
+    /// The running PGA, the peak of the horizontal vector (orientation-independent), and the
+    /// running PGV, the larger horizontal component's.
     fn horizontal_pga_pgv(&self) -> (f64, f64) {
         self.ims.as_ref().map_or((0.0, 0.0), |[e, n]| {
-            (e.pga_mps2().max(n.pga_mps2()), e.pgv_mps().max(n.pgv_mps()))
+            (self.peak_horizontal_mps2, e.pgv_mps().max(n.pgv_mps()))
         })
     }
 
@@ -573,6 +582,7 @@ impl StationRuntime {
         if let Some([e, n]) = &mut self.ims {
             e.push(s.east);
             n.push(s.north);
+            self.peak_horizontal_mps2 = self.peak_horizontal_mps2.max(s.east.hypot(s.north));
         }
     }
 
@@ -626,6 +636,7 @@ impl StationRuntime {
                 || window_s > MAX_INTENSITY_WINDOW_S
             {
                 ims.iter_mut().for_each(RunningIms::reset);
+                self.peak_horizontal_mps2 = 0.0;
             }
         }
     }
