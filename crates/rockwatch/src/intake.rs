@@ -92,8 +92,6 @@ struct Count {
 #[derive(Debug)]
 pub struct WriterCounts {
     counts: HashMap<[u8; 16], Count>,
-    /// Slots of forgotten writers, to reuse.
-    free: Vec<Source>,
     /// Slots never used yet: `next..MAX_WRITERS`.
     next: usize,
     tally: Arc<SourceTally>,
@@ -132,7 +130,6 @@ impl WriterCounts {
         let now = Instant::now();
         WriterCounts {
             counts: HashMap::new(),
-            free: Vec::new(),
             next: 0,
             tally,
             node_id,
@@ -191,30 +188,22 @@ impl WriterCounts {
         Taken::New(count.slot)
     }
 
-    /// A free slot: an unused one, a forgotten writer's, or the least recently heard writer's
-    /// (forgotten now).
+    /// A free slot: one never used, else the least recently heard writer's (forgotten now:
+    /// every slot then belongs to a writer).
     fn slot(&mut self) -> Source {
-        if let Some(slot) = self.free.pop() {
-            return slot;
-        }
-        if let Some(slot) = Source::new(self.next).filter(|_| self.next < MAX_WRITERS) {
+        if let Some(slot) = Source::new(self.next) {
             self.next += 1;
             return slot;
         }
-        let oldest = self
+        let (gid, slot) = self
             .counts
             .iter()
             .min_by_key(|(_, c)| c.last_heard)
-            .map(|(g, c)| (*g, c.slot));
-        match oldest {
-            Some((gid, slot)) => {
-                self.counts.remove(&gid);
-                self.forgotten += 1;
-                slot
-            }
-            // No writer at all yet every slot used: impossible (slots come from writers).
-            None => Source::new(0).unwrap_or_else(|| unreachable!("MAX_SOURCES > 0")),
-        }
+            .map(|(g, c)| (*g, c.slot))
+            .unwrap_or_else(|| unreachable!("all {MAX_WRITERS} slots belong to writers"));
+        self.counts.remove(&gid);
+        self.forgotten += 1;
+        slot
     }
 
     /// Whether a report will be due without any new message (one taken since the last report,
@@ -594,6 +583,33 @@ impl Delivery {
                 )
             })
             .collect()
+    }
+
+    /// The line on why not every node processed every packet sent `on` (a topic, or empty),
+    /// within `wait`; `matched` are the writer's readers now, `reports` where nodes report.
+    #[must_use]
+    pub fn shortfall(
+        &self,
+        matched: &BTreeSet<[u8; 16]>,
+        wait: Duration,
+        on: &str,
+        reports: &str,
+    ) -> String {
+        let (sent, wait) = (self.sent, wait.as_secs_f64());
+        if self.watch.nodes().next().is_none() {
+            let why = if matched.is_empty() {
+                "no subscriber left"
+            } else {
+                "subscribed, silent"
+            };
+            return format!(
+                "sent {sent} packets{on}, but no node reported on {reports} what it took within {wait:.0} s ({why}; is the subscriber a rockwatch node of this version?)"
+            );
+        }
+        format!(
+            "sent {sent} packets{on}, but not every node processed them within {wait:.0} s: {}",
+            self.behind(matched).join("; ")
+        )
     }
 
     /// Readers in `matched` that no node names as its own: subscribers that do not report

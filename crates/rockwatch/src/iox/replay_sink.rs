@@ -158,21 +158,8 @@ impl IoxPacketSink {
             return String::new();
         };
         c.read_reports();
-        let (sent, wait) = (c.delivery.sent, c.wait.as_secs_f64());
-        if c.delivery.watch.nodes().next().is_none() {
-            return format!(
-                "sent {sent} packets, but no node reported on pbr/accel/intake what it took within {wait:.0} s ({}; is the subscriber a rockwatch node of this version?)",
-                if matched.is_empty() {
-                    "no subscriber left"
-                } else {
-                    "subscribed, silent"
-                }
-            );
-        }
-        format!(
-            "sent {sent} packets, but not every node processed them within {wait:.0} s: {}",
-            c.delivery.behind(&matched).join("; ")
-        )
+        c.delivery
+            .shortfall(&matched, c.wait, "", "pbr/accel/intake")
     }
 }
 

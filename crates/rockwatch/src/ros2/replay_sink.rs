@@ -497,31 +497,16 @@ impl Ros2PacketSink {
 
     /// One line on why the nodes of lane `lane` have not processed everything.
     fn shortfall(&mut self, lane: usize) -> String {
-        let wait = self.wait.as_secs_f64();
-        let partitioned = self.map.is_some();
+        let (wait, partitioned) = (self.wait, self.map.is_some());
         self.read_reports();
         let l = &mut self.lanes[lane];
         l.matched_readers();
-        let sent = l.delivery.sent;
-        let whose = if partitioned {
+        let on = if partitioned {
             format!(" on {}", l.topic)
         } else {
             String::new()
         };
-        if l.delivery.watch.nodes().next().is_none() {
-            return format!(
-                "sent {sent} packets{whose}, but no node reported on {INTAKE_TOPIC} what it took within {wait:.0} s ({}; is the subscriber a rockwatch node of this version?)",
-                if l.matched.is_empty() {
-                    "no subscriber left"
-                } else {
-                    "subscribed, silent"
-                }
-            );
-        }
-        format!(
-            "sent {sent} packets{whose}, but not every node processed them within {wait:.0} s: {}",
-            l.delivery.behind(&l.matched).join("; ")
-        )
+        l.delivery.shortfall(&l.matched, wait, &on, INTAKE_TOPIC)
     }
 
     /// One line on every node that refused packets, if any.
