@@ -5,8 +5,8 @@ use std::path::Path;
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::engine::{
-    AccelPacket, AlertLevel, Engine, EngineConfig, NoticeKind, Output, PbrSpec, StationId,
-    StreamConfig,
+    AccelPacket, AlertLevel, Engine, EngineConfig, NoticeKind, Output, PbrSpec, Source,
+    SourceCounts, SourceTally, StationId, StreamConfig,
 };
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions};
@@ -937,6 +937,24 @@ fn a_few_packets_stamped_seconds_ahead_do_not_drop_the_real_data_behind_them() {
     let mut again = Vec::new();
     engine.process(clean[clean.len() - 1].clone(), 0, &mut again);
     assert!(notice(NoticeKind::Dropped, &again), "{again:?}");
+    // … and charged to its sender (issue 20 item 3): the sender of the copy learns that its
+    // packet was dropped, the sender of the original does not.
+    let tally = std::sync::Arc::new(SourceTally::default());
+    engine.set_source_tally(std::sync::Arc::clone(&tally));
+    let (first, second) = (Source::new(0).unwrap(), Source::new(1).unwrap());
+    let mut last = clean[clean.len() - 1].clone();
+    let n = last.len() as i64;
+    last.start_time_ns += n * 10_000_000;
+    last.sequence += 1;
+    engine.process_from(last.clone(), Some(first), 0, &mut again);
+    engine.process_from(last, Some(second), 0, &mut again);
+    let counts = |processed, dropped| SourceCounts {
+        processed,
+        refused: 0,
+        dropped,
+    };
+    assert_eq!(tally.of(first), counts(1, 0));
+    assert_eq!(tally.of(second), counts(1, 1));
 }
 
 /// Finding 6: accelerations beyond the physical bound (default 20 g, after the station's

@@ -113,7 +113,8 @@ fn wire_layouts_match_the_documented_c_layouts() {
         (offset_of!(IntakeIox, window), 80),
         (offset_of!(IntakeIox, node_len), 88),
         (offset_of!(IntakeIox, node), 96),
-        (offset_of!(IntakeIox, reserved), 160),
+        (offset_of!(IntakeIox, dropped), 160),
+        (offset_of!(IntakeIox, reserved), 168),
     ] {
         assert_eq!(offset, expected);
     }

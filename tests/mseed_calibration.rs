@@ -535,7 +535,7 @@ fn replay_of_a_station_the_node_does_not_know_is_refused_before_sending() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
-        err.starts_with("rockwatch: error: station XX.STN. is neither in the [[stations]]")
+        err.starts_with("rockwatch: error: station XX.STN. is neither in the [[station]]")
             && err.contains("unknown station")
             && err.lines().count() == 1,
         "{err}"

@@ -425,3 +425,61 @@ fn a_replay_whose_node_is_paused_longer_than_its_wait_fails_with_one_clean_line(
         "no raw error or packet dump\n{replay_err}"
     );
 }
+
+/// Issue 20 item 3: a replay of data the station already has (here the same record twice; in
+/// the field, a replay onto a live station) lost every packet as duplicate or late, with no
+/// word and exit 0. The second replay exits 1 saying how many of its packets the node dropped
+/// as already processed — every one — and the node's log names the station and the span.
+#[test]
+fn a_replay_of_data_the_station_has_already_exits_1_naming_the_drops() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
+    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let rec = repo().join("tests/data/records/Rinaldi228.AT2");
+    let replay = |n: u8| {
+        format!(
+            "RC=0; '{bin}' replay --config '{c}' --record '{r}' --azimuth 228 --station CI.RRS.00 \
+                 --transport ros2 --restamp original --speed max --wait-s 30 \
+                 > '{d}/replay{n}.out' 2> '{d}/replay{n}.err' || RC=$?; echo REPLAY{n}_RC=$RC",
+            c = config.display(),
+            r = rec.display()
+        )
+    };
+    let script = format!(
+        "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
+         {first}
+         {second}
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?",
+        c = config.display(),
+        first = replay(1),
+        second = replay(2),
+    );
+    let out = run_in_netns(&script, 240, &[]);
+    let (stdout, _) = text(&out);
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap_or_default();
+    let (first_err, second_err, node_err) =
+        (read("replay1.err"), read("replay2.err"), read("node.err"));
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{node_err}");
+    assert!(stdout.contains("REPLAY1_RC=0"), "{stdout}\n{first_err}");
+    assert!(
+        stdout.contains("REPLAY2_RC=1"),
+        "{stdout}\n{}\n{second_err}\n{node_err}",
+        read("replay2.out")
+    );
+    let sent: u64 = read("replay1.out")
+        .split("replayed ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{}", read("replay1.out")));
+    assert!(
+        second_err.contains(&format!(
+            "dropped the samples (all or some) of {sent} as already processed of the {sent} packets sent"
+        )) && second_err.contains("/rockwatch (pid"),
+        "{second_err}"
+    );
+    assert!(
+        node_err.contains("CI.RRS.00: dropped:") && node_err.contains("from 1970-01-01T"),
+        "the node's log names the station and the span\n{node_err}"
+    );
+}

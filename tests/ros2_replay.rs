@@ -4,28 +4,47 @@
 
 mod ros2_util;
 use ros2_util::*;
+use std::path::PathBuf;
+
+/// A node configured with the stations `XX.R0.00`, `XX.R1.00`, … (`stations` of them), and
+/// the catalogue, `extra` appended to its `[ros2]` table. Each replay of a test sends its own
+/// station: the same data twice to one station would be dropped as already processed (and
+/// the replay fail, as `tests/ros2_intake.rs` checks).
+fn node_config_with_stations(dir: &std::path::Path, stations: u64, extra: &str) -> PathBuf {
+    let config = dir.join("node.toml");
+    let mut text = format!(
+        "catalogue = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n{extra}",
+        repo().join("config/catalogue.toml").display()
+    );
+    for i in 0..stations {
+        text.push_str(&format!("[[station]]\nid = \"XX.R{i}.00\"\n"));
+    }
+    std::fs::write(&config, text).unwrap();
+    config
+}
 
 #[test]
 fn replays_at_max_speed_deliver_every_packet_to_the_node() {
     const REPLAYS: u64 = 6;
     let dir = tempfile::tempdir().unwrap();
-    let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
+    let config = node_config_with_stations(dir.path(), REPLAYS, "");
     let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     // Each replay is a new process (a new DDS participant and writer), sent flat out.
     let replay = format!(
-        "'{bin}' replay --config '{}' --record '{}' --azimuth 228 --station CI.RRS.00 \
+        "'{bin}' replay --config '{}' --record '{}' --azimuth 228 --station XX.R$i.00 \
          --transport ros2 --speed max --tail 5 --restamp original --wait-s 30 | sed 's/^/REPLAY /'",
         config.display(),
         rec.display()
     );
     let script = format!(
         "'{bin}' node --config '{}' 2> '{d}/node.err' & NODE=$!
-         for i in $(seq {REPLAYS}); do {replay}; done
+         for i in $(seq 0 {}); do {replay}; done
          sleep 1
          kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
          cat '{d}/node.err' >&2",
-        config.display()
+        config.display(),
+        REPLAYS - 1
     );
     let out = run_in_netns(&script, 180, &[]);
     let (stdout, stderr) = text(&out);
@@ -86,20 +105,12 @@ fn a_replay_whose_node_stops_midway_exits_non_zero() {
 fn ten_concurrent_replays_flat_out_lose_nothing() {
     const REPLAYS: u64 = 10;
     let dir = tempfile::tempdir().unwrap();
-    let config = dir.path().join("node.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "catalogue = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\ninput_depth = 100\n",
-            repo().join("config/catalogue.toml").display()
-        ),
-    )
-    .unwrap();
+    let config = node_config_with_stations(dir.path(), REPLAYS, "input_depth = 100\n");
     let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let replay = |i: u64| {
         format!(
-            "( RC=0; '{bin}' replay --config '{}' --record '{}' --azimuth 228 --station CI.RRS.00 \
+            "( RC=0; '{bin}' replay --config '{}' --record '{}' --azimuth 228 --station XX.R{i}.00 \
              --transport ros2 --speed max --packet-ms 10 --tail 0 --restamp original --wait-s 60 \
              > '{d}/r{i}.out' 2> '{d}/r{i}.err' || RC=$?; echo R{i}_RC=$RC ) & PIDS=\"$PIDS $!\"",
             config.display(),

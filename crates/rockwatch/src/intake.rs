@@ -15,7 +15,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use rockwatch_core::engine::{Source, SourceTally, MAX_SOURCES};
+use rockwatch_core::engine::{Source, SourceCounts, SourceTally, MAX_SOURCES};
 
 /// Most writers a node keeps counts for; beyond, the least recently heard is forgotten.
 pub const MAX_WRITERS: usize = MAX_SOURCES;
@@ -23,7 +23,8 @@ pub const MAX_WRITERS: usize = MAX_SOURCES;
 /// A writer's count is reported once it has grown by this many messages …
 pub const REPORT_EVERY: u64 = 128;
 
-/// … or this long after it last changed (taken, processed or refused), whichever comes first.
+/// … or this long after it last changed (taken, processed, refused or dropped), whichever comes
+/// first.
 pub const REPORT_PERIOD: Duration = Duration::from_millis(10);
 
 /// Every writer heard from within [`REPORT_RECENT`] is reported again this often (for a sender
@@ -65,6 +66,11 @@ pub struct IntakeCount {
     /// Of `processed`, packets refused whole (malformed, implausible, stamped ahead of the
     /// node's clock; each logged by the node, naming its station).
     pub refused: u64,
+    /// Accepted packets whose samples were dropped, wholly or in part, because their station
+    /// had processed them or later data already (duplicate, late or overlapping data; the node
+    /// logs each span, naming the station). New samples of a packet that overlaps in part are
+    /// processed; the packet counts here for its old ones.
+    pub dropped: u64,
     /// Packets the writer may have sent beyond `taken`: the node's input buffer shared among
     /// the writers it heard from within [`REPORT_RECENT`] (at least [`MIN_WINDOW`]).
     pub window: u64,
@@ -75,14 +81,14 @@ struct Count {
     slot: Source,
     /// The tally of `slot` when it was given to this writer (a slot is reused after a writer
     /// is forgotten).
-    tally_base: (u64, u64),
+    tally_base: SourceCounts,
     taken: u64,
     /// Of `taken`, packets of a station the node does not monitor.
     ignored: u64,
     /// Highest sequence number taken.
     last_sn: i64,
-    /// (taken, processed, refused) at the last report.
-    reported: (u64, u64, u64),
+    /// Taken, and the tally since `tally_base`, at the last report.
+    reported: (u64, SourceCounts),
     last_report: Instant,
     last_heard: Instant,
 }
@@ -167,7 +173,7 @@ impl WriterCounts {
                     taken: 0,
                     ignored: 0,
                     last_sn: i64::MIN,
-                    reported: (0, 0, 0),
+                    reported: (0, SourceCounts::default()),
                     last_report: now - REPORT_PERIOD,
                     last_heard: now,
                 },
@@ -221,7 +227,7 @@ impl WriterCounts {
     }
 
     /// Hands `publish` the reports due now, as read by `reader` (the node's reader of the
-    /// writers' packets): a count that changed (taken, processed or refused) [`REPORT_EVERY`]
+    /// writers' packets): a count that changed (taken, processed, refused, dropped) [`REPORT_EVERY`]
     /// messages or [`REPORT_PERIOD`] after its last report (`force`: now), and, every
     /// [`REPORT_REFRESH`], every count heard from within [`REPORT_RECENT`]. Cheap when nothing
     /// is due (one look at the clock): call it after every turn of the event loop.
@@ -251,14 +257,9 @@ impl WriterCounts {
             {
                 continue;
             }
-            let (processed, refused) = self.tally.of(c.slot);
-            let now_counts = (
-                c.taken,
-                processed - c.tally_base.0,
-                refused - c.tally_base.1,
-            );
+            let now_counts = (c.taken, self.tally.of(c.slot).since(c.tally_base));
             let changed = now_counts != c.reported;
-            pending |= now_counts.1 < c.taken;
+            pending |= now_counts.1.processed < c.taken;
             let due = refresh && now.duration_since(c.last_heard) < REPORT_RECENT
                 || changed
                     && (force
@@ -275,8 +276,9 @@ impl WriterCounts {
                 writer: *gid,
                 taken: c.taken,
                 ignored: c.ignored,
-                processed: now_counts.1,
-                refused: now_counts.2,
+                processed: now_counts.1.processed,
+                refused: now_counts.1.refused,
+                dropped: now_counts.1.dropped,
                 window,
             });
             c.reported = now_counts;
@@ -317,6 +319,7 @@ pub struct Intake {
     pub ignored: u64,
     pub processed: u64,
     pub refused: u64,
+    pub dropped: u64,
     /// The window the node grants (0: not said).
     pub window: u64,
 }
@@ -331,6 +334,7 @@ impl Intake {
         self.ignored = self.ignored.max(report.ignored);
         self.processed = self.processed.max(report.processed);
         self.refused = self.refused.max(report.refused);
+        self.dropped = self.dropped.max(report.dropped);
     }
 }
 
@@ -346,7 +350,7 @@ pub struct NodeIntake {
     /// Of the previous writer (after [`IntakeWatch::switch`]), and whether a report about it
     /// came since the switch.
     pub previous: Option<(Intake, bool)>,
-    /// Ignored and refused packets of the writers before the previous one.
+    /// Ignored, refused and dropped packets of the writers before the previous one.
     carried: Intake,
 }
 
@@ -361,6 +365,12 @@ impl NodeIntake {
     #[must_use]
     pub fn refused_total(&self) -> u64 {
         self.carried.refused + self.previous.map_or(0, |(p, _)| p.refused) + self.now.refused
+    }
+
+    /// Packets whose samples were dropped as already processed, over every writer followed.
+    #[must_use]
+    pub fn dropped_total(&self) -> u64 {
+        self.carried.dropped + self.previous.map_or(0, |(p, _)| p.dropped) + self.now.dropped
     }
 }
 
@@ -440,6 +450,7 @@ impl IntakeWatch {
             if let Some((before, _)) = node.previous {
                 node.carried.ignored += before.ignored;
                 node.carried.refused += before.refused;
+                node.carried.dropped += before.dropped;
             }
             node.previous = Some((node.now, false));
             node.now = Intake::default();
@@ -487,6 +498,9 @@ pub struct Delivery {
     /// Packets of the writers before the current one that every node took: the current
     /// writer's k-th message is packet `base + k - 1`.
     pub base: u64,
+    /// Packets sent again to a new writer after a rebuild: a node that had taken them from
+    /// the dead writer drops them as duplicates, up to this many drops are expected.
+    pub resent: u64,
 }
 
 impl Delivery {
@@ -496,6 +510,7 @@ impl Delivery {
             watch: IntakeWatch::new(writer),
             sent: 0,
             base: 0,
+            resent: 0,
         }
     }
 
@@ -542,17 +557,29 @@ impl Delivery {
             .unwrap_or(0)
     }
 
-    /// One phrase per node that refused packets.
+    /// One phrase per node that refused packets or dropped their samples (beyond the
+    /// duplicates of packets [sent again](Delivery::resent)).
     #[must_use]
     pub fn refusals(&self) -> Vec<String> {
+        let dropped = |n: &NodeIntake| n.dropped_total().saturating_sub(self.resent);
         self.watch
             .nodes()
-            .filter(|n| n.refused_total() > 0)
+            .filter(|n| n.refused_total() > 0 || dropped(n) > 0)
             .map(|n| {
+                let mut what = Vec::with_capacity(2);
+                if n.refused_total() > 0 {
+                    what.push(format!("refused {}", n.refused_total()));
+                }
+                if dropped(n) > 0 {
+                    what.push(format!(
+                        "dropped the samples (all or some) of {} as already processed",
+                        dropped(n)
+                    ));
+                }
                 format!(
-                    "{} refused {} of the {} packets sent",
+                    "{} {} of the {} packets sent",
                     n.node,
-                    n.refused_total(),
+                    what.join(" and "),
                     self.sent
                 )
             })
@@ -621,12 +648,12 @@ impl Delivery {
     }
 }
 
-/// The error line of a sender whose packets nodes refused (`lines`: one per node,
+/// The error line of a sender whose packets nodes refused or dropped (`lines`: one per node,
 /// [`Delivery::refusals`]).
 #[must_use]
 pub fn refusal_line(lines: &[String]) -> String {
     format!(
-        "{} (malformed, implausible, or stamped ahead of the node's clock: the node's log names each packet and its station)",
+        "{} (refused: malformed, implausible, or stamped ahead of the node's clock; dropped: the station had that data, or later data, already — a replay onto a live station, or a stream sent twice; the node's log names each packet or span and its station)",
         lines.join("; ")
     )
 }
@@ -643,7 +670,7 @@ pub fn ignored_line(
     let named: Vec<&str> = stations.iter().take(5).copied().collect();
     let more = stations.len().saturating_sub(named.len());
     format!(
-        "the node ignored {ignored} of the {sent} packets sent: it does not monitor their station (neither in its [[stations]] nor bound to a block of its catalogue{}); among {}{} (the node's log names the station: unknown_station)",
+        "the node ignored {ignored} of the {sent} packets sent: it does not monitor their station (neither in its [[station]] nor bound to a block of its catalogue{}); among {}{} (the node's log names the station: unknown_station)",
         if partitioned {
             ", or the station belongs to another partition"
         } else {
@@ -769,6 +796,7 @@ mod tests {
             ignored: 0,
             processed: taken,
             refused: 0,
+            dropped: 0,
             window,
         };
         let mut watch = IntakeWatch::new(gid(1));
@@ -807,9 +835,17 @@ mod tests {
         watch.switch(gid(4));
         let mut later = report(2, 4, 3, 100);
         later.refused = 1;
+        later.dropped = 2;
         watch.offer(&later);
         watch.switch(gid(5));
         let node2 = watch.nodes().nth(1).unwrap();
-        assert_eq!((node2.refused_total(), node2.ignored_total()), (3, 1));
+        assert_eq!(
+            (
+                node2.refused_total(),
+                node2.ignored_total(),
+                node2.dropped_total()
+            ),
+            (3, 1, 2)
+        );
     }
 }

@@ -756,10 +756,9 @@ impl NodeRuntime {
         let (engine, tally) = if shards == 1 {
             let mut engine = Engine::new(config.engine, stations.clone(), &specs)?;
             engine.restore(&records);
-            (
-                EngineMode::Inline(Box::new(engine)),
-                Arc::new(SourceTally::default()),
-            )
+            let tally = Arc::new(SourceTally::default());
+            engine.set_source_tally(Arc::clone(&tally));
+            (EngineMode::Inline(Box::new(engine)), tally)
         } else {
             let engine = ShardedEngine::start_with_wake(
                 config.engine,
@@ -922,10 +921,7 @@ impl NodeRuntime {
                     self.data_s += packet.len() as f64 / rate;
                 }
                 let mut sink = self.emit.sink(publish);
-                let verdict = engine.process(packet, arrival, &mut sink);
-                if let Some(source) = source {
-                    self.tally.count(source, verdict);
-                }
+                engine.process_from(packet, source, arrival, &mut sink);
                 let finished = sink.finish();
                 self.busy_ns += started.elapsed().as_nanos() as u64;
                 finished

@@ -11,7 +11,8 @@
 //!   were rejected (invalid or implausible) since the last report; **NO DATA YET** while no
 //!   packet of it has been accepted since the node started (and `engine.stale_after_s` has not
 //!   passed: then it is STALE); **WARN** if samples were
-//!   clipped, a gap broke the stream or samples were missing since the last report, or its
+//!   clipped, a gap broke the stream, samples were missing or samples were dropped as already
+//!   processed (duplicate, late, overlapping data) since the last report, or its
 //!   last packet arrived more than [`LATENCY_WARN_S`] after its last sample; else **OK**;
 //! - the journal: **ERROR** while records wait for a failing state directory or were lost;
 //!   else OK (WARN when there is no state directory: alerts are not journaled);
@@ -332,6 +333,7 @@ impl NodeStatus {
                 kv("missing_samples", h.missing_samples),
                 kv("late_packets", h.late_packets),
                 kv("duplicate_packets", h.duplicate_packets),
+                kv("dropped_samples", h.dropped_samples),
                 kv("blocks", h.blocks),
                 kv("monitored", h.monitored),
                 kv("stale_events", h.stale_events),
@@ -506,6 +508,12 @@ impl NodeStatus {
             &per(&|s| Some(s.health.duplicate_packets as f64)),
         );
         metric(
+            "station_dropped_samples_total",
+            "Samples dropped because the station had that data, or later data, already (duplicate, late or overlapping packets)",
+            "counter",
+            &per(&|s| Some(s.health.dropped_samples as f64)),
+        );
+        metric(
             "station_stale_events_total",
             "Times the station went stale",
             "counter",
@@ -583,7 +591,7 @@ fn label(text: &str) -> String {
 pub struct StatusBuilder {
     /// Per station: rejected packets, clipped samples, broken gaps, missing samples at the
     /// previous report.
-    previous: HashMap<String, [u64; 4]>,
+    previous: HashMap<String, [u64; 5]>,
 }
 
 impl StatusBuilder {
@@ -601,11 +609,12 @@ impl StatusBuilder {
             health.clipped_samples,
             health.gaps_broken,
             health.missing_samples,
+            health.dropped_samples,
         ];
         let before = self
             .previous
             .insert(health.station.clone(), counts)
-            .unwrap_or([0; 4]);
+            .unwrap_or([0; 5]);
         let new = |i: usize| counts[i].saturating_sub(before[i]);
         let data_latency_s = match (health.last_arrival_ns, health.last_sample_ns) {
             (Some(a), Some(t)) => Some((epoch_utc_ns + a - t) as f64 * 1e-9),
@@ -631,14 +640,15 @@ impl StatusBuilder {
                 Level::Error,
                 format!("{} packets rejected since the last report", new(0)),
             )
-        } else if new(1) + new(2) + new(3) > 0 {
+        } else if new(1) + new(2) + new(3) + new(4) > 0 {
             (
                 Level::Warn,
                 format!(
-                    "since the last report: {} clipped samples, {} broken gaps, {} missing samples",
+                    "since the last report: {} clipped samples, {} broken gaps, {} missing samples, {} samples dropped as already processed (duplicate, late or overlapping data)",
                     new(1),
                     new(2),
-                    new(3)
+                    new(3),
+                    new(4)
                 ),
             )
         } else if health.last_arrival_ns.is_none() {
@@ -694,6 +704,7 @@ mod tests {
             missing_samples: 0,
             late_packets: 0,
             duplicate_packets: 0,
+            dropped_samples: 0,
             stale_events: 0,
         }
     }
@@ -722,6 +733,21 @@ mod tests {
         assert_eq!(
             b.station(h.clone(), 8_000_000_000, epoch_utc, None).level,
             Level::Warn
+        );
+        // Issue 20 item 3: data dropped as already processed make the station WARN too.
+        assert_eq!(
+            b.station(h.clone(), 8_500_000_000, epoch_utc, None).level,
+            Level::Ok
+        );
+        h.dropped_samples = 201;
+        let dropped = b.station(h.clone(), 9_000_000_000, epoch_utc, None);
+        assert_eq!(dropped.level, Level::Warn);
+        assert!(
+            dropped
+                .message
+                .contains("201 samples dropped as already processed"),
+            "{}",
+            dropped.message
         );
         h.monitored = false;
         let stale = b.station(h, 90_000_000_000, epoch_utc, None);

@@ -111,6 +111,9 @@ pub struct StationHealth {
     pub missing_samples: u64,
     pub late_packets: u64,
     pub duplicate_packets: u64,
+    /// Samples dropped because the station had processed them, or later data, already
+    /// (duplicate, late or overlapping packets; the new samples of a packet are never dropped).
+    pub dropped_samples: u64,
     /// Times the station went stale.
     pub stale_events: u64,
 }

@@ -36,6 +36,7 @@ mod station;
 pub mod stream;
 
 use std::collections::{BTreeMap, HashMap, HashSet};
+use std::sync::Arc;
 
 pub use config::{
     AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, Rock3dSpec,
@@ -50,9 +51,9 @@ pub use output::{
 pub use packet::{AccelPacket, PacketError, StationId};
 pub use pbr::{DirectionSummary, PbrSummary};
 pub use sharded::{EngineHandle, ShardedEngine};
-pub use source::{Source, SourceTally, Verdict, MAX_SOURCES};
+pub use source::{Source, SourceCounts, SourceTally, Verdict, MAX_SOURCES};
 pub use station::StationCounters;
-pub use stream::{StreamConfig, StreamCounters};
+pub use stream::{Dropped, StreamConfig, StreamCounters};
 
 use pbr::PacketContext;
 use station::StationRuntime;
@@ -106,6 +107,8 @@ pub struct Engine {
     /// `now_ns` of the first [`Engine::check_health`]: a station never heard from is stale
     /// `stale_after_s` after it.
     health_since_ns: Option<i64>,
+    /// Where [`Engine::process_from`] counts what it made of each source's packets.
+    tally: Option<Arc<SourceTally>>,
 }
 
 impl Engine {
@@ -152,6 +155,7 @@ impl Engine {
             journaled: HashSet::new(),
             scratch: Vec::new(),
             health_since_ns: None,
+            tally: None,
         })
     }
 
@@ -208,6 +212,7 @@ impl Engine {
             .collect();
         fresh.counters = self.counters;
         fresh.journaled = std::mem::take(&mut self.journaled);
+        fresh.tally = self.tally.take();
         *self = fresh;
         Ok(report)
     }
@@ -246,12 +251,46 @@ impl Engine {
         ok
     }
 
+    /// Counts what [`Engine::process_from`] makes of each source's packets in `tally` from
+    /// now on.
+    pub fn set_source_tally(&mut self, tally: Arc<SourceTally>) {
+        self.tally = Some(tally);
+    }
+
     /// Processes one packet that arrived at wall time `arrival_ns`; hands each output to `out`
     /// as soon as it is produced (pass a `&mut Vec<Output>` to collect them). Returns what
-    /// became of the packet (a sender's tally: [`SourceTally`]).
+    /// became of the packet.
     pub fn process(
         &mut self,
         packet: AccelPacket,
+        arrival_ns: i64,
+        out: &mut dyn OutputSink,
+    ) -> Verdict {
+        self.process_from(packet, None, arrival_ns, out)
+    }
+
+    /// [`Engine::process`] of a packet from `source`: with a tally set
+    /// ([`Engine::set_source_tally`]), the verdict is counted for the source, and so are its
+    /// packets whose samples are dropped as already processed (now, or later when a held
+    /// packet is released or dropped) — the drop is counted before the packet's verdict.
+    pub fn process_from(
+        &mut self,
+        packet: AccelPacket,
+        source: Option<Source>,
+        arrival_ns: i64,
+        out: &mut dyn OutputSink,
+    ) -> Verdict {
+        let verdict = self.judge(packet, source, arrival_ns, out);
+        if let (Some(tally), Some(source)) = (&self.tally, source) {
+            tally.count(source, verdict);
+        }
+        verdict
+    }
+
+    fn judge(
+        &mut self,
+        packet: AccelPacket,
+        source: Option<Source>,
         arrival_ns: i64,
         out: &mut dyn OutputSink,
     ) -> Verdict {
@@ -321,8 +360,9 @@ impl Engine {
             journaled: &self.journaled,
             state_interval_s: self.config.state_interval_s,
             arrival_ns,
+            tally: self.tally.as_deref(),
         };
-        station.offer(packet, &ctx, &mut self.scratch, out);
+        station.offer(packet, source, &ctx, &mut self.scratch, out);
         Verdict::Accepted
     }
 
@@ -404,6 +444,7 @@ impl Engine {
             journaled: &self.journaled,
             state_interval_s: self.config.state_interval_s,
             arrival_ns,
+            tally: self.tally.as_deref(),
         };
         for station in self.stations.values_mut() {
             station.flush(&ctx, &mut self.scratch, out);

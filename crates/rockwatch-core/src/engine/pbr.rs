@@ -123,6 +123,8 @@ pub(crate) struct PacketContext<'a> {
     pub(crate) journaled: &'a HashSet<AlertKey>,
     pub(crate) state_interval_s: f64,
     pub(crate) arrival_ns: i64,
+    /// Where the senders' packets dropped as already processed are counted.
+    pub(crate) tally: Option<&'a super::SourceTally>,
 }
 
 /// One sample of a station, as its blocks see it.

@@ -148,11 +148,11 @@ impl ShardedEngine {
                 .collect();
             let mut engine = Engine::new(config, my_stations, &my_pbrs)?;
             engine.restore(journal);
+            engine.set_source_tally(Arc::clone(&tally));
             monitored.extend(engine.monitored_stations().map(str::to_owned));
             let (tx, rx) = mpsc::sync_channel::<Command>(QUEUE_PACKETS);
             let out_tx = out_tx.clone();
             let wake = Arc::clone(&wake);
-            let tally = Arc::clone(&tally);
             let handle = std::thread::Builder::new()
                 .name(format!("rockwatch-shard-{shard}"))
                 .spawn(move || {
@@ -160,10 +160,7 @@ impl ShardedEngine {
                     while let Ok(command) = rx.recv() {
                         match command {
                             Command::Packet(p, arrival, source) => {
-                                let verdict = engine.process(p, arrival, &mut out);
-                                if let Some(source) = source {
-                                    tally.count(source, verdict);
-                                }
+                                engine.process_from(p, source, arrival, &mut out);
                             }
                             Command::Flush(arrival) => engine.flush(arrival, &mut out),
                             Command::CheckHealth(now) => engine.check_health(now, &mut out),

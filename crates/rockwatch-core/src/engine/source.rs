@@ -35,8 +35,9 @@ impl Source {
 /// What the engine made of one packet.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Verdict {
-    /// Taken into its station's stream (its samples may still be dropped as duplicate or late:
-    /// those are counted per station, `StreamCounters`).
+    /// Taken into its station's stream (its samples may still be dropped as already processed
+    /// — duplicate, late or overlapping data: counted per station, `StreamCounters`, and per
+    /// source, [`SourceCounts::dropped`]).
     Accepted,
     /// Of a station the engine does not monitor.
     Ignored,
@@ -45,11 +46,38 @@ pub enum Verdict {
     Refused,
 }
 
-/// Packets processed and refused per [`Source`] (monotonic counts since the tally was made).
+/// What the engine made of one source's packets (monotonic counts).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SourceCounts {
+    /// Packets processed, whatever the verdict.
+    pub processed: u64,
+    /// Of `processed`, packets refused whole ([`Verdict::Refused`]).
+    pub refused: u64,
+    /// Accepted packets whose samples were dropped, wholly or in part, because their station
+    /// had processed them (or later data) already: duplicates, late packets, overlaps, and
+    /// packets held beyond an undone forward jump. A packet partly overlapping keeps its new
+    /// samples; it counts here for its old ones.
+    pub dropped: u64,
+}
+
+impl SourceCounts {
+    /// The counts since `base` (the counts of a reused slot when it was assigned).
+    #[must_use]
+    pub fn since(self, base: SourceCounts) -> SourceCounts {
+        SourceCounts {
+            processed: self.processed - base.processed,
+            refused: self.refused - base.refused,
+            dropped: self.dropped - base.dropped,
+        }
+    }
+}
+
+/// [`SourceCounts`] per [`Source`] (monotonic counts since the tally was made).
 #[derive(Debug)]
 pub struct SourceTally {
     processed: Box<[AtomicU64]>,
     refused: Box<[AtomicU64]>,
+    dropped: Box<[AtomicU64]>,
 }
 
 impl Default for SourceTally {
@@ -58,6 +86,7 @@ impl Default for SourceTally {
         SourceTally {
             processed: zeros(),
             refused: zeros(),
+            dropped: zeros(),
         }
     }
 }
@@ -65,22 +94,35 @@ impl Default for SourceTally {
 impl SourceTally {
     /// Counts one packet of `source` with its verdict.
     pub fn count(&self, source: Source, verdict: Verdict) {
-        self.processed[source.index()].fetch_add(1, Ordering::Relaxed);
+        self.processed[source.index()].fetch_add(1, Ordering::Release);
         if verdict == Verdict::Refused {
             // Release: a reader that sees this refusal sees the packet processed too.
             self.refused[source.index()].fetch_add(1, Ordering::Release);
         }
     }
 
-    /// Packets of `source` processed (every verdict) and, of those, refused, since the tally
-    /// was made. A reader of a reused slot subtracts what it read when the slot was assigned.
+    /// Counts one packet of `source` whose samples were dropped as already processed (before
+    /// [`SourceTally::count`] of the same packet, if it is dropped while it is processed: a
+    /// reader that sees the packet processed then sees the drop too).
+    pub fn count_dropped(&self, source: Source) {
+        self.dropped[source.index()].fetch_add(1, Ordering::Release);
+    }
+
+    /// What the engine made of `source`'s packets since the tally was made. A reader of a
+    /// reused slot subtracts what it read when the slot was assigned ([`SourceCounts::since`]).
     #[must_use]
-    pub fn of(&self, source: Source) -> (u64, u64) {
-        // Refused first: a concurrent count can then only make `processed` look larger,
-        // never `refused` larger than `processed`.
+    pub fn of(&self, source: Source) -> SourceCounts {
+        // Refused before processed (counted after it): `refused` never looks larger than
+        // `processed`. Dropped after processed (counted before it): a packet seen processed
+        // has its drop seen too.
         let refused = self.refused[source.index()].load(Ordering::Acquire);
-        let processed = self.processed[source.index()].load(Ordering::Relaxed);
-        (processed, refused)
+        let processed = self.processed[source.index()].load(Ordering::Acquire);
+        let dropped = self.dropped[source.index()].load(Ordering::Acquire);
+        SourceCounts {
+            processed,
+            refused,
+            dropped,
+        }
     }
 }
 
@@ -100,8 +142,15 @@ mod tests {
         tally.count(a, Verdict::Refused);
         tally.count(a, Verdict::Ignored);
         tally.count(b, Verdict::Refused);
-        assert_eq!(tally.of(a), (3, 1));
-        assert_eq!(tally.of(b), (1, 1));
-        assert_eq!(tally.of(Source::new(5).unwrap()), (0, 0));
+        tally.count_dropped(b);
+        let counts = |processed, refused, dropped| SourceCounts {
+            processed,
+            refused,
+            dropped,
+        };
+        assert_eq!(tally.of(a), counts(3, 1, 0));
+        assert_eq!(tally.of(b), counts(1, 1, 1));
+        assert_eq!(tally.of(Source::new(5).unwrap()), SourceCounts::default());
+        assert_eq!(tally.of(b).since(counts(1, 0, 1)), counts(0, 1, 0));
     }
 }

@@ -169,6 +169,7 @@ impl StationRuntime {
             missing_samples: stream.missing_samples,
             late_packets: stream.late_packets,
             duplicate_packets: stream.duplicate_packets,
+            dropped_samples: stream.overlap_samples,
             stale_events: l.stale_events,
         }
     }
@@ -181,37 +182,49 @@ impl StationRuntime {
     pub(crate) fn offer(
         &mut self,
         packet: super::packet::AccelPacket,
+        source: Option<super::Source>,
         ctx: &PacketContext<'_>,
         scratch: &mut Vec<Released>,
         out: &mut dyn OutputSink,
     ) {
         self.counters.packets += 1;
         scratch.clear();
-        let before = self.sequencer.counters;
-        self.sequencer.offer(packet, scratch);
-        self.report_dropped(&before, out);
+        self.sequencer.offer(packet, source, scratch);
+        self.report_dropped(ctx, out);
         for r in scratch.drain(..) {
             self.process_packet(&r, ctx, out);
         }
     }
 
-    /// A notice when the sequencer dropped data since `before` (packets already processed:
-    /// duplicates, late or overlapping packets, packets held beyond an undone jump).
-    fn report_dropped(&self, before: &super::stream::StreamCounters, out: &mut dyn OutputSink) {
-        let now = &self.sequencer.counters;
-        let packets = now.duplicate_packets - before.duplicate_packets;
-        let samples = now.overlap_samples - before.overlap_samples;
-        if packets > 0 || samples > 0 {
-            notice(
-                &self.name,
-                NoticeKind::Dropped,
-                format!(
-                    "{samples} samples already processed dropped ({packets} whole packets: duplicate, late or overlapping data; {} dropped so far)",
-                    now.overlap_samples
-                ),
-                out,
-            );
+    /// What the sequencer's last call dropped (data already processed: duplicates, late or
+    /// overlapping packets, packets held beyond an undone jump): one notice naming the span,
+    /// and each packet counted for its sender.
+    fn report_dropped(&self, ctx: &PacketContext<'_>, out: &mut dyn OutputSink) {
+        let dropped = self.sequencer.dropped();
+        let (Some(start_ns), Some(end_ns)) = (
+            dropped.iter().map(|d| d.start_ns).min(),
+            dropped.iter().map(|d| d.end_ns).max(),
+        ) else {
+            return;
+        };
+        if let Some(tally) = ctx.tally {
+            for source in dropped.iter().filter_map(|d| d.source) {
+                tally.count_dropped(source);
+            }
         }
+        let samples: u64 = dropped.iter().map(|d| d.samples).sum();
+        notice(
+            &self.name,
+            NoticeKind::Dropped,
+            format!(
+                "{samples} samples of {} packet(s) from {} to {} dropped: the station had this data, or later data, processed already (duplicate, late or overlapping packets; {} samples dropped so far)",
+                dropped.len(),
+                crate::utc::format_utc_ns(i128::from(start_ns)),
+                crate::utc::format_utc_ns(i128::from(end_ns)),
+                self.sequencer.counters.overlap_samples
+            ),
+            out,
+        );
     }
 
     /// Releases and processes every packet held for reordering.
@@ -222,9 +235,8 @@ impl StationRuntime {
         out: &mut dyn OutputSink,
     ) {
         scratch.clear();
-        let before = self.sequencer.counters;
         self.sequencer.flush(scratch);
-        self.report_dropped(&before, out);
+        self.report_dropped(ctx, out);
         for r in scratch.drain(..) {
             self.process_packet(&r, ctx, out);
         }

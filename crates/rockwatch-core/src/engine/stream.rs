@@ -17,6 +17,7 @@
 //! stream breaks the row: the gap packets before it are dropped (counted).
 
 use super::packet::AccelPacket;
+use super::source::Source;
 
 /// Stream-sequencing options.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -83,6 +84,22 @@ impl Released {
     }
 }
 
+/// Samples of one packet dropped because the station had processed them (or later data)
+/// already: a duplicate, late or overlapping packet, or one held beyond an undone jump. The
+/// sequencer lists each ([`Sequencer::dropped`]) so that its station can say what was dropped
+/// and tell the packet's sender.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Dropped {
+    /// The packet's sender, as given to [`Sequencer::offer`].
+    pub source: Option<Source>,
+    /// Samples of the packet dropped (all of them, or its first ones for a partial overlap:
+    /// the new samples after the overlap are never dropped).
+    pub samples: u64,
+    /// UTC time (ns) of the first dropped sample and just after the last one.
+    pub start_ns: i64,
+    pub end_ns: i64,
+}
+
 /// Counters of stream irregularities (cumulative).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct StreamCounters {
@@ -142,11 +159,14 @@ pub struct Sequencer {
     /// Grid index of the next expected sample; `None` before the first packet.
     next_index: Option<i64>,
     max_sequence: Option<u64>,
-    held: Vec<(i64, AccelPacket)>,
+    held: Vec<(i64, AccelPacket, Option<Source>)>,
     /// The grid before the last forward jump, until the jump is confirmed or undone.
     jump: Option<Jump>,
     /// Packets that landed in the gap of `jump` (at most `resync_packets`), by start time.
-    behind: Vec<AccelPacket>,
+    behind: Vec<(AccelPacket, Option<Source>)>,
+    /// Data dropped by the last offer or flush (at most one entry per packet held, behind or
+    /// offered: the capacity is reserved once).
+    dropped: Vec<Dropped>,
     /// The next released packet follows a rewind.
     rewound: bool,
     pub counters: StreamCounters,
@@ -164,6 +184,7 @@ impl Sequencer {
             held: Vec::with_capacity(config.reorder_window_packets + 1),
             jump: None,
             behind: Vec::with_capacity(config.resync_packets),
+            dropped: Vec::with_capacity(config.reorder_window_packets + config.resync_packets + 4),
             rewound: false,
             counters: StreamCounters::default(),
         }
@@ -181,6 +202,12 @@ impl Sequencer {
         self.anchor_ns + (k as f64 * 1e9 / self.rate_hz).round() as i64
     }
 
+    /// What the last [`Sequencer::offer`] or [`Sequencer::flush`] dropped, packet by packet.
+    #[must_use]
+    pub fn dropped(&self) -> &[Dropped] {
+        &self.dropped
+    }
+
     /// Packets held in the reorder window.
     #[must_use]
     pub fn held(&self) -> usize {
@@ -196,13 +223,40 @@ impl Sequencer {
         k as i64
     }
 
-    /// Offers a validated packet; appends to `out` every packet now ready, in stream order.
-    pub fn offer(&mut self, packet: AccelPacket, out: &mut Vec<Released>) {
+    /// Records that `samples` samples of `packet` from its first were dropped (all of them
+    /// when `samples` is its length), on a grid of `rate_hz`.
+    fn drop_samples(
+        &mut self,
+        packet: &AccelPacket,
+        source: Option<Source>,
+        samples: u64,
+        rate_hz: f64,
+    ) {
+        if samples == 0 {
+            return;
+        }
+        if samples >= packet.len() as u64 {
+            self.counters.duplicate_packets += 1;
+        }
+        self.counters.overlap_samples += samples;
+        self.dropped.push(Dropped {
+            source,
+            samples,
+            start_ns: packet.start_time_ns,
+            end_ns: packet.start_time_ns + (samples as f64 * 1e9 / rate_hz).round() as i64,
+        });
+    }
+
+    /// Offers a validated packet from `source` (its sender, if the caller tells senders
+    /// apart); appends to `out` every packet now ready, in stream order. What is dropped is
+    /// counted and listed in [`Sequencer::dropped`].
+    pub fn offer(&mut self, packet: AccelPacket, source: Option<Source>, out: &mut Vec<Released>) {
+        self.dropped.clear();
         if self.jump.as_ref().is_some_and(|j| j.in_gap(&packet)) {
             let position = self
                 .behind
-                .partition_point(|p| p.start_time_ns <= packet.start_time_ns);
-            self.behind.insert(position, packet);
+                .partition_point(|(p, _)| p.start_time_ns <= packet.start_time_ns);
+            self.behind.insert(position, (packet, source));
             if self.behind.len() >= self.config.resync_packets.max(1) {
                 self.rewind(out);
             }
@@ -223,11 +277,11 @@ impl Sequencer {
             // after a change) must not restart the grid in the past.
             if packet.start_time_ns < self.time_ns(next) - (0.5e9 / self.rate_hz) as i64 {
                 self.counters.late_packets += 1;
-                self.counters.duplicate_packets += 1;
-                self.counters.overlap_samples += packet.len() as u64;
+                let rate = packet.sample_rate_hz;
+                self.drop_samples(&packet, source, packet.len() as u64, rate);
                 return;
             }
-            self.flush(out);
+            self.release_held(out);
             self.counters.rate_changes += 1;
             // A change of rate far ahead of the stream is a jump like any other.
             let ahead_s = (packet.start_time_ns - self.time_ns(next)) as f64 * 1e-9;
@@ -251,14 +305,14 @@ impl Sequencer {
             }
         }
         if k > next && self.config.reorder_window_packets > 0 {
-            let position = self.held.partition_point(|(hk, _)| *hk <= k);
-            self.held.insert(position, (k, packet));
+            let position = self.held.partition_point(|(hk, _, _)| *hk <= k);
+            self.held.insert(position, (k, packet, source));
             if self.held.len() > self.config.reorder_window_packets {
-                let (hk, p) = self.held.remove(0);
-                self.release(hk, p, out);
+                let (hk, p, s) = self.held.remove(0);
+                self.release(hk, p, s, out);
             }
         } else {
-            self.release(k, packet, out);
+            self.release(k, packet, source, out);
         }
         self.release_ready(out);
     }
@@ -272,10 +326,11 @@ impl Sequencer {
 
     /// Drops the packets that landed in the gap of the remembered jump (counted).
     fn drop_behind(&mut self) {
-        for p in self.behind.drain(..) {
-            self.counters.duplicate_packets += 1;
-            self.counters.overlap_samples += p.len() as u64;
+        let mut behind = std::mem::take(&mut self.behind);
+        for (p, source) in behind.drain(..) {
+            self.drop_samples(&p, source, p.len() as u64, p.sample_rate_hz);
         }
+        self.behind = behind;
     }
 
     /// Undoes the last forward jump: the grid before it comes back, the packets held beyond
@@ -284,33 +339,39 @@ impl Sequencer {
         let Some(jump) = self.jump.take() else {
             return;
         };
-        for (_, p) in self.held.drain(..) {
-            self.counters.duplicate_packets += 1;
-            self.counters.overlap_samples += p.len() as u64;
+        let mut held = std::mem::take(&mut self.held);
+        for (_, p, source) in held.drain(..) {
+            self.drop_samples(&p, source, p.len() as u64, p.sample_rate_hz);
         }
+        self.held = held;
         self.counters.grid_rewinds += 1;
         self.anchor_ns = jump.anchor_ns;
         self.rate_hz = jump.rate_hz;
         self.next_index = Some(jump.next_index);
-        let behind = std::mem::take(&mut self.behind);
+        let mut behind = std::mem::take(&mut self.behind);
         self.max_sequence = behind
             .iter()
-            .map(|p| p.sequence)
+            .map(|(p, _)| p.sequence)
             .chain(jump.max_sequence)
             .max();
         self.rewound = true;
-        for p in behind {
+        for (p, source) in behind.drain(..) {
             let k = self.grid_index(p.start_time_ns);
-            self.release(k, p, out);
+            self.release(k, p, source, out);
         }
-        self.behind = Vec::with_capacity(self.config.resync_packets);
+        self.behind = behind;
     }
 
     /// Releases every held packet (gaps accepted), e.g. when the stream has gone quiet.
     pub fn flush(&mut self, out: &mut Vec<Released>) {
+        self.dropped.clear();
+        self.release_held(out);
+    }
+
+    fn release_held(&mut self, out: &mut Vec<Released>) {
         while !self.held.is_empty() {
-            let (k, p) = self.held.remove(0);
-            self.release(k, p, out);
+            let (k, p, source) = self.held.remove(0);
+            self.release(k, p, source, out);
         }
     }
 
@@ -329,26 +390,31 @@ impl Sequencer {
     }
 
     fn release_ready(&mut self, out: &mut Vec<Released>) {
-        while let (Some(next), Some((k, _))) = (self.next_index, self.held.first()) {
+        while let (Some(next), Some((k, _, _))) = (self.next_index, self.held.first()) {
             if *k > next {
                 break;
             }
-            let (k, p) = self.held.remove(0);
-            self.release(k, p, out);
+            let (k, p, source) = self.held.remove(0);
+            self.release(k, p, source, out);
         }
     }
 
     /// Places packet `p` starting at grid index `k` relative to the next expected sample.
-    fn release(&mut self, k: i64, packet: AccelPacket, out: &mut Vec<Released>) {
+    fn release(
+        &mut self,
+        k: i64,
+        packet: AccelPacket,
+        source: Option<Source>,
+        out: &mut Vec<Released>,
+    ) {
         let next = self.next_index.unwrap_or(k);
         let n = packet.len() as i64;
         if k + n <= next {
-            self.counters.duplicate_packets += 1;
-            self.counters.overlap_samples += n as u64;
+            self.drop_samples(&packet, source, n as u64, self.rate_hz);
             return;
         }
         let (skip, mut gap) = if k < next {
-            self.counters.overlap_samples += (next - k) as u64;
+            self.drop_samples(&packet, source, (next - k) as u64, self.rate_hz);
             ((next - k) as usize, Gap::None)
         } else if k == next {
             (0, Gap::None)
@@ -421,7 +487,7 @@ mod tests {
     fn offer_all(seq: &mut Sequencer, packets: Vec<AccelPacket>) -> Vec<(i64, usize, Gap)> {
         let mut out = Vec::new();
         for p in packets {
-            seq.offer(p, &mut out);
+            seq.offer(p, None, &mut out);
         }
         seq.flush(&mut out);
         out.iter()
@@ -453,6 +519,64 @@ mod tests {
         assert_eq!(got, vec![(0, 10, Gap::Start), (10, 5, Gap::None)]);
         assert_eq!(s.counters.duplicate_packets, 1);
         assert_eq!(s.counters.overlap_samples, 10 + 5);
+    }
+
+    /// Issue 20 item 3: each drop names its packet's sender and the span of the dropped
+    /// samples; a partly overlapping packet loses only its old samples, and a packet held
+    /// beyond an undone jump is charged to its own sender, not to the packet that undid it.
+    #[test]
+    fn drops_name_their_sender_and_span() {
+        let (a, b) = (Source::new(1), Source::new(2));
+        let mut s = Sequencer::new(StreamConfig::default());
+        let mut out = Vec::new();
+        s.offer(packet(0, 10, 0), a, &mut out);
+        assert!(s.dropped().is_empty());
+        s.offer(packet(0, 10, 0), b, &mut out);
+        let whole = Dropped {
+            source: b,
+            samples: 10,
+            start_ns: 1_000_000_000,
+            end_ns: 1_100_000_000,
+        };
+        assert_eq!(s.dropped(), &[whole]);
+        s.offer(packet(5, 10, 1), b, &mut out);
+        let partial = Dropped {
+            source: b,
+            samples: 5,
+            start_ns: 1_050_000_000,
+            end_ns: 1_100_000_000,
+        };
+        assert_eq!(s.dropped(), &[partial], "only the 5 old samples");
+        assert_eq!(
+            (out[1].skip, out[1].first_index, out[1].packet.len()),
+            (5, 10, 10),
+            "the 5 new samples are released"
+        );
+        // A forward jump (held beyond it: a packet of sender b), undone by three packets of
+        // sender a landing in its gap: the held packet is dropped, charged to b.
+        let mut s = Sequencer::new(StreamConfig {
+            reorder_window_packets: 1,
+            ..StreamConfig::default()
+        });
+        let mut out = Vec::new();
+        s.offer(packet(0, 10, 0), a, &mut out);
+        s.offer(packet(1000, 10, 1), a, &mut out);
+        s.offer(packet(1010, 10, 2), a, &mut out);
+        s.offer(packet(1030, 10, 3), b, &mut out); // held: 1020..1030 missing
+        s.offer(packet(10, 10, 4), a, &mut out);
+        s.offer(packet(20, 10, 5), a, &mut out);
+        assert!(s.dropped().is_empty());
+        s.offer(packet(30, 10, 6), a, &mut out);
+        assert_eq!(s.counters.grid_rewinds, 1);
+        assert_eq!(
+            s.dropped(),
+            &[Dropped {
+                source: b,
+                samples: 10,
+                start_ns: 1_000_000_000 + 1030 * 10_000_000,
+                end_ns: 1_000_000_000 + 1040 * 10_000_000,
+            }]
+        );
     }
 
     #[test]
@@ -540,12 +664,12 @@ mod tests {
     fn held_packets_keep_their_rate_and_times_across_a_rate_change() {
         let mut s = Sequencer::new(StreamConfig::default());
         let mut out = Vec::new();
-        s.offer(packet(0, 10, 0), &mut out);
-        s.offer(packet(20, 10, 2), &mut out); // held: samples 10..20 missing
+        s.offer(packet(0, 10, 0), None, &mut out);
+        s.offer(packet(20, 10, 2), None, &mut out); // held: samples 10..20 missing
         let mut fast = packet(0, 20, 3);
         fast.start_time_ns = 1_000_000_000 + 400_000_000;
         fast.sample_rate_hz = 200.0;
-        s.offer(fast, &mut out);
+        s.offer(fast, None, &mut out);
         let held = &out[1];
         assert_eq!(
             (held.gap, held.rate_hz, held.first_time_ns),
@@ -557,7 +681,7 @@ mod tests {
             (Gap::RateChange, 200.0, 1_400_000_000)
         );
         // A late 100 Hz packet after the change is dropped, not a new grid in the past.
-        s.offer(packet(10, 10, 1), &mut out);
+        s.offer(packet(10, 10, 1), None, &mut out);
         assert_eq!(out.len(), 3);
         assert_eq!(
             (
@@ -591,12 +715,12 @@ mod tests {
         let mut packets = vec![packet(0, 10, 0), packet(10, 10, 1), forged];
         let mut out = Vec::new();
         for p in packets.drain(..) {
-            s.offer(p, &mut out);
+            s.offer(p, None, &mut out);
         }
         s.flush(&mut out); // the live node releases held packets after 1 s
         assert!(matches!(out.last().unwrap().gap, Gap::Break(_)));
         for k in [2, 3, 4, 5] {
-            s.offer(packet(10 * k, 10, k as u64), &mut out);
+            s.offer(packet(10 * k, 10, k as u64), None, &mut out);
         }
         s.flush(&mut out);
         let got: Vec<(i64, Gap)> = out[3..].iter().map(|r| (r.first_index, r.gap)).collect();

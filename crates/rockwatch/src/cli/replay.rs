@@ -221,7 +221,7 @@ pub fn replay_through(
 }
 
 /// With the node's configuration (`--config`) naming a catalogue, a station the node does not
-/// know — neither in its `[[stations]]` nor bound to a block of its catalogue — is refused
+/// know — neither in its `[[station]]` nor bound to a block of its catalogue — is refused
 /// before anything is sent: the node would ignore every packet (`unknown_station`). Without
 /// a catalogue nothing can be checked here.
 fn check_station_known(args: &ReplayArgs, config: &NodeConfig) -> anyhow::Result<()> {
@@ -237,7 +237,7 @@ fn check_station_known(args: &ReplayArgs, config: &NodeConfig) -> anyhow::Result
         return Ok(());
     }
     bail!(
-        "station {station} is neither in the [[stations]] of {} nor bound to a block of its catalogue {}: the node would ignore every packet (unknown station); give a station of its blocks with --station (or, if the node runs with another --catalogue, that catalogue's)",
+        "station {station} is neither in the [[station]] of {} nor bound to a block of its catalogue {}: the node would ignore every packet (unknown station); give a station of its blocks with --station (or, if the node runs with another --catalogue, that catalogue's)",
         config_path.display(),
         catalogue.display()
     )

@@ -28,7 +28,7 @@ use rockwatch_core::engine::AccelPacket;
 /// `pbr/accel/intake` (`crate::intake`): [`PacketSink::send`] waits while the node furthest
 /// behind has the window it grants unreported (half its per-publisher buffer: nothing is ever
 /// overwritten), and [`PacketSink::finish`] waits until every node has processed every packet,
-/// else fails naming each node that did not, that refused packets or ignored them. A
+/// else fails naming each node that did not, that refused, dropped or ignored packets. A
 /// subscriber that never reports (not a rockwatch node, e.g. a Python client) is named in a
 /// warning and not waited for.
 pub struct IoxPacketSink {
@@ -256,7 +256,7 @@ impl PacketSink for IoxPacketSink {
     }
 
     /// With confirmation: waits until every node that reports has processed every packet;
-    /// fails naming each node that did not, that refused packets, or that ignored some.
+    /// fails naming each node that did not, that refused or dropped packets, or that ignored some.
     fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         let matched = self.subscriber_ids();
         let Some(c) = &mut self.confirm else {

@@ -91,7 +91,10 @@ pub struct IntakeIox {
     pub node_len: u64,
     /// The node's name, UTF-8, truncated to [`NODE_NAME_BYTES`].
     pub node: [u8; NODE_NAME_BYTES],
-    pub reserved: [u8; 40],
+    /// Packets whose samples were dropped as already processed (in what was reserved space
+    /// before: a node of an older version says 0).
+    pub dropped: u64,
+    pub reserved: [u8; 32],
 }
 
 impl From<&crate::intake::IntakeCount> for IntakeIox {
@@ -113,7 +116,8 @@ impl From<&crate::intake::IntakeCount> for IntakeIox {
             window: c.window,
             node_len: len as u64,
             node,
-            reserved: [0; 40],
+            dropped: c.dropped,
+            reserved: [0; 32],
         }
     }
 }
@@ -130,6 +134,7 @@ impl From<&IntakeIox> for crate::intake::IntakeCount {
             ignored: r.ignored,
             processed: r.processed,
             refused: r.refused,
+            dropped: r.dropped,
             window: r.window,
         }
     }

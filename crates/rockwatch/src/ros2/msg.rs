@@ -160,6 +160,7 @@ pub struct IntakeReport {
     pub processed: u64,
     pub refused: u64,
     pub window: u64,
+    pub dropped: u64,
 }
 
 impl From<crate::intake::IntakeCount> for IntakeReport {
@@ -174,6 +175,7 @@ impl From<crate::intake::IntakeCount> for IntakeReport {
             processed: c.processed,
             refused: c.refused,
             window: c.window,
+            dropped: c.dropped,
         }
     }
 }
@@ -190,6 +192,7 @@ impl From<IntakeReport> for crate::intake::IntakeCount {
             processed: r.processed,
             refused: r.refused,
             window: r.window,
+            dropped: r.dropped,
         }
     }
 }

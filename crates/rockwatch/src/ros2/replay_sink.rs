@@ -66,7 +66,7 @@ pub const DEFAULT_INTAKE_WAIT: Duration = Duration::from_secs(30);
 /// nothing is overwritten in any node's reader, however many replays share it, and the
 /// replay's memory stays bounded), and [`PacketSink::finish`] waits until every node has
 /// processed every packet sent, else fails naming each node that did not and how much, or
-/// that refused packets. A subscriber that never reports (not a rockwatch node: `ros2 topic
+/// that refused packets or dropped them as data it had. A subscriber that never reports (not a rockwatch node: `ros2 topic
 /// echo`, a bag recorder) is named in a warning and not waited for.
 ///
 /// To a service of N partitioned nodes ([`Ros2PacketSink::open_partitioned`]) the sink has one
@@ -419,6 +419,7 @@ impl Ros2PacketSink {
             for m in &again {
                 lane.write(m.clone(), wait)?;
             }
+            lane.delivery.resent += again.len() as u64;
             taken_all += base;
             sent_all += sent;
             again_all += again.len();
@@ -509,7 +510,7 @@ impl Ros2PacketSink {
         l.delivery.shortfall(&l.matched, wait, &on, INTAKE_TOPIC)
     }
 
-    /// One line on every node that refused packets, if any.
+    /// One line on every node that refused packets or dropped them as data it had, if any.
     fn refusals(&self) -> Option<String> {
         let lines: Vec<String> = self
             .lanes
@@ -598,7 +599,7 @@ impl PacketSink for Ros2PacketSink {
     }
 
     /// Waits until every node that reports has processed every packet; fails naming each
-    /// node that did not, that refused packets, or that ignored some (a station it does not
+    /// node that did not, that refused or dropped packets, or that ignored some (a station it does not
     /// monitor: nothing the replay sent about it was processed).
     fn finish(&mut self, timeout: Duration) -> anyhow::Result<bool> {
         self.wait = timeout;
