@@ -98,6 +98,26 @@ fn run(scenario: Scenario) {
             acquire_logs.contains("the server restarted"),
             "the restart must be detected\n{acquire_logs}"
         );
+        // Issue 20 item 4: acquire says where it is — the reconnection, and each stream's
+        // resume point after it.
+        assert!(
+            acquire_logs.contains("connected (connection 2), SeedLink 3"),
+            "{acquire_logs}"
+        );
+    }
+    // Issue 20 item 4: connecting, the protocol, each stream and where it resumes.
+    assert!(
+        acquire_logs.contains("connecting")
+            && acquire_logs.contains("connected (connection 1), SeedLink 3")
+            && acquire_logs.contains("requesting 1 stream(s): XX.STN..HN? from the next record"),
+        "{acquire_logs}"
+    );
+    if scenario == Scenario::KillAcquire {
+        // The restarted acquire resumes each station after the last record it published.
+        assert!(
+            acquire_logs.contains("XX.STN..HN? after sequence number "),
+            "{acquire_logs}"
+        );
     }
 }
 

@@ -42,7 +42,9 @@ fn node_toml(dir: &Path, ratio: f64) {
     .unwrap();
 }
 
-fn replay(config: &Path, station: &str) {
+/// Replays the Rinaldi record as `station`, stamped `restamp` (`original`: 1970, `now`: ending
+/// now — always after the `original` data, so a block that stood then sees new data).
+fn replay(config: &Path, station: &str, restamp: &str) {
     let data = repo().join("tests/data/records");
     let out = Command::new(rockwatch())
         .args(["replay", "--config"])
@@ -61,6 +63,8 @@ fn replay(config: &Path, station: &str) {
             "5",
             "--wait-s",
             "20",
+            "--restamp",
+            restamp,
         ])
         .output()
         .unwrap();
@@ -121,7 +125,7 @@ fn sighup_reloads_catalogue_and_thresholds_keeping_the_blocks_state() {
     let mut node = NodeProcess::start(&config, &state, d.join("node.err"));
 
     // 1. The first block overturns.
-    replay(&config, "XB.ONE.00");
+    replay(&config, "XB.ONE.00", "original");
     wait_for(&node, "pillar-one overturned", |_| {
         alerts(&state)
             .iter()
@@ -155,9 +159,10 @@ fn sighup_reloads_catalogue_and_thresholds_keeping_the_blocks_state() {
     );
 
     // The old block kept its state (fallen): the same record again raises nothing for it.
-    // The new block alerts, at the new threshold.
-    replay(&config, "XB.ONE.00");
-    replay(&config, "XB.TWO.00");
+    // The new block alerts, at the new threshold. (Stamped now: the same data again would
+    // be dropped as already processed, and the replay fail.)
+    replay(&config, "XB.ONE.00", "now");
+    replay(&config, "XB.TWO.00", "now");
     wait_for(&node, "pillar-two overturned", |_| {
         alerts(&state)
             .iter()

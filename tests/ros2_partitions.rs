@@ -249,7 +249,9 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
     );
     // `rockwatch replay --config` of a partitioned node (any of them: its index is ignored)
     // sends the station to its partition's topic and waits for that node's reports. The
-    // record again as station 0, same time stamps: taken by its node, skipped as duplicates.
+    // record again as station 0, same time stamps: taken by its node, dropped as already
+    // processed — and said: the replay exits 1 naming that node and its partition's topic
+    // (issue 20 item 3).
     let records = repo().join("tests/data/records");
     let out = std::process::Command::new(rockwatch())
         .args(["replay", "--config"])
@@ -270,12 +272,21 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
         .output()
         .unwrap();
     let (stdout, stderr) = text(&out);
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    let replayed: u64 = stdout
-        .split_whitespace()
-        .nth(1)
+    // A replay that fails says how many it sent in its error line.
+    let replayed: u64 = stderr
+        .split(" packets sent on ")
+        .next()
+        .and_then(|t| t.rsplit(' ').next())
         .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("{stdout}"));
+        .unwrap_or_else(|| panic!("{stdout}\n{stderr}"));
+    let topic = format!("pbr/accel/p{}of{PARTITIONS}", map.partition_of(&station(0)));
+    assert!(
+        out.status.code() == Some(1)
+            && stderr.contains(&format!(
+                "dropped the samples (all or some) of {replayed} as already processed of the {replayed} packets sent on {topic}"
+            )),
+        "{stdout}\n{stderr}"
+    );
     let mut taken = per_partition.clone();
     taken[map.partition_of(&station(0)) as usize] += replayed;
     let mut union = Vec::new();
@@ -397,13 +408,24 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
         &states[victim],
         dir.path().join("k-restarted.err"),
     );
+    // Everything is sent again. The surviving nodes had the first part of theirs: they
+    // process the rest and drop that part as already processed, which the replay says (it
+    // exits with an error naming them, issue 20 item 3); the restarted node drops nothing.
     let mut s = sink(Some(map.clone()), &nodes.iter().collect::<Vec<_>>());
-    replay_all(&packets, &mut s);
+    if let Err(e) = replay(&packets, &mut s, Speed::Max, Restamp::Original, 1) {
+        let e = format!("{e:#}");
+        assert!(
+            e.contains("dropped the samples")
+                && !e.contains(&format!("p{victim}of{PARTITIONS}"))
+                && !e.contains("not processed")
+                && !e.contains(" refused "),
+            "{e}"
+        );
+    }
     drop(s);
     let mut union = Vec::new();
     for (i, node) in nodes.into_iter().enumerate() {
         let stderr = stop(node);
-        // The packets a surviving node had already taken come again: skipped as duplicates.
         assert_eq!(
             count_before(&stderr, "from unknown stations"),
             0,

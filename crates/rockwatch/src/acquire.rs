@@ -66,7 +66,7 @@ pub fn acquire_summary(
 ) -> String {
     let refused = RefusedRecords::from(assembled);
     format!(
-        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} packets not framed as the protocol says, {} packets cut off by the end of a connection, {} unreadable sequence numbers (delivered by start time), {} server resets, {} sequence numbers out of line, {} server restarts, {} resumes by number that yielded nothing (resumed by time), {} reconnections); {} records refused ({} at another sampling rate, {} with impossible values, {} far ahead of their station's data, {} other: not in the inventory, off the grid, another band; {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors)",
+        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} packets not framed as the protocol says, {} packets cut off by the end of a connection, {} unreadable sequence numbers (delivered by start time), {} server resets, {} sequence numbers out of line, {} server restarts, {} resumes by number that yielded nothing (resumed by time), {} reconnections); {} records refused ({} at another sampling rate, {} with impossible values, {} far ahead of their station's data, {} other: not in the inventory, off the grid, another band; {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors, {} losses of the node's subscription)",
         link.packets,
         link.delivered,
         link.duplicates,
@@ -91,7 +91,8 @@ pub fn acquire_summary(
         assembled.overlap_samples,
         assembled.missing_component_samples,
         published.packets_sent,
-        published.send_errors
+        published.send_errors,
+        published.subscription_losses
     )
 }
 
@@ -223,6 +224,11 @@ pub fn acquire_prometheus(
         "send_errors_total",
         "Packets the output transport refused.",
         &[("", published.send_errors)],
+    );
+    counter(
+        "subscription_losses_total",
+        "Times every subscriber of the packets (the node) went away.",
+        &[("", published.subscription_losses)],
     );
     out
 }
@@ -388,6 +394,9 @@ impl AcquireConfig {
 pub struct PublishCounters {
     pub packets_sent: u64,
     pub send_errors: u64,
+    /// Times the node's subscription went away (every subscriber of the packets gone: they
+    /// are published to nobody until it comes back).
+    pub subscription_losses: u64,
     /// Raw samples at or beyond their stream's full scale (`[clipping]`): used, flagged here.
     pub clipped_samples: u64,
     /// Records holding at least one clipped sample.
@@ -481,6 +490,22 @@ pub const DIAGNOSTICS_PREFIX: &str = "rockwatch acquire";
 /// the others are counted in the `publication` item).
 pub const MAX_STATUS_STATIONS: usize = 4096;
 
+/// How often acquire looks whether the node still subscribes to its packets.
+const SUBSCRIPTION_CHECK: Duration = Duration::from_secs(1);
+
+/// At most one line on the node's subscription (gone, back) per this interval; a change
+/// within it is said when the interval has passed, if it still holds.
+const SUBSCRIPTION_LOG_INTERVAL: Duration = Duration::from_secs(10);
+
+/// Whether the node subscribes to acquire's packets, as last looked and as last said.
+#[derive(Debug)]
+struct Subscription {
+    now: bool,
+    said: bool,
+    checked: Instant,
+    said_at: Option<Instant>,
+}
+
 /// One station's figures in acquire's status (`station NET.STA.LOC`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 struct StationFigures {
@@ -523,6 +548,7 @@ pub struct PacketPublisher<'a> {
     /// Records of stations beyond [`MAX_STATUS_STATIONS`].
     records_not_itemised: u64,
     reported: Reported,
+    subscription: Subscription,
 }
 
 impl<'a> PacketPublisher<'a> {
@@ -545,6 +571,49 @@ impl<'a> PacketPublisher<'a> {
             stations: BTreeMap::new(),
             records_not_itemised: 0,
             reported: Reported::default(),
+            // Acquire starts publishing once the node has subscribed.
+            subscription: Subscription {
+                now: true,
+                said: true,
+                checked: Instant::now(),
+                said_at: None,
+            },
+        }
+    }
+
+    /// Looks (every [`SUBSCRIPTION_CHECK`]) whether the node still subscribes; a loss is
+    /// counted, and each change said at info (at most one line per
+    /// [`SUBSCRIPTION_LOG_INTERVAL`]; a change undone within it is counted, not said).
+    fn watch_subscription(&mut self) {
+        let s = &mut self.subscription;
+        if s.checked.elapsed() < SUBSCRIPTION_CHECK {
+            return;
+        }
+        s.checked = Instant::now();
+        // A transport error is logged by `tick`; the subscription is then unknown.
+        let Ok(now) = self.sink.wait_for_subscriber(Duration::ZERO) else {
+            return;
+        };
+        if s.now && !now {
+            self.counters.subscription_losses += 1;
+        }
+        s.now = now;
+        if s.now == s.said
+            || s.said_at
+                .is_some_and(|t| t.elapsed() < SUBSCRIPTION_LOG_INTERVAL)
+        {
+            return;
+        }
+        (s.said, s.said_at) = (now, Some(Instant::now()));
+        let losses = self.counters.subscription_losses;
+        if now {
+            tracing::info!(
+                "acquire: the node subscribes again: publishing ({losses} losses of its subscription so far)"
+            );
+        } else {
+            tracing::info!(
+                "acquire: the node's subscription went away: packets are published to nobody until it comes back (a node restarting resumes from its own state; {losses} losses so far)"
+            );
         }
     }
 
@@ -858,6 +927,7 @@ impl RecordSink for PacketPublisher<'_> {
                 &format!("acquire: the output transport: {e:#} (logged at most once a minute)"),
             );
         }
+        self.watch_subscription();
         let now = self.now_ns();
         let mut send = send_all(&mut *self.sink, &mut self.counters);
         self.assembler.tick(now, &mut send);
@@ -883,6 +953,69 @@ mod tests {
             self.0.push(packet.clone());
             Ok(())
         }
+    }
+
+    /// Subscribed or not, as the test says.
+    struct Toggled(std::rc::Rc<std::cell::Cell<bool>>);
+
+    impl PacketSink for Toggled {
+        fn wait_for_subscriber(&mut self, _: Duration) -> anyhow::Result<bool> {
+            Ok(self.0.get())
+        }
+        fn send(&mut self, _: &AccelPacket) -> anyhow::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// Issue 20 item 4: the node leaving and coming back is counted and said, at most one
+    /// line per interval, and what is said catches up with what holds.
+    #[test]
+    fn the_node_leaving_and_coming_back_is_counted_and_said_at_a_bounded_rate() {
+        let subscribed = std::rc::Rc::new(std::cell::Cell::new(true));
+        let mut sink = Toggled(std::rc::Rc::clone(&subscribed));
+        let (inventory, _) = k2();
+        let mut publisher = PacketPublisher::new(
+            inventory,
+            AssemblyConfig::default(),
+            ClippingSection {
+                full_scale_counts: DEFAULT_FULL_SCALE_COUNTS,
+                streams: BTreeMap::new(),
+            },
+            &mut sink,
+        );
+        let mut look = |publisher: &mut PacketPublisher<'_>, now: bool| {
+            subscribed.set(now);
+            publisher.subscription.checked -= SUBSCRIPTION_CHECK;
+            publisher.tick(&LinkCounters::default());
+            (
+                publisher.counters.subscription_losses,
+                publisher.subscription.said,
+            )
+        };
+        assert_eq!(look(&mut publisher, true), (0, true));
+        assert_eq!(
+            look(&mut publisher, false),
+            (1, false),
+            "gone: counted, said"
+        );
+        assert_eq!(
+            look(&mut publisher, true),
+            (1, false),
+            "back within the interval: not said yet"
+        );
+        assert_eq!(look(&mut publisher, false), (2, false));
+        assert_eq!(look(&mut publisher, true), (2, false));
+        // The interval passes: the state now is said.
+        if let Some(at) = &mut publisher.subscription.said_at {
+            *at -= SUBSCRIPTION_LOG_INTERVAL;
+        }
+        assert_eq!(look(&mut publisher, true), (2, true));
+        assert!(acquire_summary(
+            &LinkCounters::default(),
+            &publisher.counters,
+            &publisher.assembler.counters()
+        )
+        .contains("2 losses of the node's subscription"));
     }
 
     fn k2() -> (Inventory, Vec<Channel>) {

@@ -33,6 +33,43 @@ pub const LOG_INTERVAL: Duration = Duration::from_secs(60);
 use connection::{Connection, Resume};
 use state::{ResumeState, StateFile, StationResume};
 
+/// Streams requested in one log line: each pattern and where it resumes (the first
+/// [`STREAMS_NAMED`], then how many more).
+fn resume_points(patterns: &[StreamPattern], resume: &dyn Fn(&StreamPattern) -> Resume) -> String {
+    let named: Vec<String> = patterns
+        .iter()
+        .take(STREAMS_NAMED)
+        .map(|p| {
+            let from = match resume(p) {
+                Resume::Next => "from the next record".to_string(),
+                Resume::After(seq) => format!("after sequence number {seq}"),
+                Resume::Since(t_ns) => format!(
+                    "from {}",
+                    rockwatch_core::utc::format_utc_ns(i128::from(t_ns))
+                ),
+            };
+            format!(
+                "{}.{}.{}.{} {from}",
+                p.network, p.station, p.location, p.channel
+            )
+        })
+        .collect();
+    let more = patterns.len().saturating_sub(named.len());
+    format!(
+        "{} stream(s): {}{}",
+        patterns.len(),
+        named.join(", "),
+        if more > 0 {
+            format!(" and {more} more")
+        } else {
+            String::new()
+        }
+    )
+}
+
+/// Streams named in the line of what a connection requests.
+const STREAMS_NAMED: usize = 20;
+
 /// Which protocol to speak.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ProtocolChoice {
@@ -428,9 +465,27 @@ impl SeedLinkClient {
     /// One connection, until `stop` (`Ok`) or a failure.
     fn session(&mut self, stop: &AtomicBool, sink: &mut dyn RecordSink) -> Result<(), LinkError> {
         let timeout = Duration::from_secs_f64(self.config.connect_timeout_s);
+        if self.counters.connections == 0 {
+            tracing::info!("seedlink {}: connecting", self.config.server);
+        }
         let mut conn = Connection::open(&self.config.server, self.config.protocol, timeout)?;
         self.counters.connections += 1;
         let protocol = conn.protocol;
+        tracing::info!(
+            "seedlink {}: connected (connection {}), SeedLink {}{}",
+            self.config.server,
+            self.counters.connections,
+            match protocol {
+                Protocol::V3 => "3",
+                Protocol::V4 => "4.0",
+            },
+            conn.server_started
+                .as_deref()
+                .map_or(String::new(), |t| format!(
+                    ", server started {}",
+                    printable(t, SERVER_TEXT_CHARS)
+                ))
+        );
         let restarted = match (&self.state.server_started, &conn.server_started) {
             (Some(before), Some(now)) => before != now,
             _ => false,
@@ -492,6 +547,11 @@ impl SeedLinkClient {
                 }
             })
             .collect();
+        tracing::info!(
+            "seedlink {}: requesting {}",
+            self.config.server,
+            resume_points(&patterns, &resume)
+        );
         let refused = conn.request(&patterns, &resume, timeout)?;
         sink.link(true);
         for refused in refused {
