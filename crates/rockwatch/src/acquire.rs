@@ -983,7 +983,7 @@ mod tests {
             },
             &mut sink,
         );
-        let mut look = |publisher: &mut PacketPublisher<'_>, now: bool| {
+        let look = |publisher: &mut PacketPublisher<'_>, now: bool| {
             subscribed.set(now);
             publisher.subscription.checked -= SUBSCRIPTION_CHECK;
             publisher.tick(&LinkCounters::default());
