@@ -236,6 +236,7 @@ fn config_with(levels: Vec<f64>, bootstrap: usize, seed: u64) -> FragilityConfig
         seed,
         surface: None,
         surface_grid: 11,
+        horizontal: Default::default(),
     }
 }
 
@@ -463,6 +464,7 @@ fn housner_pulses_give_the_closed_form_fragility() {
                 horizontal_mps2: samples,
                 vertical_mps2: None,
             },
+            second_horizontal_mps2: None,
         });
     }
     let params = BlockParams::from_r_alpha(r, alpha, 1.0, 0.9, None).unwrap();
@@ -536,6 +538,7 @@ fn runs_do_not_depend_on_the_thread_count() {
         .map(|n| FragilityRecord {
             name: n.to_string(),
             record: bundled(n),
+            second_horizontal_mps2: None,
         })
         .collect();
     let mut config = config_with(log_spaced(1.0, 6.0, 4), 20, 9);
@@ -625,6 +628,7 @@ fn a_3d_rock_member_overturns_where_the_planar_block_of_its_face_normal_does() {
                     horizontal_mps2: a,
                     vertical_mps2: None,
                 },
+                second_horizontal_mps2: None,
             }
         })
         .collect();
