@@ -22,7 +22,7 @@ impl AccelUnits {
     /// The unit a value of SI unit `si_unit` is shown in, and the divisor from SI: `("g",
     /// 9.80665)` for an acceleration (`m/s2`) shown in g, `(si_unit, 1)` otherwise.
     #[must_use]
-    pub fn show(self, si_unit: &'static str) -> (&'static str, f64) {
+    pub fn show(self, si_unit: &str) -> (&str, f64) {
         match self {
             AccelUnits::G if si_unit == "m/s2" => ("g", STANDARD_GRAVITY_MPS2),
             _ => (si_unit, 1.0),
@@ -31,7 +31,7 @@ impl AccelUnits {
 
     /// `value_si` (in `si_unit`) in the shown unit.
     #[must_use]
-    pub fn value(self, value_si: f64, si_unit: &'static str) -> f64 {
+    pub fn value(self, value_si: f64, si_unit: &str) -> f64 {
         value_si / self.show(si_unit).1
     }
 }
