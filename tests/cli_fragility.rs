@@ -893,6 +893,11 @@ fn units_g_and_the_surface_plot_colour_bar_ticks_legend_and_title() {
         assert_eq!(cells.last(), Some(&unit), "{row}");
     }
 
+    // The surface's coefficients are for SI values, and the table in g says so.
+    assert!(
+        text.contains("(the surface's IMs in SI units: PGA in m/s2, PGV/PGA in s)"),
+        "{text}"
+    );
     let svg = std::fs::read_to_string(out.join("surface_PGA_PGV_PGA.svg")).unwrap();
     let texts = svg_texts(&svg);
     let find = |s: &str| texts.iter().find(|t| t.3 == s);
@@ -1154,6 +1159,79 @@ fn the_readme_units_example_runs_as_printed() {
             stdout.lines().any(|l| l == line),
             "README shows {line:?}, the command printed:\n{stdout}"
         );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 20 item 25: pairs that cannot be one record are refused in one line: two components
+/// that are not orthogonal, a station with one horizontal component, a CSV record (no header
+/// to pair it by).
+#[test]
+fn records_that_do_not_make_orthogonal_pairs_are_refused() {
+    let dir = temp_dir("bad-pairs");
+    let a: Vec<f64> = (0..200).map(|i| (f64::from(i) * 0.1).sin()).collect();
+    // (case, its files and their components, the error's words)
+    type Case<'a> = (&'a str, &'a [(&'a str, &'a str)], &'a str);
+    let cases: [Case; 3] = [
+        (
+            "oblique",
+            &[("S_000.AT2", "000"), ("S_045.AT2", "045")],
+            "must be orthogonal",
+        ),
+        (
+            "lone",
+            &[
+                ("S_000.AT2", "000"),
+                ("S_090.AT2", "090"),
+                ("T_000.AT2", "000"),
+            ],
+            "needs exactly two horizontal components",
+        ),
+        ("csv", &[("S.csv", "")], "only AT2 records are paired"),
+    ];
+    for (name, files, message) in cases {
+        let records = dir.join(name);
+        std::fs::create_dir_all(&records).unwrap();
+        for (file, component) in files {
+            let path = records.join(file);
+            if file.ends_with(".csv") {
+                let text: String = a
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| format!("{},{v}\n", i as f64 * 0.01))
+                    .collect();
+                std::fs::write(&path, format!("t,ax\n{text}")).unwrap();
+            } else {
+                let station = &file[..1];
+                write_at2(&path, &format!("Station {station}"), component, 0.01, &a);
+            }
+        }
+        let (ok, _, stderr) = cli(&[
+            "fragility",
+            "--width",
+            "0.4",
+            "--height",
+            "1.6",
+            "--mu-s",
+            "0.7",
+            "--records",
+            records.to_str().unwrap(),
+            "--horizontal-im",
+            "rotd50",
+            "--im",
+            "PGA",
+            "--stripes",
+            "PGA:1:2:2",
+            "--out",
+            dir.join("out").to_str().unwrap(),
+        ]);
+        assert!(!ok, "{name}");
+        let errors: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.starts_with("rockwatch: error"))
+            .collect();
+        assert_eq!(errors.len(), 1, "{name}: {stderr}");
+        assert!(errors[0].contains(message), "{name}: {stderr}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

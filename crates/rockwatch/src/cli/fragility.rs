@@ -36,7 +36,9 @@ use super::OutputFormat;
 /// intervals from resampling the records. The IMs are ranked by β; a two-IM probit surface
 /// P = Φ(c0 + c1 ln IM1 + c2 ln IM2) is fitted too (--surface).
 ///
-/// Records are single horizontal components (AT2 in g, CSV `t,ax` in m/s²). --azimuths gives
+/// Records are single horizontal components (AT2 in g, CSV `t,ax` in m/s²), or with
+/// --horizontal-im rotd50|rotd100|gm pairs of AT2 components of one event and station, whose
+/// PGA, PGV, PGD, SA(T) and PGV/PGA are in that definition (docs/fragility.md §1). --azimuths gives
 /// the incidence angles φ of each record in the rock's frame: the rock's direction of azimuth
 /// ψ sees the record times cos(φ − ψ). A planar block's frame is its +x axis, and the default
 /// 0,180 applies each record along +x and along −x (both pivots: an asymmetric rock topples

@@ -341,6 +341,18 @@ pub fn text_summary(
                     short_number(-fit.coef[2] / fit.coef[1]),
                     short_number(fit.beta1())
                 );
+                // The coefficients multiply ln of SI values: say so when the table is in g.
+                let shown = [a, b].map(|i| units.show(config.ims[i].unit()).0);
+                if shown.contains(&"g") {
+                    let _ = writeln!(
+                        out,
+                        "            (the surface's IMs in SI units: {} in {}, {} in {})",
+                        config.ims[a].name(),
+                        config.ims[a].unit(),
+                        config.ims[b].name(),
+                        config.ims[b].unit()
+                    );
+                }
             }
             Err(e) => {
                 let _ = writeln!(
