@@ -107,7 +107,7 @@ pub const TITLE_MIN_PX: u32 = 11;
 /// Most lines of a title.
 const TITLE_MAX_LINES: usize = 3;
 /// Free space left and right of a title (pixels).
-const TITLE_SIDE_PX: u32 = 10;
+const TITLE_SIDE_PX: u32 = 16;
 
 /// A title laid out to fit a width: its lines and font size (pixels).
 #[derive(Debug, Clone, PartialEq)]
@@ -160,20 +160,32 @@ where
         let fits = |s: &str| -> Result<bool, Box<dyn Error>> {
             Ok(area.estimate_text_size(s, &font)?.0 <= room)
         };
-        let mut lines: Vec<String> = Vec::new();
-        for word in text.split(' ').filter(|w| !w.is_empty()) {
-            let mut word = word.to_string();
-            // A word wider than the room: its end, after an ellipsis.
-            while !fits(&word)? && word.chars().count() > 1 {
-                let rest: String = word.chars().skip(2).collect();
-                word = format!("…{rest}");
+        // The pieces to wrap: the title's phrases (cut after ", " and before " — ", so that
+        // "H = 2.5 m" stays whole), a phrase wider than the room cut into its words, a word
+        // wider than the room shortened to its end after an ellipsis.
+        let mut pieces: Vec<String> = Vec::new();
+        for phrase in phrases(text) {
+            if fits(&phrase)? {
+                pieces.push(phrase);
+                continue;
             }
-            match lines.last_mut() {
-                Some(line) if fits(&format!("{line} {word}"))? => {
-                    line.push(' ');
-                    line.push_str(&word);
+            for word in phrase.split(' ').filter(|w| !w.is_empty()) {
+                let mut word = word.to_string();
+                while !fits(&word)? && word.chars().count() > 1 {
+                    let rest: String = word.chars().skip(2).collect();
+                    word = format!("…{rest}");
                 }
-                _ => lines.push(word),
+                pieces.push(word);
+            }
+        }
+        let mut lines: Vec<String> = Vec::new();
+        for piece in pieces {
+            match lines.last_mut() {
+                Some(line) if fits(&format!("{line} {piece}"))? => {
+                    line.push(' ');
+                    line.push_str(&piece);
+                }
+                _ => lines.push(piece),
             }
         }
         let done = lines.len() <= TITLE_MAX_LINES;
@@ -186,6 +198,28 @@ where
         lines: Vec::new(),
         size_px: TITLE_PX,
     }))
+}
+
+/// The phrases of a title: cut after each ", " and before each " — " (the separators stay
+/// with the phrase before and after), without the spaces at the cuts.
+fn phrases(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for part in text.split(", ") {
+        out.push(format!("{part},"));
+    }
+    if let Some(last) = out.last_mut() {
+        last.pop();
+    }
+    out.into_iter()
+        .flat_map(|p| {
+            let mut pieces: Vec<String> = p.split(" — ").map(str::to_string).collect();
+            for piece in pieces.iter_mut().skip(1) {
+                *piece = format!("— {piece}");
+            }
+            pieces
+        })
+        .filter(|p| !p.trim().is_empty())
+        .collect()
 }
 
 /// The one tick policy of a logarithmic axis from `lo` to `hi` (> 0): the values 1, 2 and 5
@@ -514,7 +548,19 @@ impl History<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::log_ticks;
+    use super::{log_ticks, phrases};
+
+    #[test]
+    fn titles_are_cut_into_phrases_at_commas_and_dashes_only() {
+        assert_eq!(
+            phrases("a.AT2 × 0.5 — B = 0.58 m, H = 2.5 m, μk = 1"),
+            ["a.AT2 × 0.5", "— B = 0.58 m,", "H = 2.5 m,", "μk = 1"]
+        );
+        assert_eq!(phrases("one"), ["one"]);
+        // Joined with spaces, the phrases are the title again.
+        let title = "x: P(overturn | PGA, PGV/PGA) = Φ(-1 + 2 ln PGA) — y";
+        assert_eq!(phrases(title).join(" "), title);
+    }
 
     /// Issue 20 item 26: plotters labelled a PGV/PGA axis of 0.035 to 0.25 s at 0.1 and 0.2
     /// only. The ticks are within the range, increasing, at least four, and round (1, 2, 5 ×
