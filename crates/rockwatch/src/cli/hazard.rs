@@ -87,8 +87,9 @@ pub struct HazardArgs {
     /// fragility's (fragility.json's `horizontal_definition`) differs, a warning says so.
     #[arg(long = "hazard-definition", value_name = "DEF")]
     hazard_definition: Option<String>,
-    /// Unit of an acceleration IM's median and hazard levels in the text output: m/s2 or g
-    /// (9.80665 m/s²). The JSON output keeps the fragility's SI unit (its `unit` field).
+    /// Unit of an acceleration fragility's median and of the hazard levels' conversion
+    /// (`× 1 → g`) in the text output: m/s2 or g (9.80665 m/s²). The JSON output keeps the
+    /// fragility's SI unit and median (its `unit`, `median` fields).
     #[arg(long, value_enum, default_value_t = AccelUnits::Mps2, value_name = "g|m/s2")]
     units: AccelUnits,
 }
