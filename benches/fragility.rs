@@ -30,6 +30,7 @@ fn records() -> Vec<FragilityRecord> {
         .map(|n| FragilityRecord {
             record: Record::read(&dir.join(&n)).expect("bundled record reads"),
             name: n,
+            second_horizontal_mps2: None,
         })
         .collect()
 }
@@ -56,6 +57,7 @@ fn config(members: Vec<RockMember>, bootstrap: usize) -> FragilityConfig {
         seed: 1,
         surface: Some((0, 2)),
         surface_grid: 41,
+        horizontal: Default::default(),
     }
 }
 

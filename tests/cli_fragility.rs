@@ -837,3 +837,401 @@ fn flight_runs_are_counted_and_the_bias_of_leaving_them_out_is_bounded() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The text elements of an SVG written by plotters: (x, y, text-anchor, text).
+fn svg_texts(svg: &str) -> Vec<(f64, f64, String, String)> {
+    let attr = |tag: &str, name: &str| -> Option<String> {
+        let start = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+        Some(tag[start..].split('"').next()?.to_string())
+    };
+    svg.split("<text ")
+        .skip(1)
+        .filter_map(|part| {
+            let (tag, rest) = part.split_once('>')?;
+            let tag = &format!(" {tag}");
+            let text = rest.split("</text>").next()?.trim().to_string();
+            Some((
+                attr(tag, "x")?.parse().ok()?,
+                attr(tag, "y")?.parse().ok()?,
+                attr(tag, "text-anchor").unwrap_or_default(),
+                text,
+            ))
+        })
+        .collect()
+}
+
+/// Issue 20 items 20 and 26: with `--units g` the table and the plots show accelerations in g
+/// (fragility.json stays in m/s2); the surface plot has a colour bar, more than two labels on
+/// its PGV/PGA axis, its legend off the chart (under it) and the rock in its title.
+#[test]
+fn units_g_and_the_surface_plot_colour_bar_ticks_legend_and_title() {
+    let dir = temp_dir("units-plots");
+    let out = dir.join("out");
+    let (ok, text, stderr) = run_block(out.to_str().unwrap(), "0", &["--units", "g"]);
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+            .unwrap();
+    // JSON in SI whatever --units; the table's PGA and SA(1.0) rows in g, PGV in m/s.
+    assert_eq!(json["ims"]["PGA"]["unit"], "m/s2");
+    for (im, divisor, unit) in [
+        ("PGA", 9.80665, "g"),
+        ("SA(1.0)", 9.80665, "g"),
+        ("PGV", 1.0, "m/s"),
+    ] {
+        let median = json["ims"][im]["median"].as_f64().unwrap();
+        let row = text
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(im))
+            .unwrap_or_else(|| panic!("no {im} row in {text}"));
+        let cells: Vec<&str> = row.split_whitespace().collect();
+        let shown: f64 = cells[1].parse().unwrap();
+        assert!(
+            ((shown - median / divisor) / (median / divisor)).abs() < 1e-3,
+            "{row}: {median} / {divisor}"
+        );
+        assert_eq!(cells.last(), Some(&unit), "{row}");
+    }
+
+    // The surface's coefficients are for SI values, and the table in g says so.
+    assert!(
+        text.contains("(the surface's IMs in SI units: PGA in m/s2, PGV/PGA in s)"),
+        "{text}"
+    );
+    let svg = std::fs::read_to_string(out.join("surface_PGA_PGV_PGA.svg")).unwrap();
+    let texts = svg_texts(&svg);
+    let find = |s: &str| texts.iter().find(|t| t.3 == s);
+    // The title names the rock, not "rock:".
+    let title: String = texts
+        .iter()
+        .filter(|t| t.1 < 50.0 && t.2 == "middle")
+        .map(|t| t.3.as_str())
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(
+        title.starts_with("B = 0.4 m, H = 1.6 m") && !title.contains("rock:"),
+        "{title}"
+    );
+    // The axes in the units asked for.
+    let x_desc = find("PGA (g)").expect("PGA axis in g");
+    find("PGV/PGA (s)").expect("PGV/PGA axis");
+    // A colour bar: its label, its six ticks 0.0 … 1.0 in one column, and its shades.
+    find("P(overturn)").expect("colour bar label");
+    let ticks: Vec<_> = ["0.0", "0.2", "0.4", "0.6", "0.8", "1.0"]
+        .iter()
+        .map(|s| find(s).unwrap_or_else(|| panic!("colour bar tick {s}")))
+        .collect();
+    assert!(ticks.iter().all(|t| t.0 == ticks[0].0));
+    assert!(ticks.windows(2).all(|w| w[1].1 < w[0].1), "ticks rise");
+    let bar_shades: std::collections::BTreeSet<&str> = svg
+        .split("<rect ")
+        .skip(1)
+        .filter(|r| r.contains("width=\"20\""))
+        .filter_map(|r| r.split("fill=\"").nth(1)?.split('"').next())
+        .collect();
+    assert!(bar_shades.len() >= 50, "{} shades", bar_shades.len());
+    // More than two labels on the PGV/PGA axis (right-aligned, left of the chart).
+    let y_labels = texts.iter().filter(|t| t.2 == "end" && t.0 < 100.0).count();
+    assert!(y_labels > 2, "{y_labels} labels on the PGV/PGA axis");
+    // The legend under the chart (below the x axis's description), not over its corner.
+    for entry in ["P = 0.1", "P = 0.5", "P = 0.9"] {
+        let e = find(entry).unwrap_or_else(|| panic!("legend {entry}"));
+        assert!(e.1 > x_desc.1, "{entry} at y = {} over the chart", e.1);
+    }
+    let curve = std::fs::read_to_string(out.join("fragility_PGA.svg")).unwrap();
+    let curve_texts = svg_texts(&curve);
+    assert!(curve_texts.iter().any(|t| t.3 == "PGA (g)"));
+    assert!(curve_texts
+        .iter()
+        .any(|t| t.3.contains("median") && t.3.contains(" g,")));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Writes an AT2 file of `values_mps2` (written in g) whose header names `station` and
+/// `component`.
+fn write_at2(path: &std::path::Path, station: &str, component: &str, dt: f64, values_mps2: &[f64]) {
+    let mut text = format!(
+        "PEER NGA STRONG MOTION DATABASE RECORD\nSynthetic, 1/1/2000, {station}, {component}\n\
+         ACCELERATION TIME SERIES IN UNITS OF G\nNPTS= {}, DT= {dt} SEC\n",
+        values_mps2.len()
+    );
+    for chunk in values_mps2.chunks(5) {
+        let line: Vec<String> = chunk.iter().map(|a| format!("{:e}", a / 9.80665)).collect();
+        text.push_str(&line.join(" "));
+        text.push('\n');
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+/// Issue 20 item 25: `--horizontal-im rotd50` pairs the two horizontal AT2 components of one
+/// station into one record: the stripes scale each pair so that its RotD50 PGA — computed here
+/// by rotating the components at 1° steps and taking the median of the 180 peaks — equals the
+/// stripe; the rock sees the pair's vector (the strong second component at incidence 90°,
+/// which one component along 0° would never give it); fragility.json and the text say RotD50.
+#[test]
+fn rotd50_from_pairs_scales_each_pair_to_its_rotd50_and_shakes_the_rock_with_both() {
+    let dir = temp_dir("rotd50");
+    let records = dir.join("records");
+    std::fs::create_dir_all(&records).unwrap();
+    let dt = 0.01;
+    let n = 1000;
+    let env = |t: f64| (std::f64::consts::PI * t / 10.0).sin().powi(2);
+    let mut pairs = Vec::new();
+    for (k, (ax, ay, f)) in [(0.3, 1.0, 0.8), (0.5, 0.9, 1.1)].into_iter().enumerate() {
+        let x: Vec<f64> = (0..n)
+            .map(|i| {
+                let t = i as f64 * dt;
+                ax * env(t) * (2.0 * std::f64::consts::PI * 1.3 * f * t).sin()
+            })
+            .collect();
+        let y: Vec<f64> = (0..n)
+            .map(|i| {
+                let t = i as f64 * dt;
+                ay * env(t) * (2.0 * std::f64::consts::PI * f * t + 0.5).sin()
+            })
+            .collect();
+        let station = format!("Station {k}");
+        write_at2(
+            &records.join(format!("S{k}_000.AT2")),
+            &station,
+            "000",
+            dt,
+            &x,
+        );
+        write_at2(
+            &records.join(format!("S{k}_090.AT2")),
+            &station,
+            "090",
+            dt,
+            &y,
+        );
+        pairs.push((x, y));
+    }
+    // RotD50 of each pair, independently of the crate: the components as the AT2 reader gives
+    // them back (g × 9.80665), rotated at 1° steps, the median of the 180 peaks.
+    let rotd50 = |x: &[f64], y: &[f64]| {
+        let back = |v: &[f64]| -> Vec<f64> {
+            v.iter()
+                .map(|a| format!("{:e}", a / 9.80665).parse::<f64>().unwrap() * 9.80665)
+                .collect()
+        };
+        let (x, y) = (back(x), back(y));
+        let mut peaks: Vec<f64> = (0..180)
+            .map(|deg| {
+                let th = f64::from(deg).to_radians();
+                x.iter()
+                    .zip(&y)
+                    .map(|(a, b)| (a * th.cos() + b * th.sin()).abs())
+                    .fold(0.0, f64::max)
+            })
+            .collect();
+        peaks.sort_by(f64::total_cmp);
+        0.5 * (peaks[89] + peaks[90])
+    };
+    let expected: Vec<f64> = pairs.iter().map(|(x, y)| rotd50(x, y)).collect();
+    let out = dir.join("out");
+    let (ok, text, stderr) = cli(&[
+        "fragility",
+        "--width",
+        "0.4",
+        "--height",
+        "1.6",
+        "--mu-s",
+        "0.7",
+        "--records",
+        records.to_str().unwrap(),
+        "--horizontal-im",
+        "rotd50",
+        "--im",
+        "PGA,PGV",
+        "--stripes",
+        "PGA:1:12:6",
+        "--azimuths",
+        "0,90",
+        "--bootstrap",
+        "0",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(text.contains("component   RotD50 of each pair"), "{text}");
+    assert!(
+        stderr.contains("are the horizontal components of"),
+        "{stderr}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["horizontal_definition"]["definition"], "RotD50");
+    assert_eq!(json["records"][0], "S0_000.AT2+S0_090.AT2");
+    for im in ["PGA", "PGV"] {
+        if json["ims"][im].is_object() {
+            assert_eq!(json["ims"][im]["horizontal_definition"], "RotD50", "{im}");
+        }
+    }
+    let levels: Vec<f64> = json["intensity"]["stripes"]["levels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let csv = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    // 2 pairs × 6 stripes × 2 incidences.
+    assert_eq!(csv.lines().count(), 1 + 24);
+    let (mut overturned_at_0, mut overturned_at_90) = (0, 0);
+    for line in csv.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let record = usize::from(!cells[0].starts_with("S0_"));
+        let level: usize = cells[2].parse().unwrap();
+        let scale: f64 = cells[3].parse().unwrap();
+        let rotd50_scaled = scale * expected[record];
+        assert!(
+            ((rotd50_scaled - levels[level]) / levels[level]).abs() < 1e-9,
+            "{line}: RotD50 × scale = {rotd50_scaled}, stripe {}",
+            levels[level]
+        );
+        if cells[6] == "overturned" {
+            match cells[5] {
+                "0" => overturned_at_0 += 1,
+                _ => overturned_at_90 += 1,
+            }
+        }
+    }
+    // The second component is the stronger: along 90° the rock falls more often (and does
+    // fall: one component along 0° would leave it still at 90°).
+    assert!(
+        overturned_at_90 > overturned_at_0,
+        "{overturned_at_90} at 90° vs {overturned_at_0} at 0°"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The README's `--units g` example (section "Fragility of one rock, then its hazard"), run as
+/// printed from the repository's root (its --out in a temporary directory): every line it
+/// shows is a line of the output.
+#[test]
+fn the_readme_units_example_runs_as_printed() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+    let readme = std::fs::read_to_string(format!("{root}/README.md")).unwrap();
+    let block: Vec<&str> = readme
+        .split("```sh\n")
+        .filter_map(|b| b.split("```").next())
+        .find(|b| b.contains("--units g --out frag-g"))
+        .expect("the README's --units example")
+        .lines()
+        .collect();
+    let command = block
+        .iter()
+        .take_while(|l| !l.starts_with('#'))
+        .map(|l| l.trim_end_matches('\\'))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let shown: Vec<&str> = block.iter().filter_map(|l| l.strip_prefix("# ")).collect();
+    assert!(shown.len() >= 3, "{block:?}");
+    let dir = temp_dir("readme-units");
+    let out = dir.join("frag-g");
+    let args: Vec<String> = command
+        .split_whitespace()
+        .skip(1)
+        .map(|a| a.trim_matches('\'').to_string())
+        .map(|a| {
+            if a == "frag-g" {
+                out.display().to_string()
+            } else {
+                a
+            }
+        })
+        .collect();
+    let output = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(&args)
+        .current_dir(root)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    for line in shown {
+        assert!(
+            stdout.lines().any(|l| l == line),
+            "README shows {line:?}, the command printed:\n{stdout}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 20 item 25: pairs that cannot be one record are refused in one line: two components
+/// that are not orthogonal, a station with one horizontal component, a CSV record (no header
+/// to pair it by).
+#[test]
+fn records_that_do_not_make_orthogonal_pairs_are_refused() {
+    let dir = temp_dir("bad-pairs");
+    let a: Vec<f64> = (0..200).map(|i| (f64::from(i) * 0.1).sin()).collect();
+    // (case, its files and their components, the error's words)
+    type Case<'a> = (&'a str, &'a [(&'a str, &'a str)], &'a str);
+    let cases: [Case; 3] = [
+        (
+            "oblique",
+            &[("S_000.AT2", "000"), ("S_045.AT2", "045")],
+            "must be orthogonal",
+        ),
+        (
+            "lone",
+            &[
+                ("S_000.AT2", "000"),
+                ("S_090.AT2", "090"),
+                ("T_000.AT2", "000"),
+            ],
+            "needs exactly two horizontal components",
+        ),
+        ("csv", &[("S.csv", "")], "only AT2 records are paired"),
+    ];
+    for (name, files, message) in cases {
+        let records = dir.join(name);
+        std::fs::create_dir_all(&records).unwrap();
+        for (file, component) in files {
+            let path = records.join(file);
+            if file.ends_with(".csv") {
+                let text: String = a
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| format!("{},{v}\n", i as f64 * 0.01))
+                    .collect();
+                std::fs::write(&path, format!("t,ax\n{text}")).unwrap();
+            } else {
+                let station = &file[..1];
+                write_at2(&path, &format!("Station {station}"), component, 0.01, &a);
+            }
+        }
+        let (ok, _, stderr) = cli(&[
+            "fragility",
+            "--width",
+            "0.4",
+            "--height",
+            "1.6",
+            "--mu-s",
+            "0.7",
+            "--records",
+            records.to_str().unwrap(),
+            "--horizontal-im",
+            "rotd50",
+            "--im",
+            "PGA",
+            "--stripes",
+            "PGA:1:2:2",
+            "--out",
+            dir.join("out").to_str().unwrap(),
+        ]);
+        assert!(!ok, "{name}");
+        let errors: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.starts_with("rockwatch: error"))
+            .collect();
+        assert_eq!(errors.len(), 1, "{name}: {stderr}");
+        assert!(errors[0].contains(message), "{name}: {stderr}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

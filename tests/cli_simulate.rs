@@ -207,3 +207,175 @@ fn simulate_and_fragility_share_one_rock_plan_mu_k_defaulting_to_mu_s() {
     assert!(!ok && stderr.contains("give the geometry"), "{stderr}");
     assert!(stderr.contains("--mesh"), "{stderr}");
 }
+
+/// The text elements of an SVG written by plotters: (x, y, text-anchor, font size, text).
+fn svg_texts(svg: &str) -> Vec<(f64, f64, String, f64, String)> {
+    let attr = |tag: &str, name: &str| -> Option<String> {
+        let start = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+        Some(tag[start..].split('"').next()?.to_string())
+    };
+    svg.split("<text ")
+        .skip(1)
+        .filter_map(|part| {
+            let (tag, rest) = part.split_once('>')?;
+            let tag = &format!(" {tag}");
+            let text = rest.split("</text>").next()?.trim().to_string();
+            Some((
+                attr(tag, "x")?.parse().ok()?,
+                attr(tag, "y")?.parse().ok()?,
+                attr(tag, "text-anchor").unwrap_or_default(),
+                attr(tag, "font-size")?.parse().ok()?,
+                text,
+            ))
+        })
+        .collect()
+}
+
+/// The advance widths of the bundled font (assets/fonts/DejaVuSans-subset.ttf, the font of
+/// every plot), read from its TrueType tables here (cmap format 4, hhea, hmtx, head), not by
+/// the plotting code: `width_em(text)` is the width of `text` in em.
+struct FontWidths {
+    font: Vec<u8>,
+}
+
+impl FontWidths {
+    fn bundled() -> FontWidths {
+        FontWidths {
+            font: std::fs::read(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../assets/fonts/DejaVuSans-subset.ttf"
+            ))
+            .unwrap(),
+        }
+    }
+
+    fn u16_at(&self, at: usize) -> usize {
+        usize::from(u16::from_be_bytes([self.font[at], self.font[at + 1]]))
+    }
+
+    fn table(&self, tag: &[u8; 4]) -> usize {
+        let tables = self.u16_at(4);
+        (0..tables)
+            .map(|i| 12 + 16 * i)
+            .find(|&r| &self.font[r..r + 4] == tag)
+            .map(|r| u32::from_be_bytes(self.font[r + 8..r + 12].try_into().unwrap()) as usize)
+            .unwrap_or_else(|| panic!("no {tag:?} table"))
+    }
+
+    /// The glyph of `c` by the Windows Unicode BMP cmap (format 4).
+    fn glyph(&self, c: char) -> usize {
+        let cmap = self.table(b"cmap");
+        let sub = (0..self.u16_at(cmap + 2))
+            .map(|i| cmap + 4 + 8 * i)
+            .find(|&r| self.u16_at(r) == 3 && self.u16_at(r + 2) == 1)
+            .map(|r| {
+                cmap + u32::from_be_bytes(self.font[r + 4..r + 8].try_into().unwrap()) as usize
+            })
+            .expect("a (3, 1) cmap");
+        assert_eq!(self.u16_at(sub), 4, "cmap format");
+        let segments = self.u16_at(sub + 6) / 2;
+        let ends = sub + 14;
+        let starts = ends + 2 * segments + 2;
+        let deltas = starts + 2 * segments;
+        let offsets = deltas + 2 * segments;
+        let code = c as usize;
+        for k in 0..segments {
+            if code > self.u16_at(ends + 2 * k) {
+                continue;
+            }
+            assert!(code >= self.u16_at(starts + 2 * k), "{c:?} not in the font");
+            let delta = self.u16_at(deltas + 2 * k);
+            let offset = self.u16_at(offsets + 2 * k);
+            let glyph = if offset == 0 {
+                code
+            } else {
+                let at = offsets + 2 * k + offset + 2 * (code - self.u16_at(starts + 2 * k));
+                self.u16_at(at)
+            };
+            return (glyph + delta) % 65536;
+        }
+        panic!("{c:?} not in the font")
+    }
+
+    fn width_em(&self, text: &str) -> f64 {
+        let units_per_em = self.u16_at(self.table(b"head") + 18) as f64;
+        let metrics = self.u16_at(self.table(b"hhea") + 34);
+        let hmtx = self.table(b"hmtx");
+        text.chars()
+            .map(|c| {
+                let g = self.glyph(c).min(metrics - 1);
+                self.u16_at(hmtx + 4 * g) as f64 / units_per_em
+            })
+            .sum()
+    }
+}
+
+/// Issue 20 item 26: the title of `simulate --plot` was one line centred on the figure and cut
+/// at both ends when the record's path is long. Every line of the title now lies within the
+/// figure, and both ends of it (the record's scale and the block's friction) are there.
+#[test]
+fn a_long_title_is_wrapped_within_the_figure_not_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = dir.path().join(
+        "Northridge-01_1994-01-17_Rinaldi_Receiving_Station_horizontal_component_228_from_north.AT2",
+    );
+    std::fs::copy(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/records/Rinaldi228.AT2"
+        ),
+        &long,
+    )
+    .unwrap();
+    let svg_path = dir.path().join("long.svg");
+    let (ok, _, stderr) = rockwatch(&[
+        "simulate",
+        "--record",
+        long.to_str().unwrap(),
+        "--width",
+        "0.5806125494392025",
+        "--height",
+        "2.5",
+        "--mu-s",
+        "1.5",
+        "--mu-k",
+        "1.0",
+        "--scale",
+        "0.5",
+        "--plot",
+        svg_path.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    let width: f64 = svg
+        .split("width=\"")
+        .nth(1)
+        .and_then(|w| w.split('"').next())
+        .and_then(|w| w.parse().ok())
+        .unwrap();
+    // The title: the centred lines above the panels (the first text elements, y < 60).
+    let title: Vec<_> = svg_texts(&svg)
+        .into_iter()
+        .filter(|t| t.2 == "middle" && t.1 < 60.0 && (t.0 - width / 2.0).abs() < 1.0)
+        .collect();
+    assert!(!title.is_empty(), "no title");
+    let font = FontWidths::bundled();
+    // The font's own widths: "Rinaldi228.AT2" at 10 px is 75.67 px (fontTools' hmtx).
+    assert!((font.width_em("Rinaldi228.AT2") * 10.0 - 75.67).abs() < 0.01);
+    for (x, _, _, size, text) in &title {
+        let half = 0.5 * font.width_em(text) * size;
+        assert!(
+            x - half >= 0.0 && x + half <= width,
+            "title line {text:?} ({size} px) spans {} to {} of {width}",
+            x - half,
+            x + half
+        );
+    }
+    let joined: Vec<&str> = title.iter().map(|t| t.4.as_str()).collect();
+    let joined = joined.join(" ");
+    assert!(
+        joined.contains("× 0.5") && joined.ends_with("μk = 1"),
+        "{joined}"
+    );
+    assert!(joined.contains("_from_north.AT2"), "{joined}");
+}

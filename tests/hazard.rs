@@ -486,3 +486,111 @@ fn cli_takes_the_nearest_site_to_lon_lat_and_says_its_distance() {
     ]);
     assert!(!ok && stderr.contains("two-column"), "{stderr}");
 }
+
+/// Issue 20 item 20: `--units g` shows an acceleration fragility's median and the conversion
+/// in g in the text; the JSON keeps the fragility's SI median and unit.
+#[test]
+fn units_g_shows_accelerations_in_g_in_text_and_keeps_si_in_json() {
+    let dir = temp_dir("units");
+    let theta = 4.2;
+    let fragility = write(
+        &dir,
+        "fragility.json",
+        &format!(r#"{{"ims": {{"PGA": {{"median": {theta}, "beta": 0.4, "unit": "m/s2"}}}}}}"#),
+    );
+    let levels_g = log_levels(0.005, 5.0, 30);
+    let curve = write(
+        &dir,
+        "hazard_curve-mean-PGA_1.csv",
+        &openquake_text("PGA", 50.0, &levels_g, |g| 1e-3 * (g * G).powf(-2.0)),
+    );
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "hazard",
+            "--fragility",
+            &fragility,
+            "--im",
+            "PGA",
+            "--hazard-curve",
+            &curve,
+            "--age-years",
+            "10000",
+        ];
+        args.extend_from_slice(extra);
+        let (ok, stdout, stderr) = cli(&args);
+        assert!(ok, "{stderr}");
+        stdout
+    };
+    let text = run(&["--units", "g"]);
+    // 4.2 m/s² = 0.42828 g: four significant digits.
+    assert!(text.contains("median 0.4283 g"), "{text}");
+    assert!(text.contains("× 1 → g"), "{text}");
+    let text = run(&[]);
+    assert!(text.contains("median 4.2 m/s2"), "{text}");
+    let json: serde_json::Value =
+        serde_json::from_str(&run(&["--units", "g", "--format", "json"])).unwrap();
+    assert_eq!(json["median"].as_f64(), Some(theta));
+    assert_eq!(json["unit"], "m/s2");
+}
+
+/// Issue 20 item 25: the fragility's horizontal-component definition (fragility.json) against
+/// the hazard's (--hazard-definition; OpenQuake's CSV does not carry it): said in the output,
+/// a warning when they differ or when the fragility is one component and the hazard's unsaid.
+#[test]
+fn a_fragility_in_another_component_definition_than_the_hazard_is_warned_about() {
+    let dir = temp_dir("definition");
+    let levels_g = log_levels(0.005, 5.0, 30);
+    let curve = write(
+        &dir,
+        "hazard_curve-mean-PGA_1.csv",
+        &openquake_text("PGA", 50.0, &levels_g, |g| 1e-3 * (g * G).powf(-2.0)),
+    );
+    let run = |definition: &str, extra: &[&str]| {
+        let fragility = write(
+            &dir,
+            &format!("fragility-{definition}.json"),
+            &format!(
+                r#"{{"ims": {{"PGA": {{"median": 4.0, "beta": 0.4, "unit": "m/s2", "horizontal_definition": "{definition}"}}}}}}"#
+            ),
+        );
+        let mut args = vec![
+            "hazard",
+            "--fragility",
+            &fragility,
+            "--im",
+            "PGA",
+            "--hazard-curve",
+            &curve,
+            "--age-years",
+            "10000",
+        ];
+        args.extend_from_slice(extra);
+        let (ok, stdout, stderr) = cli(&args);
+        assert!(ok, "{stderr}");
+        (stdout, stderr)
+    };
+    let (text, stderr) = run("RotD50", &["--hazard-definition", "rotd50"]);
+    assert!(
+        text.contains("component   fragility RotD50, hazard RotD50"),
+        "{text}"
+    );
+    assert!(!stderr.contains("warning"), "{stderr}");
+    let (_, stderr) = run("GM", &["--hazard-definition", "rotd50"]);
+    assert!(
+        stderr.contains("warning: the fragility's PGA is GM and the hazard curve's RotD50"),
+        "{stderr}"
+    );
+    let (text, stderr) = run("component", &[]);
+    assert!(
+        text.contains("fragility component, hazard not said"),
+        "{text}"
+    );
+    assert!(
+        stderr.contains("one horizontal component as recorded"),
+        "{stderr}"
+    );
+    let (json, _) = run("RotD50", &["--hazard-definition", "gm", "--format", "json"]);
+    let json: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(json["fragility_horizontal_definition"], "RotD50");
+    assert_eq!(json["hazard_horizontal_definition"], "GM");
+}

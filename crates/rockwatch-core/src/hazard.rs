@@ -524,6 +524,10 @@ pub struct FragilityInput {
     pub im: String,
     /// The IM's unit.
     pub unit: ImUnit,
+    /// The IM's horizontal-component definition as the file says it (`ims.<IM>.
+    /// horizontal_definition` of `rockwatch fragility`: `component`, `RotD50`, `RotD100`,
+    /// `GM`), None when it does not.
+    pub horizontal_definition: Option<String>,
 }
 
 /// The canonical name of an IM for matching: upper case, the study's `pha`/`phv` (peak
@@ -596,6 +600,10 @@ pub fn fragility_from_json(
             curve,
             im: name.clone(),
             unit,
+            horizontal_definition: entry
+                .get("horizontal_definition")
+                .and_then(Value::as_str)
+                .map(str::to_owned),
         });
     }
     if let Some(blocks) = root.get("blocks").and_then(Value::as_object) {
@@ -628,6 +636,7 @@ pub fn fragility_from_json(
             curve,
             im: file_im.to_owned(),
             unit,
+            horizontal_definition: None,
         });
     }
     Err(bad(

@@ -28,4 +28,5 @@ pub mod seedlink;
 pub mod signals;
 pub mod status;
 pub mod study;
+pub mod units;
 pub mod wire_codes;

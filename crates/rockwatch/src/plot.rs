@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use rockwatch_core::dynamics::{BlockParams, Mode};
 
@@ -96,6 +97,215 @@ pub fn ensure_font() {
         // (tests/study.rs renders PNG text with it; a missing font would fail those plots).
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, BUNDLED_FONT);
     });
+}
+
+/// Font size of a figure's title (pixels) when it fits; a longer title is wrapped, then set
+/// smaller down to [`TITLE_MIN_PX`] ([`fit_title`]).
+pub const TITLE_PX: u32 = 16;
+/// Smallest font size of a title (pixels).
+pub const TITLE_MIN_PX: u32 = 11;
+/// Most lines of a title.
+const TITLE_MAX_LINES: usize = 3;
+/// Free space left and right of a title (pixels).
+const TITLE_SIDE_PX: u32 = 16;
+
+/// A title laid out to fit a width: its lines and font size (pixels).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FittedTitle {
+    /// The lines, each narrower than the width asked for.
+    pub lines: Vec<String>,
+    /// Font size (pixels).
+    pub size_px: u32,
+}
+
+impl FittedTitle {
+    /// Height of the lines (pixels), with a gap above and below.
+    #[must_use]
+    pub fn height_px(&self) -> u32 {
+        self.lines.len() as u32 * (self.size_px + 4) + 8
+    }
+
+    /// Draws the lines centred at the top of `area`.
+    pub fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult
+    where
+        DB::ErrorType: 'static,
+    {
+        let (width, _) = area.dim_in_pixel();
+        let style = TextStyle::from(("sans-serif", self.size_px).into_font())
+            .pos(Pos::new(HPos::Center, VPos::Top));
+        for (k, line) in self.lines.iter().enumerate() {
+            let y = 4 + k as i32 * (self.size_px as i32 + 4);
+            area.draw(&Text::new(line.as_str(), ((width / 2) as i32, y), &style))?;
+        }
+        Ok(())
+    }
+}
+
+/// The one title policy of every figure: `text` at [`TITLE_PX`] if it fits the width of
+/// `area` (less a margin each side); else wrapped at its words into at most three lines,
+/// from [`TITLE_PX`] down to [`TITLE_MIN_PX`]; a word wider than the width on its own (a
+/// long path) keeps its end, after "…". No line is wider than the area, so nothing is cut.
+pub fn fit_title<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    text: &str,
+) -> Result<FittedTitle, Box<dyn Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let (width, _) = area.dim_in_pixel();
+    let room = width.saturating_sub(2 * TITLE_SIDE_PX).max(1);
+    let mut fitted = None;
+    for size_px in (TITLE_MIN_PX..=TITLE_PX).rev() {
+        let font = TextStyle::from(("sans-serif", size_px).into_font());
+        let fits = |s: &str| -> Result<bool, Box<dyn Error>> {
+            Ok(area.estimate_text_size(s, &font)?.0 <= room)
+        };
+        // The pieces to wrap: the title's phrases (cut after ", " and before " — ", so that
+        // "H = 2.5 m" stays whole), a phrase wider than the room cut into its words, a word
+        // wider than the room shortened to its end after an ellipsis.
+        let mut pieces: Vec<String> = Vec::new();
+        for phrase in phrases(text) {
+            if fits(&phrase)? {
+                pieces.push(phrase);
+                continue;
+            }
+            for word in phrase.split(' ').filter(|w| !w.is_empty()) {
+                let mut word = word.to_string();
+                while !fits(&word)? && word.chars().count() > 1 {
+                    let rest: String = word.chars().skip(2).collect();
+                    word = format!("…{rest}");
+                }
+                pieces.push(word);
+            }
+        }
+        let mut lines: Vec<String> = Vec::new();
+        for piece in pieces {
+            match lines.last_mut() {
+                Some(line) if fits(&format!("{line} {piece}"))? => {
+                    line.push(' ');
+                    line.push_str(&piece);
+                }
+                _ => lines.push(piece),
+            }
+        }
+        let done = lines.len() <= TITLE_MAX_LINES;
+        fitted = Some(FittedTitle { lines, size_px });
+        if done {
+            break;
+        }
+    }
+    Ok(fitted.unwrap_or(FittedTitle {
+        lines: Vec::new(),
+        size_px: TITLE_PX,
+    }))
+}
+
+/// The phrases of a title: cut after each ", " and before each " — " (the separators stay
+/// with the phrase before and after), without the spaces at the cuts.
+fn phrases(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for part in text.split(", ") {
+        out.push(format!("{part},"));
+    }
+    if let Some(last) = out.last_mut() {
+        last.pop();
+    }
+    out.into_iter()
+        .flat_map(|p| {
+            let mut pieces: Vec<String> = p.split(" — ").map(str::to_string).collect();
+            for piece in pieces.iter_mut().skip(1) {
+                *piece = format!("— {piece}");
+            }
+            pieces
+        })
+        .filter(|p| !p.trim().is_empty())
+        .collect()
+}
+
+/// The one tick policy of a logarithmic axis from `lo` to `hi` (> 0): the values 1, 2 and 5
+/// × 10ᵏ within the range, or 1 to 9 × 10ᵏ when those are fewer than four; over a range too
+/// narrow for four of those (less than about a factor of 2), four or more evenly spaced round
+/// values. plotters' own log axis labels only the powers of ten and a few others: two labels
+/// over a PGV/PGA axis of 0.05 to 0.3 s.
+#[must_use]
+pub fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    if !(lo > 0.0 && hi > lo && lo.is_finite() && hi.is_finite()) {
+        return Vec::new();
+    }
+    let within = |x: f64| x >= lo * (1.0 - 1e-9) && x <= hi * (1.0 + 1e-9);
+    let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    for mantissas in [
+        &[1.0, 2.0, 5.0][..],
+        &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0],
+    ] {
+        let ticks: Vec<f64> = (k0..=k1)
+            .flat_map(|k| mantissas.iter().map(move |m| m * 10f64.powi(k)))
+            .filter(|&x| within(x))
+            .collect();
+        if ticks.len() >= 4 {
+            return ticks;
+        }
+    }
+    // Evenly spaced round values: a step of 1, 2 or 5 × 10ᵏ giving four or more.
+    let raw = (hi - lo) / 4.0;
+    let magnitude = 10f64.powf(raw.log10().floor());
+    let step = [5.0, 2.0, 1.0]
+        .iter()
+        .map(|m| m * magnitude)
+        .find(|s| (hi - lo) / s >= 4.0)
+        .unwrap_or(magnitude);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last)
+        .map(|i| i as f64 * step)
+        .filter(|&x| within(x))
+        .collect()
+}
+
+/// The one colour-bar policy: a vertical bar in `area` of `colour(p)` for p from 0 (bottom)
+/// to 1 (top) in 100 steps, its ticks 0, 0.2, …, 1 on the right and `label` above it.
+pub fn draw_colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    colour: impl Fn(f64) -> RGBColor,
+    label: &str,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let (_, height) = area.dim_in_pixel();
+    let (x0, x1) = (10_i32, 30_i32);
+    let (top, bottom) = (40_i32, height as i32 - 60);
+    if bottom <= top {
+        return Ok(());
+    }
+    area.draw(&Text::new(label, (4, top - 24), ("sans-serif", 13)))?;
+    let steps = 100;
+    let span = f64::from(bottom - top);
+    for k in 0..steps {
+        let p = (f64::from(k) + 0.5) / f64::from(steps);
+        let y_lo = bottom - (span * f64::from(k) / f64::from(steps)).round() as i32;
+        let y_hi = bottom - (span * f64::from(k + 1) / f64::from(steps)).round() as i32;
+        area.draw(&Rectangle::new(
+            [(x0, y_hi), (x1, y_lo)],
+            colour(p).filled(),
+        ))?;
+    }
+    area.draw(&Rectangle::new(
+        [(x0, top), (x1, bottom)],
+        BLACK.stroke_width(1),
+    ))?;
+    for k in 0..=5 {
+        let p = f64::from(k) / 5.0;
+        let y = bottom - (span * p).round() as i32;
+        area.draw(&PathElement::new(
+            [(x1, y), (x1 + 5, y)],
+            BLACK.stroke_width(1),
+        ))?;
+        let style =
+            TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+        area.draw(&Text::new(format!("{p:.1}"), (x1 + 8, y), &style))?;
+    }
+    Ok(())
 }
 
 /// Fill colour of each moving mode (rest is left white).
@@ -247,8 +457,11 @@ impl History<'_> {
         DB::ErrorType: 'static,
     {
         root.fill(&WHITE)?;
-        let (head, body) = root.split_vertically(48);
-        head.titled(&self.title, ("sans-serif", 16))?;
+        let title = fit_title(root, &self.title)?;
+        // The title's lines, then a row for the legend of the mode colours.
+        let legend_y = title.height_px() as i32;
+        let (head, body) = root.split_vertically(title.height_px() + 22);
+        title.draw(&head)?;
         let areas = body.split_evenly((3, 1));
         let t_end = self.t_s.last().copied().unwrap_or(1.0).max(1e-9);
         let runs = mode_runs(self.t_s, self.modes);
@@ -317,11 +530,74 @@ impl History<'_> {
         for (i, mode) in legend.iter().enumerate() {
             if let Some(fill) = mode_colour(*mode) {
                 let x = 250 + 110 * i as i32;
-                root.draw(&Rectangle::new([(x, 30), (x + 14, 42)], fill.filled()))?;
-                root.draw(&Text::new(mode.as_str(), (x + 18, 30), ("sans-serif", 12)))?;
+                root.draw(&Rectangle::new(
+                    [(x, legend_y), (x + 14, legend_y + 12)],
+                    fill.filled(),
+                ))?;
+                root.draw(&Text::new(
+                    mode.as_str(),
+                    (x + 18, legend_y),
+                    ("sans-serif", 12),
+                ))?;
             }
         }
         root.present()?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{log_ticks, phrases};
+
+    #[test]
+    fn titles_are_cut_into_phrases_at_commas_and_dashes_only() {
+        assert_eq!(
+            phrases("a.AT2 × 0.5 — B = 0.58 m, H = 2.5 m, μk = 1"),
+            ["a.AT2 × 0.5", "— B = 0.58 m,", "H = 2.5 m,", "μk = 1"]
+        );
+        assert_eq!(phrases("one"), ["one"]);
+        // Joined with spaces, the phrases are the title again.
+        let title = "x: P(overturn | PGA, PGV/PGA) = Φ(-1 + 2 ln PGA) — y";
+        assert_eq!(phrases(title).join(" "), title);
+    }
+
+    /// Issue 20 item 26: plotters labelled a PGV/PGA axis of 0.035 to 0.25 s at 0.1 and 0.2
+    /// only. The ticks are within the range, increasing, at least four, and round (1, 2, 5 ×
+    /// 10ᵏ, or every 10ᵏ⁻¹ … over a narrow range).
+    #[test]
+    fn log_axes_get_at_least_four_round_ticks_within_the_range() {
+        for (lo, hi) in [
+            (0.035, 0.25),
+            (0.05, 5.5),
+            (0.4, 0.9),
+            (1.0, 1.3),
+            (2e-4, 3e-1),
+            (12.0, 13.0),
+        ] {
+            let ticks = log_ticks(lo, hi);
+            assert!(ticks.len() >= 4, "{lo}..{hi}: {ticks:?}");
+            assert!(ticks.windows(2).all(|w| w[0] < w[1]), "{ticks:?}");
+            assert!(
+                ticks
+                    .iter()
+                    .all(|&t| t >= lo * 0.999_999 && t <= hi * 1.000_001),
+                "{lo}..{hi}: {ticks:?}"
+            );
+            for t in &ticks {
+                // Round: at most three significant digits (1.05 over 1 to 1.3).
+                let text = crate::number_text::short_number(*t);
+                let digits = text.trim_start_matches(['0', '.']).replace('.', "");
+                assert!(
+                    digits.trim_end_matches('0').len() <= 3,
+                    "{lo}..{hi}: {t} ({text})"
+                );
+            }
+        }
+        assert_eq!(
+            log_ticks(0.035, 0.25),
+            vec![0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.1, 0.2]
+        );
+        assert!(log_ticks(1.0, 1.0).is_empty() && log_ticks(0.0, 1.0).is_empty());
     }
 }

@@ -13,7 +13,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::number_text::short_number;
-use crate::plot::{by_extension, DrawResult, PlotError};
+use crate::plot::{by_extension, fit_title, DrawResult, PlotError};
 use rockwatch_core::mesh::contact::DirectionBody;
 
 const CURVE: RGBColor = RGBColor(0, 114, 178);
@@ -51,15 +51,16 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let (head, body) = root.split_vertically(60);
-    head.titled(title, ("sans-serif", 16))?;
+    let fitted = fit_title(root, title)?;
+    let (head, body) = root.split_vertically(fitted.height_px() + 24);
+    fitted.draw(&head)?;
     head.draw(&Text::new(
         format!(
             "α (°) of a tip towards each azimuth; weakest {}° towards {}°",
             short_number(weakest_alpha),
             short_number(weakest_az)
         ),
-        (10, 36),
+        (10, fitted.height_px() as i32 + 2),
         ("sans-serif", 13),
     ))?;
     let alpha_max = rose
@@ -164,8 +165,9 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let (head, area) = root.split_vertically(60);
-    head.titled(title, ("sans-serif", 16))?;
+    let fitted = fit_title(root, title)?;
+    let (head, area) = root.split_vertically(fitted.height_px() + 24);
+    fitted.draw(&head)?;
     head.draw(&Text::new(
         format!(
             "towards {}°: b+ = {} m, b− = {} m, h = {} m, α+ = {}°, α− = {}°",
@@ -176,7 +178,7 @@ where
             short_number(body.alpha_plus_deg),
             short_number(body.alpha_minus_deg)
         ),
-        (10, 36),
+        (10, fitted.height_px() as i32 + 2),
         ("sans-serif", 13),
     ))?;
     // Equal scales on both axes: one span for both, centred on the outline.

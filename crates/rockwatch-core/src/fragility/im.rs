@@ -10,6 +10,7 @@
 //! `s^k·IM` for every scaled copy (exact up to rounding; `tests/fragility.rs` checks it
 //! against `compute_ims` of scaled records).
 
+use crate::ims::rotd::{oscillator_displacement, velocity_displacement, HorizontalDefinition};
 use crate::ims::spectrum::{format_period_s, spectral_intensities, PeriodRange};
 use crate::ims::{ImError, ImSet};
 
@@ -188,6 +189,61 @@ impl FragilityIm {
             FragilityIm::Sa(t) => Some(*t),
             _ => None,
         }
+    }
+
+    /// True for the IMs with a two-component definition (RotD50, GM, …): PGA, PGV, PGD,
+    /// SA(T) and PGV/PGA (the ratio of the PGV and PGA in that definition). The others are of
+    /// the first component as recorded.
+    #[must_use]
+    pub fn has_horizontal_definition(&self) -> bool {
+        matches!(
+            self,
+            FragilityIm::Pga
+                | FragilityIm::Pgv
+                | FragilityIm::Pgd
+                | FragilityIm::Sa(_)
+                | FragilityIm::PgvPga
+        )
+    }
+
+    /// This IM (one of [`FragilityIm::has_horizontal_definition`], NaN for the others) of the
+    /// pair `x`, `y` (m/s², orthogonal horizontal components, every `dt_s` s) in the
+    /// definition `definition` ([`crate::ims::rotd`]): of the accelerations, velocities,
+    /// displacements or oscillator displacements (damping ratio `damping`; SA = ω²·Sd).
+    pub fn two_component_value(
+        &self,
+        definition: HorizontalDefinition,
+        x: &[f64],
+        y: &[f64],
+        dt_s: f64,
+        damping: f64,
+    ) -> Result<f64, ImError> {
+        let pga = || definition.combine(x, y);
+        let pgv_pgd = || {
+            let (vx, dx) = velocity_displacement(x, dt_s);
+            let (vy, dy) = velocity_displacement(y, dt_s);
+            (definition.combine(&vx, &vy), definition.combine(&dx, &dy))
+        };
+        Ok(match self {
+            FragilityIm::Pga => pga(),
+            FragilityIm::Pgv => pgv_pgd().0,
+            FragilityIm::Pgd => pgv_pgd().1,
+            FragilityIm::PgvPga => {
+                let a = pga();
+                if a > 0.0 {
+                    pgv_pgd().0 / a
+                } else {
+                    0.0
+                }
+            }
+            FragilityIm::Sa(t) => {
+                let w = 2.0 * std::f64::consts::PI / t;
+                let ux = oscillator_displacement(x, dt_s, *t, damping)?;
+                let uy = oscillator_displacement(y, dt_s, *t, damping)?;
+                w * w * definition.combine(&ux, &uy)
+            }
+            _ => f64::NAN,
+        })
     }
 
     /// The value of this IM in an [`ImSet`] computed with this IM's SA period among

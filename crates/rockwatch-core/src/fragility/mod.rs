@@ -30,6 +30,7 @@ pub mod im;
 use rayon::prelude::*;
 
 use crate::dynamics::{BlockOptions, BlockParams};
+pub use crate::ims::rotd::HorizontalDefinition;
 use crate::ims::{compute_ims, ImError, ImOptions};
 use crate::lhs::{rng_from_seed, uniform_below};
 use crate::record::{Record, MAX_ABS_ACCEL_MPS2};
@@ -156,6 +157,10 @@ pub struct FragilityConfig {
     pub surface: Option<(usize, usize)>,
     /// Points per axis of the surface grid (≥ 2).
     pub surface_grid: usize,
+    /// The horizontal-component definition of PGA, PGV, PGD, SA(T) and PGV/PGA (the IMs of
+    /// [`FragilityIm::has_horizontal_definition`]): `Component` (one component as recorded)
+    /// or, with pairs of components for every record, RotD50, RotD100 or GM.
+    pub horizontal: HorizontalDefinition,
 }
 
 /// What can go wrong before the simulations (invalid configuration or records).
@@ -248,6 +253,11 @@ pub struct FragilityRecord {
     /// Name for tables (file name).
     pub name: String,
     pub record: Record,
+    /// The second horizontal component of a pair (m/s², orthogonal to `record`'s, 90°
+    /// clockwise of it, same instants and length): the IMs of [`FragilityConfig::horizontal`]
+    /// are computed from both, and an incidence φ puts the first along φ and this one along
+    /// φ + 90°.
+    pub second_horizontal_mps2: Option<Vec<f64>>,
 }
 
 /// The records' IMs and scale factors.
@@ -286,16 +296,38 @@ pub fn prepare(
             .collect(),
         ..ImOptions::default()
     };
+    let paired = config.horizontal != HorizontalDefinition::Component;
+    if let Some(single) = records
+        .iter()
+        .find(|r| paired && r.second_horizontal_mps2.is_none())
+    {
+        return Err(FragilityError::Record {
+            record: single.name.clone(),
+            problem: format!(
+                "one horizontal component: {} needs both horizontal components of every record",
+                config.horizontal.name()
+            ),
+        });
+    }
     let ims: Vec<Vec<f64>> = records
         .par_iter()
         .map(|rec| {
-            let set = compute_ims(&rec.record.horizontal_mps2, rec.record.dt_s, &options).map_err(
-                |source| FragilityError::Ims {
-                    record: rec.name.clone(),
-                    source,
-                },
-            )?;
-            Ok(config.ims.iter().map(|im| im.value(&set)).collect())
+            let ims_error = |source| FragilityError::Ims {
+                record: rec.name.clone(),
+                source,
+            };
+            let (x, dt) = (&rec.record.horizontal_mps2, rec.record.dt_s);
+            let set = compute_ims(x, dt, &options).map_err(ims_error)?;
+            config
+                .ims
+                .iter()
+                .map(|im| match (&rec.second_horizontal_mps2, paired) {
+                    (Some(y), true) if im.has_horizontal_definition() => im
+                        .two_component_value(config.horizontal, x, y, dt, options.damping)
+                        .map_err(ims_error),
+                    _ => Ok(im.value(&set)),
+                })
+                .collect()
         })
         .collect::<Result<_, FragilityError>>()?;
     let mut scales = Vec::with_capacity(records.len());
@@ -322,6 +354,7 @@ pub fn prepare(
             .record
             .horizontal_mps2
             .iter()
+            .chain(rec.second_horizontal_mps2.iter().flatten())
             .chain(rec.record.vertical_mps2.iter().flatten())
             .fold(0.0_f64, |m, a| m.max(a.abs()));
         let largest = row.iter().copied().fold(0.0_f64, f64::max);
@@ -388,7 +421,7 @@ pub struct RunResult {
 
 fn run_one(
     config: &FragilityConfig,
-    record: &Record,
+    record: &FragilityRecord,
     scale: f64,
     member: &RockMember,
     incidence_deg: f64,
@@ -405,7 +438,8 @@ fn run_one(
                 crate::rocking3d::RockBody::clone(body),
                 *mu_s,
                 *mu_k,
-                record,
+                &record.record,
+                record.second_horizontal_mps2.as_deref(),
                 incidence_deg - heading_deg,
                 scale,
                 scale,
@@ -429,11 +463,32 @@ fn run_one(
     };
     let (mut theta, mut slide) = (0.0_f64, 0.0_f64);
     for (d, dir) in directions.iter().enumerate() {
-        let projection = (incidence_deg - dir.azimuth_deg).to_radians().cos();
+        let (sin, cos) = (incidence_deg - dir.azimuth_deg).to_radians().sin_cos();
+        // A pair: the first component along the incidence φ, the second along φ + 90°; the
+        // direction ψ sees x·cos(φ − ψ) − y·sin(φ − ψ). One component: x·cos(φ − ψ).
+        let paired;
+        let (seen, factor) = match &record.second_horizontal_mps2 {
+            Some(y) => {
+                paired = Record {
+                    source: record.record.source.clone(),
+                    dt_s: record.record.dt_s,
+                    horizontal_mps2: record
+                        .record
+                        .horizontal_mps2
+                        .iter()
+                        .zip(y)
+                        .map(|(a, b)| a * cos - b * sin)
+                        .collect(),
+                    vertical_mps2: record.record.vertical_mps2.clone(),
+                };
+                (&paired, scale)
+            }
+            None => (&record.record, scale * cos),
+        };
         match simulate_outcome(
             dir.params,
-            record,
-            scale * projection,
+            seen,
+            factor,
             scale,
             config.t_extra_s,
             config.block,
@@ -488,7 +543,7 @@ pub fn run_simulations(
             let scale = prepared.scales[record][level];
             let (status, direction, theta, slide, error) = run_one(
                 config,
-                &records[record].record,
+                &records[record],
                 scale,
                 &config.members[member],
                 config.incidences_deg[incidence],

@@ -32,6 +32,7 @@
 
 pub mod baseline;
 pub mod offline;
+pub mod rotd;
 pub mod running;
 pub mod spectrum;
 

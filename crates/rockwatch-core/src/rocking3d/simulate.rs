@@ -156,13 +156,17 @@ pub struct Outcome3d {
 /// azimuth `azimuth_deg` of the body frame (degrees clockwise from the mesh's north axis),
 /// its horizontal component multiplied by `horizontal_factor` and its vertical one (applied
 /// as up, if the record has one) by `vertical_factor`: the 3-D run of a fragility analysis,
-/// with the early exits of [`run_to_end`] and no ground-motion copy.
+/// with the early exits of [`run_to_end`] and no ground-motion copy. With
+/// `second_horizontal` (m/s², the record's orthogonal component, same instants) the record is
+/// a pair: its first component along `azimuth_deg`, the second along `azimuth_deg` + 90°
+/// (clockwise), both multiplied by `horizontal_factor`.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate_3d_outcome(
     body: RockBody,
     mu_s: f64,
     mu_k: f64,
     record: &Record,
+    second_horizontal: Option<&[f64]>,
     azimuth_deg: f64,
     horizontal_factor: f64,
     vertical_factor: f64,
@@ -174,6 +178,12 @@ pub fn simulate_3d_outcome(
     let (s, c) = azimuth_deg.to_radians().sin_cos();
     let at = |i: usize| {
         let a = record.horizontal_mps2.get(i).copied().unwrap_or(0.0) * horizontal_factor;
+        // The second component, along azimuth + 90°: east cos, north −sin of the azimuth.
+        let b = second_horizontal
+            .and_then(|y| y.get(i))
+            .copied()
+            .unwrap_or(0.0)
+            * horizontal_factor;
         let up = record
             .vertical_mps2
             .as_ref()
@@ -181,8 +191,8 @@ pub fn simulate_3d_outcome(
             .copied()
             .unwrap_or(0.0);
         GroundAccel3d {
-            east_mps2: a * s,
-            north_mps2: a * c,
+            east_mps2: a * s + b * c,
+            north_mps2: a * c - b * s,
             up_mps2: up * vertical_factor,
         }
     };

@@ -10,8 +10,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rockwatch::fragility::plots::write_plots;
 use rockwatch::fragility::report::{fragility_json, text_summary, write_runs_csv};
 use rockwatch::number_text::{block_label, short_number};
+use rockwatch::units::AccelUnits;
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::dynamics::{BlockOptions, BlockParams};
+use rockwatch_core::fragility::HorizontalDefinition;
 use rockwatch_core::fragility::{
     analyse, log_spaced, prepare, run_simulations, FragilityConfig, FragilityIm, FragilityRecord,
     Intensity, RockDirection, RockMember, DEFAULT_BOOTSTRAP, DEFAULT_SURFACE_GRID,
@@ -34,7 +36,9 @@ use super::OutputFormat;
 /// intervals from resampling the records. The IMs are ranked by β; a two-IM probit surface
 /// P = Φ(c0 + c1 ln IM1 + c2 ln IM2) is fitted too (--surface).
 ///
-/// Records are single horizontal components (AT2 in g, CSV `t,ax` in m/s²). --azimuths gives
+/// Records are single horizontal components (AT2 in g, CSV `t,ax` in m/s²), or with
+/// --horizontal-im rotd50|rotd100|gm pairs of AT2 components of one event and station, whose
+/// PGA, PGV, PGD, SA(T) and PGV/PGA are in that definition (docs/fragility.md §1). --azimuths gives
 /// the incidence angles φ of each record in the rock's frame: the rock's direction of azimuth
 /// ψ sees the record times cos(φ − ψ). A planar block's frame is its +x axis, and the default
 /// 0,180 applies each record along +x and along −x (both pivots: an asymmetric rock topples
@@ -87,6 +91,16 @@ pub struct FragilityArgs {
         value_delimiter = ','
     )]
     vertical_records: Vec<String>,
+    /// Horizontal-component definition of PGA, PGV, PGD, SA(T) and PGV/PGA: `component` (each
+    /// record file is one component, applied along each incidence) or, from pairs of
+    /// horizontal components, `rotd50` (the median over rotation angles of the rotated
+    /// component's peak, Boore 2010: the definition of NGA-West2 and most OpenQuake GMPEs),
+    /// `rotd100` or `gm` (geometric mean of the two as recorded). With a pair definition the
+    /// AT2 records of one event and station (their headers) are one record: the incidence φ
+    /// puts the first component along φ and the second along φ + 90°. The other IMs are of the
+    /// first component. fragility.json says which definition each IM has.
+    #[arg(long = "horizontal-im", value_name = "DEF", default_value = "component", value_parser = parse_definition)]
+    horizontal_im: HorizontalDefinition,
     /// IMs to fit, comma-separated: PGA, PGV, PGD, CAV, ARIAS, SMA, EDA, EPV, A_RMS, IC,
     /// PGV/PGA, D5_75, D5_95, T5, T75, T95, TP, SA(T), ASI(T1-T2), SI(T1-T2), VSI(T1-T2)
     /// (SI units: m/s2, m/s, m, s). Scale-invariant IMs (PGV/PGA, TP, the Husid times and
@@ -141,6 +155,11 @@ pub struct FragilityArgs {
     /// Output on stdout: text (table) or json (the content of fragility.json).
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     format: OutputFormat,
+    /// Unit of accelerations (PGA, SA(T), SMA, EDA, A_RMS) in the text table and the plots:
+    /// m/s2 or g (9.80665 m/s²). fragility.json and runs.csv stay in SI units (m/s2) either
+    /// way, with the unit in their `unit` fields and column headers.
+    #[arg(long, value_enum, default_value_t = AccelUnits::Mps2, value_name = "g|m/s2")]
+    units: AccelUnits,
 }
 
 fn parse_number(text: &str, what: &str, unit_g: bool) -> anyhow::Result<f64> {
@@ -154,6 +173,11 @@ fn parse_number(text: &str, what: &str, unit_g: bool) -> anyhow::Result<f64> {
         .parse()
         .with_context(|| format!("{what}: {t:?} is not a number"))?;
     Ok(v * factor)
+}
+
+fn parse_definition(text: &str) -> Result<HorizontalDefinition, String> {
+    HorizontalDefinition::parse(text)
+        .ok_or_else(|| format!("{text:?}: expected component, rotd50, rotd100 or gm"))
 }
 
 fn parse_count(text: &str, what: &str) -> anyhow::Result<usize> {
@@ -582,11 +606,41 @@ fn read_records(args: &FragilityArgs) -> anyhow::Result<Vec<FragilityRecord>> {
             header => horizontals.push((path, header.map(|h| h.station_key().to_string()))),
         }
     }
-    let paths = horizontals;
+    if !ordered.is_empty() && args.horizontal_im != HorizontalDefinition::Component {
+        bail!(
+            "--vertical-records FILE,… (by order) with --horizontal-im {}: give NAME=FILE pairs \
+             (NAME the first component's file) or let the AT2 headers pair them",
+            args.horizontal_im.name()
+        );
+    }
+    let pairs = horizontal_pairs(args, horizontals)?;
+    let paths: Vec<(PathBuf, Option<String>)> = pairs
+        .iter()
+        .map(|(first, _, key)| (first.clone(), key.clone()))
+        .collect();
     let mut records = Vec::with_capacity(paths.len());
     for (i, (path, key)) in paths.iter().enumerate() {
-        let name = file_name(path);
+        let mut name = file_name(path);
         let mut record = Record::read(path)?;
+        let mut second_horizontal_mps2 = None;
+        if let Some(second) = &pairs[i].1 {
+            let other = Record::read(second)?;
+            if (other.dt_s - record.dt_s).abs() > 1e-9 * record.dt_s || other.len() != record.len()
+            {
+                bail!(
+                    "{} and {}: the two horizontal components of a pair need the same sampling \
+                     interval and length ({} s × {} and {} s × {})",
+                    path.display(),
+                    second.display(),
+                    record.dt_s,
+                    record.len(),
+                    other.dt_s,
+                    other.len()
+                );
+            }
+            name = format!("{name}+{}", file_name(second));
+            second_horizontal_mps2 = Some(other.horizontal_mps2);
+        }
         let vertical = if !ordered.is_empty() {
             Some(PathBuf::from(ordered[i]))
         } else if let Some((v, _)) = verticals
@@ -601,13 +655,17 @@ fn read_records(args: &FragilityArgs) -> anyhow::Result<Vec<FragilityRecord>> {
         } else {
             named
                 .iter()
-                .find(|v| v.split_once('=').is_some_and(|(n, _)| n == name))
+                .find(|v| v.split_once('=').is_some_and(|(n, _)| n == file_name(path)))
                 .and_then(|v| v.split_once('=').map(|(_, f)| PathBuf::from(f)))
         };
         if let Some(v) = vertical {
             record.attach_vertical(&v)?;
         }
-        records.push(FragilityRecord { name, record });
+        records.push(FragilityRecord {
+            name,
+            record,
+            second_horizontal_mps2,
+        });
     }
     for (v, key) in &verticals {
         if !paths
@@ -625,11 +683,109 @@ fn read_records(args: &FragilityArgs) -> anyhow::Result<Vec<FragilityRecord>> {
     }
     for v in &named {
         let n = v.split_once('=').map_or("", |(n, _)| n);
-        if !records.iter().any(|r| r.name == n) {
+        // A pair is named by its first file.
+        if !records
+            .iter()
+            .any(|r| r.name == n || r.name.starts_with(&format!("{n}+")))
+        {
             bail!("--vertical-records {v:?}: no record named {n:?}");
         }
     }
     Ok(records)
+}
+
+/// The azimuth (degrees) an AT2 header names as its component (`…, 228`), or 0 for `N`/`NS`
+/// and 90 for `E`/`EW`; None otherwise.
+fn component_azimuth(at2: &At2) -> Option<f64> {
+    let token = at2.header[1]
+        .rsplit(',')
+        .next()?
+        .trim()
+        .to_ascii_uppercase();
+    let token = token.rsplit(['-', '_', ' ']).next()?.to_string();
+    match token.as_str() {
+        "N" | "NS" | "SN" => Some(0.0),
+        "E" | "EW" | "WE" => Some(90.0),
+        t => t.parse::<f64>().ok().filter(|a| a.is_finite()),
+    }
+}
+
+/// A record's horizontal file, its second component's (a pair) and its AT2 station key.
+type HorizontalPair = (PathBuf, Option<PathBuf>, Option<String>);
+
+/// The horizontal records as (first, second, station key): one each with `--horizontal-im
+/// component`; else the AT2 records of one event and station paired, the second 90°
+/// clockwise of the first when their headers give azimuths (refused when they are not
+/// orthogonal), else in file-name order.
+fn horizontal_pairs(
+    args: &FragilityArgs,
+    horizontals: Vec<(PathBuf, Option<String>)>,
+) -> anyhow::Result<Vec<HorizontalPair>> {
+    if args.horizontal_im == HorizontalDefinition::Component {
+        return Ok(horizontals
+            .into_iter()
+            .map(|(path, key)| (path, None, key))
+            .collect());
+    }
+    let definition = args.horizontal_im.name();
+    let mut pairs: Vec<HorizontalPair> = Vec::new();
+    let mut used = vec![false; horizontals.len()];
+    for i in 0..horizontals.len() {
+        if used[i] {
+            continue;
+        }
+        let (path, key) = &horizontals[i];
+        let Some(key) = key else {
+            bail!(
+                "{}: --horizontal-im {definition} needs pairs of horizontal components: only AT2 \
+                 records are paired (by the event and station of their headers)",
+                path.display()
+            );
+        };
+        let partners: Vec<usize> = (i + 1..horizontals.len())
+            .filter(|&j| !used[j] && horizontals[j].1.as_deref() == Some(key.as_str()))
+            .collect();
+        let [j] = partners[..] else {
+            bail!(
+                "{}: --horizontal-im {definition} needs exactly two horizontal components of \
+                 {key:?}, found {}",
+                path.display(),
+                partners.len() + 1
+            );
+        };
+        used[i] = true;
+        used[j] = true;
+        let (a, b) = (&horizontals[i].0, &horizontals[j].0);
+        let azimuths = (
+            at2_header(a)?.as_ref().and_then(component_azimuth),
+            at2_header(b)?.as_ref().and_then(component_azimuth),
+        );
+        let (first, second) = match azimuths {
+            (Some(za), Some(zb)) => {
+                let turn = (zb - za).rem_euclid(360.0);
+                if (turn - 90.0).abs() < 1.0 {
+                    (a, b)
+                } else if (turn - 270.0).abs() < 1.0 {
+                    (b, a)
+                } else {
+                    bail!(
+                        "{} ({za}°) and {} ({zb}°): the two horizontal components of a pair must \
+                         be orthogonal",
+                        a.display(),
+                        b.display()
+                    );
+                }
+            }
+            _ => (a, b),
+        };
+        eprintln!(
+            "rockwatch: {} and {} are the horizontal components of {key:?}: one record, IMs in {definition}",
+            file_name(first),
+            file_name(second)
+        );
+        pairs.push((first.clone(), Some(second.clone()), Some(key.clone())));
+    }
+    Ok(pairs)
 }
 
 fn build_config(args: &FragilityArgs, rock: &Rock) -> anyhow::Result<FragilityConfig> {
@@ -710,6 +866,7 @@ fn build_config(args: &FragilityArgs, rock: &Rock) -> anyhow::Result<FragilityCo
         seed: args.seed,
         surface,
         surface_grid: DEFAULT_SURFACE_GRID,
+        horizontal: args.horizontal_im,
     };
     config.validate()?;
     Ok(config)
@@ -773,9 +930,15 @@ pub fn run(args: FragilityArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     let mut written = vec![json_path, csv_path];
     if !args.no_plots {
-        let title = args.pbr.clone().unwrap_or_else(|| "rock".into());
+        // The rock in words (its catalogue id and name, or its geometry and friction).
         written.extend(write_plots(
-            &args.out, &title, &config, &prepared, &runs, &result,
+            &args.out,
+            &rock.label,
+            &config,
+            &prepared,
+            &runs,
+            &result,
+            args.units,
         )?);
     }
     match args.format {
@@ -783,7 +946,14 @@ pub fn run(args: FragilityArgs) -> anyhow::Result<()> {
         OutputFormat::Text => {
             out!(
                 "{}",
-                text_summary(&rock.label, &config, &records, &result, &written)
+                text_summary(
+                    &rock.label,
+                    &config,
+                    &records,
+                    &result,
+                    &written,
+                    args.units
+                )
             );
             outln!(
                 "time        {:.1} s on {} threads",

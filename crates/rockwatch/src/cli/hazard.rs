@@ -6,6 +6,8 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use rockwatch::number_text::short_number;
+use rockwatch::units::AccelUnits;
+use rockwatch_core::fragility::HorizontalDefinition;
 use rockwatch_core::hazard::{
     canonical_im, fragility_from_json, overturn_rate, parse_openquake_csv, parse_two_column_csv,
     HazardCurve, ImUnit, Site, SiteSelection,
@@ -79,6 +81,17 @@ pub struct HazardArgs {
     /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     format: OutputFormat,
+    /// The horizontal-component definition of the hazard curve's IM (its GMPEs'): rotd50,
+    /// rotd100, gm or component. OpenQuake's hazard-curve CSV does not carry it (see the
+    /// GMPEs of the logic tree: the NGA-West2 models give RotD50). When given and the
+    /// fragility's (fragility.json's `horizontal_definition`) differs, a warning says so.
+    #[arg(long = "hazard-definition", value_name = "DEF")]
+    hazard_definition: Option<String>,
+    /// Unit of an acceleration fragility's median and of the hazard levels' conversion
+    /// (`× 1 → g`) in the text output: m/s2 or g (9.80665 m/s²). The JSON output keeps the
+    /// fragility's SI unit and median (its `unit`, `median` fields).
+    #[arg(long, value_enum, default_value_t = AccelUnits::Mps2, value_name = "g|m/s2")]
+    units: AccelUnits,
 }
 
 /// The hazard curve file: OpenQuake if it starts with a comment line mentioning
@@ -150,6 +163,17 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
         &args.im,
         args.block.as_deref(),
     )?;
+    let hazard_definition = match &args.hazard_definition {
+        Some(d) => Some(HorizontalDefinition::parse(d).with_context(|| {
+            format!("--hazard-definition {d:?}: expected rotd50, rotd100, gm or component")
+        })?),
+        None => None,
+    };
+    let definition_warning = definition_warning(
+        fragility.horizontal_definition.as_deref(),
+        hazard_definition,
+        &fragility.im,
+    );
     let curve_name = args.hazard_curve.display().to_string();
     let curve = read_curve(&args, &read(&args.hazard_curve)?, &curve_name)?;
     let factor = curve.unit.factor_to(fragility.unit)?;
@@ -174,17 +198,27 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
                 "hazard_unit": curve.unit.to_string(),
                 "hazard_to_fragility_factor": factor,
                 "hazard_levels": curve.levels.len(),
+                "fragility_horizontal_definition": fragility.horizontal_definition,
+                "hazard_horizontal_definition": hazard_definition.map(HorizontalDefinition::name),
                 "site": curve.site.map(|site| site_json(&site, &args)),
             });
             outln!("{}", serde_json::to_string_pretty(&json)?);
         }
         OutputFormat::Text => {
+            // The unit of the text (--units): g for an acceleration if asked, else the
+            // fragility's own.
+            let shown = match args.units {
+                AccelUnits::G if fragility.unit.is_acceleration() => ImUnit::G,
+                _ => fragility.unit,
+            };
+            let factor = curve.unit.factor_to(shown)?;
+            let median = fragility.curve.median * fragility.unit.factor_to(shown)?;
             outln!(
                 "fragility   {} ({}): median {} {}, beta {}",
                 fragility_name,
                 fragility.im,
-                short_number(fragility.curve.median),
-                fragility.unit,
+                short_number(median),
+                shown,
                 short_number(fragility.curve.beta)
             );
             let site = curve
@@ -199,7 +233,18 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
                 short_number(curve.levels[0]),
                 short_number(curve.levels[curve.levels.len() - 1]),
                 curve.unit,
-                fragility.unit
+                shown
+            );
+            outln!(
+                "component   fragility {}, hazard {}",
+                fragility
+                    .horizontal_definition
+                    .as_deref()
+                    .unwrap_or("not said"),
+                hazard_definition.map_or(
+                    "not said (--hazard-definition; OpenQuake's CSV does not carry it)",
+                    HorizontalDefinition::name
+                )
             );
             outln!(
                 "λ           {} overturns per year",
@@ -222,6 +267,9 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
             );
         }
     }
+    if let Some(warning) = definition_warning {
+        eprintln!("rockwatch: warning: {warning}");
+    }
     if rate.extrapolated_fraction > 0.01 {
         eprintln!(
             "rockwatch: warning: {:.1} % of λ comes from the power-law continuation of the hazard \
@@ -230,6 +278,36 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The warning when the fragility's horizontal-component definition (`fragility`, as its
+/// file says) and the hazard's (`hazard`, --hazard-definition) differ, or when the fragility's
+/// `im` is one component as recorded and the hazard's is not said (GMPEs give RotD50 or a
+/// geometric mean, not one component along an azimuth). None when they agree or neither is
+/// known.
+fn definition_warning(
+    fragility: Option<&str>,
+    hazard: Option<HorizontalDefinition>,
+    im: &str,
+) -> Option<String> {
+    let fragility_def = fragility.and_then(HorizontalDefinition::parse);
+    match (fragility_def, hazard) {
+        (Some(f), Some(h)) if f != h => Some(format!(
+            "the fragility's {im} is {} and the hazard curve's {}: the two IMs differ (RotD50 \
+             exceeds GM by a few %, one component along an azimuth scatters around both); \
+             refit the fragility with --horizontal-im {}",
+            f.name(),
+            h.name(),
+            h.name().to_ascii_lowercase()
+        )),
+        (Some(HorizontalDefinition::Component), None) => Some(format!(
+            "the fragility's {im} is of one horizontal component as recorded, while hazard \
+             curves use their GMPEs' definition (RotD50 for NGA-West2, else often GM): refit \
+             with pairs of components (--horizontal-im rotd50), or say the hazard's with \
+             --hazard-definition"
+        )),
+        _ => None,
+    }
 }
 
 /// The site of an OpenQuake curve in the `hazard` line: `, site 2 of 3 at -118.5, 34.3`, and

@@ -6,8 +6,10 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rockwatch::number_text::short_number;
 use rockwatch::study::plots::write_plots;
 use rockwatch::study::report::{display_name, summary, write_tables};
+use rockwatch::units::AccelUnits;
 use rockwatch_core::study::{
     analyse, run_study, ExclusionRule, StudyBlock, StudyConfig, DEFAULT_DT_S, DEFAULT_IM_PAD_S,
     DEFAULT_MAX_SLIDE_M, DEFAULT_PULSES_PER_PAIR, DEFAULT_SLIDE_FLOOR_M, DEFAULT_THETA_FLOOR_RAD,
@@ -134,6 +136,12 @@ pub struct StudyArgs {
     /// null, "fragility_note"}}}). The progress bar is hidden with json.
     #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
     pub format: OutputFormat,
+
+    /// Unit of accelerations (PHA, SA, …: the IMs in m/s²) in the text's fragility line and
+    /// the plots' IM axes: m/s2 or g (9.80665 m/s²). The CSV and JSON files stay in SI units
+    /// (their `unit`/`im_unit` columns and fields say m/s2).
+    #[arg(long, value_enum, default_value_t = AccelUnits::Mps2, value_name = "g|m/s2")]
+    pub units: AccelUnits,
 }
 
 fn build_config(args: &StudyArgs) -> anyhow::Result<StudyConfig> {
@@ -220,7 +228,9 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     let computed_s = started.elapsed().as_secs_f64();
     let mut files = write_tables(&args.out, &config, &data, &analysis)?;
     if !args.no_plots {
-        files.extend(write_plots(&args.out, &config, &data, &analysis)?);
+        files.extend(write_plots(
+            &args.out, &config, &data, &analysis, args.units,
+        )?);
     }
     let total_s = started.elapsed().as_secs_f64();
 
@@ -271,13 +281,15 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                     );
                 }
                 match &block.fragility.selected {
-                    Some(f) => outln!(
-                        "  fragility of overturning: P = Φ(ln({}/{:.4} {})/{:.3})",
-                        display_name(&f.im),
-                        f.median,
-                        f.im_unit,
-                        f.beta
-                    ),
+                    Some(f) => {
+                        let (unit, div) = args.units.show(&f.im_unit);
+                        outln!(
+                            "  fragility of overturning: P = Φ(ln({}/{} {unit})/{})",
+                            display_name(&f.im),
+                            short_number(f.median / div),
+                            short_number(f.beta)
+                        )
+                    }
                     None => outln!("  {}", block.fragility.note),
                 }
             }

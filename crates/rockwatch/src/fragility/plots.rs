@@ -11,7 +11,8 @@ use plotters::prelude::*;
 
 use super::report::{im_slug, stripe_fractions};
 use crate::number_text::short_number;
-use crate::plot::{both_formats, DrawResult, PlotError};
+use crate::plot::{both_formats, draw_colour_bar, fit_title, log_ticks, DrawResult, PlotError};
+use crate::units::AccelUnits;
 use rockwatch_core::fragility::{
     cell_counts, wilson_interval, FragilityConfig, FragilityResult, ImFragility, Prepared,
     RunResult, Surface, Z_95,
@@ -73,6 +74,7 @@ fn draw_curve<DB: DrawingBackend>(
     title: &str,
     f: &ImFragility,
     points: &[(f64, f64, f64, f64, f64)],
+    units: AccelUnits,
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
@@ -80,6 +82,8 @@ where
     root.fill(&WHITE)?;
     let Ok(fit) = &f.fit else { return Ok(()) };
     let name = f.im.name();
+    // Computations in SI; the axis and the title in the shown unit (x / div).
+    let (unit, div) = units.show(f.im.unit());
     let (mut lo, mut hi) = (
         fit.median * (-2.5 * fit.beta).exp(),
         fit.median * (2.5 * fit.beta).exp(),
@@ -88,23 +92,30 @@ where
         lo = lo.min(p.0 * 0.9);
         hi = hi.max(p.0 * 1.1);
     }
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            format!(
-                "{title}: P(overturn | {name}), median {:.4} {}, β = {:.3}",
-                fit.median,
-                f.im.unit(),
-                fit.beta
-            ),
-            ("sans-serif", 18),
-        )
+    let fitted = fit_title(
+        root,
+        &format!(
+            "{title}: P(overturn | {name}), median {} {unit}, β = {}",
+            short_number(fit.median / div),
+            short_number(fit.beta)
+        ),
+    )?;
+    let (head, body) = root.split_vertically(fitted.height_px());
+    fitted.draw(&head)?;
+    let (x_lo, x_hi) = (lo / div, hi / div);
+    let mut chart = ChartBuilder::on(&body)
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(60)
-        .build_cartesian_2d((lo..hi).log_scale(), 0.0..1.0)?;
+        .build_cartesian_2d(
+            (x_lo..x_hi)
+                .log_scale()
+                .with_key_points(log_ticks(x_lo, x_hi)),
+            0.0..1.0,
+        )?;
     chart
         .configure_mesh()
-        .x_desc(format!("{name} ({})", f.im.unit()))
+        .x_desc(format!("{name} ({unit})"))
         .x_label_formatter(&|x| short_number(*x))
         .y_desc("probability of overturning")
         .label_style(("sans-serif", 13))
@@ -116,12 +127,12 @@ where
     if f.band(grid[0]).is_some() {
         let mut band: Vec<(f64, f64)> = grid
             .iter()
-            .filter_map(|&x| f.band(x).map(|b| (x, b.1)))
+            .filter_map(|&x| f.band(x).map(|b| (x / div, b.1)))
             .collect();
         band.extend(
             grid.iter()
                 .rev()
-                .filter_map(|&x| f.band(x).map(|b| (x, b.0))),
+                .filter_map(|&x| f.band(x).map(|b| (x / div, b.0))),
         );
         chart
             .draw_series(std::iter::once(Polygon::new(band, CURVE.mix(0.2).filled())))?
@@ -133,21 +144,22 @@ where
     let phi = |x: f64| rockwatch_core::stats::normal_cdf((x / fit.median).ln() / fit.beta);
     chart
         .draw_series(LineSeries::new(
-            grid.iter().map(|&x| (x, phi(x))),
+            grid.iter().map(|&x| (x / div, phi(x))),
             CURVE.stroke_width(2),
         ))?
         .label("lognormal, maximum likelihood")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], CURVE.stroke_width(2)));
-    chart.draw_series(
-        points
-            .iter()
-            .map(|p| PathElement::new(vec![(p.0, p.3), (p.0, p.4)], POINTS.stroke_width(1))),
-    )?;
+    chart.draw_series(points.iter().map(|p| {
+        PathElement::new(
+            vec![(p.0 / div, p.3), (p.0 / div, p.4)],
+            POINTS.stroke_width(1),
+        )
+    }))?;
     chart
         .draw_series(
             points
                 .iter()
-                .map(|p| Circle::new((p.0, p.1 / p.2), 4, POINTS.filled())),
+                .map(|p| Circle::new((p.0 / div, p.1 / p.2), 4, POINTS.filled())),
         )?
         .label(if f.is_stripe_im {
             "fraction per stripe, 95 % Wilson interval (records as trials)"
@@ -155,6 +167,7 @@ where
             "fraction per IM bin, 95 % Wilson interval (record-levels as trials)"
         })
         .legend(|(x, y)| Circle::new((x + 10, y), 4, POINTS.filled()));
+    // Upper left: a fragility curve rises to the right, so that corner holds no data.
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperLeft)
@@ -205,12 +218,18 @@ fn contour(s: &Surface, c: f64) -> Vec<[(f64, f64); 2]> {
     segments
 }
 
+/// Width of the colour bar's column right of the surface (pixels).
+const COLOUR_BAR_PX: u32 = 110;
+/// Height of the legend's strip under the surface (pixels).
+const LEGEND_PX: u32 = 44;
+
 fn draw_surface<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
     config: &FragilityConfig,
     s: &Surface,
     cells: &[(f64, f64, f64)],
+    units: AccelUnits,
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
@@ -224,40 +243,52 @@ where
         return Ok(());
     };
     let (im1, im2) = (&config.ims[s.ims.0], &config.ims[s.ims.1]);
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            format!(
-                "{title}: P(overturn | {}, {}) = Φ({:.3} + {:.3} ln {} + {:.3} ln {})",
-                im1.name(),
-                im2.name(),
-                fit.coef[0],
-                fit.coef[1],
-                im1.name(),
-                fit.coef[2],
-                im2.name()
-            ),
-            ("sans-serif", 17),
-        )
+    // The fit is in SI (its coefficients multiply ln of SI values); the axes show `units`.
+    let ((u1, d1), (u2, d2)) = (units.show(im1.unit()), units.show(im2.unit()));
+    let fitted = fit_title(
+        root,
+        &format!(
+            "{title}: P(overturn | {}, {}) = Φ({} + {} ln {} + {} ln {}), IMs in SI units",
+            im1.name(),
+            im2.name(),
+            short_number(fit.coef[0]),
+            short_number(fit.coef[1]),
+            im1.name(),
+            short_number(fit.coef[2]),
+            im2.name()
+        ),
+    )?;
+    let (head, body) = root.split_vertically(fitted.height_px());
+    fitted.draw(&head)?;
+    let (body_w, body_h) = body.dim_in_pixel();
+    let (left, bar) = body.split_horizontally(body_w.saturating_sub(COLOUR_BAR_PX));
+    let (plot_area, legend) = left.split_vertically(body_h.saturating_sub(LEGEND_PX));
+    draw_colour_bar(&bar, shade, "P(overturn)")?;
+    let (x0, x1, y0, y1) = (x0 / d1, x1 / d1, y0 / d2, y1 / d2);
+    let mut chart = ChartBuilder::on(&plot_area)
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(70)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+        .build_cartesian_2d(
+            (x0..x1).log_scale().with_key_points(log_ticks(x0, x1)),
+            (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
+        )?;
     chart
         .configure_mesh()
-        .x_desc(format!("{} ({})", im1.name(), im1.unit()))
-        .y_desc(format!("{} ({})", im2.name(), im2.unit()))
+        .x_desc(format!("{} ({u1})", im1.name()))
+        .y_desc(format!("{} ({u2})", im2.name()))
         .x_label_formatter(&|x| short_number(*x))
         .y_label_formatter(&|y| short_number(*y))
         .label_style(("sans-serif", 13))
         .draw()?;
     // Cells centred on the grid points, edges at the geometric midpoints.
-    let edges = |g: &[f64]| -> Vec<f64> {
-        let mut e = vec![g[0]];
-        e.extend(g.windows(2).map(|w| (w[0] * w[1]).sqrt()));
-        e.push(g[g.len() - 1]);
+    let edges = |g: &[f64], d: f64| -> Vec<f64> {
+        let mut e = vec![g[0] / d];
+        e.extend(g.windows(2).map(|w| (w[0] * w[1]).sqrt() / d));
+        e.push(g[g.len() - 1] / d);
         e
     };
-    let (e1, e2) = (edges(g1), edges(g2));
+    let (e1, e2) = (edges(g1, d1), edges(g2, d2));
     chart.draw_series((0..g1.len()).flat_map(|a| {
         let (e1, e2) = (&e1, &e2);
         (0..g2.len()).map(move |b| {
@@ -268,45 +299,47 @@ where
         })
     }))?;
     // The observed (record, level) cells: fraction overturned as the fill, on the same scale.
-    let inside = |c: &&(f64, f64, f64)| c.0 >= x0 && c.0 <= x1 && c.1 >= y0 && c.1 <= y1;
+    let shown: Vec<(f64, f64, f64)> = cells
+        .iter()
+        .map(|c| (c.0 / d1, c.1 / d2, c.2))
+        .filter(|c| c.0 >= x0 && c.0 <= x1 && c.1 >= y0 && c.1 <= y1)
+        .collect();
     chart.draw_series(
-        cells
+        shown
             .iter()
-            .filter(inside)
             .map(|c| Circle::new((c.0, c.1), 4, shade(c.2).filled())),
     )?;
-    chart
-        .draw_series(
-            cells
-                .iter()
-                .filter(inside)
-                .map(|c| Circle::new((c.0, c.1), 4, BLACK.stroke_width(1))),
-        )?
-        .label("runs: fraction overturned per record and level")
-        .legend(|(x, y)| Circle::new((x + 10, y), 4, BLACK.stroke_width(1)));
-    for (level, colour) in [
+    chart.draw_series(
+        shown
+            .iter()
+            .map(|c| Circle::new((c.0, c.1), 4, BLACK.stroke_width(1))),
+    )?;
+    let levels = [
         (0.1, RGBColor(0, 158, 115)),
         (0.5, RGBColor(0, 0, 0)),
         (0.9, POINTS),
-    ] {
-        chart
-            .draw_series(
-                contour(s, level)
-                    .into_iter()
-                    .map(|seg| PathElement::new(seg.to_vec(), colour.stroke_width(2))),
-            )?
-            .label(format!("P = {level}"))
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-            });
+    ];
+    for (level, colour) in levels {
+        chart.draw_series(contour(s, level).into_iter().map(|seg| {
+            PathElement::new(
+                seg.iter().map(|p| (p.0 / d1, p.1 / d2)).collect::<Vec<_>>(),
+                colour.stroke_width(2),
+            )
+        }))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .draw()?;
+    // The legend under the chart, not over it: the surface's every corner is data (the
+    // high-probability one is where the 90 % contour runs).
+    let text = |label: &str, x: i32| Text::new(label.to_string(), (x, 14), ("sans-serif", 13));
+    legend.draw(&Circle::new((30, 20), 4, BLACK.stroke_width(1)))?;
+    legend.draw(&text("runs: fraction overturned per record and level", 40))?;
+    for (k, (level, colour)) in levels.iter().enumerate() {
+        let x = 380 + 110 * k as i32;
+        legend.draw(&PathElement::new(
+            [(x, 20), (x + 20, 20)],
+            colour.stroke_width(2),
+        ))?;
+        legend.draw(&text(&format!("P = {level}"), x + 26))?;
+    }
     root.present()?;
     Ok(())
 }
@@ -320,6 +353,7 @@ pub fn write_plots(
     prepared: &Prepared,
     runs: &[RunResult],
     result: &FragilityResult,
+    units: AccelUnits,
 ) -> Result<Vec<PathBuf>, PlotError> {
     let mut written = Vec::new();
     for (i, f) in result.ims.iter().enumerate() {
@@ -328,7 +362,7 @@ pub fn write_plots(
         }
         let points = fractions(config, prepared, runs, i, f);
         let stem = out_dir.join(format!("fragility_{}", im_slug(&f.im.name())));
-        written.extend(both_formats_curve(&stem, title, f, &points)?);
+        written.extend(both_formats_curve(&stem, title, f, &points, units)?);
     }
     if let Some(s) = &result.surface {
         if s.fit.is_ok() && !s.p.is_empty() {
@@ -350,7 +384,9 @@ pub fn write_plots(
                     }
                 }
             }
-            written.extend(both_formats_surface(&stem, title, config, s, &cells)?);
+            written.extend(both_formats_surface(
+                &stem, title, config, s, &cells, units,
+            )?);
         }
     }
     Ok(written)
@@ -361,12 +397,13 @@ fn both_formats_curve(
     title: &str,
     f: &ImFragility,
     points: &[(f64, f64, f64, f64, f64)],
+    units: AccelUnits,
 ) -> Result<Vec<PathBuf>, PlotError> {
     both_formats(
         stem,
         (900, 600),
-        |root| draw_curve(root, title, f, points),
-        |root| draw_curve(root, title, f, points),
+        |root| draw_curve(root, title, f, points, units),
+        |root| draw_curve(root, title, f, points, units),
     )
 }
 
@@ -376,11 +413,12 @@ fn both_formats_surface(
     config: &FragilityConfig,
     s: &Surface,
     cells: &[(f64, f64, f64)],
+    units: AccelUnits,
 ) -> Result<Vec<PathBuf>, PlotError> {
     both_formats(
         stem,
         (900, 700),
-        |root| draw_surface(root, title, config, s, cells),
-        |root| draw_surface(root, title, config, s, cells),
+        |root| draw_surface(root, title, config, s, cells, units),
+        |root| draw_surface(root, title, config, s, cells, units),
     )
 }

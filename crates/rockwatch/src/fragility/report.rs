@@ -5,12 +5,13 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use rockwatch_core::fragility::{
-    cell_counts, wilson_interval, FragilityConfig, FragilityRecord, FragilityResult, Intensity,
-    Prepared, RunResult, Z_95,
+    cell_counts, wilson_interval, FragilityConfig, FragilityIm, FragilityRecord, FragilityResult,
+    HorizontalDefinition, Intensity, Prepared, RunResult, Z_95,
 };
 use serde_json::{json, Map, Value};
 
 use crate::number_text::short_number;
+use crate::units::AccelUnits;
 
 /// A file name for an IM: `SA(1.0)` → `SA_1p0`, `PGV/PGA` → `PGV_PGA`.
 #[must_use]
@@ -31,6 +32,18 @@ fn num(x: f64) -> Value {
         json!(x)
     } else {
         Value::Null
+    }
+}
+
+/// The horizontal-component definition of IM `im` in this analysis: the configuration's
+/// (`RotD50`, `RotD100`, `GM`) for the IMs that have one when the records are pairs, else
+/// `component` (one component as recorded, along each incidence).
+#[must_use]
+pub fn definition_of(config: &FragilityConfig, im: &FragilityIm) -> &'static str {
+    if im.has_horizontal_definition() {
+        config.horizontal.name()
+    } else {
+        HorizontalDefinition::Component.name()
     }
 }
 
@@ -60,6 +73,7 @@ pub fn fragility_json(
                         "n_runs": usable,
                         "n_overturned": result.n_overturned,
                         "unit": f.im.unit(),
+                        "horizontal_definition": definition_of(config, &f.im),
                         "likelihood": if f.is_stripe_im { "binomial over stripes" } else { "binomial over (record, scale) groups" },
                         "log_likelihood": fit.log_likelihood,
                         "bootstrap": {"replicates": f.bootstrap.len() + f.bootstrap_failed, "failed": f.bootstrap_failed},
@@ -121,6 +135,11 @@ pub fn fragility_json(
         "intensity": intensity,
         "records": records.iter().map(|r| &r.name).collect::<Vec<_>>(),
         "incidences_deg": config.incidences_deg,
+        "horizontal_definition": {
+            "definition": config.horizontal.name(),
+            "records": if config.horizontal == HorizontalDefinition::Component { "one horizontal component each, applied along each incidence" } else { "pairs of horizontal components: the first along each incidence, the second 90° clockwise of it" },
+            "applies_to": "PGA, PGV, PGD, SA(T), PGV/PGA; the other IMs are of the first component (ims.<IM>.horizontal_definition)",
+        },
         "members": config.members.len(),
         "scale_factor_range": [num(scale_range.0), num(scale_range.1)],
         "runs": {"total": result.n_runs, "usable": usable, "overturned": result.n_overturned, "flight": result.n_flight, "failed": result.n_failed},
@@ -215,6 +234,7 @@ pub fn text_summary(
     records: &[FragilityRecord],
     result: &FragilityResult,
     written: &[std::path::PathBuf],
+    units: AccelUnits,
 ) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "rock        {rock_label}");
@@ -232,26 +252,42 @@ pub fn text_summary(
     );
     let _ = writeln!(
         out,
+        "component   {}",
+        if config.horizontal == HorizontalDefinition::Component {
+            "one horizontal component per record, along each incidence (--horizontal-im \
+             component)"
+                .to_string()
+        } else {
+            format!(
+                "{} of each pair of horizontal components for PGA, PGV, PGD, SA(T), PGV/PGA; \
+                 the other IMs of the first component",
+                config.horizontal.name()
+            )
+        }
+    );
+    let _ = writeln!(
+        out,
         "{:<14} {:>12} {:>8} {:>25} {:>17}  unit",
         "IM", "median", "beta", "95% CI median", "95% CI beta"
     );
-    let fmt_ci = |c: Option<[f64; 2]>| {
+    let fmt_ci = |c: Option<[f64; 2]>, div: f64| {
         c.map_or("-".to_string(), |[a, b]| {
-            format!("[{}, {}]", short_number(a), short_number(b))
+            format!("[{}, {}]", short_number(a / div), short_number(b / div))
         })
     };
     for &i in &result.ranking {
         let f = &result.ims[i];
         if let Ok(fit) = &f.fit {
+            // The median and its interval in the unit of the last column (--units).
+            let (unit, div) = units.show(f.im.unit());
             let _ = writeln!(
                 out,
-                "{:<14} {:>12} {:>8} {:>25} {:>17}  {}",
+                "{:<14} {:>12} {:>8} {:>25} {:>17}  {unit}",
                 f.im.name(),
-                short_number(fit.median),
+                short_number(fit.median / div),
                 short_number(fit.beta),
-                fmt_ci(f.ci_median),
-                fmt_ci(f.ci_beta),
-                f.im.unit()
+                fmt_ci(f.ci_median, div),
+                fmt_ci(f.ci_beta, 1.0),
             );
         }
     }
@@ -259,14 +295,15 @@ pub fn text_summary(
         for &i in &result.ranking {
             let f = &result.ims[i];
             if let (Ok(fit), Some(bound)) = (&f.fit, f.median_flight_overturned) {
+                let (unit, div) = units.show(f.im.unit());
                 let _ = writeln!(
                     out,
                     "flight      {}: median {} with the {} flight runs left out, {} if each had overturned ({}): the true median lies between",
                     f.im.name(),
-                    short_number(fit.median),
+                    short_number(fit.median / div),
                     result.n_flight,
-                    short_number(bound),
-                    f.im.unit()
+                    short_number(bound / div),
+                    unit
                 );
             }
         }
@@ -304,6 +341,18 @@ pub fn text_summary(
                     short_number(-fit.coef[2] / fit.coef[1]),
                     short_number(fit.beta1())
                 );
+                // The coefficients multiply ln of SI values: say so when the table is in g.
+                let shown = [a, b].map(|i| units.show(config.ims[i].unit()).0);
+                if shown.contains(&"g") {
+                    let _ = writeln!(
+                        out,
+                        "            (the surface's IMs in SI units: {} in {}, {} in {})",
+                        config.ims[a].name(),
+                        config.ims[a].unit(),
+                        config.ims[b].name(),
+                        config.ims[b].unit()
+                    );
+                }
             }
             Err(e) => {
                 let _ = writeln!(

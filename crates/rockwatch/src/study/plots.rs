@@ -14,7 +14,8 @@ use plotters::prelude::*;
 
 use super::report::display_name;
 use crate::number_text::short_number;
-use crate::plot::{both_formats, DrawResult, PlotError};
+use crate::plot::{both_formats, fit_title, log_ticks, DrawResult, PlotError};
+use crate::units::AccelUnits;
 use rockwatch_core::study::fragility::Z_95;
 use rockwatch_core::study::{BlockAnalysis, Category, StudyAnalysis, StudyConfig, StudyData};
 
@@ -50,25 +51,27 @@ fn draw_scatter<DB: DrawingBackend>(
     config: &StudyConfig,
     data: &StudyData,
     block: &BlockAnalysis,
+    units: AccelUnits,
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
     let params = &config.blocks[block.block_index].params;
-    let (head, body) = root.split_vertically(40);
-    head.titled(
+    let title = fit_title(
+        root,
         &format!(
-            "Block {}: {} vs the five best IMs — R = {:.2} m, α = {:.2}°, μs = {}, μk = {}",
+            "Block {}: {} vs the five best IMs — R = {} m, α = {}°, μs = {}, μk = {}",
             block.name,
             block.dm.label(),
-            params.plus.half_diagonal_m,
-            params.alpha_rad.to_degrees(),
-            params.mu_s,
-            params.mu_k
+            short_number(params.plus.half_diagonal_m),
+            short_number(params.alpha_rad.to_degrees()),
+            short_number(params.mu_s),
+            short_number(params.mu_k)
         ),
-        ("sans-serif", 20),
     )?;
+    let (head, body) = root.split_vertically(title.height_px());
+    title.draw(&head)?;
     let cells = body.split_evenly((2, 3));
     let dm_of = |i: usize| block.dm.of(&data.responses[i][block.block_index]);
     // Log–log axes: y from the response floor (runs below it, "no response", go to the strip
@@ -82,10 +85,11 @@ where
         * 1.3;
     for (cell, score) in cells.iter().zip(block.ranking.iter().take(5)) {
         let j = score.im_index;
-        let (x_min, x_max) = data
-            .cases
-            .iter()
-            .map(|c| c.ims[j])
+        // The IM axis in the unit shown (--units): x / div of the SI value.
+        let (unit, div) = units.show(score.unit());
+        let im_of = |i: usize| data.cases[i].ims[j] / div;
+        let (x_min, x_max) = (0..data.cases.len())
+            .map(im_of)
             .filter(|v| v.is_finite() && *v > 0.0)
             .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
                 (lo.min(v), hi.max(v))
@@ -127,7 +131,7 @@ where
                 if c == Category::NoResponse || (c == Category::Responding) != pass {
                     return None;
                 }
-                let (x, y) = (data.cases[i].ims[j], dm_of(i));
+                let (x, y) = (im_of(i), dm_of(i));
                 if !(x.is_finite() && x > 0.0 && y.is_finite() && y >= floor) {
                     return None;
                 }
@@ -144,7 +148,7 @@ where
             // Sampled along x and clipped to the axis (a straight line on log–log axes).
             let line = (0..=100).filter_map(|k| {
                 let x = (x_min.ln() + (x_max.ln() - x_min.ln()) * f64::from(k) / 100.0).exp();
-                let y = (fit.intercept + fit.slope * x.ln()).exp();
+                let y = (fit.intercept + fit.slope * (x * div).ln()).exp();
                 (y >= floor && y <= y_max).then_some((x, y))
             });
             chart.draw_series(LineSeries::new(line, FIT_COLOUR.stroke_width(2)))?;
@@ -172,7 +176,7 @@ where
             .x_desc(format!(
                 "{} ({}){}",
                 display_name(score.name()),
-                score.unit(),
+                unit,
                 if n_nonpositive > 0 {
                     format!(" — {n_nonpositive} runs with IM ≤ 0 not shown")
                 } else {
@@ -187,7 +191,7 @@ where
             ("sans-serif", 11),
         )))?;
         strip_chart.draw_series((0..data.cases.len()).filter_map(|i| {
-            let x = data.cases[i].ims[j];
+            let x = im_of(i);
             (block.categories[i] == Category::NoResponse && x > 0.0 && x.is_finite()).then(|| {
                 let jitter = 0.15 + 0.5 * ((i as f64) * 0.618_033_988_75).fract();
                 Circle::new(
@@ -244,6 +248,7 @@ fn draw_fragility<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     data: &StudyData,
     block: &BlockAnalysis,
+    units: AccelUnits,
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
@@ -275,25 +280,34 @@ where
     if !(lo.is_finite() && hi > lo) {
         return Ok(());
     }
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            format!(
-                "Block {}: P(overturn | {}) — median {:.4} {}, β = {:.3}",
-                block.name,
-                display_name(&curve.im),
-                curve.median,
-                curve.im_unit,
-                curve.beta
-            ),
-            ("sans-serif", 18),
-        )
+    // Computations in SI; the axis and the title in the unit shown (x / div).
+    let (unit, div) = units.show(&curve.im_unit);
+    let title = fit_title(
+        root,
+        &format!(
+            "Block {}: P(overturn | {}) — median {} {unit}, β = {}",
+            block.name,
+            display_name(&curve.im),
+            short_number(curve.median / div),
+            short_number(curve.beta)
+        ),
+    )?;
+    let (head, body) = root.split_vertically(title.height_px());
+    title.draw(&head)?;
+    let mut chart = ChartBuilder::on(&body)
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(60)
-        .build_cartesian_2d((lo..hi).log_scale(), 0.0..1.0)?;
+        .build_cartesian_2d(
+            ((lo / div)..(hi / div))
+                .log_scale()
+                .with_key_points(log_ticks(lo / div, hi / div)),
+            0.0..1.0,
+        )?;
     chart
         .configure_mesh()
-        .x_desc(format!("{} ({})", display_name(&curve.im), curve.im_unit))
+        .x_desc(format!("{} ({unit})", display_name(&curve.im)))
+        .x_label_formatter(&|x| short_number(*x))
         .y_desc("probability of overturning")
         .label_style(("sans-serif", 13))
         .draw()?;
@@ -301,8 +315,11 @@ where
     let grid: Vec<f64> = (0..n)
         .map(|k| (lo.ln() + (hi.ln() - lo.ln()) * k as f64 / (n - 1) as f64).exp())
         .collect();
-    let mut band: Vec<(f64, f64)> = grid.iter().map(|&x| (x, curve.band(x, Z_95).1)).collect();
-    band.extend(grid.iter().rev().map(|&x| (x, curve.band(x, Z_95).0)));
+    let mut band: Vec<(f64, f64)> = grid
+        .iter()
+        .map(|&x| (x / div, curve.band(x, Z_95).1))
+        .collect();
+    band.extend(grid.iter().rev().map(|&x| (x / div, curve.band(x, Z_95).0)));
     chart
         .draw_series(std::iter::once(Polygon::new(
             band,
@@ -317,7 +334,7 @@ where
         });
     chart
         .draw_series(LineSeries::new(
-            grid.iter().map(|&x| (x, curve.probability(x))),
+            grid.iter().map(|&x| (x / div, curve.probability(x))),
             RGBColor(0, 114, 178).stroke_width(2),
         ))?
         .label("lognormal MLE")
@@ -345,7 +362,7 @@ where
                 .map(|(k, c)| {
                     let x = (lo.ln() + (k as f64 + 0.5) * width).exp();
                     Circle::new(
-                        (x, c.1 as f64 / c.0 as f64),
+                        (x / div, c.1 as f64 / c.0 as f64),
                         4,
                         RGBColor(213, 94, 0).filled(),
                     )
@@ -371,6 +388,7 @@ pub fn write_plots(
     config: &StudyConfig,
     data: &StudyData,
     analysis: &StudyAnalysis,
+    units: AccelUnits,
 ) -> Result<Vec<PathBuf>, PlotError> {
     std::fs::create_dir_all(out_dir).map_err(|e| PlotError::new(out_dir, &e))?;
     let mut written = Vec::new();
@@ -379,16 +397,16 @@ pub fn write_plots(
         written.extend(both_formats(
             &stem,
             SCATTER_SIZE,
-            |root| draw_scatter(root, config, data, block),
-            |root| draw_scatter(root, config, data, block),
+            |root| draw_scatter(root, config, data, block, units),
+            |root| draw_scatter(root, config, data, block, units),
         )?);
         if block.fragility.selected.is_some() {
             let stem = out_dir.join(format!("fragility_{}", block.name));
             written.extend(both_formats(
                 &stem,
                 FRAGILITY_SIZE,
-                |root| draw_fragility(root, data, block),
-                |root| draw_fragility(root, data, block),
+                |root| draw_fragility(root, data, block, units),
+                |root| draw_fragility(root, data, block, units),
             )?);
         }
     }
