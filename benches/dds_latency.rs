@@ -198,6 +198,7 @@ fn quiet(s: usize, j: usize) -> AccelPacket {
         east: vec![0.001; 10],
         north: vec![-0.001; 10],
         up: vec![0.0; 10],
+        unit: Default::default(),
     }
 }
 

@@ -91,6 +91,7 @@ fn round(case: Case, r: usize) -> Vec<AccelPacket> {
                 east: (0..PACKET).map(|i| sample(i, 1.5)).collect(),
                 north: (0..PACKET).map(|i| sample(i, 1.1)).collect(),
                 up: (0..PACKET).map(|i| 0.3 * sample(i, 2.3)).collect(),
+                unit: Default::default(),
             }
         })
         .collect()

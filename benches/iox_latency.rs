@@ -173,6 +173,7 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
             east: vec![0.0; 10],
             north: vec![0.0; 10],
             up: vec![0.0; 10],
+            unit: Default::default(),
         };
         *sent = epoch.elapsed().as_nanos() as i64;
         sink.send(&packet).unwrap();
@@ -438,6 +439,7 @@ fn main() {
         east: vec![0.001; 10],
         north: vec![-0.001; 10],
         up: vec![0.0; 10],
+        unit: Default::default(),
     };
     let rounds = 100;
     let total = (rounds * INTAKE_STATIONS) as u64;

@@ -108,6 +108,7 @@ fn main() {
             east: e.to_vec(),
             north: n.to_vec(),
             up: vec![],
+            unit: Default::default(),
         })
         .collect();
     let mut engine =

@@ -152,6 +152,7 @@ fn bench_engine_at_rest(c: &mut Criterion) {
             east: noise(0.7),
             north: noise(0.3),
             up: noise(0.9),
+            unit: Default::default(),
         }
     };
     let mut group = c.benchmark_group("engine_at_rest");

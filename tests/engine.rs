@@ -5,8 +5,8 @@ use std::path::Path;
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::dynamics::BlockParams;
 use rockwatch_core::engine::{
-    AccelPacket, AlertLevel, Engine, EngineConfig, NoticeKind, Output, PbrSpec, Source,
-    SourceCounts, SourceTally, StationId, StreamConfig,
+    AccelPacket, AlertLevel, Engine, EngineConfig, NoticeKind, Output, PbrSpec, SampleUnit, Source,
+    SourceCounts, SourceTally, StationId, StreamConfig, Verdict,
 };
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions};
@@ -27,6 +27,7 @@ fn packets(station: &str, east: &[f64], north: &[f64], dt: f64, len: usize) -> V
             east: e.iter().map(|&v| v as f32).collect(),
             north: n.iter().map(|&v| v as f32).collect(),
             up: vec![],
+            unit: Default::default(),
         })
         .collect()
 }
@@ -985,12 +986,105 @@ fn accelerations_beyond_the_physical_bound_are_rejected_and_counted() {
     let mut engine = Engine::new(EngineConfig::default(), vec![station], &pbrs).unwrap();
     let mut counts = vec![0.0; 100];
     counts[10] = 2e7;
-    run(
-        &mut engine,
-        packets("CI.RRS.00", &counts, &[0.0; 100], 0.01, 100),
-    );
+    let mut in_counts = packets("CI.RRS.00", &counts, &[0.0; 100], 0.01, 100);
+    in_counts[0].unit = SampleUnit::Counts;
+    run(&mut engine, in_counts);
     let (_, own, _) = engine.station_counters().next().unwrap();
     assert_eq!(own.implausible_packets, 1);
+}
+
+/// Issue 20 item 15: a packet says its unit; the engine refuses — counted, said, charged to
+/// its sender — counts for a station without a gain (they cannot be converted), m/s² for a
+/// station with one (calibrated data would be scaled by the gain: 1e-5 here, the shaking
+/// shrunk silently to nothing), and an unknown unit code; the matching units are taken.
+#[test]
+fn a_packet_whose_unit_is_not_its_stations_is_refused_and_said() {
+    let pbrs = [
+        spec("plain", "XX.MPS.00", 90.0, slender()),
+        spec("gained", "XX.CNT.00", 90.0, slender()),
+    ];
+    let gained = rockwatch_core::engine::StationConfig {
+        gain_mps2_per_count: Some(1e-5),
+        ..rockwatch_core::engine::StationConfig::default_for(StationId::parse("XX.CNT.00").unwrap())
+    };
+    let mut engine = Engine::new(EngineConfig::default(), vec![gained], &pbrs).unwrap();
+    let tally = std::sync::Arc::new(SourceTally::default());
+    engine.set_source_tally(std::sync::Arc::clone(&tally));
+    let one = |station: &str, unit: SampleUnit, k: usize| {
+        let mut p = packets(station, &[0.1; 10], &[0.0; 10], 0.01, 10).remove(0);
+        p.start_time_ns += k as i64 * 100_000_000;
+        p.sequence = k as u64;
+        p.unit = unit;
+        p
+    };
+    let cases = [
+        (
+            "XX.MPS.00",
+            SampleUnit::MetresPerSecondSquared,
+            Verdict::Accepted,
+            "",
+        ),
+        (
+            "XX.MPS.00",
+            SampleUnit::Counts,
+            Verdict::Refused,
+            "its samples are counts, but the station has no gain_mps2_per_count",
+        ),
+        ("XX.CNT.00", SampleUnit::Counts, Verdict::Accepted, ""),
+        (
+            "XX.CNT.00",
+            SampleUnit::MetresPerSecondSquared,
+            Verdict::Refused,
+            "its samples are m/s², but the node's [[station]] gives the station a gain",
+        ),
+        (
+            "XX.CNT.00",
+            SampleUnit::Unknown(7),
+            Verdict::Refused,
+            "unknown sample unit code 7",
+        ),
+    ];
+    let source = Source::new(3).unwrap();
+    for (k, (station, unit, verdict, said)) in cases.into_iter().enumerate() {
+        let mut out = Vec::new();
+        let got = engine.process_from(one(station, unit, k), Some(source), 0, &mut out);
+        assert_eq!(got, verdict, "{station} {unit:?}");
+        let notice = out.iter().find_map(|o| match o {
+            Output::Notice(n) if n.kind == NoticeKind::Rejected => Some(n.message.clone()),
+            _ => None,
+        });
+        match notice {
+            Some(message) => assert!(
+                !said.is_empty()
+                    && message.contains(said)
+                    && message.starts_with(&format!("packet {k} rejected")),
+                "{message}"
+            ),
+            None => assert!(said.is_empty(), "{station} {unit:?}: nothing said"),
+        }
+    }
+    let own = |station: &str| {
+        engine
+            .station_counters()
+            .find(|(s, _, _)| s.to_string() == station)
+            .map(|(_, own, _)| own)
+            .unwrap()
+    };
+    assert_eq!(
+        (
+            own("XX.MPS.00").unit_mismatches,
+            own("XX.MPS.00").rejected_packets
+        ),
+        (1, 1)
+    );
+    assert_eq!(
+        (
+            own("XX.CNT.00").unit_mismatches,
+            own("XX.CNT.00").rejected_packets
+        ),
+        (2, 2)
+    );
+    assert_eq!(tally.of(source).refused, 3);
 }
 
 /// A bundled record's samples (m/s²), scaled and rounded to f32 as packets carry them.
@@ -1028,6 +1122,7 @@ fn packets_3c(
             east: cut(east, i),
             north: cut(north, i),
             up: cut(up, i),
+            unit: Default::default(),
         })
         .collect()
 }

@@ -30,6 +30,7 @@ fn packets(station: &str, record: &Record) -> Vec<AccelPacket> {
             east: e.iter().map(|&v| v as f32).collect(),
             north: e.iter().map(|&v| (0.5 * v) as f32).collect(),
             up: vec![],
+            unit: Default::default(),
         })
         .collect()
 }

@@ -296,6 +296,7 @@ fn send_hostile_packets(config: &IoxConfig, probe: &rockwatch::node::Probe) {
         east: vec![0.1; 10],
         north: vec![0.0; 10],
         up: vec![],
+        unit: Default::default(),
     };
     let header = AccelHeader::from_packet(&good);
     let samples = vec![AccelSample::default(); 10];

@@ -158,6 +158,7 @@ fn a_quiet_station_with_resting_blocks_does_not_allocate() {
         up: (0..10)
             .map(|j| 0.005 * ((i * 10 + j) as f32 * 0.9).sin())
             .collect(),
+        unit: Default::default(),
     };
     for shared in [true, false] {
         let config = EngineConfig {

@@ -1,7 +1,7 @@
 //! Malformed and hostile input over the wire to a running `rockwatch node` (in its own network
 //! namespace, loopback only): well-typed packets with bad contents (empty arrays, mismatched
 //! lengths, NaN/Inf, absurd sample rates, unknown or malformed station ids, oversized
-//! packets) and raw bytes that do not decode as `pbr_msgs/AccelPacket`. The node survives,
+//! packets, counts for a station without a gain, an unknown unit) and raw bytes that do not decode as `pbr_msgs/AccelPacket`. The node survives,
 //! counts each kind in its closing summary, and still raises OVERTURNED for the slender
 //! pillar when the Rinaldi record is replayed afterwards.
 
@@ -35,6 +35,7 @@ fn packet(
         east,
         north,
         up,
+        unit: msg::UNIT_MPS2,
     }
 }
 
@@ -161,6 +162,15 @@ fn node_survives_counts_and_rejects_hostile_input_then_still_raises_overturned()
         packet("CI.RRS.00", f64::INFINITY, ten(), ten(), ten()),
         packet("CI.RRS.00", 1e12, ten(), ten(), ten()),
         packet("CI.RRS.00", 0.001, ten(), ten(), ten()),
+        // Counts for a station without a gain, and an unknown unit (issue 20 item 15).
+        msg::AccelPacket {
+            unit: msg::UNIT_COUNTS,
+            ..packet("CI.RRS.00", 100.0, ten(), ten(), ten())
+        },
+        msg::AccelPacket {
+            unit: 9,
+            ..packet("CI.RRS.00", 100.0, ten(), ten(), ten())
+        },
         // One sample over the engine's limit (100 000): 1.2 MB, sent in DDS fragments.
         packet(
             "CI.RRS.00",

@@ -9,7 +9,7 @@ use std::path::Path;
 use rockwatch::iox::PbrAlertIox;
 use rockwatch::ros2::msg;
 use rockwatch_core::dynamics::Mode;
-use rockwatch_core::engine::{Alert, AlertLevel};
+use rockwatch_core::engine::{Alert, AlertLevel, SampleUnit};
 use serde_reflection::{ContainerFormat, Format, Tracer, TracerConfig};
 
 #[derive(Debug, Default)]
@@ -293,6 +293,25 @@ fn mode_and_level_constants_match_the_msg_files() {
     }
     assert_eq!(msg::level_of_code(0), None);
     assert_eq!(msg::level_of_code(4), None);
+    // AccelPacket.unit (issue 20 item 15).
+    let accel = parse_msg("AccelPacket");
+    assert_eq!(accel.constants.len(), 2);
+    for (name, value, unit) in [
+        ("UNIT_MPS2", 0, SampleUnit::MetresPerSecondSquared),
+        ("UNIT_COUNTS", 1, SampleUnit::Counts),
+    ] {
+        assert_eq!(
+            accel.constants[name],
+            ("uint8".to_string(), value.to_string()),
+            "AccelPacket.{name}"
+        );
+        assert_eq!(rockwatch::wire_codes::unit_code(unit), value);
+        assert_eq!(rockwatch::wire_codes::unit_of_code(value), unit);
+    }
+    assert_eq!(
+        rockwatch::wire_codes::unit_of_code(9),
+        SampleUnit::Unknown(9)
+    );
 }
 
 #[test]

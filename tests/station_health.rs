@@ -36,6 +36,7 @@ fn packet(station: &str, k: i64) -> AccelPacket {
         east: vec![0.0; 100],
         north: vec![0.0; 100],
         up: vec![],
+        unit: Default::default(),
     }
 }
 

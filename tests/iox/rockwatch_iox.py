@@ -9,6 +9,8 @@ import ctypes
 import iceoryx2 as iox
 
 ACCEL_FLAG_HAS_UP = 1
+# The samples are counts (converted by the station's gain in the node's configuration).
+ACCEL_FLAG_COUNTS = 2
 
 
 class AccelHeader(ctypes.Structure):

@@ -690,6 +690,7 @@ fn emit(
         east,
         north,
         up,
+        unit: crate::engine::SampleUnit::MetresPerSecondSquared, // calibrated with the inventory
     };
     station.emitted += n as i64;
     station.sequence += 1;

@@ -9,7 +9,7 @@ use crate::ports::PacketSink;
 use rockwatch_core::azimuth::{Azimuth, ChannelsToEnu};
 use rockwatch_core::differentiate::differentiate;
 use rockwatch_core::engine::packet::MAX_SAMPLES_PER_PACKET;
-use rockwatch_core::engine::{AccelPacket, Orientation, StationId};
+use rockwatch_core::engine::{AccelPacket, Orientation, SampleUnit, StationId};
 use rockwatch_core::inventory::{Inventory, SensorInput};
 use rockwatch_core::record::mseed::{
     align_channels, read_mseed, AlignedChannels, Channel, GapFill, SampleKind,
@@ -168,6 +168,8 @@ pub struct Traces {
     pub east: Vec<f64>,
     pub north: Vec<f64>,
     pub up: Option<Vec<f64>>,
+    /// m/s², or counts (MiniSEED as stored for a station whose configured gain converts them).
+    pub unit: SampleUnit,
 }
 
 impl Traces {
@@ -187,6 +189,7 @@ impl Traces {
             east,
             north,
             up: record.vertical_mps2.clone(),
+            unit: SampleUnit::MetresPerSecondSquared,
         }
     }
 
@@ -274,6 +277,13 @@ impl Traces {
             east: east.unwrap_or_else(|| vec![0.0; len]),
             north: north.unwrap_or_else(|| vec![0.0; len]),
             up,
+            // As stored: counts when the station's configured gain converts them.
+            unit: match calibration {
+                MseedCalibration::AsStored {
+                    counts_have_gain: true,
+                } => SampleUnit::Counts,
+                _ => SampleUnit::MetresPerSecondSquared,
+            },
         })
     }
 
@@ -330,6 +340,7 @@ impl Traces {
             east,
             north,
             up,
+            unit: SampleUnit::MetresPerSecondSquared,
         })
     }
 
@@ -395,6 +406,7 @@ impl Traces {
                         .up
                         .as_ref()
                         .map_or_else(Vec::new, |u| range.map(|i| at(u, i)).collect()),
+                    unit: self.unit,
                 }
             })
             .collect()
@@ -569,6 +581,7 @@ mod replay_tests {
                 east: vec![0.0; 10],
                 north: vec![0.0; 10],
                 up: Vec::new(),
+                unit: Default::default(),
             })
             .collect();
         let now = 1_800_000_000_000_000_000;
@@ -610,6 +623,7 @@ mod replay_tests {
             east: vec![1.0; n],
             north: vec![0.0; n],
             up: None,
+            unit: SampleUnit::MetresPerSecondSquared,
         }
     }
 

@@ -1,4 +1,4 @@
-//! The wire codes of block modes and alert levels: the single table used by both transports,
+//! The wire codes of block modes, alert levels and sample units: the single table used by both transports,
 //! ROS 2 (`pbr_msgs/PbrState.mode`, `pbr_msgs/PbrAlert.level` and `.mode`) and iceoryx2
 //! (`PbrAlertIox::level` and `::mode`).
 //!
@@ -9,7 +9,7 @@
 //! table against the `.msg` files and that both transports send the same codes.
 
 use rockwatch_core::dynamics::Mode;
-use rockwatch_core::engine::AlertLevel;
+use rockwatch_core::engine::{AlertLevel, SampleUnit};
 
 /// `PbrState` / `PbrAlert` mode constants.
 pub const MODE_REST: u8 = 0;
@@ -26,6 +26,30 @@ pub const LEVEL_OVERTURNED: u8 = 3;
 /// `PbrAlert.RESET`: an operator reset of a fallen block (`Publication::Reset`), not an engine
 /// alert level.
 pub const LEVEL_RESET: u8 = 4;
+
+/// `AccelPacket.unit` constants (iceoryx2: the `COUNTS` header flag instead).
+pub const UNIT_MPS2: u8 = 0;
+pub const UNIT_COUNTS: u8 = 1;
+
+/// The sample unit of a wire code (an unknown code is kept, to be refused by the engine).
+#[must_use]
+pub fn unit_of_code(code: u8) -> SampleUnit {
+    match code {
+        UNIT_MPS2 => SampleUnit::MetresPerSecondSquared,
+        UNIT_COUNTS => SampleUnit::Counts,
+        other => SampleUnit::Unknown(other),
+    }
+}
+
+/// The wire code of a sample unit.
+#[must_use]
+pub fn unit_code(unit: SampleUnit) -> u8 {
+    match unit {
+        SampleUnit::MetresPerSecondSquared => UNIT_MPS2,
+        SampleUnit::Counts => UNIT_COUNTS,
+        SampleUnit::Unknown(code) => code,
+    }
+}
 
 /// The wire code of a mode.
 #[must_use]

@@ -87,7 +87,7 @@ def forge(dp, msg_dir, station, count, seconds):
         writer.write(AccelPacket(
             header=Header(stamp=Time(sec=int(t0), nanosec=int((t0 % 1) * 1e9)),
                           frame_id=station),
-            sample_rate=100.0, sequence=seq, east=wave, north=wave, up=[]))
+            sample_rate=100.0, sequence=seq, east=wave, north=wave, up=[], unit=0))
     print(json.dumps({"forged": count}), flush=True)
     time.sleep(2)  # let reliable delivery finish
 

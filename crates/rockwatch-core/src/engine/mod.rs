@@ -48,7 +48,7 @@ pub use output::{
     AlertLevel, HistoryEntry, JournalRecord, Notice, NoticeKind, Output, OutputSink, PbrState,
     ResetEvent, StationIntensity,
 };
-pub use packet::{AccelPacket, PacketError, StationId};
+pub use packet::{AccelPacket, PacketError, SampleUnit, StationId};
 pub use pbr::{DirectionSummary, PbrSummary};
 pub use sharded::{EngineHandle, ShardedEngine};
 pub use source::{Source, SourceCounts, SourceTally, Verdict, MAX_SOURCES};
@@ -323,6 +323,17 @@ impl Engine {
             }));
             return Verdict::Ignored;
         };
+        if let Some(problem) = station.unit_problem(packet.unit) {
+            station.counters.rejected_packets += 1;
+            station.counters.unit_mismatches += 1;
+            station.counters.rejected_samples += packet.len() as u64;
+            out.push(Output::Notice(Notice {
+                station: packet.station.clone(),
+                kind: NoticeKind::Rejected,
+                message: format!("packet {} rejected: {problem}", packet.sequence),
+            }));
+            return Verdict::Refused;
+        }
         if let Err(error) = packet.validate_samples() {
             station.counters.rejected_packets += 1;
             station.counters.rejected_samples += packet.len() as u64;

@@ -11,9 +11,25 @@ pub const START_TIME_RANGE_NS: (i64, i64) = (-2_208_988_800_000_000_000, 4_102_4
 pub use crate::station_id::StationId;
 use crate::station_id::StationIdError;
 
+/// The unit of a packet's samples, as its sender says (issue 20 item 15). The engine refuses
+/// a packet whose unit does not match its station's configuration: counts need the station's
+/// `gain_mps2_per_count`, and m/s² must not meet one (the node would scale calibrated data by a
+/// gain, silently shrinking the shaking).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SampleUnit {
+    /// Calibrated acceleration, m/s² (the default).
+    #[default]
+    MetresPerSecondSquared,
+    /// Digitiser counts, converted by the station's configured gain.
+    Counts,
+    /// A unit the sender named with a code the node does not know (the transport's code,
+    /// for the log line): the packet is refused.
+    Unknown(u8),
+}
+
 /// Three-component acceleration from one station, as sent by a transport.
 ///
-/// `east`, `north`, `up` are in m/s² (or counts, when the station has a gain) at
+/// `east`, `north`, `up` are in `unit`: m/s², or counts for a station with a gain, at
 /// `t = start_time_ns + i / sample_rate_hz`; `up` may be empty. For stations whose horizontal
 /// channels are oriented 1/2, `east` carries channel 1 and `north` channel 2 (the station
 /// configuration rotates them).
@@ -28,6 +44,8 @@ pub struct AccelPacket {
     pub east: Vec<f32>,
     pub north: Vec<f32>,
     pub up: Vec<f32>,
+    /// The unit of the samples.
+    pub unit: SampleUnit,
 }
 
 /// Why a packet was rejected as a whole.
@@ -135,6 +153,7 @@ mod tests {
             east: vec![0.0; n],
             north: vec![0.0; n],
             up: vec![],
+            unit: Default::default(),
         }
     }
 

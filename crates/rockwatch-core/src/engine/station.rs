@@ -27,6 +27,10 @@ pub struct StationCounters {
     /// Packets rejected because a sample, in m/s² after the station's gain, is beyond the
     /// physical bound `engine.plausibility.max_abs_accel_g`.
     pub implausible_packets: u64,
+    /// Packets rejected because their unit (counts, m/s²) is not the one the station's
+    /// configuration expects (counts with a gain, m/s² without), included in
+    /// `rejected_packets`.
+    pub unit_mismatches: u64,
     pub rejected_samples: u64,
     /// Samples at or beyond 99.9 % of the sensor's full scale (used, but flagged).
     pub clipped_samples: u64,
@@ -459,6 +463,26 @@ impl StationRuntime {
 
     /// The first sample of `p` beyond `max_abs_mps2` once converted to m/s² (the station's
     /// gain), as (component, index, value in m/s²).
+    /// Why a packet whose samples are in `unit` cannot be taken by this station, if it
+    /// cannot: the station's configuration says whether its packets are counts (a gain) or
+    /// m/s² (none).
+    pub(crate) fn unit_problem(&self, unit: super::SampleUnit) -> Option<String> {
+        use super::SampleUnit;
+        match (unit, self.config.gain_mps2_per_count) {
+            (SampleUnit::Counts, None) => Some(
+                "its samples are counts, but the station has no gain_mps2_per_count in the node's [[station]]: they cannot be converted to m/s²"
+                    .into(),
+            ),
+            (SampleUnit::MetresPerSecondSquared, Some(gain)) => Some(format!(
+                "its samples are m/s², but the node's [[station]] gives the station a gain for counts ({gain} m/s² per count): calibrated data would be scaled again"
+            )),
+            (SampleUnit::Unknown(code), _) => Some(format!(
+                "unknown sample unit code {code} (0 m/s², 1 counts)"
+            )),
+            _ => None,
+        }
+    }
+
     pub(crate) fn implausible(
         &self,
         p: &super::packet::AccelPacket,

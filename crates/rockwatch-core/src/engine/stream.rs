@@ -481,6 +481,7 @@ mod tests {
             east: values.clone(),
             north: values,
             up: vec![],
+            unit: Default::default(),
         }
     }
 

@@ -9,7 +9,7 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
-use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel, ResetEvent};
+use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel, ResetEvent, SampleUnit};
 
 /// The mode code of [`PbrAlertIox::mode`] (the table shared with ROS 2).
 pub use crate::wire_codes::mode_code;
@@ -25,6 +25,11 @@ pub const PBR_ALERT_TYPE_NAME: &str = "rockwatch::PbrAlert";
 /// [`AccelHeader::flags`] bit: the `up` component of the samples is valid. When clear the
 /// station has no vertical channel and `up` is ignored (send 0).
 pub const ACCEL_FLAG_HAS_UP: u32 = 1;
+
+/// [`AccelHeader::flags`] bit: the samples are digitiser counts, converted by the station's
+/// `gain_mps2_per_count` in the node's configuration; when clear they are m/s². The node
+/// refuses a packet whose unit is not the one its configuration expects for the station.
+pub const ACCEL_FLAG_COUNTS: u32 = 2;
 
 /// Length of the NUL-padded station field (a SEED id `NET.STA.LOC` has at most 11 bytes).
 pub const STATION_BYTES: usize = 16;
@@ -47,14 +52,14 @@ pub struct AccelHeader {
     pub sequence: u64,
     /// Number of samples in the payload slice (must equal the slice length).
     pub sample_count: u64,
-    /// Bit set: [`ACCEL_FLAG_HAS_UP`]; other bits must be 0.
+    /// Bits: [`ACCEL_FLAG_HAS_UP`], [`ACCEL_FLAG_COUNTS`]; other bits must be 0.
     pub flags: u32,
     /// Must be 0.
     pub reserved: u32,
 }
 
-/// One three-component sample (12 bytes, alignment 4): acceleration in m/s² (or counts when the
-/// node's station configuration gives a gain), east/north/up positive.
+/// One three-component sample (12 bytes, alignment 4): acceleration in m/s² (or counts, with
+/// [`ACCEL_FLAG_COUNTS`]), east/north/up positive.
 #[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
 #[repr(C)]
 #[type_name("rockwatch::AccelSample")]
@@ -227,6 +232,10 @@ impl AccelHeader {
                 0
             } else {
                 ACCEL_FLAG_HAS_UP
+            } | if packet.unit == SampleUnit::Counts {
+                ACCEL_FLAG_COUNTS
+            } else {
+                0
             },
             reserved: 0,
         }
@@ -265,7 +274,7 @@ pub fn packet_from_wire(
             limit,
         });
     }
-    if header.flags & !ACCEL_FLAG_HAS_UP != 0 || header.reserved != 0 {
+    if header.flags & !(ACCEL_FLAG_HAS_UP | ACCEL_FLAG_COUNTS) != 0 || header.reserved != 0 {
         return Err(WireError::Flags(header.flags));
     }
     let station = read_padded(&header.station).map_err(WireError::Station)?;
@@ -281,6 +290,11 @@ pub fn packet_from_wire(
             samples.iter().map(|s| s.up).collect()
         } else {
             Vec::new()
+        },
+        unit: if header.flags & ACCEL_FLAG_COUNTS != 0 {
+            SampleUnit::Counts
+        } else {
+            SampleUnit::MetresPerSecondSquared
         },
     })
 }

@@ -950,6 +950,7 @@ mod tests {
             east: vec![0.0; samples],
             north: vec![0.0; samples],
             up: Vec::new(),
+            unit: Default::default(),
         }
     }
 

@@ -38,6 +38,7 @@ pub fn imu_packet(imu: &ImuInput, m: &ImuMsg, sequence: u64) -> AccelPacket {
         east: vec![east as f32],
         north: vec![north as f32],
         up: vec![up as f32],
+        unit: rockwatch_core::engine::SampleUnit::MetresPerSecondSquared, // sensor_msgs/Imu: m/s²
     }
 }
 

@@ -15,7 +15,7 @@ use rockwatch_core::engine;
 pub use crate::wire_codes::{
     level_code, level_name, level_of_code, mode_code, mode_of_code, LEVEL_MOTION_ONSET,
     LEVEL_OVERTURNED, LEVEL_OVERTURN_IMMINENT, MODE_FLIGHT, MODE_OVERTURNED, MODE_REST, MODE_ROCK,
-    MODE_SLIDE, MODE_SLIDE_ROCK,
+    MODE_SLIDE, MODE_SLIDE_ROCK, UNIT_COUNTS, UNIT_MPS2,
 };
 
 /// The ROS 2 package of the messages (DDS type names `pbr_msgs::msg::dds_::<Name>_`) and of
@@ -53,12 +53,14 @@ pub struct AccelPacket {
     pub sample_rate: f64,
     /// Packet sequence number of the station's stream.
     pub sequence: u64,
-    /// East acceleration (m/s², or counts for a station with a configured gain).
+    /// East acceleration, in `unit`.
     pub east: Vec<f32>,
     /// North acceleration (same units as `east`).
     pub north: Vec<f32>,
     /// Up acceleration (same units; may be empty).
     pub up: Vec<f32>,
+    /// 0: m/s², 1: counts ([`engine::SampleUnit`]'s wire codes).
+    pub unit: u8,
 }
 
 /// `pbr_msgs/StationIntensity`: a station's running intensity measures.
@@ -234,6 +236,7 @@ impl From<&AccelPacket> for engine::AccelPacket {
             east: m.east.clone(),
             north: m.north.clone(),
             up: m.up.clone(),
+            unit: crate::wire_codes::unit_of_code(m.unit),
         }
     }
 }
@@ -247,6 +250,7 @@ impl From<&engine::AccelPacket> for AccelPacket {
             east: p.east.clone(),
             north: p.north.clone(),
             up: p.up.clone(),
+            unit: crate::wire_codes::unit_code(p.unit),
         }
     }
 }
