@@ -67,6 +67,7 @@ fn pbrs(case: Case) -> Vec<PbrSpec> {
                     members: vec![],
                     more_directions: vec![],
                     rock_3d: None,
+                    place: Default::default(),
                 }
             })
         })

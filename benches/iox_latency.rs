@@ -142,6 +142,9 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
                             data_time_ns: p.start_time_ns,
                             arrival_ns: 0,
                             direction_deg: 0.0,
+                            lat_deg: Default::default(),
+                            lon_deg: Default::default(),
+                            pbr_name: Default::default(),
                         };
                         publisher.publish(&Publication::Alert {
                             alert,

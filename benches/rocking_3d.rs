@@ -135,6 +135,7 @@ fn bench_engine_at_rest(c: &mut Criterion) {
                     },
                     members: vec![],
                 }),
+                place: Default::default(),
             })
             .collect()
     };

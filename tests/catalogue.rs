@@ -1350,6 +1350,16 @@ fn a_mesh_rock_may_be_integrated_in_3d_and_what_the_3d_model_cannot_take_is_refu
     let rock = spec.rock_3d.as_ref().expect("3-D spec");
     assert_eq!((rock.nominal, rock.members.len()), (nominal, 5));
     assert!(spec.members.is_empty() && spec.more_directions.is_empty());
+    // Its name and position go with it, into its alerts (issue 20 item 10).
+    assert_eq!(
+        spec.place,
+        rockwatch_core::engine::RockPlace {
+            name: pbr.name().to_string(),
+            lat_deg: Some(pbr.lat_deg()),
+            lon_deg: Some(pbr.lon_deg()),
+        }
+    );
+    assert!(!spec.place.name.is_empty());
     // Refused, by field, with the reason.
     let cases = [
         (

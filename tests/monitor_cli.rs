@@ -437,6 +437,9 @@ fn a_crash_during_journal_compaction_loses_nothing() {
             data_time_ns: i64::from(episode) * 1_000_000_000,
             arrival_ns: 0,
             direction_deg: 0.0,
+            lat_deg: Default::default(),
+            lon_deg: Default::default(),
+            pbr_name: Default::default(),
         })
     };
     // Years of a block that kept falling and being reset; fallen in its last episode.

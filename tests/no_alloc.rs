@@ -142,6 +142,7 @@ fn a_quiet_station_with_resting_blocks_does_not_allocate() {
                     2
                 ],
             }),
+            place: Default::default(),
         })
         .collect();
     let packet = |i: usize| AccelPacket {

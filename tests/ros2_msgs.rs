@@ -340,6 +340,9 @@ fn iceoryx2_alerts_carry_the_ros2_level_and_mode_codes() {
                 data_time_ns: 0,
                 arrival_ns: 0,
                 direction_deg: 0.0,
+                lat_deg: Default::default(),
+                lon_deg: Default::default(),
+                pbr_name: Default::default(),
             };
             let ros = msg::PbrAlert::from(&alert);
             let iox = PbrAlertIox::from_alert(&alert, 0, 0);

@@ -243,11 +243,21 @@ fn rclpy_peer_with_the_generated_types_gets_overturned_for_the_slender_block_onl
             ("overturn_probability", j.overturn_probability),
             ("pga", j.pga_mps2),
             ("pgv", j.pgv_mps),
-            // The last field, after the string `message`: its alignment is checked too.
+            // After the string `message`: its alignment is checked too.
             ("direction_deg", j.direction_deg),
+            // The rock's position (issue 20 item 10), after the string `pbr_name`.
+            ("latitude_deg", j.lat_deg.unwrap_or(f64::NAN)),
+            ("longitude_deg", j.lon_deg.unwrap_or(f64::NAN)),
         ] {
             let got = a[field].as_f64().unwrap();
             assert!(close(got, want), "{field}: {got} vs {want}: {a} vs {j:?}");
         }
+        assert_eq!(a["pbr_name"], j.pbr_name.as_str(), "{a} vs {j:?}");
     }
+    // The catalogue's name and position of the pillar (`write_catalogue`).
+    let pillar = journaled.iter().find(|j| j.pbr_id == SLENDER).unwrap();
+    assert_eq!(
+        (pillar.pbr_name.as_str(), pillar.lat_deg, pillar.lon_deg),
+        (SLENDER, Some(34.28), Some(-118.48))
+    );
 }

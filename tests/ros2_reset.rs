@@ -281,6 +281,9 @@ fn write_fallen_journal(state: &Path) {
             data_time_ns: 1_700_000_003_390_000_000,
             arrival_ns: 0,
             direction_deg: 0.0,
+            lat_deg: Default::default(),
+            lon_deg: Default::default(),
+            pbr_name: Default::default(),
         }))
         .unwrap();
 }

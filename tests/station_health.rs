@@ -23,6 +23,7 @@ fn spec(id: &str, station: &str) -> PbrSpec {
         members: vec![],
         more_directions: vec![],
         rock_3d: None,
+        place: Default::default(),
     }
 }
 

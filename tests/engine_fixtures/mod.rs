@@ -37,6 +37,7 @@ pub fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpe
         members: vec![],
         more_directions: vec![],
         rock_3d: None,
+        place: Default::default(),
     }
 }
 

@@ -8,7 +8,9 @@
 //! {"type": "alert", "pbr_id": "rrs-slender-pillar", "level": "overturned", "episode": 1,
 //!  "data_time": "1994-01-17T12:31:05.120000000Z", "data_time_ns": 758809865120000000,
 //!  "station": "CI.RRS.00", "mode": "overturned", "theta_over_alpha": 7.958,
-//!  "slide_m": 0.0, "overturn_probability": 1.0, "pga_mps2": 8.1, "pgv_mps": 1.6}
+//!  "slide_m": 0.0, "overturn_probability": 1.0, "pga_mps2": 8.1, "pgv_mps": 1.6,
+//!  "direction_deg": 228.0, "pbr_name": "Slender pillar east of Rinaldi",
+//!  "lat_deg": 34.2835, "lon_deg": -118.4765}
 //! ```
 //!
 //! - `level`: `motion_onset` | `overturn_imminent` | `overturned` (increasing severity).
@@ -19,11 +21,15 @@
 //! - `mode`: `rest` | `slide` | `rock` | `slide-rock` | `overturned` | `flight`.
 //! - `theta_over_alpha`: signed θ/α (θ > 0 clockwise about the +x pivot; |θ/α| = 1 is the
 //!   static overturning angle); `slide_m`: slip of the contact point (m);
-//!   `overturn_probability`: ensemble probability (0–1); `pga_mps2`, `pgv_mps`: the station's
-//!   running peaks, larger horizontal component (m/s², m/s). A non-finite value is `null`.
+//!   `overturn_probability`: ensemble probability (0–1); `pga_mps2`: the station's running
+//!   peak of the horizontal vector (orientation-independent, = RotD100, m/s²); `pgv_mps`: its
+//!   running PGV, larger horizontal component (m/s). A non-finite value is `null`.
 //! - `direction_deg`: the direction that raised the alert, the azimuth of the block's +x axis
 //!   in degrees clockwise from north (a planar block's own azimuth; for a rock from a mesh,
 //!   the direction that overturned or rocks most).
+//! - `pbr_name`, `lat_deg`, `lon_deg`: the rock's catalogue name and WGS84 position (degrees
+//!   north and east; `null` when unknown; `""` and `null` in alerts journaled before
+//!   rockwatch carried them).
 //!
 //! The other records of a state directory's journal (`alerts --format json`; README, "Alert
 //! JSON", lists every key): `{"type": "episode_end", "pbr_id", "episode", "data_time",
@@ -58,7 +64,7 @@ pub struct AlertJson {
     pub slide_m: f64,
     /// Ensemble overturn probability (0–1).
     pub overturn_probability: f64,
-    /// Station's running PGA, larger horizontal component (m/s²).
+    /// Station's running PGA, peak of the horizontal vector (m/s²).
     pub pga_mps2: f64,
     /// Station's running PGV, larger horizontal component (m/s).
     pub pgv_mps: f64,
@@ -66,6 +72,14 @@ pub struct AlertJson {
     /// clockwise from north (absent in records written before it existed: 0).
     #[serde(default)]
     pub direction_deg: f64,
+    /// The rock's catalogue name ("" in records written before it existed).
+    #[serde(default)]
+    pub pbr_name: String,
+    /// The rock's WGS84 latitude and longitude (degrees; null when unknown).
+    #[serde(default)]
+    pub lat_deg: Option<f64>,
+    #[serde(default)]
+    pub lon_deg: Option<f64>,
 }
 
 impl AlertJson {
@@ -92,6 +106,9 @@ impl From<&Alert> for AlertJson {
             pga_mps2: a.pga_mps2,
             pgv_mps: a.pgv_mps,
             direction_deg: a.direction_deg,
+            pbr_name: a.pbr_name.clone(),
+            lat_deg: a.lat_deg,
+            lon_deg: a.lon_deg,
         }
     }
 }
@@ -193,6 +210,9 @@ mod tests {
             data_time_ns: 758_809_855_500_000_000,
             arrival_ns: 42,
             direction_deg: 228.0,
+            lat_deg: Default::default(),
+            lon_deg: Default::default(),
+            pbr_name: Default::default(),
         }
     }
 

@@ -1080,6 +1080,9 @@ mod tests {
             data_time_ns: i64::from(episode) * 1_000_000_000,
             arrival_ns: 0,
             direction_deg: 0.0,
+            lat_deg: Default::default(),
+            lon_deg: Default::default(),
+            pbr_name: Default::default(),
         })
     }
 

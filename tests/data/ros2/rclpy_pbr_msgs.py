@@ -46,6 +46,8 @@ def alert_json(a):
         "theta_over_alpha": a.theta_over_alpha, "slide": a.slide,
         "overturn_probability": a.overturn_probability, "pga": a.pga, "pgv": a.pgv,
         "message": a.message, "direction_deg": a.direction_deg, "episode": a.episode,
+        "pbr_name": a.pbr_name, "latitude_deg": a.latitude_deg,
+        "longitude_deg": a.longitude_deg,
     }
 
 

@@ -304,11 +304,22 @@ impl EngineConfig {
     }
 }
 
+/// Where a rock is, for the people an alert reaches: its catalogue name and its WGS84
+/// position (degrees; `None` when not given, e.g. a block made in code).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RockPlace {
+    pub name: String,
+    pub lat_deg: Option<f64>,
+    pub lon_deg: Option<f64>,
+}
+
 /// A block bound to a station, ready to integrate: the nominal block and, for an uncertainty
 /// ensemble, its members.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PbrSpec {
     pub id: String,
+    /// Its name and position, carried into its alerts.
+    pub place: RockPlace,
     pub station: StationId,
     /// Direction of the block's +x axis.
     pub azimuth: Azimuth,
@@ -346,6 +357,18 @@ pub struct Rock3dSpec {
     pub members: Vec<crate::catalogue::RigidMember>,
 }
 
+impl RockPlace {
+    /// The name and position of a catalogue entry.
+    #[must_use]
+    pub fn of(pbr: &crate::catalogue::Pbr) -> RockPlace {
+        RockPlace {
+            name: pbr.name().to_string(),
+            lat_deg: Some(pbr.lat_deg()),
+            lon_deg: Some(pbr.lon_deg()),
+        }
+    }
+}
+
 impl PbrSpec {
     /// The engine's view of a catalogue entry: its nominal block, and its Latin-hypercube
     /// members when it declares an ensemble of more than one.
@@ -356,6 +379,7 @@ impl PbrSpec {
         {
             return Ok(PbrSpec {
                 id: pbr.id().to_string(),
+                place: RockPlace::of(pbr),
                 station: pbr.station().clone(),
                 azimuth: pbr.azimuth(),
                 nominal: pbr.nominal(),
@@ -385,6 +409,7 @@ impl PbrSpec {
         };
         Ok(PbrSpec {
             id: pbr.id().to_string(),
+            place: RockPlace::of(pbr),
             station: pbr.station().clone(),
             azimuth: first.azimuth,
             nominal: first.nominal,

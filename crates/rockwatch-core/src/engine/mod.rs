@@ -40,7 +40,7 @@ use std::sync::Arc;
 
 pub use config::{
     AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, Rock3dSpec,
-    Rock3dSpecError, StationConfig,
+    Rock3dSpecError, RockPlace, StationConfig,
 };
 pub use health::{HealthChange, StationHealth};
 pub use output::{

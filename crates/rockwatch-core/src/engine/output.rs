@@ -80,6 +80,14 @@ pub struct Alert {
     /// as 0.
     #[serde(default)]
     pub direction_deg: f64,
+    /// The rock's catalogue name and WGS84 position (degrees; null when not given). Journals
+    /// written before these fields read as "" and null.
+    #[serde(default)]
+    pub pbr_name: String,
+    #[serde(default)]
+    pub lat_deg: Option<f64>,
+    #[serde(default)]
+    pub lon_deg: Option<f64>,
 }
 
 impl Alert {
@@ -453,6 +461,9 @@ mod tests {
             data_time_ns: 0,
             arrival_ns: 0,
             direction_deg: 0.0,
+            lat_deg: Default::default(),
+            lon_deg: Default::default(),
+            pbr_name: Default::default(),
         })
     }
 

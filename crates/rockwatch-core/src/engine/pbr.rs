@@ -107,6 +107,8 @@ enum Dynamics {
 #[derive(Debug, Clone)]
 pub(crate) struct PbrRuntime {
     pub(super) id: String,
+    /// Name and position, copied into each alert (boxed: read only when an alert is raised).
+    place: Box<super::RockPlace>,
     dynamics: Dynamics,
     pub(super) members_overturned: usize,
     pub(super) episode: u32,
@@ -340,6 +342,7 @@ impl PbrRuntime {
         };
         Ok(PbrRuntime {
             id: spec.id.clone(),
+            place: Box::new(spec.place.clone()),
             dynamics,
             members_overturned: 0,
             episode: 0,
@@ -488,9 +491,11 @@ impl PbrRuntime {
         self.raised = RaisedLevels::default();
     }
 
-    /// Heap bytes of the rock's blocks (id, directions, members).
+    /// Heap bytes of the rock's blocks (id, name and place, directions, members).
     pub(super) fn heap_bytes(&self) -> usize {
         self.id.capacity()
+            + std::mem::size_of::<super::RockPlace>()
+            + self.place.name.capacity()
             + match &self.dynamics {
                 Dynamics::Planar(p) => p.heap_bytes(),
                 Dynamics::Rigid(r) => std::mem::size_of::<RigidRock>() + r.heap_bytes(),
@@ -624,6 +629,9 @@ impl PbrRuntime {
                     data_time_ns,
                     arrival_ns: ctx.arrival_ns,
                     direction_deg: pose.direction_deg,
+                    pbr_name: self.place.name.clone(),
+                    lat_deg: self.place.lat_deg,
+                    lon_deg: self.place.lon_deg,
                 }));
             }
         }

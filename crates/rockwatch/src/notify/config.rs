@@ -234,6 +234,9 @@ mod tests {
             data_time_ns: 0,
             arrival_ns: 0,
             direction_deg: 0.0,
+            lat_deg: Default::default(),
+            lon_deg: Default::default(),
+            pbr_name: Default::default(),
         };
         assert!(c.accepts(&alert("b", AlertLevel::Overturned)));
         assert!(!c.accepts(&alert("c", AlertLevel::Overturned)));

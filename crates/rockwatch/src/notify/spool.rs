@@ -319,6 +319,9 @@ mod tests {
             pga_mps2: 1.0,
             pgv_mps: 0.1,
             direction_deg: 0.0,
+            lat_deg: Default::default(),
+            lon_deg: Default::default(),
+            pbr_name: Default::default(),
         }
     }
 

@@ -144,6 +144,10 @@ pub struct PbrAlert {
     /// The block's episode: one alert per (pbr_id, episode, level), the key subscribers
     /// de-duplicate by.
     pub episode: u32,
+    /// The rock's catalogue name; its WGS84 position (degrees; NaN when unknown).
+    pub pbr_name: String,
+    pub latitude_deg: f64,
+    pub longitude_deg: f64,
 }
 
 /// `pbr_msgs/IntakeReport` (`msg/pbr_msgs/msg/IntakeReport.msg`): what one node made of the
@@ -314,6 +318,9 @@ impl From<&engine::ResetEvent> for PbrAlert {
             ),
             direction_deg: 0.0,
             episode: r.episode,
+            pbr_name: String::new(),
+            latitude_deg: f64::NAN,
+            longitude_deg: f64::NAN,
         }
     }
 }
@@ -343,6 +350,9 @@ impl From<&engine::Alert> for PbrAlert {
             ),
             direction_deg: a.direction_deg,
             episode: a.episode,
+            pbr_name: a.pbr_name.clone(),
+            latitude_deg: a.lat_deg.unwrap_or(f64::NAN),
+            longitude_deg: a.lon_deg.unwrap_or(f64::NAN),
         }
     }
 }
