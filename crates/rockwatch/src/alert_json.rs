@@ -210,9 +210,9 @@ mod tests {
             data_time_ns: 758_809_855_500_000_000,
             arrival_ns: 42,
             direction_deg: 228.0,
-            lat_deg: Default::default(),
-            lon_deg: Default::default(),
-            pbr_name: Default::default(),
+            pbr_name: "Slender pillar east of Rinaldi".into(),
+            lat_deg: Some(34.2835),
+            lon_deg: None,
         }
     }
 
@@ -225,22 +225,34 @@ mod tests {
             "data_time_ns": 758_809_855_500_000_000_i64, "station": "CI.RRS.00",
             "mode": "slide-rock", "theta_over_alpha": -0.85, "slide_m": 0.01,
             "overturn_probability": 0.25, "pga_mps2": 8.0, "pgv_mps": 1.5,
-            "direction_deg": 228.0,
+            "direction_deg": 228.0, "pbr_name": "Slender pillar east of Rinaldi",
+            "lat_deg": 34.2835, "lon_deg": null,
         });
         assert_eq!(v, expected);
         // It reads back.
         let back: RecordJson = serde_json::from_value(v.clone()).unwrap();
         assert_eq!(back, RecordJson::Alert((&alert()).into()));
-        // A record written before `direction_deg` existed reads with 0.
+        // A record written before `direction_deg` and the rock's place existed reads with 0,
+        // "" and null.
         let mut old = v;
         if let Some(map) = old.as_object_mut() {
-            map.remove("direction_deg");
+            for key in ["direction_deg", "pbr_name", "lat_deg", "lon_deg"] {
+                map.remove(key);
+            }
         }
         let back: RecordJson = serde_json::from_value(old).unwrap();
         let RecordJson::Alert(back) = back else {
             panic!("not an alert: {back:?}");
         };
-        assert_eq!(back.direction_deg, 0.0);
+        assert_eq!(
+            (
+                back.direction_deg,
+                back.pbr_name.as_str(),
+                back.lat_deg,
+                back.lon_deg
+            ),
+            (0.0, "", None, None)
+        );
     }
 
     #[test]

@@ -324,40 +324,20 @@ impl Engine {
             return Verdict::Ignored;
         };
         if let Some(problem) = station.unit_problem(packet.unit) {
-            station.counters.rejected_packets += 1;
             station.counters.unit_mismatches += 1;
-            station.counters.rejected_samples += packet.len() as u64;
-            out.push(Output::Notice(Notice {
-                station: packet.station.clone(),
-                kind: NoticeKind::Rejected,
-                message: format!("packet {} rejected: {problem}", packet.sequence),
-            }));
-            return Verdict::Refused;
+            return station.refuse(&packet, NoticeKind::Rejected, &problem, out);
         }
         if let Err(error) = packet.validate_samples() {
-            station.counters.rejected_packets += 1;
-            station.counters.rejected_samples += packet.len() as u64;
-            out.push(Output::Notice(Notice {
-                station: packet.station.clone(),
-                kind: NoticeKind::Rejected,
-                message: format!("packet {} rejected: {error}", packet.sequence),
-            }));
-            return Verdict::Refused;
+            return station.refuse(&packet, NoticeKind::Rejected, &error.to_string(), out);
         }
         let max_abs_mps2 = self.config.plausibility.max_abs_accel_mps2();
         if let Some((component, index, value)) = station.implausible(&packet, max_abs_mps2) {
-            station.counters.rejected_packets += 1;
             station.counters.implausible_packets += 1;
-            station.counters.rejected_samples += packet.len() as u64;
-            out.push(Output::Notice(Notice {
-                station: packet.station.clone(),
-                kind: NoticeKind::Implausible,
-                message: format!(
-                    "packet {} rejected: {component}[{index}] = {value:.6e} m/s² is beyond the physical bound of {} g (engine.plausibility.max_abs_accel_g)",
-                    packet.sequence, self.config.plausibility.max_abs_accel_g
-                ),
-            }));
-            return Verdict::Refused;
+            let why = format!(
+                "{component}[{index}] = {value:.6e} m/s² is beyond the physical bound of {} g (engine.plausibility.max_abs_accel_g)",
+                self.config.plausibility.max_abs_accel_g
+            );
+            return station.refuse(&packet, NoticeKind::Implausible, &why, out);
         }
         station.accepted(
             arrival_ns,

@@ -463,6 +463,26 @@ impl StationRuntime {
 
     /// The first sample of `p` beyond `max_abs_mps2` once converted to m/s² (the station's
     /// gain), as (component, index, value in m/s²).
+    /// Refuses `packet` whole: counted (rejected packets and samples) and said in a `kind`
+    /// notice, `packet N rejected: {why}`.
+    pub(crate) fn refuse(
+        &mut self,
+        packet: &super::packet::AccelPacket,
+        kind: NoticeKind,
+        why: &str,
+        out: &mut dyn OutputSink,
+    ) -> super::Verdict {
+        self.counters.rejected_packets += 1;
+        self.counters.rejected_samples += packet.len() as u64;
+        notice(
+            &self.name,
+            kind,
+            format!("packet {} rejected: {why}", packet.sequence),
+            out,
+        );
+        super::Verdict::Refused
+    }
+
     /// Why a packet whose samples are in `unit` cannot be taken by this station, if it
     /// cannot: the station's configuration says whether its packets are counts (a gain) or
     /// m/s² (none).

@@ -53,14 +53,16 @@ pub struct AccelPacket {
     pub sample_rate: f64,
     /// Packet sequence number of the station's stream.
     pub sequence: u64,
+    /// 0: m/s², 1: counts ([`engine::SampleUnit`]'s wire codes, [`crate::wire_codes`]).
+    /// Before the arrays: as the last field, RustDDS 0.15.1's secured readers failed to
+    /// decrypt the packets (`tests/ros2_security.rs`).
+    pub unit: u8,
     /// East acceleration, in `unit`.
     pub east: Vec<f32>,
     /// North acceleration (same units as `east`).
     pub north: Vec<f32>,
     /// Up acceleration (same units; may be empty).
     pub up: Vec<f32>,
-    /// 0: m/s², 1: counts ([`engine::SampleUnit`]'s wire codes).
-    pub unit: u8,
 }
 
 /// `pbr_msgs/StationIntensity`: a station's running intensity measures.
