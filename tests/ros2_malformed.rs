@@ -61,6 +61,7 @@ struct HugeLength {
     header: Header,
     sample_rate: f64,
     sequence: u64,
+    unit: u8,
     east_len: u32,
     east: [f32; 4],
 }
@@ -138,6 +139,7 @@ fn node_survives_counts_and_rejects_hostile_input_then_still_raises_overturned()
             header: Header::new(T0_NS, "CI.RRS.00"),
             sample_rate: 100.0,
             sequence: 1,
+            unit: msg::UNIT_MPS2,
             east_len: 4_000_000_000,
             east: [0.0; 4],
         })
