@@ -84,3 +84,101 @@ fn cyclone_dds_subscriber_receives_the_slender_pillar_overturned_and_a_late_one_
         }
     }
 }
+
+/// rmw_cyclonedds's service mapping (its 16-byte request/reply header) and the enhanced one
+/// (Fast DDS, Connext, ros2-client) answered by the same servers of one node: a Cyclone DDS
+/// client on rmw_cyclonedds's wire (tests/data/ros2/cyclone_service.py) lists and reads the
+/// node's parameters and resets the slender pillar the Rinaldi record overturned; between its
+/// calls `rockwatch reset` (enhanced) is answered too. Before the servers read both mappings,
+/// the Cyclone client got no reply (exit 2).
+#[test]
+fn an_rmw_cyclonedds_client_is_answered_by_the_reset_and_parameter_services() {
+    assert!(
+        have_cyclonedds(),
+        "python3 -m pip install cyclonedds==11.0.1 (see .ci/run)"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("node.toml"),
+        format!(
+            "catalogue = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n",
+            repo().join("config/catalogue.toml").display()
+        ),
+    )
+    .unwrap();
+    let d = dir.path().display();
+    let bin = rockwatch().display().to_string();
+    let py = repo().join("tests/data/ros2/cyclone_service.py");
+    let py = py.display();
+    let srv = repo().join("msg/pbr_msgs/srv");
+    let srv = srv.display();
+    let rec = repo().join("tests/data/records");
+    let rec = rec.display();
+    let peer = format!("python3 '{py}' '{srv}' --wait-s 20");
+    let script = format!(
+        "'{bin}' node --config '{d}/node.toml' --state-dir '{d}/state' 2> '{d}/node.err' & NODE=$!
+         {peer} --list --get alerts.imminent_theta_ratio --get catalogue | sed 's/^/CYCLONE /'
+         '{bin}' replay --record '{rec}/Rinaldi228.AT2' --vertical '{rec}/RinaldiUP.AT2' --azimuth 228 \
+             --station CI.RRS.00 --transport ros2 --speed max --tail 10 --wait-s 20 > /dev/null
+         '{bin}' reset --node --wait-s 20 --pbr no-such-rock; echo ENHANCED_RC=$?
+         {peer} --reset rrs-slender-pillar --reset no-such-rock | sed 's/^/CYCLONE /'
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
+         '{bin}' alerts --state-dir '{d}/state' --format json | tr -d '\\n' | sed 's/^/JOURNAL /'; echo
+         cat '{d}/node.err' >&2"
+    );
+    let out = run_in_netns(
+        &script,
+        150,
+        &[("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST".into())],
+    );
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("NODE_RC=0"), "{stdout}\n{stderr}");
+    let got = json_lines(&stdout, "CYCLONE ");
+    assert_eq!(got.len(), 5, "{stdout}\n{stderr}");
+    let names = got[0]["list"].as_array().unwrap();
+    for name in ["alerts.imminent_theta_ratio", "catalogue"] {
+        assert!(names.contains(&serde_json::json!(name)), "{names:?}");
+    }
+    // PARAMETER_DOUBLE 3 with the default threshold; PARAMETER_STRING 4 with the path.
+    assert_eq!(got[1]["type"], 3, "{}", got[1]);
+    assert_eq!(got[1]["double"], 0.8, "{}", got[1]);
+    assert_eq!(got[2]["type"], 4, "{}", got[2]);
+    assert_eq!(
+        got[2]["string"],
+        repo().join("config/catalogue.toml").display().to_string()
+    );
+    // The enhanced client between the two Cyclone sessions: answered (an unknown id: exit 1).
+    assert!(stdout.contains("ENHANCED_RC=1"), "{stdout}\n{stderr}");
+    assert!(stderr.contains("no-such-rock"), "{stderr}");
+    assert_eq!(got[3]["reset"], "rrs-slender-pillar");
+    assert_eq!(got[3]["success"], true, "{}", got[3]);
+    assert_eq!(got[4]["success"], false, "{}", got[4]);
+    assert!(
+        got[4]["message"]
+            .as_str()
+            .unwrap()
+            .contains("unknown block"),
+        "{}",
+        got[4]
+    );
+    // The pillar had overturned, and the Cyclone client's reset is journaled.
+    let journal = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("JOURNAL "))
+        .unwrap_or_else(|| panic!("no journal\n{stdout}"));
+    let records: Vec<serde_json::Value> = serde_json::from_str(journal).unwrap();
+    let pillar = |ty: &str| {
+        records
+            .iter()
+            .filter(|r| r["type"] == ty && r["pbr_id"] == "rrs-slender-pillar")
+            .count()
+    };
+    assert!(
+        records.iter().any(|r| r["type"] == "alert"
+            && r["pbr_id"] == "rrs-slender-pillar"
+            && r["level"] == "overturned"),
+        "{journal}"
+    );
+    assert_eq!(pillar("reset"), 1, "{journal}");
+}

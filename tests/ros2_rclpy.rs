@@ -10,7 +10,7 @@
 //! change (0.05) takes effect at once: of two identical slender blocks fed the same record,
 //! the one fed before the change raises `overturn_imminent` at |θ|/α ≈ 0.5 (the file's
 //! threshold), the one fed after it at |θ|/α ≈ 0.05; the change (only it) is announced on
-//! `/parameter_events`.
+//! `/parameter_events`, through the node's one writer of it, volatile as rcl's.
 //! Without rclpy the test is skipped locally and FAILS under CI=true.
 
 mod ros2_util;
@@ -106,7 +106,7 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
              2> '{d}/node.err' & NODE=$!
          {peer} --get alerts.imminent_theta_ratio --get alerts.quiet_s \
              --describe alerts.imminent_theta_ratio --describe catalogue --get catalogue \
-             | sed 's/^/BEFORE /'
+             --writers /parameter_events | sed 's/^/BEFORE /'
          {}
          {}
          {peer} --events --set alerts.imminent_theta_ratio=1.5 --get alerts.imminent_theta_ratio \
@@ -147,7 +147,7 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
 
     // The graph; the values of the file's node section and of -p; the descriptors.
     let before = json_lines(&stdout, "BEFORE ");
-    assert_eq!(before.len(), 6, "{stdout}\n{stderr}");
+    assert_eq!(before.len(), 7, "{stdout}\n{stderr}");
     let graph = before[0]["graph"].as_array().unwrap();
     assert!(
         graph.contains(&serde_json::json!(["rockwatch", "/site_a"])),
@@ -173,6 +173,15 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
     assert_eq!(catalogue_d["type"], 4, "PARAMETER_STRING: {catalogue_d}");
     assert_eq!(catalogue_d["read_only"], true, "{catalogue_d}");
     assert_eq!(before[5]["value"], catalogue.display().to_string());
+    // One /parameter_events writer, volatile, as rcl's (rmw_qos_profile_parameter_events);
+    // ros2-client 0.12.1 gave the node two, transient local (crates/vendor/README.md). (A
+    // writer's history depth is not announced in discovery: the peer sees 0.)
+    assert_eq!(
+        before[6]["of_node"],
+        serde_json::json!([{"durability": "VOLATILE", "reliability": "RELIABLE", "depth": 0}]),
+        "{}",
+        before[6]
+    );
 
     // Out of range and read-only refused with the reason, nothing changed; a valid change.
     let after = json_lines(&stdout, "AFTER ");

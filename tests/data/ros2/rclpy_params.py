@@ -3,8 +3,8 @@
 node graph, then reads, describes and sets its parameters through the standard services
 (NODE/get_parameters, NODE/describe_parameters, NODE/set_parameters), as `ros2 param` does.
 
-Usage: rclpy_params.py --wait-s S [--node /ns/name] [--events] [--get NAME]...
-                       [--describe NAME]... [--set NAME=VALUE]...
+Usage: rclpy_params.py --wait-s S [--node /ns/name] [--events] [--writers TOPIC]...
+                       [--get NAME]... [--describe NAME]... [--set NAME=VALUE]...
 VALUE is a double if it parses as one, else a string. Actions run in command-line order;
 prints one JSON object per line:
   {"graph": [[name, namespace], ...]}            the graph once NODE is in it
@@ -12,6 +12,9 @@ prints one JSON object per line:
   {"describe": NAME, "type": T, "description": D, "additional_constraints": C,
    "read_only": B, "floating_point_range": [[from, to, step], ...]}   after each --describe
   {"set": NAME, "value": V, "successful": B, "reason": R}   after each --set
+  {"writers": TOPIC, "of_node": [{"durability": D, "reliability": R, "depth": N}, ...]}
+      after each --writers: NODE's writers of TOPIC in the graph (once one is seen, 2 s more
+      for others to be discovered)
   {"event": {"node": N, "changed": [[NAME, DOUBLE], ...]}}   with --events: each
       /parameter_events message of NODE received by 3 s after the last action
 Exit status 2 if NODE never appears or a service call times out.
@@ -90,6 +93,24 @@ def main():
                 "floating_point_range": [[r.from_value, r.to_value, r.step]
                                          for r in d.floating_point_range],
             }), flush=True)
+            i += 2
+        elif args[i] == "--writers":
+            topic = args[i + 1]
+
+            def of_node():
+                return [w for w in node.get_publishers_info_by_topic(topic)
+                        if (w.node_name, w.node_namespace) == (name, namespace)]
+            end = time.monotonic() + wait_s
+            while not of_node() and time.monotonic() < end:
+                rclpy.spin_once(node, timeout_sec=0.1)
+            end = time.monotonic() + 2.0
+            while time.monotonic() < end:
+                rclpy.spin_once(node, timeout_sec=0.1)
+            print(json.dumps({"writers": topic, "of_node": [{
+                "durability": w.qos_profile.durability.name,
+                "reliability": w.qos_profile.reliability.name,
+                "depth": w.qos_profile.depth,
+            } for w in of_node()]}), flush=True)
             i += 2
         elif args[i] == "--set":
             pname, text = args[i + 1].split("=", 1)

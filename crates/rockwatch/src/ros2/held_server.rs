@@ -1,18 +1,25 @@
 //! A service server served by the node's event loop whose responses are held until the
 //! requesting client can receive them ([`HeldServer`]): the reset service and the parameter
-//! services.
+//! services. It answers clients of both ROS 2 service mappings on one pair of topics (Fast
+//! DDS's and Connext's "enhanced" one, rmw_cyclonedds's: [`super::rpc_wire`]), which
+//! ros2-client's `Server` (one mapping per server) cannot: it reads and writes the wire itself,
+//! through a reader and a writer of the node (they are the node's in the ROS graph).
 //!
 //! The response writer is volatile, as ROS 2 services are: a response written before it has
 //! matched the client's response reader would never reach it, and the request can arrive
 //! before that match (discovery is two-sided). Fast DDS servers wait in the same way.
 
+use std::marker::PhantomData;
 use std::time::{Duration, Instant};
 
 use anyhow::anyhow;
 use ros2_client::dds::rustdds::mio1::{Interest, Registry, Token};
-use ros2_client::{Message, Name, NodeName, RmwRequestId, Server, ServiceMapping, ServiceTypeName};
+use ros2_client::dds::rustdds::no_key::{DataWriter, SimpleDataReader};
+use ros2_client::dds::rustdds::{Timestamp, TopicKind, WriteOptionsBuilder};
+use ros2_client::{Message, Name, NodeName};
 
 use super::qos::service_qos;
+use super::rpc_wire::{self, Framing, RequestId, SampleMeta, Wire, WireAdapter};
 use super::session::Ros2Session;
 
 /// Longest a response waits for the requesting client's response reader to be discovered.
@@ -26,7 +33,7 @@ pub const RESET_REPLIES_HELD: usize = 256;
 
 /// A response not sent yet.
 struct PendingReply<Resp> {
-    id: RmwRequestId,
+    id: RequestId,
     response: Resp,
     since: Instant,
     /// When the client's response reader was first seen in the discovery database.
@@ -36,11 +43,13 @@ struct PendingReply<Resp> {
 /// A server, its resolved name, the DDS name of its response topic and the responses waiting
 /// for their client's response reader to be discovered.
 pub(super) struct HeldServer<Req: Message, Resp: Message> {
-    server: Server<Req, Resp>,
+    requests: SimpleDataReader<Wire, WireAdapter>,
+    replies: DataWriter<Wire, WireAdapter>,
     /// The service's resolved name (for log lines).
     pub(super) name: String,
     reply_topic: String,
     pending: Vec<PendingReply<Resp>>,
+    request_type: PhantomData<Req>,
 }
 
 impl<Req: Message + Clone + 'static, Resp: Message + Clone + 'static> HeldServer<Req, Resp> {
@@ -48,7 +57,6 @@ impl<Req: Message + Clone + 'static, Resp: Message + Clone + 'static> HeldServer
     /// `package/srv/type_name` on `session`'s node.
     pub(super) fn open(
         session: &mut Ros2Session,
-        mapping: ServiceMapping,
         name: &str,
         package: &str,
         type_name: &str,
@@ -58,39 +66,73 @@ impl<Req: Message + Clone + 'static, Resp: Message + Clone + 'static> HeldServer
         let naming = session.naming();
         let node_name = NodeName::new(naming.namespace(), naming.node())
             .map_err(|e| anyhow!("ROS 2 node name {:?}: {e:?}", naming.node_fqn()))?;
+        let request_topic = service.to_dds_name("rq", &node_name, "Request");
         let reply_topic = service.to_dds_name("rr", &node_name, "Reply");
-        let server = session
-            .node
-            .create_server(
-                mapping,
-                &service,
-                &ServiceTypeName::new(package, type_name),
-                service_qos(),
-                service_qos(),
+        let qos = service_qos();
+        let dds_qos = (&qos).into();
+        let participant = session.context.domain_participant();
+        let err = |e| anyhow!("ROS 2 service {resolved}: {e:?}");
+        let rq = participant
+            .create_topic(
+                request_topic,
+                format!("{package}::srv::dds_::{type_name}_Request_"),
+                &dds_qos,
+                TopicKind::NoKey,
             )
+            .map_err(err)?;
+        let rr = participant
+            .create_topic(
+                reply_topic.clone(),
+                format!("{package}::srv::dds_::{type_name}_Response_"),
+                &dds_qos,
+                TopicKind::NoKey,
+            )
+            .map_err(err)?;
+        let requests = session
+            .node
+            .create_simpledatareader::<Wire, WireAdapter>(&rq, Some(qos.clone()))
+            .map_err(|e| anyhow!("ROS 2 service {resolved}: {e:?}"))?;
+        let replies = session
+            .node
+            .create_datawriter::<Wire, WireAdapter>(&rr, Some(qos))
             .map_err(|e| anyhow!("ROS 2 service {resolved}: {e:?}"))?;
         Ok(HeldServer {
-            server,
+            requests,
+            replies,
             name: resolved,
             reply_topic,
             pending: Vec::new(),
+            request_type: PhantomData,
         })
     }
 
     /// Registers the server with `registry` as `token`, readable (edge-triggered: serve every
     /// request once it is reported).
     pub(super) fn register(&mut self, registry: &Registry, token: Token) -> std::io::Result<()> {
-        registry.register(&mut self.server, token, Interest::READABLE)
+        registry.register(&mut self.requests, token, Interest::READABLE)
     }
 
-    /// The next request, if any (an undecodable one is an error: count it, go on).
-    pub(super) fn receive(&mut self) -> Result<Option<(RmwRequestId, Req)>, String> {
-        self.server.receive_request().map_err(|e| format!("{e:?}"))
+    /// The next request, if any, in either mapping (an undecodable one is an error: count it,
+    /// go on).
+    pub(super) fn receive(&mut self) -> Result<Option<(RequestId, Req)>, String> {
+        self.requests.drain_read_notifications();
+        let Some(sample) = self.requests.try_take_one().map_err(|e| format!("{e:?}"))? else {
+            return Ok(None);
+        };
+        let meta = SampleMeta {
+            writer: sample.writer_guid(),
+            sequence: sample.sequence_number,
+            related: sample.related_sample_identity(),
+        };
+        let wire = sample.into_value();
+        rpc_wire::decode_request::<Req>(&wire, meta)
+            .map(Some)
+            .map_err(|e| e.to_string())
     }
 
     /// Answers request `id`: held until the client can receive it, or sent at once when
     /// [`RESET_REPLIES_HELD`] responses already wait.
-    pub(super) fn reply(&mut self, id: RmwRequestId, response: Resp) {
+    pub(super) fn reply(&mut self, id: RequestId, response: Resp) {
         if self.pending.len() < RESET_REPLIES_HELD {
             self.pending.push(PendingReply {
                 id,
@@ -110,8 +152,8 @@ impl<Req: Message + Clone + 'static, Resp: Message + Clone + 'static> HeldServer
 
     /// Sends each waiting response whose client's response reader `session`'s participant
     /// has discovered (and had [`RESET_MATCH_GRACE`] to match), or that has waited
-    /// [`RESET_REPLY_WAIT`]. The request id names the client's writer (or, with Fast DDS,
-    /// its reader), whose GUID prefix is its participant's. Costs nothing when none waits.
+    /// [`RESET_REPLY_WAIT`]. The request's writer names the client's participant (its GUID
+    /// prefix). Costs nothing when none waits.
     pub(super) fn send_due(&mut self, session: &Ros2Session) {
         if self.pending.is_empty() {
             return;
@@ -121,7 +163,7 @@ impl<Req: Message + Clone + 'static, Resp: Message + Clone + 'static> HeldServer
         let mut i = 0;
         while i < self.pending.len() {
             let p = &mut self.pending[i];
-            let client = ros2_client::dds::rustdds::GUID::from(p.id.writer_gid).prefix;
+            let client = p.id.client.prefix;
             if p.discovered.is_none()
                 && readers.iter().any(|r| {
                     r.reader_proxy.remote_reader_guid.prefix == client
@@ -151,9 +193,21 @@ impl<Req: Message + Clone + 'static, Resp: Message + Clone + 'static> HeldServer
         }
     }
 
-    /// Sends one response; a failure is logged (the client times out).
-    fn send(&mut self, id: RmwRequestId, response: Resp) {
-        if let Err(e) = self.server.send_response(id, response) {
+    /// Sends one response in its request's mapping; a failure is logged (the client times
+    /// out).
+    fn send(&mut self, id: RequestId, response: Resp) {
+        let wire = match rpc_wire::encode_reply(&id, &response) {
+            Ok(wire) => wire,
+            Err(e) => {
+                tracing::info!("ROS 2 {}: response not encoded: {e}", self.name);
+                return;
+            }
+        };
+        let mut options = WriteOptionsBuilder::new().source_timestamp(Timestamp::now());
+        if let Framing::Enhanced(request) = id.framing {
+            options = options.related_sample_identity(request);
+        }
+        if let Err(e) = self.replies.write_with_options(wire, options.build()) {
             tracing::info!("ROS 2 {}: response not sent: {e:?}", self.name);
         }
     }

@@ -41,6 +41,7 @@ mod replay_sink;
 mod reset;
 mod reset_client;
 pub mod ros_args;
+mod rpc_wire;
 mod security;
 mod session;
 

@@ -38,9 +38,10 @@ pub const INTAKE_TOPIC: &str = "pbr/intake";
 pub const DIAGNOSTICS_TOPIC: &str = "/diagnostics";
 /// The operator reset service (`pbr_msgs/srv/ResetPbr`), relative like the topics.
 pub const RESET_SERVICE: &str = "pbr/reset";
-/// The ROS 2 <-> DDS mapping of the reset service: the "enhanced" RPC-over-DDS mapping, that of
-/// ROS 2's default middleware (rmw_fastrtps) and of rmw_connextdds; rmw_cyclonedds uses its
-/// own, and its clients are not served (as for the parameter services).
+/// The ROS 2 <-> DDS mapping the reset CLIENT (`rockwatch reset`) uses: the "enhanced"
+/// RPC-over-DDS mapping, that of ROS 2's default middleware (rmw_fastrtps) and of
+/// rmw_connextdds. The node's servers answer it and rmw_cyclonedds's mapping alike
+/// (`held_server.rs`, `rpc_wire.rs`).
 pub const RESET_SERVICE_MAPPING: ServiceMapping = ServiceMapping::Enhanced;
 
 /// One remap rule `[node:]from:=to` (topic and service names; `__ns` and `__node` are taken

@@ -20,7 +20,7 @@ use ros2_client::rcl_interfaces::{
     ListParametersResponse, ListParametersResult, SetParametersAtomicallyResponse,
     SetParametersRequest, SetParametersResponse,
 };
-use ros2_client::{Message, ParameterValue, ROSTime, ServiceMapping, SystemTime};
+use ros2_client::{Message, ParameterValue, ROSTime, SystemTime};
 
 use super::held_server::HeldServer;
 use super::input::IntakeLog;
@@ -321,14 +321,12 @@ pub(super) struct ParamServer {
     describe: HeldServer<DescribeParametersRequest, DescribeParametersResponse>,
     pub(super) values: ParamValues,
     controls: ControlSender,
-    /// `/parameter_events`: each accepted change.
-    events: ros2_client::Publisher<raw::ParameterEvent>,
+    /// `/parameter_events`: each accepted change, through the node's one writer of it
+    /// (volatile, as rcl's: crates/vendor/README.md).
+    events: std::sync::Arc<ros2_client::Publisher<raw::ParameterEvent>>,
     /// The node's fully qualified name (the events' `node`).
     node_fqn: String,
 }
-
-/// The parameter services' mapping: as the reset service's.
-const PARAM_SERVICE_MAPPING: ServiceMapping = super::names::RESET_SERVICE_MAPPING;
 
 impl ParamServer {
     pub(super) fn open(
@@ -341,13 +339,7 @@ impl ParamServer {
             name: &str,
             type_name: &str,
         ) -> anyhow::Result<HeldServer<Q, S>> {
-            HeldServer::open(
-                session,
-                PARAM_SERVICE_MAPPING,
-                &format!("~/{name}"),
-                "rcl_interfaces",
-                type_name,
-            )
+            HeldServer::open(session, &format!("~/{name}"), "rcl_interfaces", type_name)
         }
         Ok(ParamServer {
             get: open(session, "get_parameters", "GetParameters")?,
@@ -362,13 +354,7 @@ impl ParamServer {
             describe: open(session, "describe_parameters", "DescribeParameters")?,
             values,
             controls,
-            events: {
-                let topic = session.context.get_parameter_events_topic();
-                session
-                    .node
-                    .create_publisher(&topic, None)
-                    .map_err(|e| anyhow::anyhow!("ROS 2 /parameter_events: {e:?}"))?
-            },
+            events: session.node.parameter_events_publisher(),
             node_fqn: session.naming().node_fqn(),
         })
     }

@@ -7,7 +7,7 @@ use ros2_client::dds::rustdds::mio1::{Registry, Token};
 use super::held_server::HeldServer;
 use super::input::IntakeLog;
 use super::msg;
-use super::names::{RESET_SERVICE, RESET_SERVICE_MAPPING};
+use super::names::RESET_SERVICE;
 use super::security::pad_for_protection;
 use super::session::Ros2Session;
 
@@ -30,7 +30,6 @@ impl ResetServer {
         Ok(ResetServer {
             server: HeldServer::open(
                 session,
-                RESET_SERVICE_MAPPING,
                 RESET_SERVICE,
                 msg::PACKAGE,
                 msg::RESET_SERVICE_TYPE,
