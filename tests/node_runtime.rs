@@ -62,12 +62,11 @@ fn runtime_publishes_the_engines_alerts(shards: usize) {
     let mut published = Vec::new();
     let mut publish = |p: Publication| published.push(p);
     for packet in rinaldi_packets() {
-        node.submit(packet, &mut publish).unwrap();
-        node.poll(&mut publish).unwrap();
+        node.submit(packet, &mut publish);
+        node.poll(&mut publish);
     }
-    node.poll_wait(Duration::from_millis(10), &mut publish)
-        .unwrap();
-    let summaries = node.shutdown(&mut publish).unwrap();
+    node.poll_wait(Duration::from_millis(10), &mut publish);
+    let summaries = node.shutdown(&mut publish);
     assert_eq!(
         summaries.len(),
         Catalogue::load(concat!(
@@ -149,17 +148,15 @@ fn inline_runtime_publishes_an_alert_during_submit_after_journaling_it() {
                 )));
             }
             during.push(p);
-        })
-        .unwrap();
+        });
         // Inline: nothing is left for poll; everything came out during submit.
-        node.poll(&mut |p| panic!("published after submit returned: {p:?}"))
-            .unwrap();
+        node.poll(&mut |p| panic!("published after submit returned: {p:?}"));
         alerts += during
             .iter()
             .filter(|p| matches!(p, Publication::Alert { .. }))
             .count();
     }
-    node.shutdown(&mut |_| {}).unwrap();
+    node.shutdown(&mut |_| {});
     assert_eq!(alerts, reference_alert_keys().len());
 }
 
@@ -180,19 +177,18 @@ fn a_restarted_inline_runtime_never_publishes_a_journaled_alert_again() {
         for p in packets {
             node.submit(p.clone(), &mut |p| {
                 n += usize::from(matches!(p, Publication::Alert { .. }));
-            })
-            .unwrap();
+            });
         }
         n
     };
     let mut first = NodeRuntime::start(&options).unwrap();
     let before = count_alerts(&mut first, &packets);
-    first.shutdown(&mut |_| {}).unwrap();
+    first.shutdown(&mut |_| {});
     assert_eq!(before, reference_alert_keys().len());
     // Same record again on the same state directory: everything is journaled already.
     let mut second = NodeRuntime::start(&options).unwrap();
     assert_eq!(count_alerts(&mut second, &packets), 0);
-    second.shutdown(&mut |_| {}).unwrap();
+    second.shutdown(&mut |_| {});
 }
 
 #[test]
@@ -214,10 +210,8 @@ fn a_packet_held_for_missing_data_is_released_when_the_station_falls_silent() {
         // once per second of data, so the held packet's must show a data time ≥ 1.2 s.)
         let held_start = packets[12].start_time_ns;
         let mut collect = Vec::new();
-        node.submit(packets[0].clone(), &mut |p| collect.push(p))
-            .unwrap();
-        node.submit(packets[12].clone(), &mut |p| collect.push(p))
-            .unwrap();
+        node.submit(packets[0].clone(), &mut |p| collect.push(p));
+        node.submit(packets[12].clone(), &mut |p| collect.push(p));
         let shows_held = |c: &[Publication]| {
             c.iter().any(|p| {
                 matches!(p, Publication::Intensity(i) if i.data_time_ns >= held_start)
@@ -225,28 +219,26 @@ fn a_packet_held_for_missing_data_is_released_when_the_station_falls_silent() {
             })
         };
         // Not yet due: still held.
-        node.flush_if_due(&mut |p| collect.push(p)).unwrap();
-        node.poll_wait(Duration::from_millis(100), &mut |p| collect.push(p))
-            .unwrap();
+        node.flush_if_due(&mut |p| collect.push(p));
+        node.poll_wait(Duration::from_millis(100), &mut |p| collect.push(p));
         assert!(
             !shows_held(&collect),
             "released before its time ({shards} shards)"
         );
         std::thread::sleep(rockwatch::node::HELD_PACKET_TIMEOUT);
-        node.flush_if_due(&mut |p| collect.push(p)).unwrap();
+        node.flush_if_due(&mut |p| collect.push(p));
         // Sharded: the release comes back from the worker (bounded wait).
         for _ in 0..50 {
             if shows_held(&collect) {
                 break;
             }
-            node.poll_wait(Duration::from_millis(20), &mut |p| collect.push(p))
-                .unwrap();
+            node.poll_wait(Duration::from_millis(20), &mut |p| collect.push(p));
         }
         assert!(
             shows_held(&collect),
             "the held packet was not released by the timer ({shards} shards)"
         );
-        node.shutdown(&mut |_| {}).unwrap();
+        node.shutdown(&mut |_| {});
     }
 }
 
@@ -285,15 +277,14 @@ fn feed(
         }
     };
     for p in packets {
-        node.submit(p.clone(), &mut publish).unwrap();
+        node.submit(p.clone(), &mut publish);
     }
     // The quiet tail ends the episodes of the blocks that stand; sharded, the outputs come
     // back from the workers: wait until nothing more comes for 1 s (a loaded CI machine may
     // stall a worker for a while).
     loop {
         let before = node.stats().alerts + node.stats().states;
-        node.poll_wait(Duration::from_secs(1), &mut publish)
-            .unwrap();
+        node.poll_wait(Duration::from_secs(1), &mut publish);
         if node.stats().alerts + node.stats().states == before {
             break;
         }
@@ -383,7 +374,7 @@ fn operator_reset_stands_the_block_again(shards: usize) {
     assert_eq!(slender_levels(&third, 2), reference_levels, "{third:?}");
     assert_eq!(node.overturned(SLENDER), Some(true));
     assert_eq!(node.operator_reset(SLENDER).unwrap(), ResetOutcome::Reset);
-    node.shutdown(&mut |_| {}).unwrap();
+    node.shutdown(&mut |_| {});
 
     // A restart keeps the reset: the journal's last word on the block is a reset.
     let node = NodeRuntime::start(&options).unwrap();
@@ -428,9 +419,9 @@ fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
     stamp(&mut packets[2], now_ns + 300_000_000_000_000_000); // 9.5 years ahead
     let mut publish = |_: Publication| {};
     for p in packets {
-        node.submit(p, &mut publish).unwrap();
+        node.submit(p, &mut publish);
     }
-    let stopped = node.stop(&mut publish).unwrap();
+    let stopped = node.stop(&mut publish);
     assert_eq!(stopped.stats.future_packets, 1);
     assert_eq!(stopped.stats.packets, 2);
     let totals = stopped.input_totals();
@@ -444,7 +435,7 @@ fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
     let mut node = NodeRuntime::start(&offline).unwrap();
     let mut p = rinaldi_packets().remove(0);
     p.start_time_ns = now_ns + 300_000_000_000_000_000;
-    node.submit(p, &mut publish).unwrap();
+    node.submit(p, &mut publish);
     assert_eq!(node.stats().future_packets, 0);
 }
 
@@ -532,7 +523,7 @@ fn a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns()
         }
     };
     for packet in rinaldi_packets() {
-        node.submit(packet, &mut publish).unwrap();
+        node.submit(packet, &mut publish);
     }
     let stats = node.stats();
     let mut keys: Vec<_> = alerts.iter().map(|(k, _)| k.clone()).collect();
@@ -550,7 +541,7 @@ fn a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns()
     std::fs::remove_file(&filler).unwrap();
     node.retry_journal();
     assert_eq!(node.stats().journal_backlog, 0);
-    let stopped = node.stop(&mut |_| {}).unwrap();
+    let stopped = node.stop(&mut |_| {});
     assert_eq!(stopped.stats.journal_backlog, 0);
     let (records, report) = read_journal(&state).unwrap();
     assert!(
@@ -650,7 +641,7 @@ fn a_node_starts_on_a_full_disk_degraded_and_journals_once_there_is_room() {
         }
     };
     for packet in rinaldi_packets() {
-        node.submit(packet, &mut publish).unwrap();
+        node.submit(packet, &mut publish);
     }
     let mut keys: Vec<_> = alerts.iter().map(|(k, _)| k.clone()).collect();
     keys.sort();
@@ -664,7 +655,7 @@ fn a_node_starts_on_a_full_disk_degraded_and_journals_once_there_is_room() {
     std::thread::sleep(Duration::from_millis(1100)); // the reopening is tried once a second
     node.retry_journal();
     assert_eq!(node.stats().journal_backlog, 0);
-    node.stop(&mut |_| {}).unwrap();
+    node.stop(&mut |_| {});
     let (records, report) = read_journal(&state).unwrap();
     assert!(report.corrupt_lines.is_empty() && !report.truncated_tail);
     let mut journaled: Vec<_> = records

@@ -46,9 +46,9 @@ fn run_rinaldi(state: &Path, mut notifier: Option<&mut Notifier>) -> Vec<Journal
         }
     };
     for packet in rinaldi_packets() {
-        runtime.submit(packet, &mut publish).unwrap();
+        runtime.submit(packet, &mut publish);
     }
-    runtime.stop(&mut publish).unwrap();
+    runtime.stop(&mut publish);
     read_journal(state).unwrap().0
 }
 

@@ -52,9 +52,10 @@ pub const COMPACT_TMP: &str = "journal.log.compact";
 /// until the file has doubled.
 pub const COMPACT_AT_BYTES: u64 = 32 << 20;
 
-/// Alerts a compaction keeps for the history a restarted node publishes again (the depth of
-/// `/pbr/alerts`, which the node republishes at start).
-pub const HISTORY_ALERTS: usize = crate::ros2::ALERTS_DEPTH;
+/// The alert history: the alerts a compaction keeps, the journaled alerts a starting node
+/// publishes again, and the depth of the transient-local history of `/pbr/alerts` (a late
+/// subscriber gets this many).
+pub const HISTORY_ALERTS: usize = 1000;
 
 /// What a compaction did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -13,7 +13,7 @@
 //! `Published` marker is journaled (unsynced). On restart the journal is restored into the
 //! engine, so the engine never raises an alert twice; the node publishes again the journaled
 //! alerts without a marker (to every publisher: at least once) and the last
-//! [`REPUBLISH_DEPTH`] alerts on ROS 2 (the transient-local history of `/pbr/alerts`), see
+//! [`HISTORY_ALERTS`](crate::journal::HISTORY_ALERTS) alerts on ROS 2 (the transient-local history of `/pbr/alerts`), see
 //! docs/reliability.md.
 //!
 //! A failing state directory (a full disk) degrades, never stops, the node: an alert that
@@ -47,10 +47,6 @@ use rockwatch_core::engine::{
     HistoryEntry, JournalRecord, Notice, Output, OutputSink, PbrSpec, PbrSummary, ResetEvent,
     ShardedEngine, Source, SourceTally, StationHealth, Verdict,
 };
-
-/// Journaled alerts a starting node publishes again on ROS 2 (the depth of the
-/// transient-local history of `/pbr/alerts`).
-pub const REPUBLISH_DEPTH: usize = crate::ros2::ALERTS_DEPTH;
 
 /// Longest time a live packet waits in the engine's reorder window for missing data.
 pub const HELD_PACKET_TIMEOUT: Duration = Duration::from_secs(1);
@@ -485,7 +481,7 @@ struct EmitSink<'a, P: FnMut(Publication)> {
 
 impl<P: FnMut(Publication)> EmitSink<'_, P> {
     /// Publishes the batch's states and intensities.
-    fn finish(self) -> anyhow::Result<()> {
+    fn finish(self) {
         let EmitSink { emit, publish } = self;
         for output in emit.deferred.drain(..) {
             match output {
@@ -503,7 +499,6 @@ impl<P: FnMut(Publication)> EmitSink<'_, P> {
                 _ => {}
             }
         }
-        Ok(())
     }
 }
 
@@ -742,7 +737,7 @@ impl NodeRuntime {
                 options.shards
             );
         }
-        let journaled = journaled_history(&records, REPUBLISH_DEPTH);
+        let journaled = journaled_history(&records, crate::journal::HISTORY_ALERTS);
         let shards = if options.shards == 0 {
             std::thread::available_parallelism().map_or(1, usize::from)
         } else {
@@ -809,7 +804,7 @@ impl NodeRuntime {
     }
 
     /// The journal's alert history at start ([`journaled_history`]: the last
-    /// [`REPUBLISH_DEPTH`] alerts, each with whether it was published before, and the
+    /// [`HISTORY_ALERTS`](crate::journal::HISTORY_ALERTS) alerts, each with whether it was published before, and the
     /// operator resets among them), in order; empty after the first call.
     pub fn take_journaled_history(&mut self) -> Vec<HistoryEntry> {
         std::mem::take(&mut self.journaled)
@@ -883,13 +878,10 @@ impl NodeRuntime {
     /// processed now: each alert is journaled (and synced) and published the moment the engine
     /// raises it, mid-packet, and the packet's states and intensities are published after it,
     /// all before this returns; sharded, it is queued for its station's worker (waiting if
-    /// that queue is full) and the outputs come through [`NodeRuntime::poll`]. An error means
-    /// the state directory failed (the alert was not published).
-    pub fn submit(
-        &mut self,
-        packet: AccelPacket,
-        publish: &mut impl FnMut(Publication),
-    ) -> anyhow::Result<()> {
+    /// that queue is full) and the outputs come through [`NodeRuntime::poll`]. A state
+    /// directory that fails does not stop it: the alert is published flagged
+    /// `journal_pending` ([`Emitter::sink`]).
+    pub fn submit(&mut self, packet: AccelPacket, publish: &mut impl FnMut(Publication)) {
         let arrival_ns = self.now_ns();
         self.submit_arrived(packet, arrival_ns, None, publish)
     }
@@ -903,12 +895,12 @@ impl NodeRuntime {
         arrival: i64,
         source: Option<Source>,
         publish: &mut impl FnMut(Publication),
-    ) -> anyhow::Result<()> {
+    ) {
         if self.stamped_ahead(&packet, arrival) {
             if let Some(source) = source {
                 self.tally.count(source, Verdict::Refused);
             }
-            return Ok(());
+            return;
         }
         self.emit.stats.packets += 1;
         match &mut self.engine {
@@ -922,15 +914,11 @@ impl NodeRuntime {
                 }
                 let mut sink = self.emit.sink(publish);
                 engine.process_from(packet, source, arrival, &mut sink);
-                let finished = sink.finish();
+                sink.finish();
                 self.busy_ns += started.elapsed().as_nanos() as u64;
-                finished
             }
-            Some(EngineMode::Sharded(engine)) => {
-                engine.submit_from(packet, arrival, source);
-                Ok(())
-            }
-            None => Ok(()),
+            Some(EngineMode::Sharded(engine)) => engine.submit_from(packet, arrival, source),
+            None => {}
         }
     }
 
@@ -1133,9 +1121,9 @@ impl NodeRuntime {
     /// passed since the last release. The engine's window counts packets (so replays are
     /// deterministic); live, a packet held for missing data must not wait forever if its
     /// station falls silent. Call it regularly (the event loop does, at least every 50 ms).
-    pub fn flush_if_due(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
+    pub fn flush_if_due(&mut self, publish: &mut impl FnMut(Publication)) {
         if self.last_flush.elapsed() < HELD_PACKET_TIMEOUT {
-            return Ok(());
+            return;
         }
         self.last_flush = Instant::now();
         self.emit.retry_journal();
@@ -1144,13 +1132,10 @@ impl NodeRuntime {
             Some(EngineMode::Inline(engine)) => {
                 let mut sink = self.emit.sink(publish);
                 engine.flush(now, &mut sink);
-                sink.finish()
+                sink.finish();
             }
-            Some(EngineMode::Sharded(engine)) => {
-                engine.flush(now);
-                Ok(())
-            }
-            None => Ok(()),
+            Some(EngineMode::Sharded(engine)) => engine.flush(now),
+            None => {}
         }
     }
 
@@ -1158,19 +1143,16 @@ impl NodeRuntime {
     /// `engine.stale_after_s` is reported (a log line, its blocks' states flagged
     /// `not_monitored`, published), and its recovery likewise. The event loop calls it on
     /// every tick; sharded, the workers answer through [`NodeRuntime::poll`].
-    pub fn check_health(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
+    pub fn check_health(&mut self, publish: &mut impl FnMut(Publication)) {
         let now = self.now_ns();
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
                 let mut sink = self.emit.sink(publish);
                 engine.check_health(now, &mut sink);
-                sink.finish()
+                sink.finish();
             }
-            Some(EngineMode::Sharded(engine)) => {
-                engine.check_health(now);
-                Ok(())
-            }
-            None => Ok(()),
+            Some(EngineMode::Sharded(engine)) => engine.check_health(now),
+            None => {}
         }
     }
 
@@ -1220,78 +1202,67 @@ impl NodeRuntime {
     }
 
     /// Journals and publishes `outputs` (drained), as [`Emitter::sink`].
-    fn handle(
-        &mut self,
-        outputs: &mut Vec<Output>,
-        publish: &mut impl FnMut(Publication),
-    ) -> anyhow::Result<()> {
+    fn handle(&mut self, outputs: &mut Vec<Output>, publish: &mut impl FnMut(Publication)) {
         let mut sink = self.emit.sink(publish);
         for output in outputs.drain(..) {
             sink.push(output);
         }
-        sink.finish()
+        sink.finish();
     }
 
     /// Publishes everything the engine workers have produced so far, without waiting (inline,
     /// outputs are published by `submit` itself and this does nothing). Alerts are journaled
-    /// first; an error means the state directory failed (the alert was not published).
-    pub fn poll(&mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<()> {
+    /// first (one the state directory cannot take is published flagged `journal_pending`).
+    pub fn poll(&mut self, publish: &mut impl FnMut(Publication)) {
         let mut outputs: Vec<Output> = match &self.engine {
             Some(EngineMode::Sharded(e)) => e.try_outputs().collect(),
-            _ => return Ok(()),
+            _ => return,
         };
-        self.handle(&mut outputs, publish)
+        self.handle(&mut outputs, publish);
     }
 
     /// Waits up to `timeout` for outputs of the engine workers, then publishes them (returns
     /// at once inline).
-    pub fn poll_wait(
-        &mut self,
-        timeout: Duration,
-        publish: &mut impl FnMut(Publication),
-    ) -> anyhow::Result<()> {
+    pub fn poll_wait(&mut self, timeout: Duration, publish: &mut impl FnMut(Publication)) {
         if let Some(EngineMode::Sharded(e)) = &self.engine {
             if let Some(mut first) = e.recv_outputs_timeout(timeout) {
-                self.handle(&mut first, publish)?;
+                self.handle(&mut first, publish);
             }
         }
-        self.poll(publish)
+        self.poll(publish);
     }
 
     /// Stops intake: releases held packets, lets the workers finish, publishes what remains
     /// and returns every block's summary.
-    pub fn shutdown(
-        self,
-        publish: &mut impl FnMut(Publication),
-    ) -> anyhow::Result<Vec<PbrSummary>> {
-        Ok(self.stop(publish)?.summaries())
+    pub fn shutdown(self, publish: &mut impl FnMut(Publication)) -> Vec<PbrSummary> {
+        self.stop(publish).summaries()
     }
 
     /// As [`NodeRuntime::shutdown`], returning the stopped engines and what the runtime did.
-    pub fn stop(mut self, publish: &mut impl FnMut(Publication)) -> anyhow::Result<Stopped> {
+    pub fn stop(mut self, publish: &mut impl FnMut(Publication)) -> Stopped {
         let now = self.now_ns();
         let engines = match self.engine.take() {
             None => Vec::new(),
             Some(EngineMode::Inline(mut engine)) => {
                 let mut sink = self.emit.sink(publish);
                 engine.flush(now, &mut sink);
-                sink.finish()?;
+                sink.finish();
                 vec![*engine]
             }
             Some(EngineMode::Sharded(engine)) => {
                 engine.flush(now);
                 let (engines, mut rest) = engine.shutdown();
-                self.handle(&mut rest, publish)?;
+                self.handle(&mut rest, publish);
                 engines
             }
         };
         // A last attempt for what waits; what still waits is in `stats.journal_backlog`.
         self.emit.retry_journal();
-        Ok(Stopped {
+        Stopped {
             engines,
             stats: self.emit.stats,
             notice_counts: self.emit.notice_counts,
-        })
+        }
     }
 }
 

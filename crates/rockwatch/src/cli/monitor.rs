@@ -318,9 +318,9 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
         _ => {}
     };
     for packet in traces.packets(&station, packet_ms, tail_s) {
-        runtime.submit(packet, &mut report)?;
+        runtime.submit(packet, &mut report);
     }
-    let stopped = runtime.stop(&mut report)?;
+    let stopped = runtime.stop(&mut report);
     let unjournaled = stopped.stats.journal_backlog + stopped.stats.journal_dropped;
     if unjournaled > 0 {
         bail!(

@@ -101,14 +101,13 @@ impl IoxInput {
     /// layout, values; counted when rejected, with per-station sequence gaps), counted for its
     /// publisher (of a station the node `monitors` or not), and handed to `submit` with its
     /// publisher's slot. Returns true if `max` was reached (more may be waiting: call again
-    /// without waiting for readiness, which is edge-triggered). An error of `submit` is
-    /// returned.
+    /// without waiting for readiness, which is edge-triggered).
     pub fn drain(
         &mut self,
         max: usize,
         monitors: &dyn Fn(&str) -> bool,
-        submit: &mut impl FnMut(AccelPacket, Option<Source>) -> anyhow::Result<()>,
-    ) -> anyhow::Result<bool> {
+        submit: &mut impl FnMut(AccelPacket, Option<Source>),
+    ) -> bool {
         self.counters.add(WAKEUPS, 1);
         // Consume the notifications first: a notifier sends again only once the listener has
         // taken them, and samples sent before a notification are then all visible below.
@@ -131,20 +130,20 @@ impl IoxInput {
                     match packet {
                         Some(packet) => {
                             self.counters.add(SUBMITTED, 1);
-                            submit(packet, Some(slot))?;
+                            submit(packet, Some(slot));
                         }
                         // Refused at the wire: its publisher is told.
                         None => self.tally.count(slot, Verdict::Refused),
                     }
                 }
-                Ok(None) => return Ok(false),
+                Ok(None) => return false,
                 Err(_) => {
                     self.counters.add(RECV_ERRORS, 1);
-                    return Ok(false);
+                    return false;
                 }
             }
         }
-        Ok(true)
+        true
     }
 
     /// Whether an intake report will be due without any new packet ([`WriterCounts::pending`]).

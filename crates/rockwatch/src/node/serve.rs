@@ -407,10 +407,10 @@ impl Reactor {
                 &mut out,
                 &controls,
             )?;
-            runtime.flush_if_due(&mut |p| out.publish(p))?;
+            runtime.flush_if_due(&mut |p| out.publish(p));
             if last_health.is_none_or(|t| t.elapsed() >= TICK) {
                 last_health = Some(Instant::now());
-                runtime.check_health(&mut |p| out.publish(p))?;
+                runtime.check_health(&mut |p| out.publish(p));
             }
             out.settle(&mut runtime);
             if last_status.elapsed() >= status_period {
@@ -485,7 +485,7 @@ impl Reactor {
         take_rosout(&mut rosout);
         ros2.publish_rosout(&mut rosout);
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
-        let stopped = runtime.stop(&mut |p| out.publish(p))?;
+        let stopped = runtime.stop(&mut |p| out.publish(p));
         out.flush();
         if let Some(input) = &mut iox_input {
             let _ = poll.registry().deregister(input);
@@ -748,7 +748,7 @@ fn turn(
                     room,
                     &|station| clock.monitors(station),
                     &mut |p, source| inbox.push(p, clock.now_ns(), source),
-                )?
+                )
             }
             (0, None) => false,
             // A DDS message may hold up to MAX_SAMPLES_PER_PACKET samples: take in chunks
@@ -764,7 +764,7 @@ fn turn(
                         room,
                         &|station| clock.monitors(station),
                         &mut |p, source| inbox.push(p, clock.now_ns(), source),
-                    )?;
+                    );
                 }
                 more
             }
@@ -782,14 +782,14 @@ fn turn(
                 processed += 1;
                 // A parameter change queued before this packet was taken applies to it.
                 apply_controls(controls, runtime);
-                runtime.submit_arrived(packet, arrival_ns, source, &mut |p| out.publish(p))?;
+                runtime.submit_arrived(packet, arrival_ns, source, &mut |p| out.publish(p));
             }
         }
         if !any || processed >= DRAIN_BOUND || Instant::now() >= deadline {
             break;
         }
     }
-    runtime.poll(&mut |p| out.publish(p))?;
+    runtime.poll(&mut |p| out.publish(p));
     out.settle(runtime);
     Ok(())
 }
@@ -813,15 +813,9 @@ impl Inbox {
         }
     }
 
-    fn push(
-        &mut self,
-        packet: AccelPacket,
-        arrival_ns: i64,
-        source: Option<Source>,
-    ) -> anyhow::Result<()> {
+    fn push(&mut self, packet: AccelPacket, arrival_ns: i64, source: Option<Source>) {
         self.samples += packet.len();
         self.queue.push_back((packet, arrival_ns, source));
-        Ok(())
     }
 
     fn pop(&mut self) -> Option<(AccelPacket, i64, Option<Source>)> {
@@ -962,7 +956,7 @@ mod tests {
         let n = INBOX_SAMPLES.div_ceil(big);
         for i in 0..n {
             assert!(!inbox.full(), "full after {i} packets");
-            inbox.push(packet(big), 0, None).unwrap();
+            inbox.push(packet(big), 0, None);
         }
         assert!(inbox.full() && inbox.queue.len() < INBOX_BOUND);
         // Taking a packet out frees its samples.
@@ -971,7 +965,7 @@ mod tests {
         assert!(!inbox.full());
         // Small packets: the packet bound.
         let mut inbox = Inbox::new();
-        (0..INBOX_BOUND).for_each(|_| inbox.push(packet(10), 0, None).unwrap());
+        (0..INBOX_BOUND).for_each(|_| inbox.push(packet(10), 0, None));
         assert!(inbox.full() && inbox.samples < INBOX_SAMPLES);
     }
 }

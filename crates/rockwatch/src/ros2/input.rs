@@ -140,8 +140,8 @@ impl Inputs {
         max: usize,
         log: &mut IntakeLog,
         monitors: &dyn Fn(&str) -> bool,
-        submit: &mut impl FnMut(AccelPacket, Option<Source>) -> anyhow::Result<()>,
-    ) -> anyhow::Result<bool> {
+        submit: &mut impl FnMut(AccelPacket, Option<Source>),
+    ) -> bool {
         for _ in 0..max {
             if input == 0 {
                 match self.accel.take() {
@@ -157,29 +157,29 @@ impl Inputs {
                             }
                             Taken::New(slot) => {
                                 log.packet();
-                                submit(packet, Some(slot))?;
+                                submit(packet, Some(slot));
                             }
                         }
                     }
-                    Ok(None) => return Ok(false),
+                    Ok(None) => return false,
                     Err(e) => log.undecodable(&self.accel_topic, &format!("{e:?}")),
                 }
             } else {
                 let Some((imu, sub, sequence)) = self.imus.get_mut(input - 1) else {
-                    return Ok(false);
+                    return false;
                 };
                 match sub.take() {
                     Ok(Some((m, _))) => {
                         log.packet();
                         let packet = imu_packet(imu, &m, *sequence);
                         *sequence += 1;
-                        submit(packet, None)?;
+                        submit(packet, None);
                     }
-                    Ok(None) => return Ok(false),
+                    Ok(None) => return false,
                     Err(e) => log.undecodable(&imu.topic, &format!("{e:?}")),
                 }
             }
         }
-        Ok(true)
+        true
     }
 }

@@ -64,7 +64,7 @@ pub use parameters::{
 pub use publish::Ros2Publisher;
 pub use qos::{
     alerts_qos, input_qos, intake_qos, output_qos, replay_qos, sender_status_qos, service_qos,
-    ALERTS_DEPTH, REPLAY_HISTORY,
+    REPLAY_HISTORY,
 };
 pub use replay_sink::{Ros2PacketSink, CREDIT_WINDOW, DEFAULT_INTAKE_WAIT};
 pub use reset::{RESET_MATCH_GRACE, RESET_REPLIES_HELD, RESET_REPLY_WAIT, RESET_REQUESTS_PER_TURN};

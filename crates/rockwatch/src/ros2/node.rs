@@ -296,8 +296,8 @@ impl Ros2Node {
         input: usize,
         max: usize,
         monitors: &dyn Fn(&str) -> bool,
-        submit: &mut impl FnMut(AccelPacket, Option<Source>) -> anyhow::Result<()>,
-    ) -> anyhow::Result<bool> {
+        submit: &mut impl FnMut(AccelPacket, Option<Source>),
+    ) -> bool {
         self.inputs
             .drain(input, max, &mut self.log, monitors, submit)
     }

@@ -7,17 +7,15 @@ use ros2_client::QosProfile;
 
 use super::config::InputQos;
 
-/// History depth of `/pbr/alerts` (transient local: a late subscriber gets this many).
-pub const ALERTS_DEPTH: usize = 1000;
-
-/// QoS of `/pbr/alerts`: reliable, transient local, keep last [`ALERTS_DEPTH`].
+/// QoS of `/pbr/alerts`: reliable, transient local, keep last
+/// [`HISTORY_ALERTS`](crate::journal::HISTORY_ALERTS) (the journal's alert history).
 #[must_use]
 pub fn alerts_qos() -> QosProfile {
     QosProfile::publisher_default()
         .reliability_reliable(WhenFull::Wait(Duration::from_secs(1)))
         .durability(Durability::TransientLocal)
         .history(History::KeepLast {
-            depth: ALERTS_DEPTH,
+            depth: crate::journal::HISTORY_ALERTS,
         })
 }
 
