@@ -1140,3 +1140,67 @@ fn without_replicates_or_fractiles_there_is_no_interval() {
     assert!(!ok && stderr.contains("median_beta[1]"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The README's uncertainty example (section "One real rock: geometry, fragility, hazard"),
+/// run as printed from the repository's root (the shell's glob expanded here, its --plots in
+/// a temporary directory): every line it shows, but those cut short with "…", is a line of
+/// the output.
+#[test]
+fn the_readme_uncertainty_example_runs_as_printed() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+    let readme = std::fs::read_to_string(format!("{root}/README.md")).unwrap();
+    let block: Vec<&str> = readme
+        .split("```sh\n")
+        .filter_map(|b| b.split("```").next())
+        .find(|b| b.contains("--age-sigma-years 2000 --plots hazard-plots"))
+        .expect("the README's uncertainty example")
+        .lines()
+        .collect();
+    let command = block
+        .iter()
+        .take_while(|l| !l.starts_with('#'))
+        .map(|l| l.trim_end_matches('\\'))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let shown: Vec<&str> = block
+        .iter()
+        .filter_map(|l| l.strip_prefix("# "))
+        .filter(|l| !l.contains('…'))
+        .collect();
+    assert!(shown.len() >= 5, "{block:?}");
+    let dir = temp_dir("readme-uncertainty");
+    let mut csv: Vec<String> = std::fs::read_dir(DATA)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".csv"))
+        .map(|n| format!("tests/data/hazard/{n}"))
+        .collect();
+    csv.sort();
+    let mut args: Vec<String> = Vec::new();
+    for a in command.split_whitespace().skip(1) {
+        match a {
+            "tests/data/hazard/*.csv" => args.extend(csv.iter().cloned()),
+            "hazard-plots" => args.push(dir.join("hazard-plots").display().to_string()),
+            a => args.push(a.to_string()),
+        }
+    }
+    let output = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(&args)
+        .current_dir(root)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    for line in shown {
+        assert!(
+            stdout.lines().any(|l| l == line),
+            "README shows {line:?}, the command printed:\n{stdout}"
+        );
+    }
+    assert!(dir.join("hazard-plots/hazard_survival.png").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -61,11 +61,11 @@ impl HazardFigures<'_> {
     }
 
     /// IM range of the plots (fragility unit): the curves' levels and the fragility's median
-    /// ± 3β.
+    /// ± 4β (where P is 3e-5 from 0 or 1).
     fn im_range(&self) -> (f64, f64) {
         let (m, b) = (self.fragility.median, self.fragility.beta);
         self.curves.iter().fold(
-            (m * (-3.0 * b).exp(), m * (3.0 * b).exp()),
+            (m * (-4.0 * b).exp(), m * (4.0 * b).exp()),
             |(lo, hi), (c, _, _)| (lo.min(c.levels[0]), hi.max(c.levels[c.levels.len() - 1])),
         )
     }
