@@ -20,7 +20,14 @@
 //! the given levels (a power law per segment) and continued beyond the first and last level
 //! with the end segments' power laws; λ = ∫ P(e^u) k(u) λ_H(e^u) du (u = ln im, k the local
 //! slope −d ln λ_H/d ln im) by 20-point Gauss–Legendre on 16 panels per segment. The part of λ
-//! that comes from the extrapolated tails is reported ([`OverturnRate::extrapolated_fraction`]).
+//! that comes from the extrapolated tails is reported ([`OverturnRate::extrapolated_fraction`]),
+//! and λ is split by IM level ([`OverturnRate::by_level`], [`rate_density`]).
+//!
+//! Uncertainty (docs/hazard.md, "Uncertainty"): OpenQuake's mean and quantile curves are told
+//! apart by their `kind` ([`CurveKind`]); the fractiles are weighted by [`fractile_weights`];
+//! λ over every fractile curve × every bootstrap replicate of the fragility
+//! ([`rate_samples`]) gives a 95 % interval ([`rate_interval`]); an exposure age T ± σ
+//! ([`ExposureAge`]) gives P(survival) = E_T[exp(−λT)] in closed form.
 
 use std::fmt;
 

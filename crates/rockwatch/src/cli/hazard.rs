@@ -32,8 +32,10 @@ use super::OutputFormat;
 #[derive(Debug, clap::Args)]
 pub struct HazardArgs {
     /// Fragility JSON: `{"ims": {"PGV": {"median": θ, "beta": β, "unit": "m/s"}}}` (unit
-    /// optional: SI, m/s for PGV, m/s2 for PGA and SA), or the fragility.json written by
-    /// `rockwatch study` (`{"blocks": {NAME: {"im", "im_unit", "median", "beta", …}}}`).
+    /// optional: SI, m/s for PGV, m/s2 for PGA and SA; with `"bootstrap": {"median_beta":
+    /// [[θ, β], …]}`, as `rockwatch fragility` writes it, the replicates give λ's interval),
+    /// or the fragility.json written by `rockwatch study` (`{"blocks": {NAME: {"im",
+    /// "im_unit", "median", "beta", …}}}`).
     #[arg(long, value_name = "FILE")]
     fragility: PathBuf,
     /// The IM of the fragility and the hazard curve: PGA, PGV, SA(T) (case-insensitive; the
@@ -80,7 +82,8 @@ pub struct HazardArgs {
         allow_negative_numbers = true
     )]
     lat: Option<f64>,
-    /// Exposure ages T (years), comma-separated: prints exp(−λT) for each.
+    /// Exposure ages T (years), comma-separated: prints exp(−λT) for each (E_T[exp(−λT)]
+    /// with --age-sigma-years).
     #[arg(
         long = "age-years",
         value_name = "T[,T2…]",
