@@ -1,6 +1,7 @@
 //! Statistics shared by the study, the fragility fits, the hazard integral and the catalogue's
 //! normal distributions: log-gamma, the regularized incomplete beta and gamma functions, and
-//! from them the Student-t and standard normal distributions (Φ, φ, ln Φ). One home for each.
+//! from them the Student-t and standard normal distributions (Φ, φ, ln Φ), and the percentiles
+//! of the project's intervals (type 7, and its weighted generalisation). One home for each.
 //!
 //! All are classic algorithms (Lanczos log-gamma; Lentz's continued fractions as in
 //! Numerical Recipes, 3rd ed., §6.2 and §6.4), accurate to about 1e−14 relative in the
