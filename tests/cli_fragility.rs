@@ -154,6 +154,38 @@ fn fragility_json_feeds_rockwatch_hazard() {
         ((lambda - exact) / exact).abs() < 1e-6,
         "{lambda} vs {exact}"
     );
+    // Issue 20 item 22: fragility.json stores the replicates' (median, β), one per replicate
+    // that had a fit, and hazard's interval on λ is the 2.5–97.5 % percentiles (type 7, as
+    // the fragility's ci95) of their closed-form λ.
+    let boot = &pgv["bootstrap"];
+    let pairs = boot["median_beta"].as_array().unwrap();
+    assert_eq!(
+        pairs.len() as u64,
+        boot["replicates"].as_u64().unwrap() - boot["failed"].as_u64().unwrap()
+    );
+    let mut replicate_lambdas: Vec<f64> = pairs
+        .iter()
+        .map(|p| {
+            let (m, b) = (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+            k0 * (m * 100.0).powf(-k) * (0.5 * k * k * b * b).exp()
+        })
+        .collect();
+    replicate_lambdas.sort_by(f64::total_cmp);
+    let type7 = |q: f64| {
+        let h = (replicate_lambdas.len() - 1) as f64 * q;
+        let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+        replicate_lambdas[lo] + (h - lo as f64) * (replicate_lambdas[hi] - replicate_lambdas[lo])
+    };
+    let interval = &h["annual_overturn_rate_interval"];
+    for (i, q) in [(0, 0.025), (1, 0.975)] {
+        let got = interval[i].as_f64().unwrap();
+        assert!(
+            ((got - type7(q)) / got).abs() < 1e-6,
+            "{q}: {got} vs {}",
+            type7(q)
+        );
+    }
+    assert_eq!(h["interval"]["fragility_bootstrap_replicates"], pairs.len());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

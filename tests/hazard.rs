@@ -5,13 +5,19 @@
 //! - a direct numerical integration of a curved (non-power-law) hazard curve, written here
 //!   independently (midpoint sum of P·Δλ on a fine grid of the analytic curve);
 //!
+//! - issue 20 item 22: λ of every bootstrap replicate against the same closed form, λ's part
+//!   between two levels against its closed form, E_T[exp(−λT)] of a truncated normal age
+//!   against a direct quadrature written here, and fractile curves (tests/data/hazard, see its
+//!   PROVENANCE.md) against the closed form and in order;
+//!
 //! and the unit handling and error messages.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use rockwatch_core::hazard::{
-    overturn_rate, parse_openquake_csv, parse_two_column_csv, HazardCurve, ImUnit, Lognormal,
+    fractile_weights, overturn_rate, parse_openquake_csv, parse_two_column_csv, rate_density,
+    rate_interval, rate_samples, CurveKind, ExposureAge, HazardCurve, ImUnit, Lognormal,
     SiteSelection,
 };
 
@@ -593,4 +599,608 @@ fn a_fragility_in_another_component_definition_than_the_hazard_is_warned_about()
     let json: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(json["fragility_horizontal_definition"], "RotD50");
     assert_eq!(json["hazard_horizontal_definition"], "GM");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Issue 20 item 22: uncertainty of λ (fragility bootstrap, hazard fractiles) and of the age.
+
+/// Cornell's closed form λ = k0 θ^(−k) exp(k²β²/2) of a power-law hazard k0 x^(−k) and a
+/// lognormal fragility (θ, β).
+fn cornell(k0: f64, k: f64, theta: f64, beta: f64) -> f64 {
+    k0 * theta.powf(-k) * (0.5 * k * k * beta * beta).exp()
+}
+
+/// Type-7 percentile of `values` (R's default), written here: the value at position (n − 1) q
+/// of the sorted values, interpolated linearly.
+fn type7(values: &[f64], q: f64) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let h = (v.len() - 1) as f64 * q;
+    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+    v[lo] + (h - lo as f64) * (v[hi] - v[lo])
+}
+
+fn power_law_curve(k0: f64, k: f64) -> HazardCurve {
+    let levels = log_levels(0.005, 20.0, 30);
+    let rates: Vec<f64> = levels.iter().map(|x: &f64| k0 * x.powf(-k)).collect();
+    HazardCurve::new(None, ImUnit::MetrePerSecond, levels, rates).unwrap()
+}
+
+#[test]
+fn each_bootstrap_replicate_matches_cornell_and_the_interval_is_their_type_7_percentiles() {
+    let (k0, k) = (2e-4, 2.2);
+    let curve = power_law_curve(k0, k);
+    let replicates: Vec<Lognormal> = [
+        (0.40, 0.30),
+        (0.35, 0.42),
+        (0.52, 0.25),
+        (0.44, 0.38),
+        (0.38, 0.33),
+        (0.47, 0.45),
+        (0.41, 0.29),
+    ]
+    .iter()
+    .map(|&(m, b)| Lognormal::new(m, b).unwrap())
+    .collect();
+    let samples = rate_samples(&[(&curve, 1.0)], &replicates);
+    assert_eq!(samples.len(), replicates.len());
+    let exact: Vec<f64> = replicates
+        .iter()
+        .map(|r| cornell(k0, k, r.median, r.beta))
+        .collect();
+    for (s, (r, e)) in samples.iter().zip(replicates.iter().zip(&exact)) {
+        assert_eq!(s.curve, 0);
+        assert!((s.weight - 1.0 / 7.0).abs() < 1e-15);
+        assert!(
+            ((s.annual_rate - e) / e).abs() < 1e-10,
+            "replicate {r:?}: {} vs {e}",
+            s.annual_rate
+        );
+    }
+    // Equal weights: the 2.5 and 97.5 % percentiles of type 7, as the fragility's own
+    // bootstrap intervals.
+    let [lo, hi] = rate_interval(&samples).unwrap();
+    for (got, q) in [(lo, 0.025), (hi, 0.975)] {
+        let want = type7(&exact, q);
+        assert!(((got - want) / want).abs() < 1e-10, "{q}: {got} vs {want}");
+    }
+    assert!(rate_interval(&[]).is_none());
+}
+
+#[test]
+fn fractile_weights_are_the_probabilities_between_midpoints() {
+    let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-15);
+    assert!(close(
+        &fractile_weights(&[0.16, 0.5, 0.84]).unwrap(),
+        &[0.33, 0.34, 0.33]
+    ));
+    assert!(close(
+        &fractile_weights(&[0.05, 0.5, 0.95]).unwrap(),
+        &[0.275, 0.45, 0.275]
+    ));
+    assert!(close(&fractile_weights(&[0.1, 0.9]).unwrap(), &[0.5, 0.5]));
+    assert!(fractile_weights(&[0.5, 0.16]).is_err());
+    assert!(fractile_weights(&[0.0, 0.5]).is_err());
+}
+
+/// The part of λ between IM levels a and b for a power-law hazard k0 x^(−k) and a lognormal
+/// fragility, by parts: P(a) λ_H(a) − P(b) λ_H(b) + k0 θ^(−k) e^(k²β²/2) [Φ(z_b + kβ) −
+/// Φ(z_a + kβ)], z = ln(x/θ)/β.
+#[test]
+fn contribution_by_level_matches_its_closed_form_and_adds_up_to_lambda() {
+    let (k0, k, theta, beta) = (1e-4, 2.5, 0.4, 0.35);
+    let curve = power_law_curve(k0, k);
+    let fragility = Lognormal::new(theta, beta).unwrap();
+    let rate = overturn_rate(&curve, &fragility);
+    let total = cornell(k0, k, theta, beta);
+    assert_eq!(rate.by_level.len(), curve.levels.len() + 1);
+    assert_eq!(rate.by_level[0].lower, 0.0);
+    assert_eq!(rate.by_level.last().unwrap().upper, f64::INFINITY);
+    let sum: f64 = rate.by_level.iter().map(|c| c.annual_rate).sum();
+    assert!(((sum - rate.annual_rate) / total).abs() < 1e-12);
+    let p = |x: f64| phi((x / theta).ln() / beta);
+    let h = |x: f64| k0 * x.powf(-k);
+    for c in &rate.by_level[1..rate.by_level.len() - 1] {
+        let (a, b) = (c.lower, c.upper);
+        let za = (a / theta).ln() / beta;
+        let zb = (b / theta).ln() / beta;
+        let exact = p(a) * h(a) - p(b) * h(b) + total * (phi(zb + k * beta) - phi(za + k * beta));
+        assert!(
+            (c.annual_rate - exact).abs() < 1e-9 * total,
+            "{a}..{b}: {} vs {exact}",
+            c.annual_rate
+        );
+    }
+    // The density at the median: P = 1/2, k λ_H(θ).
+    let d = rate_density(&curve, &fragility, theta);
+    assert!((d - 0.5 * k * h(theta)).abs() < 1e-12 * d);
+}
+
+/// E[exp(−λT)] for T normal (μ, σ) truncated at 0, by Simpson's rule on [0, μ + 12σ] with
+/// 20 000 panels, over the truncated normal's normalisation, both written here.
+fn survival_by_quadrature(lambda: f64, mu: f64, sigma: f64) -> f64 {
+    let n = 20_000;
+    let top = mu + 12.0 * sigma;
+    let h = top / n as f64;
+    let density = |t: f64| (-0.5 * ((t - mu) / sigma).powi(2)).exp();
+    let (mut num, mut den) = (0.0, 0.0);
+    for i in 0..=n {
+        let t = i as f64 * h;
+        let w = if i == 0 || i == n {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
+        num += w * density(t) * (-lambda * t).exp();
+        den += w * density(t);
+    }
+    num / den
+}
+
+#[test]
+fn survival_over_a_normal_age_matches_its_closed_form_and_quadrature() {
+    for (lambda, mu, sigma) in [
+        (1e-4, 10_000.0, 2_000.0),
+        (1e-4, 10_000.0, 8_000.0), // truncation matters: μ/σ = 1.25
+        (5e-4, 3_000.0, 6_000.0),  // mostly truncated
+        (2e-3, 15_000.0, 4_000.0), // λσ = 8: exp(λ²σ²/2) alone is e³²
+        (1e-5, 0.0, 5_000.0),      // half-normal
+    ] {
+        let age = ExposureAge::new(mu, sigma).unwrap();
+        let got = age.survival(lambda);
+        let quadrature = survival_by_quadrature(lambda, mu, sigma);
+        assert!(
+            ((got - quadrature) / quadrature).abs() < 1e-8,
+            "λ {lambda} μ {mu} σ {sigma}: {got} vs {quadrature}"
+        );
+        // Jensen: averaging over the age raises the survival above exp(−λ E[T]) for the
+        // untruncated normal; here against the closed form without truncation when μ ≫ σ.
+        if mu > 4.0 * sigma {
+            let untruncated = (-lambda * mu + 0.5 * (lambda * sigma).powi(2)).exp();
+            assert!(((got - untruncated) / untruncated).abs() < 1e-4);
+        }
+    }
+    // σ → 0: exp(−λT).
+    for sigma in [0.0, 1e-6, 1e-2] {
+        let got = ExposureAge::new(12_000.0, sigma).unwrap().survival(8e-5);
+        assert!(
+            (got - (-8e-5_f64 * 12_000.0).exp()).abs() < 1e-9,
+            "{sigma}: {got}"
+        );
+    }
+    assert_eq!(ExposureAge::new(5.0, 1.0).unwrap().survival(0.0), 1.0);
+    assert!(ExposureAge::new(-1.0, 1.0).is_err());
+    assert!(ExposureAge::new(1.0, -1.0).is_err());
+    assert!(ExposureAge::new(1.0, f64::NAN).is_err());
+}
+
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/hazard");
+
+/// The fixtures' power laws (tests/data/hazard/PROVENANCE.md): (file, kind, k0), x in g.
+const FRACTILE_FILES: [(&str, &str, f64); 4] = [
+    ("quantile_curve-0.16-PGA_42.csv", "quantile-0.16", 0.5e-5),
+    ("quantile_curve-0.5-PGA_42.csv", "quantile-0.5", 0.8e-5),
+    ("hazard_curve-mean-PGA_42.csv", "mean", 1.0e-5),
+    ("quantile_curve-0.84-PGA_42.csv", "quantile-0.84", 2.0e-5),
+];
+
+#[test]
+fn openquake_fractile_curves_are_read_with_their_kind_and_order_lambda() {
+    let fragility = Lognormal::new(0.5, 0.4).unwrap();
+    let mut lambdas = Vec::new();
+    for (file, kind, k0) in FRACTILE_FILES {
+        let text = std::fs::read_to_string(format!("{DATA}/{file}")).unwrap();
+        let curve = parse_openquake_csv(&text, file, SiteSelection::Row(0), None).unwrap();
+        assert_eq!(
+            curve.kind.as_ref().map(ToString::to_string).as_deref(),
+            Some(kind)
+        );
+        assert_eq!(curve.unit, ImUnit::G);
+        let lambda = overturn_rate(&curve, &fragility).annual_rate;
+        let exact = cornell(k0, 2.5, 0.5, 0.4);
+        // Levels written with 6 digits (a power law still, exactly interpolated), PoE with
+        // 17: 1e-8.
+        assert!(
+            ((lambda - exact) / exact).abs() < 1e-8,
+            "{file}: {lambda} vs {exact}"
+        );
+        lambdas.push(lambda);
+    }
+    // q16 ≤ q50 ≤ mean ≤ q84 (the order of the files above).
+    assert!(lambdas.windows(2).all(|w| w[0] <= w[1]), "{lambdas:?}");
+    assert_eq!(CurveKind::parse("quantile-0.16"), CurveKind::Quantile(0.16));
+    assert_eq!(CurveKind::parse("mean"), CurveKind::Mean);
+    assert_eq!(
+        CurveKind::parse("rlz-003"),
+        CurveKind::Other("rlz-003".into())
+    );
+    assert_eq!(
+        CurveKind::parse("quantile-1.5"),
+        CurveKind::Other("quantile-1.5".into())
+    );
+}
+
+/// The fixture fragility's replicates (tests/data/hazard/fragility_pga_bootstrap.json), g.
+const REPLICATES_G: [(f64, f64); 9] = [
+    (0.42, 0.35),
+    (0.45, 0.42),
+    (0.47, 0.38),
+    (0.49, 0.45),
+    (0.5, 0.4),
+    (0.52, 0.36),
+    (0.55, 0.44),
+    (0.58, 0.39),
+    (0.6, 0.47),
+];
+
+fn fixture_run(extra: &[&str]) -> (bool, String, String) {
+    let fragility = format!("{DATA}/fragility_pga_bootstrap.json");
+    let files: Vec<String> = FRACTILE_FILES
+        .iter()
+        .map(|f| format!("{DATA}/{}", f.0))
+        .collect();
+    let mut args = vec![
+        "hazard",
+        "--fragility",
+        &fragility,
+        "--im",
+        "PGA",
+        "--hazard-curve",
+    ];
+    args.extend(files.iter().map(String::as_str));
+    args.extend_from_slice(extra);
+    cli(&args)
+}
+
+#[test]
+fn cli_combines_fractile_curves_and_bootstrap_replicates_into_intervals() {
+    let dir = temp_dir("fractiles");
+    let plots = dir.join("plots");
+    let (ok, stdout, stderr) = fixture_run(&[
+        "--age-years",
+        "10000,20000",
+        "--age-sigma-years",
+        "2000,4000",
+        "--hazard-definition",
+        "rotd50",
+        "--plots",
+        plots.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let f = |v: &serde_json::Value| v.as_f64().unwrap();
+    let pair = |v: &serde_json::Value| [f(&v[0]), f(&v[1])];
+    // λ from the mean curve and the fitted fragility (0.5 g, β 0.4).
+    let mean = cornell(1e-5, 2.5, 0.5, 0.4);
+    let lambda = f(&json["annual_overturn_rate"]);
+    assert!(((lambda - mean) / mean).abs() < 1e-8, "{lambda} vs {mean}");
+    // Each curve: its kind, quantile, weight and λ against the closed form.
+    let curves = json["hazard_curves"].as_array().unwrap();
+    assert_eq!(curves.len(), 4);
+    let weights = [Some(0.33), Some(0.34), None, Some(0.33)];
+    for ((c, (_, kind, k0)), w) in curves.iter().zip(FRACTILE_FILES).zip(weights) {
+        assert_eq!(c["kind"], kind);
+        assert_eq!(c["central"], kind == "mean");
+        let exact = cornell(k0, 2.5, 0.5, 0.4);
+        let got = f(&c["annual_overturn_rate"]);
+        assert!(
+            ((got - exact) / exact).abs() < 1e-8,
+            "{kind}: {got} vs {exact}"
+        );
+        match w {
+            Some(w) => assert!((f(&c["weight"]) - w).abs() < 1e-12, "{c}"),
+            None => assert!(c["weight"].is_null()),
+        }
+        // Each curve's interval over the 9 replicates: type 7 of the closed forms.
+        let per_replicate: Vec<f64> = REPLICATES_G
+            .iter()
+            .map(|&(m, b)| cornell(k0, 2.5, m, b))
+            .collect();
+        let [lo, hi] = pair(&c["annual_overturn_rate_interval"]);
+        assert!(
+            ((lo - type7(&per_replicate, 0.025)) / lo).abs() < 1e-8,
+            "{kind}"
+        );
+        assert!(
+            ((hi - type7(&per_replicate, 0.975)) / hi).abs() < 1e-8,
+            "{kind}"
+        );
+    }
+    // The hazard alone: the 3 fractiles with weights 0.33, 0.34, 0.33 sit at the positions
+    // 0, 1/2, 1 of the weighted percentile (docs/hazard.md), so the 2.5 % percentile is
+    // λ16 + 0.05 (λ50 − λ16) and the 97.5 % one λ50 + 0.95 (λ84 − λ50).
+    let l = |k0: f64| cornell(k0, 2.5, 0.5, 0.4);
+    let (l16, l50, l84) = (l(0.5e-5), l(0.8e-5), l(2e-5));
+    let [lo, hi] = pair(&json["interval"]["hazard_only"]);
+    assert!(
+        ((lo - (l16 + 0.05 * (l50 - l16))) / lo).abs() < 1e-8,
+        "{lo}"
+    );
+    assert!(
+        ((hi - (l50 + 0.95 * (l84 - l50))) / hi).abs() < 1e-8,
+        "{hi}"
+    );
+    // The combined interval: within the product distribution's range, around λ, wider than
+    // each source's spread alone at the low end.
+    let product: Vec<f64> = [0.5e-5, 0.8e-5, 2e-5]
+        .iter()
+        .flat_map(|&k0| {
+            REPLICATES_G
+                .iter()
+                .map(move |&(m, b)| cornell(k0, 2.5, m, b))
+        })
+        .collect();
+    let [lo, hi] = pair(&json["annual_overturn_rate_interval"]);
+    let min = product.iter().copied().fold(f64::INFINITY, f64::min);
+    let max = product.iter().copied().fold(0.0, f64::max);
+    assert!(
+        min <= lo && lo < lambda && lambda < hi && hi <= max,
+        "{lo} {hi}"
+    );
+    assert!(lo < f(&json["interval"]["hazard_only"][0]));
+    assert_eq!(json["interval"]["samples"], 27);
+    assert_eq!(json["interval"]["fragility_bootstrap_replicates"], 9);
+    assert_eq!(
+        json["interval"]["hazard_fractiles"],
+        serde_json::json!([0.16, 0.5, 0.84])
+    );
+    let [rp_lo, rp_hi] = pair(&json["return_period_interval_years"]);
+    assert!((rp_lo * hi - 1.0).abs() < 1e-12 && (rp_hi * lo - 1.0).abs() < 1e-12);
+    // Survival: E_T[exp(−λT)] by quadrature at λ and at the interval's ends.
+    for (entry, (mu, sigma)) in json["survival_by_age"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip([(10_000.0, 2_000.0), (20_000.0, 4_000.0)])
+    {
+        assert_eq!(
+            (f(&entry["age_years"]), f(&entry["age_sigma_years"])),
+            (mu, sigma)
+        );
+        let p = f(&entry["survival"]);
+        let q = survival_by_quadrature(mean, mu, sigma);
+        assert!(((p - q) / q).abs() < 1e-6, "{p} vs {q}");
+        assert_eq!(f(&json["survival"][format!("{mu}")]), p);
+        let [s_lo, s_hi] = pair(&entry["survival_interval"]);
+        let q_lo = survival_by_quadrature(hi, mu, sigma);
+        let q_hi = survival_by_quadrature(lo, mu, sigma);
+        assert!(((s_lo - q_lo) / q_lo).abs() < 1e-6 && ((s_hi - q_hi) / q_hi).abs() < 1e-6);
+        assert!(s_lo < p && p < s_hi);
+    }
+    // The contribution by level adds up to λ.
+    let parts: f64 = json["contribution_by_level"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| f(&c["annual_overturn_rate"]))
+        .sum();
+    assert!(((parts - lambda) / lambda).abs() < 1e-12);
+    // The plots: three figures, SVG and PNG, with their content.
+    let written: Vec<&str> = json["plots"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap())
+        .collect();
+    assert_eq!(written.len(), 6, "{written:?}");
+    for (stem, words) in [
+        ("hazard_curves", ["quantile-0.84", "bootstrap band"]),
+        ("hazard_deaggregation", ["dλ/d(ln PGA)", "quantile-0.16"]),
+        ("hazard_survival", ["T ± σ", "95 % interval of λ"]),
+    ] {
+        let svg = std::fs::read_to_string(plots.join(format!("{stem}.svg"))).unwrap();
+        assert!(svg.len() > 10_000, "{stem}.svg: {} bytes", svg.len());
+        for w in words {
+            assert!(svg.contains(w), "{stem}.svg lacks {w:?}");
+        }
+        let png = std::fs::read(plots.join(format!("{stem}.png"))).unwrap();
+        assert!(
+            png.starts_with(b"\x89PNG") && png.len() > 20_000,
+            "{stem}.png"
+        );
+    }
+
+    // The text: significant digits, the interval and its sources, each curve's λ.
+    let (ok, text, stderr) = fixture_run(&[
+        "--age-years",
+        "10000",
+        "--age-sigma-years",
+        "2000",
+        "--hazard-definition",
+        "rotd50",
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(
+        text.contains("λ           9.327e-5 overturns per year (95 %: "),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "over 9 fragility bootstrap replicates × 3 hazard fractiles (0.16, 0.5, 0.84; \
+             weights 0.33, 0.34, 0.33)"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("by curve    quantile-0.16 4.663e-5, quantile-0.5 7.461e-5, mean 9.327e-5"),
+        "{text}"
+    );
+    assert!(text.contains("after 10000 ± 2000 years (95 %: "), "{text}");
+    assert!(text.contains("(mean; 30 levels 0.05 to 5 g"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn cli_refuses_inconsistent_fractile_sets_and_age_sigmas() {
+    let dir = temp_dir("fractile-errors");
+    let error = |args: &[&str]| {
+        let (ok, _, stderr) = cli(args);
+        assert!(!ok);
+        assert!(stderr.starts_with("rockwatch: error: "), "{stderr}");
+        stderr
+    };
+    let fragility = format!("{DATA}/fragility_pga_bootstrap.json");
+    let file = |name: &str| format!("{DATA}/{name}");
+    let (mean, q16, q84) = (
+        file("hazard_curve-mean-PGA_42.csv"),
+        file("quantile_curve-0.16-PGA_42.csv"),
+        file("quantile_curve-0.84-PGA_42.csv"),
+    );
+    let base = [
+        "hazard",
+        "--fragility",
+        &fragility,
+        "--im",
+        "PGA",
+        "--age-years",
+        "1000",
+    ];
+    let with = |curves: &[&str], extra: &[&str]| -> Vec<String> {
+        let mut v: Vec<String> = base.iter().map(|s| s.to_string()).collect();
+        v.push("--hazard-curve".into());
+        v.extend(curves.iter().map(|s| s.to_string()));
+        v.extend(extra.iter().map(|s| s.to_string()));
+        v
+    };
+    let run = |v: Vec<String>| error(&v.iter().map(String::as_str).collect::<Vec<_>>());
+    // Only one quantile besides the mean: no interval can be formed from it.
+    assert!(run(with(&[&mean, &q16], &[])).contains("at least two quantile curves"));
+    // Two quantiles, neither the mean nor the median: which gives λ?
+    assert!(run(with(&[&q16, &q84], &[])).contains("the mean"));
+    assert!(run(with(&[&mean, &mean, &q16, &q84], &[])).contains("a second mean"));
+    // A two-column curve has no kind.
+    let two = write(&dir, "two.csv", "0.01,1e-2\n0.1,1e-4\n1,1e-6\n");
+    assert!(run(with(&[&mean, &two], &["--hazard-unit", "g"])).contains("kind"));
+    // Another site.
+    let other = std::fs::read_to_string(&q84)
+        .unwrap()
+        .replace("-118.48000,34.28000", "-117.00000,34.28000");
+    let other = write(&dir, "q84-elsewhere.csv", &other);
+    assert!(run(with(&[&mean, &q16, &other], &[])).contains("one site"));
+    // σ: one, or one per age; finite, ≥ 0.
+    assert!(run(with(&[&mean], &["--age-sigma-years", "1,2"])).contains("one per age"));
+    assert!(run(with(&[&mean], &["--age-sigma-years", "-5"])).contains("≥ 0"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A fragility.json without `bootstrap.median_beta` (written before issue 20 item 22, or
+/// with --bootstrap 0) and one curve: λ as before, no interval.
+#[test]
+fn without_replicates_or_fractiles_there_is_no_interval() {
+    let dir = temp_dir("no-interval");
+    let fragility = write(
+        &dir,
+        "fragility.json",
+        r#"{"ims": {"PGA": {"median": 4.903325, "beta": 0.4, "unit": "m/s2",
+            "bootstrap": {"replicates": 0, "failed": 0}}}}"#,
+    );
+    let (ok, stdout, stderr) = cli(&[
+        "hazard",
+        "--fragility",
+        &fragility,
+        "--im",
+        "PGA",
+        "--hazard-curve",
+        &format!("{DATA}/hazard_curve-mean-PGA_42.csv"),
+        "--age-years",
+        "10000",
+        "--format",
+        "json",
+    ]);
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(json["annual_overturn_rate_interval"].is_null());
+    assert!(json["survival_by_age"][0]["survival_interval"].is_null());
+    assert_eq!(json["interval"]["samples"], 0);
+    let exact = cornell(1e-5, 2.5, 0.5, 0.4);
+    let p = json["survival"]["10000"].as_f64().unwrap();
+    assert!((p - (-exact * 1e4).exp()).abs() < 1e-9);
+    // A replicate that is not [median > 0, beta > 0] is refused, naming it.
+    let bad = write(
+        &dir,
+        "bad.json",
+        r#"{"ims": {"PGA": {"median": 4.9, "beta": 0.4, "unit": "m/s2",
+            "bootstrap": {"median_beta": [[4.0, 0.3], [4.0, -1]]}}}}"#,
+    );
+    let (ok, _, stderr) = cli(&[
+        "hazard",
+        "--fragility",
+        &bad,
+        "--im",
+        "PGA",
+        "--hazard-curve",
+        &format!("{DATA}/hazard_curve-mean-PGA_42.csv"),
+        "--age-years",
+        "10000",
+    ]);
+    assert!(!ok && stderr.contains("median_beta[1]"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The README's uncertainty example (section "One real rock: geometry, fragility, hazard"),
+/// run as printed from the repository's root (the shell's glob expanded here, its --plots in
+/// a temporary directory): every line it shows, but those cut short with "…", is a line of
+/// the output.
+#[test]
+fn the_readme_uncertainty_example_runs_as_printed() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+    let readme = std::fs::read_to_string(format!("{root}/README.md")).unwrap();
+    let block: Vec<&str> = readme
+        .split("```sh\n")
+        .filter_map(|b| b.split("```").next())
+        .find(|b| b.contains("--age-sigma-years 2000 --plots hazard-plots"))
+        .expect("the README's uncertainty example")
+        .lines()
+        .collect();
+    let command = block
+        .iter()
+        .take_while(|l| !l.starts_with('#'))
+        .map(|l| l.trim_end_matches('\\'))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let shown: Vec<&str> = block
+        .iter()
+        .filter_map(|l| l.strip_prefix("# "))
+        .filter(|l| !l.contains('…'))
+        .collect();
+    assert!(shown.len() >= 5, "{block:?}");
+    let dir = temp_dir("readme-uncertainty");
+    let mut csv: Vec<String> = std::fs::read_dir(DATA)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".csv"))
+        .map(|n| format!("tests/data/hazard/{n}"))
+        .collect();
+    csv.sort();
+    let mut args: Vec<String> = Vec::new();
+    for a in command.split_whitespace().skip(1) {
+        match a {
+            "tests/data/hazard/*.csv" => args.extend(csv.iter().cloned()),
+            "hazard-plots" => args.push(dir.join("hazard-plots").display().to_string()),
+            a => args.push(a.to_string()),
+        }
+    }
+    let output = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
+        .args(&args)
+        .current_dir(root)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    for line in shown {
+        assert!(
+            stdout.lines().any(|l| l == line),
+            "README shows {line:?}, the command printed:\n{stdout}"
+        );
+    }
+    assert!(dir.join("hazard-plots/hazard_survival.png").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -20,7 +20,14 @@
 //! the given levels (a power law per segment) and continued beyond the first and last level
 //! with the end segments' power laws; λ = ∫ P(e^u) k(u) λ_H(e^u) du (u = ln im, k the local
 //! slope −d ln λ_H/d ln im) by 20-point Gauss–Legendre on 16 panels per segment. The part of λ
-//! that comes from the extrapolated tails is reported ([`OverturnRate::extrapolated_fraction`]).
+//! that comes from the extrapolated tails is reported ([`OverturnRate::extrapolated_fraction`]),
+//! and λ is split by IM level ([`OverturnRate::by_level`], [`rate_density`]).
+//!
+//! Uncertainty (docs/hazard.md, "Uncertainty"): OpenQuake's mean and quantile curves are told
+//! apart by their `kind` ([`CurveKind`]); the fractiles are weighted by [`fractile_weights`];
+//! λ over every fractile curve × every bootstrap replicate of the fragility
+//! ([`rate_samples`]) gives a 95 % interval ([`rate_interval`]); an exposure age T ± σ
+//! ([`ExposureAge`]) gives P(survival) = E_T[exp(−λT)] in closed form.
 
 use std::fmt;
 
@@ -138,6 +145,50 @@ pub struct HazardCurve {
     pub investigation_time_years: Option<f64>,
     /// The site row of an OpenQuake file the curve is from.
     pub site: Option<Site>,
+    /// What the curve is over the logic tree's realisations (an OpenQuake file's `kind`:
+    /// mean, a quantile); None when the file does not say (a two-column curve).
+    pub kind: Option<CurveKind>,
+}
+
+/// What an OpenQuake hazard curve is over the realisations of the logic tree, from the
+/// `kind='…'` of its comment line (`hazard_curve-mean-<IMT>_*.csv` has `kind='mean'`,
+/// `quantile_curve-0.16-<IMT>_*.csv` has `kind='quantile-0.16'`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum CurveKind {
+    /// The mean rate of exceedance over the realisations.
+    Mean,
+    /// The pointwise q-quantile (fractile) over the realisations, 0 < q < 1.
+    Quantile(f64),
+    /// Any other kind (`rlz-003`, …), as written.
+    Other(String),
+}
+
+impl CurveKind {
+    /// `mean` → Mean, `quantile-0.16` → Quantile(0.16) (if 0 < q < 1), anything else Other.
+    #[must_use]
+    pub fn parse(text: &str) -> CurveKind {
+        let text = text.trim();
+        if text.eq_ignore_ascii_case("mean") {
+            return CurveKind::Mean;
+        }
+        match text
+            .strip_prefix("quantile-")
+            .and_then(|q| q.parse::<f64>().ok())
+        {
+            Some(q) if q > 0.0 && q < 1.0 => CurveKind::Quantile(q),
+            _ => CurveKind::Other(text.to_owned()),
+        }
+    }
+}
+
+impl fmt::Display for CurveKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CurveKind::Mean => f.write_str("mean"),
+            CurveKind::Quantile(q) => write!(f, "quantile-{q}"),
+            CurveKind::Other(k) => f.write_str(k),
+        }
+    }
 }
 
 /// Which site row of an OpenQuake file (one row per site) to take.
@@ -225,6 +276,7 @@ impl HazardCurve {
             annual_rates,
             investigation_time_years: None,
             site: None,
+            kind: None,
         })
     }
 
@@ -429,6 +481,7 @@ pub fn parse_openquake_csv(
         .map_err(|e| HazardError::Invalid(format!("{source_name}: {e}")))?;
     curve.investigation_time_years = Some(time);
     curve.site = Some(site);
+    curve.kind = metadata(first, "kind").map(|k| CurveKind::parse(&k));
     Ok(curve)
 }
 
@@ -519,7 +572,12 @@ impl Lognormal {
 /// A fragility read from a JSON file, with the IM it is a function of.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FragilityInput {
+    /// The maximum-likelihood fit.
     pub curve: Lognormal,
+    /// The bootstrap replicates' fits (`ims.<IM>.bootstrap.median_beta` of `rockwatch
+    /// fragility`, in replicate order; medians in the IM's unit); empty when the file has none
+    /// (files written before they were stored, `--bootstrap 0`, a study fragility.json).
+    pub bootstrap: Vec<Lognormal>,
     /// The IM's name as written in the file.
     pub im: String,
     /// The IM's unit.
@@ -596,8 +654,29 @@ pub fn fragility_from_json(
         };
         let curve = Lognormal::new(number(entry, "median")?, number(entry, "beta")?)
             .map_err(|e| bad(format!("ims.{name}: {e}")))?;
+        let mut bootstrap = Vec::new();
+        if let Some(pairs) = entry.get("bootstrap").and_then(|b| b.get("median_beta")) {
+            let pairs = pairs
+                .as_array()
+                .ok_or_else(|| bad(format!("ims.{name}.bootstrap.median_beta is not an array")))?;
+            for (b, pair) in pairs.iter().enumerate() {
+                let at = |k: usize| pair.get(k).and_then(Value::as_f64);
+                let replicate = match (pair.as_array().map(Vec::len), at(0), at(1)) {
+                    (Some(2), Some(m), Some(beta)) => Lognormal::new(m, beta).ok(),
+                    _ => None,
+                }
+                .ok_or_else(|| {
+                    bad(format!(
+                        "ims.{name}.bootstrap.median_beta[{b}] = {pair} is not [median > 0, \
+                         beta > 0]"
+                    ))
+                })?;
+                bootstrap.push(replicate);
+            }
+        }
         return Ok(FragilityInput {
             curve,
+            bootstrap,
             im: name.clone(),
             unit,
             horizontal_definition: entry
@@ -634,6 +713,7 @@ pub fn fragility_from_json(
             .map_err(|e| bad(format!("blocks.{name}: {e}")))?;
         return Ok(FragilityInput {
             curve,
+            bootstrap: Vec::new(),
             im: file_im.to_owned(),
             unit,
             horizontal_definition: None,
@@ -654,6 +734,21 @@ pub struct OverturnRate {
     /// first and above its last level (0–1): large values mean the curve does not cover the
     /// fragility's range.
     pub extrapolated_fraction: f64,
+    /// λ by IM level (the deaggregation of λ over the curve's levels): the part of λ from each
+    /// interval of the IM, in increasing order: below the first level (`lower` = 0), between
+    /// consecutive levels, above the last (`upper` = ∞). The parts add up to `annual_rate`.
+    pub by_level: Vec<LevelContribution>,
+}
+
+/// The part of λ contributed by shaking with the IM between `lower` and `upper` (the
+/// curve's unit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LevelContribution {
+    /// IM bounds of the interval (0 and ∞ for the continuations below and above the levels).
+    pub lower: f64,
+    pub upper: f64,
+    /// Its part of λ (1/yr).
+    pub annual_rate: f64,
 }
 
 impl OverturnRate {
@@ -663,10 +758,15 @@ impl OverturnRate {
         1.0 / self.annual_rate
     }
 
-    /// exp(−λT): probability that the rock survives T years of Poissonian shaking.
+    /// exp(−λT): probability that the rock survives T years of Poissonian shaking (an age
+    /// known exactly: [`ExposureAge::survival`] with σ = 0).
     #[must_use]
     pub fn survival(&self, years: f64) -> f64 {
-        (-self.annual_rate * years).exp()
+        ExposureAge {
+            mean_years: years,
+            sigma_years: 0.0,
+        }
+        .survival(self.annual_rate)
     }
 }
 
@@ -697,12 +797,22 @@ pub fn overturn_rate(curve: &HazardCurve, fragility: &Lognormal) -> OverturnRate
     }
     pieces.push((u_last, u_max, n - 2));
     let (mut total, mut tails) = (0.0, 0.0);
+    let mut by_level = Vec::with_capacity(pieces.len());
     for (j, &(a, b, seg)) in pieces.iter().enumerate() {
+        let (lower, upper) = match j {
+            0 => (0.0, curve.levels[0]),
+            j if j == pieces.len() - 1 => (curve.levels[n - 1], f64::INFINITY),
+            j => (curve.levels[j - 1], curve.levels[j]),
+        };
         if b <= a {
+            by_level.push(LevelContribution {
+                lower,
+                upper,
+                annual_rate: 0.0,
+            });
             continue;
         }
-        let (k, ln_l0, u0) = curve.segment_law(seg);
-        let integrand = |u: f64| fragility.probability(u.exp()) * k * (ln_l0 - k * (u - u0)).exp();
+        let integrand = |u: f64| density_on_segment(curve, fragility, seg, u);
         let h = (b - a) / PANELS as f64;
         let mut sum = 0.0;
         for p in 0..PANELS {
@@ -712,6 +822,11 @@ pub fn overturn_rate(curve: &HazardCurve, fragility: &Lognormal) -> OverturnRate
             }
         }
         let part = 0.5 * h * sum;
+        by_level.push(LevelContribution {
+            lower,
+            upper,
+            annual_rate: part,
+        });
         total += part;
         if j == 0 || j == pieces.len() - 1 {
             tails += part;
@@ -720,6 +835,141 @@ pub fn overturn_rate(curve: &HazardCurve, fragility: &Lognormal) -> OverturnRate
     OverturnRate {
         annual_rate: total,
         extrapolated_fraction: if total > 0.0 { tails / total } else { 0.0 },
+        by_level,
+    }
+}
+
+/// The integrand of λ in u = ln im: dλ/d(ln im) = P(overturn | im) · k(im) · λ_H(im) (1/yr per
+/// unit of ln im; k the local slope −d ln λ_H/d ln im), the density of λ over the IM: the
+/// contribution of each IM level to λ. `curve` and `fragility` in the same unit.
+#[must_use]
+pub fn rate_density(curve: &HazardCurve, fragility: &Lognormal, im: f64) -> f64 {
+    let u = im.ln();
+    density_on_segment(curve, fragility, curve.segment(u), u)
+}
+
+/// [`rate_density`] at u = ln im on the power law of segment `seg`.
+fn density_on_segment(curve: &HazardCurve, fragility: &Lognormal, seg: usize, u: f64) -> f64 {
+    let (k, ln_l0, u0) = curve.segment_law(seg);
+    fragility.probability(u.exp()) * k * (ln_l0 - k * (u - u0)).exp()
+}
+
+/// The weights of fractile (quantile) hazard curves at levels `fractiles` (strictly
+/// increasing, in (0, 1)) as a discrete distribution of the hazard: each fractile stands for
+/// the probability between the midpoints to its neighbours, the first from 0 and the last to 1
+/// (0.16, 0.5, 0.84 → 0.33, 0.34, 0.33; 0.05, 0.5, 0.95 → 0.275, 0.45, 0.275). The weights add
+/// up to 1 (docs/hazard.md, "Hazard fractiles").
+pub fn fractile_weights(fractiles: &[f64]) -> Result<Vec<f64>, HazardError> {
+    for (i, &q) in fractiles.iter().enumerate() {
+        if !(q > 0.0 && q < 1.0) || (i > 0 && q <= fractiles[i - 1]) {
+            return Err(HazardError::Invalid(format!(
+                "fractiles must increase strictly within (0, 1): {fractiles:?}"
+            )));
+        }
+    }
+    let n = fractiles.len();
+    let bound = |i: usize| match i {
+        0 => 0.0,
+        i if i == n => 1.0,
+        i => 0.5 * (fractiles[i - 1] + fractiles[i]),
+    };
+    Ok((0..n).map(|i| bound(i + 1) - bound(i)).collect())
+}
+
+/// One point of the epistemic distribution of λ: hazard curve `curve` (an index into the
+/// curves given) with fragility `replicate` (an index into the fragilities given).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RateSample {
+    pub curve: usize,
+    pub replicate: usize,
+    /// λ (1/yr) of that curve and fragility.
+    pub annual_rate: f64,
+    /// Its probability: the curve's weight over the number of fragilities.
+    pub weight: f64,
+}
+
+/// λ for every hazard curve crossed with every fragility: the product of the discrete
+/// distribution of the hazard (`curves`, each with its weight, e.g. [`fractile_weights`]) and
+/// of the fragility (`fragilities`, equally likely, e.g. the bootstrap replicates), the two
+/// taken as independent. Each curve in the fragilities' unit.
+#[must_use]
+pub fn rate_samples(curves: &[(&HazardCurve, f64)], fragilities: &[Lognormal]) -> Vec<RateSample> {
+    let per_fragility = 1.0 / fragilities.len() as f64;
+    let mut samples = Vec::with_capacity(curves.len() * fragilities.len());
+    for (c, &(curve, weight)) in curves.iter().enumerate() {
+        for (r, fragility) in fragilities.iter().enumerate() {
+            samples.push(RateSample {
+                curve: c,
+                replicate: r,
+                annual_rate: overturn_rate(curve, fragility).annual_rate,
+                weight: weight * per_fragility,
+            });
+        }
+    }
+    samples
+}
+
+/// The 95 % interval of λ (1/yr) over `samples`: their weighted 2.5 and 97.5 % percentiles
+/// ([`crate::stats::weighted_percentile`] at [`crate::stats::INTERVAL_95`]; type 7, as the
+/// fragility's bootstrap intervals, when the weights are equal). None without samples.
+#[must_use]
+pub fn rate_interval(samples: &[RateSample]) -> Option<[f64; 2]> {
+    let points: Vec<(f64, f64)> = samples.iter().map(|s| (s.annual_rate, s.weight)).collect();
+    let [lo, hi] = crate::stats::INTERVAL_95;
+    Some([
+        crate::stats::weighted_percentile(&points, lo)?,
+        crate::stats::weighted_percentile(&points, hi)?,
+    ])
+}
+
+/// A rock's exposure age T (years) with its uncertainty: a normal distribution of mean
+/// `mean_years` and standard deviation `sigma_years`, truncated at 0 (an age is not negative);
+/// σ = 0 is an age known exactly.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExposureAge {
+    /// Mean μ of the normal before truncation (years, ≥ 0).
+    pub mean_years: f64,
+    /// Its standard deviation σ (years, ≥ 0).
+    pub sigma_years: f64,
+}
+
+impl ExposureAge {
+    /// Checks μ ≥ 0 and σ ≥ 0, both finite.
+    pub fn new(mean_years: f64, sigma_years: f64) -> Result<ExposureAge, HazardError> {
+        if !(mean_years.is_finite() && mean_years >= 0.0) {
+            return Err(HazardError::Invalid(format!(
+                "an exposure age must be a finite number of years ≥ 0, got {mean_years}"
+            )));
+        }
+        if !(sigma_years.is_finite() && sigma_years >= 0.0) {
+            return Err(HazardError::Invalid(format!(
+                "the standard deviation of an exposure age must be a finite number of years \
+                 ≥ 0, got {sigma_years}"
+            )));
+        }
+        Ok(ExposureAge {
+            mean_years,
+            sigma_years,
+        })
+    }
+
+    /// P(survival) = E_T[exp(−λT)] (λ = `annual_rate`, 1/yr): the probability that the rock
+    /// has survived its age, averaged over the age's distribution. In closed form for the
+    /// normal truncated at 0 (completing the square):
+    /// exp(−λμ + λ²σ²/2) · Φ(μ/σ − λσ) / Φ(μ/σ), evaluated in logarithms
+    /// ([`crate::stats::ln_normal_cdf`]) so that neither factor overflows; exp(−λμ) for σ = 0.
+    #[must_use]
+    pub fn survival(&self, annual_rate: f64) -> f64 {
+        let (mu, sigma, lambda) = (self.mean_years, self.sigma_years, annual_rate);
+        if sigma == 0.0 || lambda == 0.0 {
+            return (-lambda * mu).exp();
+        }
+        let a = mu / sigma;
+        let ln = -lambda * mu
+            + 0.5 * (lambda * sigma).powi(2)
+            + crate::stats::ln_normal_cdf(a - lambda * sigma)
+            - crate::stats::ln_normal_cdf(a);
+        ln.exp()
     }
 }
 

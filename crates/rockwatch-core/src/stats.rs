@@ -1,6 +1,7 @@
 //! Statistics shared by the study, the fragility fits, the hazard integral and the catalogue's
 //! normal distributions: log-gamma, the regularized incomplete beta and gamma functions, and
-//! from them the Student-t and standard normal distributions (Φ, φ, ln Φ). One home for each.
+//! from them the Student-t and standard normal distributions (Φ, φ, ln Φ), and the percentiles
+//! of the project's intervals (type 7, and its weighted generalisation). One home for each.
 //!
 //! All are classic algorithms (Lanczos log-gamma; Lentz's continued fractions as in
 //! Numerical Recipes, 3rd ed., §6.2 and §6.4), accurate to about 1e−14 relative in the
@@ -228,6 +229,53 @@ pub fn student_t_two_sided_p(t: f64, nu: f64) -> f64 {
     regularized_incomplete_beta(0.5 * nu, 0.5, nu / (nu + t * t))
 }
 
+/// The probabilities of the project's two-sided 95 % percentile intervals (the fragility's
+/// bootstrap intervals, the hazard's intervals on λ): the 2.5 and 97.5 % percentiles.
+pub const INTERVAL_95: [f64; 2] = [0.025, 0.975];
+
+/// The `q`-quantile (0 ≤ q ≤ 1) of values sorted in increasing order, by linear interpolation
+/// between order statistics (Hyndman & Fan type 7, R's and NumPy's default): the value at
+/// position (n − 1)·q, counting from 0. Panics on an empty slice.
+#[must_use]
+pub fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
+    let h = (sorted.len() - 1) as f64 * q;
+    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
+}
+
+/// The `q`-quantile (0 ≤ q ≤ 1) of a discrete distribution given as `(value, weight)` pairs
+/// (weights ≥ 0, not all 0; any order): the weighted generalisation of [`percentile_sorted`].
+/// Sorted by value, point k (weight wₖ, cumulative weight Sₖ up to and including it, total W)
+/// sits at the probability position pₖ = (Sₖ − wₖ/2 − w₁/2)/(W − w₁/2 − wₙ/2), so that the
+/// first point is at 0 and the last at 1, and the quantile interpolates linearly between
+/// positions. With equal weights pₖ = (k − 1)/(n − 1): exactly type 7. Zero-weight points are
+/// left out. None without a point of positive weight.
+#[must_use]
+pub fn weighted_percentile(points: &[(f64, f64)], q: f64) -> Option<f64> {
+    let mut v: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.1 > 0.0).collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (first, last) = (v.first()?.1, v.last()?.1);
+    if v.len() == 1 {
+        return Some(v[0].0);
+    }
+    let total: f64 = v.iter().map(|p| p.1).sum();
+    let span = total - 0.5 * first - 0.5 * last;
+    let mut cumulative = 0.0;
+    let mut previous: Option<(f64, f64)> = None;
+    for &(x, w) in &v {
+        cumulative += w;
+        let position = (cumulative - 0.5 * w - 0.5 * first) / span;
+        if position >= q {
+            return Some(match previous {
+                Some((p0, x0)) if position > p0 => x0 + (q - p0) / (position - p0) * (x - x0),
+                _ => x,
+            });
+        }
+        previous = Some((position, x));
+    }
+    v.last().map(|p| p.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -241,5 +289,34 @@ mod tests {
         assert!((normal_cdf(-6.0) / 9.865_876_450_376_98e-10 - 1.0).abs() < 1e-12);
         assert_eq!(normal_cdf(f64::NEG_INFINITY), 0.0);
         assert_eq!(normal_cdf(f64::INFINITY), 1.0);
+    }
+
+    #[test]
+    fn weighted_percentiles_are_type_7_with_equal_weights() {
+        // Type 7 of 1..=5 (R: quantile(1:5, c(0.025, 0.3, 0.975)) = 1.1, 2.2, 4.9).
+        let sorted = [1.0, 2.0, 3.0, 4.0, 5.0];
+        let points: Vec<(f64, f64)> = [4.0, 2.0, 5.0, 1.0, 3.0].map(|x| (x, 0.7)).to_vec();
+        for (q, expected) in [
+            (0.025, 1.1),
+            (0.3, 2.2),
+            (0.975, 4.9),
+            (0.0, 1.0),
+            (1.0, 5.0),
+        ] {
+            assert!((percentile_sorted(&sorted, q) - expected).abs() < 1e-12);
+            let w = weighted_percentile(&points, q).unwrap();
+            assert!((w - expected).abs() < 1e-12, "{q}: {w}");
+        }
+        // Unequal weights: the first point at position 0, the last at 1, whatever their
+        // weights; zero weights are left out.
+        assert_eq!(
+            weighted_percentile(&[(1.0, 1.0), (2.0, 2.0)], 0.5),
+            Some(1.5)
+        );
+        assert_eq!(
+            weighted_percentile(&[(7.0, 1.0), (2.0, 0.0)], 0.1),
+            Some(7.0)
+        );
+        assert_eq!(weighted_percentile(&[(7.0, 0.0)], 0.1), None);
     }
 }

@@ -8,6 +8,7 @@
 pub mod acquire;
 pub mod alert_json;
 pub mod fragility;
+pub mod hazard_plots;
 pub mod intake;
 pub mod iox;
 pub mod journal;

@@ -36,7 +36,7 @@ use crate::lhs::{rng_from_seed, uniform_below};
 use crate::record::{Record, MAX_ABS_ACCEL_MPS2};
 use crate::rocking3d::{simulate_3d_outcome, Rock3dOptions};
 use crate::simulate::{simulate_outcome, SimulateError, Status};
-use crate::stats::normal_cdf;
+use crate::stats::{normal_cdf, percentile_sorted, INTERVAL_95};
 use fit::{fit_lognormal_groups, fit_surface, FitError, LognormalFit, SurfaceFit};
 pub use im::FragilityIm;
 
@@ -712,13 +712,12 @@ impl ImFragility {
         if self.bootstrap.is_empty() || im <= 0.0 {
             return None;
         }
-        let mut p: Vec<f64> = self
+        let p: Vec<f64> = self
             .bootstrap
             .iter()
             .map(|(m, b)| normal_cdf((im / m).ln() / b))
             .collect();
-        p.sort_by(f64::total_cmp);
-        Some((percentile(&p, 0.025), percentile(&p, 0.975)))
+        percentile_interval(&p).map(|[lo, hi]| (lo, hi))
     }
 }
 
@@ -749,14 +748,8 @@ pub struct FragilityResult {
     pub surface: Option<Surface>,
 }
 
-/// Linear-interpolation percentile (type 7) of sorted values.
-fn percentile(sorted: &[f64], q: f64) -> f64 {
-    let h = (sorted.len() - 1) as f64 * q;
-    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
-    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
-}
-
-/// Percentile bootstrap 95 % interval, or None with no values.
+/// Percentile bootstrap 95 % interval ([`INTERVAL_95`], type 7: [`percentile_sorted`]), or
+/// None with no values.
 #[must_use]
 pub fn percentile_interval(values: &[f64]) -> Option<[f64; 2]> {
     if values.is_empty() {
@@ -764,7 +757,7 @@ pub fn percentile_interval(values: &[f64]) -> Option<[f64; 2]> {
     }
     let mut v = values.to_vec();
     v.sort_by(f64::total_cmp);
-    Some([percentile(&v, 0.025), percentile(&v, 0.975)])
+    Some(INTERVAL_95.map(|q| percentile_sorted(&v, q)))
 }
 
 /// The bootstrap weights of replicate `b`: how many times each of `n_records` records is

@@ -76,7 +76,7 @@ pub fn fragility_json(
                         "horizontal_definition": definition_of(config, &f.im),
                         "likelihood": if f.is_stripe_im { "binomial over stripes" } else { "binomial over (record, scale) groups" },
                         "log_likelihood": fit.log_likelihood,
-                        "bootstrap": {"replicates": f.bootstrap.len() + f.bootstrap_failed, "failed": f.bootstrap_failed},
+                        "bootstrap": {"replicates": f.bootstrap.len() + f.bootstrap_failed, "failed": f.bootstrap_failed, "median_beta": f.bootstrap},
                         "median_if_flight_overturned": f.median_flight_overturned,
                     }),
                 );
