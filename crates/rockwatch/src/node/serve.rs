@@ -26,20 +26,19 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use mio::{Events, Poll, Token, Waker};
 
+use super::delivery::{publish_resets, republish_journaled, Outlet};
 use super::{
-    Control, ControlSender, InputTotals, NodeOptions, NodeRuntime, Publication, Publisher,
-    Reloaded, TransportStatus, Wake, FAULT_STALL_ON_RELOAD_ENV,
+    Control, ControlSender, InputTotals, NodeOptions, NodeRuntime, Publisher, Reloaded,
+    TransportStatus, Wake, FAULT_STALL_ON_RELOAD_ENV,
 };
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::logging::RateLimitedLog;
 use crate::logging::{take_rosout, RosoutRecord};
 use crate::metrics::MetricsServer;
 use crate::ros2::msg::ResetPbrResponse;
-use crate::ros2::{
-    IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, ALERTS_TOPIC,
-};
+use crate::ros2::{IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher};
 use crate::sd_notify::SystemdNotifier;
-use rockwatch_core::engine::{AccelPacket, Alert, HistoryEntry, PbrSummary, Source};
+use rockwatch_core::engine::{AccelPacket, PbrSummary, Source};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
 /// dead-node check are looked at least this often.
@@ -313,7 +312,7 @@ impl Reactor {
             later.push(&mut **p);
         }
         let mut out = Outlet {
-            now: iox_publisher.as_mut().map(|p| p as &mut dyn Publisher),
+            immediate: iox_publisher.as_mut().map(|p| p as &mut dyn Publisher),
             ros2: ros2_publisher,
             later,
             queue: Vec::new(),
@@ -500,57 +499,6 @@ impl Reactor {
             ros2_rebuilds: watchdog.rebuilds,
             ros2_redelivered: ros2.counters.redelivered.load(Ordering::Relaxed),
         })
-    }
-}
-
-/// Publishes the operator resets just journaled and applied on every output, with the alerts.
-fn publish_resets(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
-    for reset in runtime.take_resets() {
-        out.publish(Publication::Reset(reset));
-    }
-    out.flush();
-}
-
-/// At start: publishes the journal's last alerts again on ROS 2, in order, with the operator
-/// resets among them, rebuilding the transient-local history of `/pbr/alerts` that a late
-/// subscriber gets (a reset block's history ends in its reset); an alert never published
-/// before (journaled, then a crash) goes to every publisher, and is marked published.
-/// Subscribers de-duplicate by (pbr_id, episode, level) — see docs/reliability.md.
-fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_>) {
-    let journaled = runtime.take_journaled_history();
-    let (mut all, mut unpublished, mut resets) = (0, 0, 0);
-    for entry in journaled {
-        let (alert, published) = match entry {
-            HistoryEntry::Alert(alert, published) => (alert, published),
-            HistoryEntry::Reset(reset) => {
-                resets += 1;
-                if let Err(e) = out.ros2.publish(&Publication::Reset(reset)) {
-                    Outlet::failed(&mut out.errors, &mut out.log, &e);
-                }
-                continue;
-            }
-        };
-        all += 1;
-        // A journaled alert: not `journal_pending`.
-        let publication = Publication::Alert {
-            alert,
-            latency_ns: 0,
-            journal_pending: false,
-        };
-        if published {
-            if let Err(e) = out.ros2.publish(&publication) {
-                Outlet::failed(&mut out.errors, &mut out.log, &e);
-            }
-        } else {
-            unpublished += 1;
-            out.publish(publication);
-            out.settle(runtime);
-        }
-    }
-    if all > 0 {
-        tracing::info!(
-            "journal: {all} alerts published again on {ALERTS_TOPIC} (its history for late subscribers), with {resets} operator resets among them; {unpublished} of the alerts had never been published (a crash), now sent to every output"
-        );
     }
 }
 
@@ -854,80 +802,6 @@ fn reset_response(runtime: &mut NodeRuntime, pbr_id: &str) -> Option<ResetPbrRes
 fn apply_controls(controls: &Receiver<Control>, runtime: &mut NodeRuntime) {
     while let Ok(control) = controls.try_recv() {
         runtime.apply(control);
-    }
-}
-
-/// Every publisher of the node. The iceoryx2 alert publisher (`now`) publishes at once; the
-/// others (ROS 2, extra) are handed the turn's publications together at its end
-/// ([`Outlet::flush`]): each ROS 2 publication wakes RustDDS's event-loop thread, which would
-/// otherwise compete for the CPU with the iceoryx2 subscriber being woken at that moment, and
-/// one batch per turn wakes it once. A failed publication is logged (rate-limited) and the
-/// node goes on.
-struct Outlet<'a> {
-    now: Option<&'a mut dyn Publisher>,
-    /// The ROS 2 publishers (replaced when the participant is rebuilt), handed the turn's
-    /// publications at its end as `later`.
-    ros2: Ros2Publisher,
-    later: Vec<&'a mut dyn Publisher>,
-    /// Publications for `later` (reused: no allocation per turn).
-    queue: Vec<Publication>,
-    /// Alerts handed to the ROS 2 publisher, to be marked published in the journal
-    /// ([`Outlet::settle`]).
-    published: Vec<Alert>,
-    errors: u64,
-    log: RateLimitedLog,
-}
-
-/// Everything handed to the outlet has been journaled: whatever ends the event loop, an
-/// error included, the queued publications still go out.
-impl Drop for Outlet<'_> {
-    fn drop(&mut self) {
-        self.flush();
-    }
-}
-
-impl Outlet<'_> {
-    fn publish(&mut self, publication: Publication) {
-        if let Some(publisher) = &mut self.now {
-            if let Err(e) = publisher.publish(&publication) {
-                Self::failed(&mut self.errors, &mut self.log, &e);
-            }
-        }
-        self.queue.push(publication);
-    }
-
-    /// Hands the queued publications to the other publishers.
-    fn flush(&mut self) {
-        for publication in self.queue.drain(..) {
-            match (self.ros2.publish(&publication), &publication) {
-                (Err(e), _) => Self::failed(&mut self.errors, &mut self.log, &e),
-                (Ok(()), Publication::Alert { alert, .. }) => self.published.push(alert.clone()),
-                (Ok(()), _) => {}
-            }
-            for publisher in &mut self.later {
-                if let Err(e) = publisher.publish(&publication) {
-                    Self::failed(&mut self.errors, &mut self.log, &e);
-                }
-            }
-        }
-    }
-
-    /// [`Outlet::flush`], then journals a `Published` marker for every alert handed to ROS 2
-    /// (an alert without one is published again at restart).
-    fn settle(&mut self, runtime: &mut NodeRuntime) {
-        self.flush();
-        for alert in self.published.drain(..) {
-            runtime.mark_published(&alert);
-        }
-    }
-
-    fn failed(errors: &mut u64, log: &mut RateLimitedLog, e: &anyhow::Error) {
-        *errors += 1;
-        log.log(
-            "node",
-            "publish_failed",
-            &format!("{e:#} ({errors} in all)"),
-        );
     }
 }
 
