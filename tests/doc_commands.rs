@@ -229,6 +229,10 @@ fn help_flags(
                     .map_or(String::new(), |(v, _)| v.to_string());
                 flags.insert(format!("--{name}"), value);
             }
+            // The ROS 2 commands' `--ros-args` (split off before clap) are in their help text.
+            if help.contains("--ros-args … [--]") {
+                flags.insert("--ros-args".to_string(), String::new());
+            }
             Some(flags)
         })
         .clone()
@@ -727,7 +731,13 @@ fn every_example_command_in_the_docs_runs() {
                 ));
                 continue;
             };
-            let unknown = unknown_flags(&args[1..], &flags);
+            let mut unknown = unknown_flags(&args[1..], &flags);
+            let ros_args = args
+                .iter()
+                .any(|w| w.trim_start_matches(['(', '[']) == "--ros-args");
+            if ros_args && !flags.contains_key("--ros-args") {
+                unknown.push("--ros-args".to_string());
+            }
             if !unknown.is_empty() {
                 failures.push(format!(
                     "{}: `rockwatch {sub}` has no {unknown:?}: {}",
