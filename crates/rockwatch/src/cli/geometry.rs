@@ -201,7 +201,13 @@ fn text(mesh: &LoadedMesh, dirs: &[DirectionBody], sensitivity: &[Sensitivity]) 
     let mut out = String::new();
     let (rest, up) = (&mesh.rest, mesh.up);
     let m = &rest.mass;
-    let v3 = |v: [f64; 3]| format!("({})", v.map(short_number).join(", "));
+    // A coordinate 10¹² times smaller than the vector's largest is rounding noise of the
+    // integrals (the bundled wedge's com y: -1.291e-18 m): printed as 0.
+    let v3 = |v: [f64; 3]| {
+        let scale = v.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+        let v = v.map(|x| if x.abs() <= 1e-12 * scale { 0.0 } else { x });
+        format!("({})", v.map(short_number).join(", "))
+    };
     let _ = writeln!(out, "mesh        {}", mesh.path.display());
     if let Some(cap) = &mesh.cap {
         let _ = writeln!(out, "capped      {}", describe_cap(cap));

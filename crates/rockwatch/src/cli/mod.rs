@@ -160,6 +160,13 @@ pub fn apply_ros_naming(config: &mut rockwatch::ros2::Ros2Config) {
     ros_args().apply_naming(config);
 }
 
+/// The help of the ROS 2 commands' `--ros-args`.
+const ROS_ARGS_HELP: &str =
+    "ROS 2 arguments, after the options: --ros-args … [--], as every ROS 2 \
+    node takes them (rcl's rules): -r __ns:=/NS (namespace), -r __node:=NAME, -r from:=to \
+    (remap), -p name:=value, --params-file FILE, --log-level LEVEL, -e/--enclave NAME \
+    (README, \"ROS 2 names, --ros-args and parameters\")";
+
 /// The subcommands that take `--ros-args` (they join the ROS 2 graph).
 const ROS_COMMANDS: [&str; 5] = ["node", "replay", "reset", "acquire", "demo"];
 
@@ -195,8 +202,18 @@ pub fn run() -> ExitCode {
             }
         }
     }
-    // Negative numbers are values, not flags, in every subcommand (`--scale -1`).
-    let command = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
+    // Negative numbers are values, not flags, in every subcommand (`--scale -1`). The ROS 2
+    // commands' `--ros-args` are split off above, before clap: their help says so (the README
+    // promises every flag in `rockwatch <command> --help`; tests/doc_commands.rs checks it).
+    let command = Cli::command().mut_subcommands(|c| {
+        let ros = ROS_COMMANDS.contains(&c.get_name());
+        let c = c.allow_negative_numbers(true);
+        if ros {
+            c.after_help(ROS_ARGS_HELP)
+        } else {
+            c
+        }
+    });
     let parsed = command
         .try_get_matches_from(own)
         .and_then(|matches| Cli::from_arg_matches(&matches));
