@@ -594,6 +594,65 @@ fn run_here(dir: &Path, args: &[String]) -> (bool, String) {
     (out.status.success(), format!("{stdout}{stderr}{note}"))
 }
 
+/// `args` as a shell passes them: an unquoted word with `*` or `?` in its last path component
+/// becomes the names in `dir` it matches, sorted (kept as written when none does, as sh does).
+fn expand_globs(dir: &Path, args: &[String], quoted: &[bool]) -> Vec<String> {
+    fn matches(pattern: &[u8], name: &[u8]) -> bool {
+        match (pattern.first(), name.first()) {
+            (None, None) => true,
+            (Some(b'*'), _) => {
+                matches(&pattern[1..], name) || (!name.is_empty() && matches(pattern, &name[1..]))
+            }
+            (Some(b'?'), Some(_)) => matches(&pattern[1..], &name[1..]),
+            (Some(p), Some(n)) if p == n => matches(&pattern[1..], &name[1..]),
+            _ => false,
+        }
+    }
+    let mut out = Vec::new();
+    for (word, &quoted) in args.iter().zip(quoted) {
+        let (parent, last) = word.rsplit_once('/').unwrap_or(("", word.as_str()));
+        if quoted || !last.contains(['*', '?']) || parent.contains(['*', '?']) {
+            out.push(word.clone());
+            continue;
+        }
+        let mut found: Vec<String> = std::fs::read_dir(dir.join(parent))
+            .into_iter()
+            .flatten()
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter(|name| !name.starts_with('.') && matches(last.as_bytes(), name.as_bytes()))
+            .map(|name| match parent {
+                "" => name,
+                _ => format!("{parent}/{name}"),
+            })
+            .collect();
+        found.sort();
+        if found.is_empty() {
+            out.push(word.clone());
+        } else {
+            out.extend(found);
+        }
+    }
+    out
+}
+
+#[test]
+fn unquoted_globs_expand_as_the_shell_does() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("d")).unwrap();
+    for f in ["b.csv", "a.csv", "c.txt", ".h.csv"] {
+        std::fs::write(dir.path().join("d").join(f), "").unwrap();
+    }
+    let words = |w: &[&str]| w.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    assert_eq!(
+        expand_globs(
+            dir.path(),
+            &words(&["--x", "d/*.csv", "d/?.txt", "d/*.csv", "d/*.none"]),
+            &[false, false, false, true, false]
+        ),
+        words(&["--x", "d/a.csv", "d/b.csv", "d/c.txt", "d/*.csv", "d/*.none"])
+    );
+}
+
 fn collapse(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
@@ -793,7 +852,7 @@ fn every_example_command_in_the_docs_runs() {
             );
             continue;
         }
-        let Some((args, _)) = rockwatch_args(c) else {
+        let Some((args, quoted)) = rockwatch_args(c) else {
             failures.push(format!(
                 "{}: not a rockwatch command and not an exception: {}",
                 c.place, c.text
@@ -809,7 +868,8 @@ fn every_example_command_in_the_docs_runs() {
                 .success();
             assert!(ok, "{}: setup `{line}` failed", c.place);
         }
-        let (ok, output) = run_here(ws.path(), args);
+        let args = expand_globs(ws.path(), args, quoted);
+        let (ok, output) = run_here(ws.path(), &args);
         ran += 1;
         eprintln!(
             "{:6.2} s  ran        {}  {}",
@@ -828,7 +888,7 @@ fn every_example_command_in_the_docs_runs() {
                 c.place, c.text
             ));
         }
-        for file in written_files(args) {
+        for file in written_files(&args) {
             if !ws.path().join(&file).exists() {
                 failures.push(format!("{}: `{}` did not write {file}", c.place, c.text));
             }
