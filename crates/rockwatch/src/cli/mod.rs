@@ -43,6 +43,7 @@ mod geometry;
 mod hazard;
 mod ims;
 mod monitor;
+mod mseed_flags;
 mod node;
 mod pulses;
 mod replay;

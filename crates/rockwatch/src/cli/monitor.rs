@@ -13,6 +13,8 @@ use rockwatch::node::{NodeOptions, NodeRuntime, NoticeLog};
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::Publication;
 use rockwatch::replay::{ChannelChoice, MseedCalibration, Traces};
+
+use super::mseed_flags::MseedInputFlags;
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::{
     Alert, EngineCounters, PbrSpec, PbrSummary, StationCounters, StationId, StationIntensity,
@@ -46,26 +48,8 @@ pub struct MonitorArgs {
     /// Direction of --record's component, degrees clockwise from north (90 = east).
     #[arg(long, default_value_t = 90.0, value_name = "DEG", requires = "record")]
     azimuth: f64,
-    /// MiniSEED file with the station's channels (E/N/Z or 1/2/3). Integer counts need a gain:
-    /// --stationxml, or the station's gain_mps2_per_count in the configuration; without one
-    /// they are refused. Gaps inside the file are filled linearly.
-    #[arg(long, value_name = "FILE")]
-    mseed: Option<PathBuf>,
-    /// StationXML documents giving each --mseed channel's gain, azimuth and dip (the epoch in
-    /// force at the data's start; its sampling rate must match): counts become m/s² on
-    /// east/north/up, whatever the channels are called. See docs/stationxml.md.
-    #[arg(long, value_name = "FILE", num_args = 1.., requires = "mseed")]
-    stationxml: Vec<PathBuf>,
-    /// Which of the station's --mseed channels to use: a channel-code pattern (`?` one
-    /// character, `*` any run), e.g. `HN?`. Default: the station's one sensor, or among several
-    /// its accelerometer (instrument code N: HN?, BN?, …); several sensors and no single
-    /// accelerometer is an error listing them.
-    #[arg(long, value_name = "PATTERN", requires = "mseed")]
-    channels: Option<String>,
-    /// Velocity channels of --stationxml (input units M/S) are differentiated to acceleration
-    /// (central differences on the sample grid, docs/stationxml.md) instead of refused.
-    #[arg(long = "differentiate-velocity", requires = "stationxml")]
-    differentiate_velocity: bool,
+    #[command(flatten)]
+    mseed_input: MseedInputFlags,
     /// Station the data belong to (NET.STA.LOC).
     #[arg(long, value_name = "ID")]
     station: String,
@@ -231,7 +215,7 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
             options.catalogue_path()?.display()
         );
     }
-    let input = match (args.record, args.mseed) {
+    let input = match (args.record, args.mseed_input.mseed.clone()) {
         (Some(path), _) => MonitorInput::Record {
             path,
             vertical: args.vertical,
@@ -239,14 +223,8 @@ fn parse(args: MonitorArgs) -> anyhow::Result<MonitorPlan> {
         },
         (None, Some(path)) => MonitorInput::Mseed {
             path,
-            inventory: match args.stationxml.as_slice() {
-                [] => None,
-                files => Some(Inventory::read_all(files)?),
-            },
-            choice: ChannelChoice {
-                channels: args.channels,
-                differentiate_velocity: args.differentiate_velocity,
-            },
+            inventory: args.mseed_input.inventory()?,
+            choice: args.mseed_input.choice(),
         },
         (None, None) => bail!("give --record FILE or --mseed FILE"),
     };

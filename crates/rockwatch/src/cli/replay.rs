@@ -8,13 +8,14 @@ use anyhow::{bail, Context};
 use rockwatch::iox::IoxPacketSink;
 use rockwatch::node_config::NodeConfig;
 use rockwatch::ports::PacketSink;
-use rockwatch::replay::{replay, ChannelChoice, MseedCalibration, Restamp, Speed, Traces};
+use rockwatch::replay::{replay, MseedCalibration, Restamp, Speed, Traces};
 use rockwatch::ros2::{network_plan_from_env, Ros2PacketSink};
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::engine::StationId;
-use rockwatch_core::inventory::Inventory;
 use rockwatch_core::pulse::{sample_pulses, PulseScenario};
 use rockwatch_core::record::Record;
+
+use super::mseed_flags::MseedInputFlags;
 
 /// Transport of the replay.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -51,25 +52,8 @@ pub struct ReplayArgs {
     /// Vertical component for --record (AT2 or CSV, same dt and length).
     #[arg(long, value_name = "FILE", requires = "record")]
     vertical: Option<PathBuf>,
-    /// MiniSEED file with the station's channels (E/N/Z or 1/2/3). Integer counts need a gain:
-    /// --stationxml, or the station's gain_mps2_per_count in --config (the node's
-    /// configuration, which then converts them); without one they are refused.
-    #[arg(long, value_name = "FILE")]
-    mseed: Option<PathBuf>,
-    /// StationXML documents giving each --mseed channel's gain, azimuth and dip: the packets
-    /// are sent in m/s² on east/north/up. See docs/stationxml.md.
-    #[arg(long, value_name = "FILE", num_args = 1.., requires = "mseed")]
-    stationxml: Vec<PathBuf>,
-    /// Which of the station's --mseed channels to use: a channel-code pattern (`?` one
-    /// character, `*` any run), e.g. `HN?`. Default: the station's one sensor, or among several
-    /// its accelerometer (instrument code N: HN?, BN?, …); several sensors and no single
-    /// accelerometer is an error listing them.
-    #[arg(long, value_name = "PATTERN", requires = "mseed")]
-    channels: Option<String>,
-    /// Velocity channels of --stationxml (input units M/S) are differentiated to acceleration
-    /// (central differences on the sample grid, docs/stationxml.md) instead of refused.
-    #[arg(long = "differentiate-velocity", requires = "stationxml")]
-    differentiate_velocity: bool,
+    #[command(flatten)]
+    mseed_input: MseedInputFlags,
     /// A synthetic Mavroeidis–Papageorgiou pulse drawn for --mw and --r-km with --seed.
     #[arg(long, requires_all = ["mw", "r_km"])]
     synthetic: bool,
@@ -130,18 +114,11 @@ fn traces(args: &ReplayArgs, config: &NodeConfig, station: &StationId) -> anyhow
             record.attach_vertical(v)?;
         }
         Traces::from_record(&record, Azimuth::from_degrees(args.azimuth)?)
-    } else if let Some(path) = &args.mseed {
-        let inventory = match args.stationxml.as_slice() {
-            [] => None,
-            files => Some(Inventory::read_all(files)?),
-        };
+    } else if let Some(path) = &args.mseed_input.mseed {
+        let inventory = args.mseed_input.inventory()?;
         let calibration = MseedCalibration::for_station(inventory.as_ref(), config, station)
             .map_err(anyhow::Error::msg)?;
-        let choice = ChannelChoice {
-            channels: args.channels.clone(),
-            differentiate_velocity: args.differentiate_velocity,
-        };
-        Traces::from_mseed_with(path, station, calibration, &choice)?
+        Traces::from_mseed_with(path, station, calibration, &args.mseed_input.choice())?
     } else {
         let (Some(mw), Some(r_km)) = (args.mw, args.r_km) else {
             bail!("--synthetic needs --mw and --r-km");
