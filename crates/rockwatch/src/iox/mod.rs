@@ -21,7 +21,7 @@
 //! - [`access`]: who can reach them (private root directory, owner-only segments);
 //! - the node's side: `input.rs` (with `intake.rs`, `stats.rs` and `cleanup.rs`, the clean-up
 //!   of dead nodes) and `alert_publisher.rs`;
-//! - `alert_subscriber.rs`, `replay_sink.rs`: clients.
+//! - `alert_subscriber.rs`, `packet_sink.rs`: clients.
 
 pub mod access;
 mod alert_publisher;
@@ -30,7 +30,7 @@ mod cleanup;
 mod config;
 mod input;
 mod intake;
-mod replay_sink;
+mod packet_sink;
 mod service;
 mod stats;
 pub mod types;
@@ -39,7 +39,7 @@ pub use alert_publisher::IoxAlertPublisher;
 pub use alert_subscriber::IoxAlertSubscriber;
 pub use config::{load_config_file, IoxConfig};
 pub use input::IoxInput;
-pub use replay_sink::IoxPacketSink;
+pub use packet_sink::IoxPacketSink;
 pub use stats::{IoxInputStats, IoxStatsHandle};
 pub use types::{
     packet_from_wire, AccelHeader, AccelSample, PbrAlertIox, WireError, ACCEL_FLAG_HAS_UP,

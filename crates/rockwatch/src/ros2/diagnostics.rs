@@ -1,7 +1,7 @@
 //! The node's status on `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`, about once a
 //! second) and its log records on `/rosout` (`rcl_interfaces/msg/Log`); the one
 //! `/diagnostics` writer ([`DiagnosticsWriter`]), also `rockwatch acquire`'s (through its
-//! ROS 2 sink, `replay_sink.rs`).
+//! ROS 2 sink, `packet_sink.rs`).
 //!
 //! The `diagnostic_msgs` structs below are in CDR field order, exactly as the message
 //! definitions of ROS 2 (checked against an independent rclpy peer by

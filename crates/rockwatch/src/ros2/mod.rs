@@ -21,7 +21,7 @@
 //! - `node.rs`: the node's ROS 2 side ([`Ros2Node`]), made of `parameters.rs` (descriptors and
 //!   the parameter services), `input.rs` (with `imu.rs`), `publish.rs` and `reset.rs` (both
 //!   services on `held_server.rs`);
-//! - clients: `replay_sink.rs`, `reset_client.rs`, `alert_listener.rs`.
+//! - clients: `packet_sink.rs`, `reset_client.rs`, `alert_listener.rs`.
 
 mod alert_listener;
 mod config;
@@ -34,10 +34,10 @@ pub mod msg;
 mod names;
 mod network;
 mod node;
+mod packet_sink;
 mod parameters;
 mod publish;
 mod qos;
-mod replay_sink;
 mod reset;
 mod reset_client;
 pub mod ros_args;
@@ -56,6 +56,7 @@ pub use names::{
 };
 pub use network::{network_plan, network_plan_from_env, NetworkPlan, NetworkPlanError};
 pub use node::Ros2Node;
+pub use packet_sink::{Ros2PacketSink, CREDIT_WINDOW, DEFAULT_INTAKE_WAIT};
 pub use parameters::{
     param_spec, ParamSpec, ParamValues, PARAMETERS, PARAM_CATALOGUE, PARAM_IMMINENT_PROBABILITY,
     PARAM_IMMINENT_THETA_RATIO, PARAM_QUIET_S, PARAM_QUIET_THRESHOLD_MPS2, PARAM_STATE_DIR,
@@ -66,7 +67,6 @@ pub use qos::{
     alerts_qos, input_qos, intake_qos, output_qos, replay_qos, sender_status_qos, service_qos,
     REPLAY_HISTORY,
 };
-pub use replay_sink::{Ros2PacketSink, CREDIT_WINDOW, DEFAULT_INTAKE_WAIT};
 pub use reset::{RESET_MATCH_GRACE, RESET_REPLIES_HELD, RESET_REPLY_WAIT, RESET_REQUESTS_PER_TURN};
 pub use reset_client::Ros2ResetClient;
 pub use ros_args::{split_ros_args, RosArgs};

@@ -1,6 +1,7 @@
-//! Replay over ROS 2 ([`Ros2PacketSink`]): `/pbr/accel` published from a node
-//! `rockwatch_replay`, paced by what the node reports it has taken (`/pbr/intake`), so that
-//! a replay ends only once the node has processed every packet — or says how many it did not.
+//! The packet sender over ROS 2 ([`Ros2PacketSink`]) of `rockwatch replay` and `rockwatch
+//! acquire`: `/pbr/accel` published from a node `rockwatch_replay`, paced by what the node
+//! reports it has taken (`/pbr/intake`), so that a replay ends only once the node has
+//! processed every packet — or says how many it did not.
 //! To a scaled-out service (docs/capacity.md) each station's packets go to its partition's
 //! topic, one writer per partition, each paced and confirmed by the node that reads it. A live
 //! sender (`rockwatch acquire`) also publishes its status on `/diagnostics` through it.

@@ -1,6 +1,6 @@
-//! Replay over iceoryx2 ([`IoxPacketSink`]): packets sent to `pbr/accel` with a notification
-//! of its event service, for `rockwatch replay --transport iceoryx2`, `rockwatch acquire` and
-//! tests.
+//! The packet sender over iceoryx2 ([`IoxPacketSink`]): packets sent to `pbr/accel` with a
+//! notification of its event service, for `rockwatch replay --transport iceoryx2`, `rockwatch
+//! acquire` and tests.
 
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
