@@ -1295,5 +1295,17 @@ mod tests {
         assert!(AcquireConfig::load(&path)
             .unwrap_err()
             .contains("protocol must be"));
+        // backfill_s: 0 (off) is valid, a negative or absurd window is not.
+        for (value, ok) in [("0", true), ("-1", false), ("1e9", false)] {
+            std::fs::write(
+                &path,
+                base.replace("[seedlink]", &format!("[seedlink]\nbackfill_s = {value}")),
+            )
+            .unwrap();
+            match AcquireConfig::load(&path) {
+                Ok(_) => assert!(ok, "backfill_s = {value}"),
+                Err(e) => assert!(!ok && e.contains("seedlink.backfill_s"), "{e}"),
+            }
+        }
     }
 }
