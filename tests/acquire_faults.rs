@@ -661,6 +661,7 @@ fn client(server: &Hostile, state: &Path, protocol: ProtocolChoice) -> SeedLinkC
         reconnect_initial_s: 0.2,
         reconnect_max_s: 0.5,
         station_refresh_s: 300.0,
+        backfill_s: 300.0,
     };
     SeedLinkClient::new(config, Some(state)).unwrap()
 }

@@ -28,6 +28,7 @@ use rockwatch::seedlink::{
 };
 use rockwatch_core::record::mseed::{read_mseed, Channel};
 use ros2_util::reexec_in_netns;
+use seedlink_server::hostile::Hostile;
 use seedlink_server::{records_in_time_order, Server, K2};
 
 type Received = Arc<Mutex<Vec<(String, i64, Vec<f64>)>>>;
@@ -44,6 +45,18 @@ fn start_client(
     state: &Path,
     out: &Received,
 ) -> Client {
+    start_client_backfilling(addr, protocol, streams, state, out, 300.0)
+}
+
+/// [`start_client`] with `backfill_s` (s).
+fn start_client_backfilling(
+    addr: SocketAddr,
+    protocol: ProtocolChoice,
+    streams: &str,
+    state: &Path,
+    out: &Received,
+    backfill_s: f64,
+) -> Client {
     let config = SeedLinkConfig {
         server: addr.to_string(),
         streams: vec![streams.to_string()],
@@ -53,6 +66,7 @@ fn start_client(
         reconnect_initial_s: 0.2,
         reconnect_max_s: 0.5,
         station_refresh_s: 0.5,
+        backfill_s,
     };
     let mut client = SeedLinkClient::new(config, Some(state)).unwrap();
     let stop = Arc::new(AtomicBool::new(false));
@@ -246,6 +260,7 @@ fn a_silent_server_is_dropped_after_the_idle_timeout_and_reconnected() {
         reconnect_initial_s: 0.1,
         reconnect_max_s: 0.2,
         station_refresh_s: 300.0,
+        backfill_s: 300.0,
     };
     let mut client = SeedLinkClient::new(config, Some(state.path())).unwrap();
     let stop = Arc::new(AtomicBool::new(false));
@@ -421,4 +436,74 @@ fn a_station_appearing_later_is_found_and_requested() {
     assert_eq!(counters.delivered, 50, "{counters:?}");
     assert!(counters.connections >= 2, "{counters:?}");
     assert_eq!(by_stream(&out).len(), 6);
+}
+
+/// Issue 20 item 12a, the client alone against the ringserver model (`Hostile::
+/// start_like_ringserver`: plain `DATA` is its next record, INFO answers inside MiniSEED
+/// records): with no state and `backfill_s` it asks `INFO STREAMS` and takes the ring's
+/// records by `TIME` from the newest end − `backfill_s`; with `backfill_s = 0`, or when the
+/// `INFO STREAMS` answer cannot be read (counted), it starts at the server's next record.
+#[test]
+fn a_fresh_client_backfills_from_the_rings_newest_data() {
+    if !reexec_in_netns("a_fresh_client_backfills_from_the_rings_newest_data", 60) {
+        return;
+    }
+    let records = records_in_time_order();
+    let (old, new) = (&records[..30], &records[30..36]);
+    for (backfill_s, garble, want) in [
+        (300.0, false, old.len() + new.len()),
+        (0.0, false, new.len()),
+        (300.0, true, new.len()),
+    ] {
+        let server = Hostile::start_like_ringserver();
+        if garble {
+            server.garble_info_streams();
+        }
+        server.push(old);
+        let state = tempfile::tempdir().unwrap();
+        let out: Received = Arc::default();
+        let client = start_client_backfilling(
+            server.addr,
+            ProtocolChoice::V3,
+            "XX.STN..HN?",
+            state.path(),
+            &out,
+            backfill_s,
+        );
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !server.commands().iter().any(|c| c == "END") {
+            assert!(Instant::now() < deadline, "{:?}", server.commands());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        std::thread::sleep(Duration::from_millis(200));
+        server.push(new);
+        wait_for(&out, want);
+        let counters = client.stop();
+        let commands = server.commands();
+        let case = format!("backfill_s {backfill_s}, garbled {garble}: {commands:?} {counters:?}");
+        assert_eq!(out.lock().unwrap().len(), want, "{case}");
+        assert_eq!(counters.unreadable_info, u64::from(garble), "{case}");
+        // Asked for the ring's streams only when backfilling; TIME only when it could read them.
+        assert_eq!(
+            commands.iter().any(|c| c == "INFO STREAMS"),
+            backfill_s > 0.0,
+            "{case}"
+        );
+        assert_eq!(
+            commands
+                .iter()
+                .any(|c| c.starts_with("TIME 2002,07,22,04,")),
+            backfill_s > 0.0 && !garble,
+            "{case}"
+        );
+        // A stream's first record received is kept only until it has a committed record:
+        // EachRecord commits every record at once, so none is left in the state.
+        let text = std::fs::read_to_string(state.path().join(format!(
+            "seedlink-{}.json",
+            server.addr.to_string().replace(':', "_")
+        )))
+        .unwrap();
+        assert!(!text.contains("\"received\""), "{case}: {text}");
+        server.stop();
+    }
 }

@@ -14,8 +14,17 @@
 //! that time; plain `DATA` the whole ring. It refuses `INFO` (so acquire never sees a
 //! restart). v4 is `SLPROTO 4.0` after HELLO, packets `SE2D` + length + number + `XX_STN`.
 //! Every command received is kept ([`Hostile::commands`]).
+//!
+//! [`Hostile::start_like_ringserver`] answers and positions as ringserver 4 does (its
+//! `slclient.c`, SeedLink 3; no ringserver can be installed here, so this is the model the
+//! tests can run): plain `DATA` starts at the **next** record pushed, not the ring's oldest;
+//! `DATA n` sends from n on; `TIME t` positions at the first record (in ring order) starting at
+//! or after t and sends everything after it; `INFO ID`, `INFO STATIONS` and `INFO STREAMS`
+//! are answered with ringserver's XML (per stream `begin_time` and `end_time` of its data)
+//! inside 512-byte MiniSEED records (`SLINFO *` … `SLINFO  `, the text from byte 56, at most
+//! 456 bytes each), without a trailing `END`.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::io::{BufRead, BufReader, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::path::Path;
@@ -54,6 +63,8 @@ struct Entry {
     seq: u64,
     bytes: Vec<u8>,
     start_ns: i64,
+    /// Time of the record's last sample (ns): ringserver's `end_time` of a stream.
+    end_ns: i64,
     /// v3: the six characters sent in place of the number (`None`: the number in hex).
     number_text: Option<[u8; 6]>,
 }
@@ -66,6 +77,12 @@ struct Shared {
     commands: Vec<String>,
     /// Offers and speaks SeedLink 4.
     v4: bool,
+    /// Answers and positions as ringserver does (see the module doc).
+    ringserver: bool,
+    /// Data packets written, all connections.
+    sent: usize,
+    /// ringserver model: `INFO STREAMS` answered with text that is not its XML.
+    unreadable_streams: bool,
 }
 
 pub struct Hostile {
@@ -80,6 +97,10 @@ enum From {
     All,
     After(u64),
     Since(i64),
+    /// ringserver's plain `DATA`: the records pushed after the request.
+    Next,
+    /// ringserver's `TIME t`: from the first record in ring order starting at or after t.
+    FirstAfter(i64),
 }
 
 impl Hostile {
@@ -91,6 +112,13 @@ impl Hostile {
     /// The same, offering SeedLink 4 (`SLPROTO:4.0`) and speaking it when asked.
     pub fn start_v4() -> Hostile {
         Hostile::listen(true)
+    }
+
+    /// SeedLink 3 answering and positioning as ringserver 4 does (see the module doc).
+    pub fn start_like_ringserver() -> Hostile {
+        let server = Hostile::listen(false);
+        server.shared.lock().unwrap().ringserver = true;
+        server
     }
 
     fn listen(v4: bool) -> Hostile {
@@ -158,6 +186,17 @@ impl Hostile {
         self.shared.lock().unwrap().next_seq
     }
 
+    /// ringserver model: from now on `INFO STREAMS` is answered with text that is neither
+    /// XML nor JSON (a broken or foreign server).
+    pub fn garble_info_streams(&self) {
+        self.shared.lock().unwrap().unreadable_streams = true;
+    }
+
+    /// Data packets written so far (all connections).
+    pub fn sent(&self) -> usize {
+        self.shared.lock().unwrap().sent
+    }
+
     /// The commands received so far (all connections).
     pub fn commands(&self) -> Vec<String> {
         self.shared.lock().unwrap().commands.clone()
@@ -177,14 +216,21 @@ impl Drop for Hostile {
 fn entry(seq: u64, bytes: &[u8]) -> Entry {
     assert_eq!(bytes.len(), 512, "SeedLink 3 carries 512-byte records");
     // A record the reader cannot decode starts "never" (sent only to plain DATA or DATA n).
-    let start_ns = parse_mseed(bytes, Path::new("ring"))
+    let (start_ns, end_ns) = parse_mseed(bytes, Path::new("ring"))
         .ok()
-        .and_then(|f| f.channels.first().map(|c| c.start_time_ns))
-        .unwrap_or(i64::MIN);
+        .and_then(|f| {
+            f.channels.first().map(|c| {
+                let n: usize = c.segments.iter().map(|s| s.samples.len()).sum();
+                let span = (n.saturating_sub(1) as f64 * 1e9 / c.sample_rate_hz).round() as i64;
+                (c.start_time_ns, c.start_time_ns + span)
+            })
+        })
+        .unwrap_or((i64::MIN, i64::MIN));
     Entry {
         seq,
         bytes: bytes.to_vec(),
         start_ns,
+        end_ns,
         number_text: None,
     }
 }
@@ -200,6 +246,7 @@ fn serve(
     let mut out = stream.try_clone()?;
     let mut from = From::All;
     let offers_v4 = shared.lock().unwrap().v4;
+    let ringserver = shared.lock().unwrap().ringserver;
     let mut v4 = false;
     loop {
         let mut line = String::new();
@@ -220,7 +267,31 @@ fn serve(
                 v4 = true;
                 out.write_all(b"OK\r\n")?;
             }
+            Some("INFO") if ringserver => {
+                let s = shared.lock().unwrap();
+                let level = words.get(1).copied();
+                let xml = if s.unreadable_streams && level == Some("STREAMS") {
+                    "streams: XX_STN HN1 HN2 HN3".to_string()
+                } else {
+                    ringserver_info(&s.ring, level)
+                };
+                drop(s);
+                out.write_all(&info_records(&xml))?;
+            }
             Some("INFO") => out.write_all(b"ERROR\r\n")?,
+            // ringserver: plain DATA is the next record; `DATA n` sends n on; TIME positions.
+            Some("DATA") if ringserver => {
+                from = match words.get(1) {
+                    None => From::Next,
+                    Some(n) => From::After(u64::from_str_radix(n, 16).unwrap_or(1).saturating_sub(1)),
+                };
+                out.write_all(b"OK\r\n")?;
+            }
+            Some("TIME") if ringserver => {
+                let t = words.get(1).copied().unwrap_or("1970,1,1,0,0,0");
+                from = From::FirstAfter(time_ns(t));
+                out.write_all(b"OK\r\n")?;
+            }
             Some("STATION" | "SELECT") => out.write_all(b"OK\r\n")?,
             Some("DATA") => {
                 from = match (words.get(1), words.get(2)) {
@@ -247,6 +318,20 @@ fn serve(
     }
     // Streaming: every ring entry the request selects, in ring order, then new ones.
     let mut position = 0;
+    {
+        let s = shared.lock().unwrap();
+        match from {
+            From::Next => position = s.ring.len(),
+            From::FirstAfter(t) => {
+                position = s
+                    .ring
+                    .iter()
+                    .position(|e| e.start_ns >= t)
+                    .unwrap_or(s.ring.len());
+            }
+            _ => {}
+        }
+    }
     let mut sent = 0;
     while !stop.load(Ordering::Relaxed) {
         let next = {
@@ -259,7 +344,7 @@ fn serve(
         };
         position += 1;
         let wanted = match from {
-            From::All => true,
+            From::All | From::Next | From::FirstAfter(_) => true,
             From::After(n) => e.seq > n,
             From::Since(t) => e.start_ns >= t,
         };
@@ -330,8 +415,94 @@ fn serve(
         }
         out.write_all(&packet)?;
         sent += 1;
+        shared.lock().unwrap().sent += 1;
     }
     Ok(())
+}
+
+/// A station's first and last sequence numbers, and per (location, channel) the start of its
+/// first record and the last sample of its newest (ns).
+type StationSpans = ((u64, u64), BTreeMap<(String, String), (i64, i64)>);
+
+/// ringserver's v3 XML answer to `INFO level` (ID, STATIONS, STREAMS) for the ring.
+fn ringserver_info(ring: &[Entry], level: Option<&str>) -> String {
+    let mut xml = String::from(
+        "<?xml version=\"1.0\"?>\n<seedlink software=\"SeedLink v3.1 (rockwatch model of ringserver/4.5.3)\" organization=\"rockwatch tests\" started=\"2026-01-01T00:00:00Z\">",
+    );
+    let level = level.unwrap_or("").to_ascii_uppercase();
+    if level == "STATIONS" || level == "STREAMS" {
+        let code = |e: &Entry, r: std::ops::Range<usize>| {
+            String::from_utf8_lossy(&e.bytes[r]).trim().to_string()
+        };
+        // (net, sta) → (loc, cha) → (begin, end), and the station's sequence span.
+        let mut stations: BTreeMap<(String, String), StationSpans> = BTreeMap::new();
+        for e in ring.iter().filter(|e| e.start_ns != i64::MIN) {
+            let station = stations
+                .entry((code(e, 18..20), code(e, 8..13)))
+                .or_insert(((e.seq, e.seq), Default::default()));
+            station.0 = (station.0 .0.min(e.seq), station.0 .1.max(e.seq));
+            let span = station
+                .1
+                .entry((code(e, 13..15), code(e, 15..18)))
+                .or_insert((e.start_ns, e.end_ns));
+            *span = (span.0.min(e.start_ns), span.1.max(e.end_ns));
+        }
+        let time = |t: i64| {
+            let text = rockwatch_core::utc::format_utc_ns(i128::from(t));
+            // ringserver writes microseconds.
+            format!("{}Z", &text[..26])
+        };
+        for ((net, sta), ((first, last), streams)) in stations {
+            xml += &format!(
+                "<station name=\"{sta}\" network=\"{net}\" description=\"\" begin_seq=\"{first}\" end_seq=\"{last}\" stream_check=\"enabled\">"
+            );
+            if level == "STREAMS" {
+                for ((loc, cha), (begin, end)) in streams {
+                    xml += &format!(
+                        "<stream location=\"{loc}\" seedname=\"{cha}\" type=\"D\" begin_time=\"{}\" end_time=\"{}\"/>",
+                        time(begin),
+                        time(end)
+                    );
+                }
+            }
+            xml += "</station>";
+        }
+    }
+    xml + "</seedlink>"
+}
+
+/// `text` as ringserver sends an INFO answer in SeedLink 3: 512-byte MiniSEED records (a
+/// fixed header, blockette 1000, the text from byte 56, at most 456 bytes each, its length
+/// as the sample count), each after `SLINFO *`, the last after `SLINFO  `.
+fn info_records(text: &str) -> Vec<u8> {
+    let chunks: Vec<&[u8]> = text.as_bytes().chunks(456).collect();
+    let mut out = Vec::new();
+    for (i, chunk) in chunks.iter().enumerate() {
+        out.extend_from_slice(if i + 1 == chunks.len() {
+            b"SLINFO  "
+        } else {
+            b"SLINFO *"
+        });
+        let mut record = vec![0u8; 512];
+        record[..6].copy_from_slice(format!("{:06}", i + 1).as_bytes());
+        record[6] = b'D';
+        record[7] = b' ';
+        record[8..13].copy_from_slice(b"INFO ");
+        record[13..15].copy_from_slice(b"  ");
+        record[15..18].copy_from_slice(b"INF");
+        record[18..20].copy_from_slice(b"XX");
+        record[30..32].copy_from_slice(&(chunk.len() as u16).to_be_bytes());
+        record[39] = 1; // one blockette
+        record[44..46].copy_from_slice(&56u16.to_be_bytes());
+        record[46..48].copy_from_slice(&48u16.to_be_bytes());
+        record[48..50].copy_from_slice(&1000u16.to_be_bytes());
+        record[52] = 0; // text
+        record[53] = 1; // big endian
+        record[54] = 9; // 2^9 bytes
+        record[56..56 + chunk.len()].copy_from_slice(chunk);
+        out.extend_from_slice(&record);
+    }
+    out
 }
 
 /// `y,m,d,h,m,s` → ns since the epoch (UTC).

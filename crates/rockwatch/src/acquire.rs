@@ -66,7 +66,7 @@ pub fn acquire_summary(
 ) -> String {
     let refused = RefusedRecords::from(assembled);
     format!(
-        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} packets not framed as the protocol says, {} packets cut off by the end of a connection, {} unreadable sequence numbers (delivered by start time), {} server resets, {} sequence numbers out of line, {} server restarts, {} resumes by number that yielded nothing (resumed by time), {} reconnections); {} records refused ({} at another sampling rate, {} with impossible values, {} far ahead of their station's data, {} other: not in the inventory, off the grid, another band; {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors, {} losses of the node's subscription)",
+        "acquire: {} packets received, {} records delivered ({} duplicates dropped, {} malformed, {} unselected, {} packets not framed as the protocol says, {} packets cut off by the end of a connection, {} unreadable sequence numbers (delivered by start time), {} server resets, {} sequence numbers out of line, {} server restarts, {} resumes by number that yielded nothing (resumed by time), {} INFO STREAMS answers that could not be read, {} reconnections); {} records refused ({} at another sampling rate, {} with impossible values, {} far ahead of their station's data, {} other: not in the inventory, off the grid, another band; {} station grids restarted after an outage), {} clipped samples in {} records, {} overlap samples trimmed, {} missing-component samples zero-filled; {} packets published ({} send errors, {} losses of the node's subscription)",
         link.packets,
         link.delivered,
         link.duplicates,
@@ -79,6 +79,7 @@ pub fn acquire_summary(
         link.sequence_outliers,
         link.server_restarts,
         link.resume_fallbacks,
+        link.unreadable_info,
         link.disconnects,
         assembled.refused_records,
         refused.other_rate,
@@ -189,6 +190,11 @@ pub fn acquire_prometheus(
         "link_resume_fallbacks_total",
         "Resumes by sequence number that yielded nothing and fell back to time.",
         &[("", link.resume_fallbacks)],
+    );
+    counter(
+        "link_unreadable_info_total",
+        "INFO STREAMS answers that could not be read (backfill not applied).",
+        &[("", link.unreadable_info)],
     );
     counter(
         "records_refused_total",
@@ -699,6 +705,7 @@ impl<'a> PacketPublisher<'a> {
                 kv("server_resets", link.server_resets),
                 kv("server_restarts", link.server_restarts),
                 kv("resume_fallbacks", link.resume_fallbacks),
+                kv("unreadable_info", link.unreadable_info),
             ],
         });
         let (published, assembled) = self.counters();
@@ -1288,5 +1295,17 @@ mod tests {
         assert!(AcquireConfig::load(&path)
             .unwrap_err()
             .contains("protocol must be"));
+        // backfill_s: 0 (off) is valid, a negative or absurd window is not.
+        for (value, ok) in [("0", true), ("-1", false), ("1e9", false)] {
+            std::fs::write(
+                &path,
+                base.replace("[seedlink]", &format!("[seedlink]\nbackfill_s = {value}")),
+            )
+            .unwrap();
+            match AcquireConfig::load(&path) {
+                Ok(_) => assert!(ok, "backfill_s = {value}"),
+                Err(e) => assert!(!ok && e.contains("seedlink.backfill_s"), "{e}"),
+            }
+        }
     }
 }

@@ -7,7 +7,9 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
 use rockwatch_core::seedlink::frame::{parse_frame, Frame, MAX_V4_PAYLOAD};
-use rockwatch_core::seedlink::info::parse_stations;
+use rockwatch_core::seedlink::info::{
+    info_packet_text, parse_stations, parse_streams, InfoError, StreamSpan,
+};
 use rockwatch_core::seedlink::select::StreamPattern;
 use rockwatch_core::seedlink::sequence::V3_MODULUS;
 use rockwatch_core::seedlink::Protocol;
@@ -140,9 +142,24 @@ impl Connection {
         }
     }
 
+    /// `INFO STREAMS`: the streams of the server's ring with the time span of their data;
+    /// `Ok(None)` when the server refuses INFO STREAMS; `Ok(Some(Err(_)))` when the answer
+    /// cannot be read (the caller logs and counts it and goes on without it: the connection
+    /// is fine).
+    pub fn query_streams(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<Option<Result<Vec<StreamSpan>, InfoError>>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        Ok(self
+            .info("STREAMS", deadline)?
+            .map(|text| parse_streams(&text)))
+    }
+
     /// `INFO level`: the text of the answer, or `None` when the server answers ERROR. The
-    /// answer is INFO packets (v3 `SLINFO`, the last one without `*`; v4 one packet; some
-    /// servers send numbered packets), which some servers follow with `END`.
+    /// answer is INFO packets (v3 `SLINFO`, the last one without `*`, each a MiniSEED record
+    /// holding part of the text on ringserver and SeisComP; v4 one packet; some servers send
+    /// numbered packets), which some servers follow with `END`.
     fn info(&mut self, level: &str, deadline: Instant) -> Result<Option<String>, LinkError> {
         self.send(&format!("INFO {level}\r\n"))?;
         let mut text = Vec::new();
@@ -160,7 +177,11 @@ impl Connection {
                 let header_flag = pending.get(7).copied();
                 match parse_frame(pending, self.protocol) {
                     Ok(Some((frame, used))) => {
-                        text.extend_from_slice(frame.payload);
+                        // v3: the text inside the MiniSEED record that carries it.
+                        text.extend_from_slice(match self.protocol {
+                            Protocol::V3 => info_packet_text(frame.payload),
+                            Protocol::V4 => frame.payload,
+                        });
                         let last = match self.protocol {
                             Protocol::V3 => frame.subformat == b'I' && header_flag != Some(b'*'),
                             Protocol::V4 => true,

@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 use rockwatch_core::record::mseed::{parse_mseed, record_stream_id, Channel};
 use rockwatch_core::seedlink::frame::Frame;
-use rockwatch_core::seedlink::info::expand;
+use rockwatch_core::seedlink::info::{expand, StreamSpan};
 use rockwatch_core::seedlink::select::StreamPattern;
 use rockwatch_core::seedlink::sequence::{judge, DeliveredStarts, StationSequence, Verdict};
 use rockwatch_core::seedlink::Protocol;
@@ -129,6 +129,14 @@ pub struct SeedLinkConfig {
     /// stations; one appearing makes the client reconnect to request it.
     #[serde(default = "default_station_refresh_s")]
     pub station_refresh_s: f64,
+    /// Seconds of data, before the newest the server holds of a stream, that a station with
+    /// no resume point (a first start, or a station never heard of) is requested from: the
+    /// client asks `INFO STREAMS` for each stream's `end_time` and sends `TIME` (v4 `DATA ALL
+    /// start`) from the earliest `end_time − backfill_s` of the station's selected streams.
+    /// Measured from the ring's data, not the wall clock (a backfill or a scanned archive is
+    /// old data). 0: off, such a station starts from the server's next record (`DATA`).
+    #[serde(default = "default_backfill_s")]
+    pub backfill_s: f64,
 }
 
 fn default_connect_timeout_s() -> f64 {
@@ -146,6 +154,16 @@ fn default_reconnect_max_s() -> f64 {
 fn default_station_refresh_s() -> f64 {
     300.0
 }
+/// Five minutes: longer than the records of one component take to arrive ahead of the
+/// others when a backfill or an archive comes channel by channel, and than a restart of
+/// `acquire` usually takes, while bounded (a fresh start replays at most this much of the
+/// ring's data per station, which the node takes as data like any other).
+fn default_backfill_s() -> f64 {
+    300.0
+}
+
+/// Longest `backfill_s` accepted (s): 30 days, beyond any ring's depth.
+const MAX_BACKFILL_S: f64 = 30.0 * 86_400.0;
 
 impl SeedLinkConfig {
     /// The stream patterns, checked; and the durations in range.
@@ -163,6 +181,12 @@ impl SeedLinkConfig {
             if !(v.is_finite() && v > 0.0 && v <= max) {
                 return Err(format!("seedlink.{key} = {v} is out of range (0, {max}] s"));
             }
+        }
+        if !(self.backfill_s.is_finite() && (0.0..=MAX_BACKFILL_S).contains(&self.backfill_s)) {
+            return Err(format!(
+                "seedlink.backfill_s = {} is out of range [0, {MAX_BACKFILL_S}] s",
+                self.backfill_s
+            ));
         }
         self.streams
             .iter()
@@ -231,6 +255,9 @@ pub struct LinkCounters {
     /// packet's length is fixed, so its record is delivered by (stream, start time) like any
     /// other, and is never a resume point.
     pub unreadable_sequences: u64,
+    /// `INFO STREAMS` answers that could not be read (not the XML or JSON of the protocol):
+    /// the stations they were asked for start from the server's next record.
+    pub unreadable_info: u64,
 }
 
 /// What the sink did with a record.
@@ -317,6 +344,41 @@ const DURABLE_EVERY: Duration = Duration::from_secs(1);
 /// Longest wait for packets before checking the stop flag.
 const TICK: Duration = Duration::from_millis(100);
 
+/// Where the saved state resumes the station of `p` on a connection speaking `protocol`:
+/// after its committed sequence number; else by time from the earliest of its streams'
+/// latest committed records and first records received (their records may arrive
+/// interleaved in time or channel by channel; duplicates are dropped); a station that
+/// appeared while the client ran from the oldest data the server holds; else
+/// [`Resume::Next`] (nothing saved: the caller may backfill).
+fn saved_resume(
+    state: &ResumeState,
+    late: &BTreeSet<String>,
+    protocol: Protocol,
+    p: &StreamPattern,
+) -> Resume {
+    let by_sequence = p
+        .exact_station()
+        .and_then(|key| state.stations.get(&key).copied())
+        .filter(|s| s.protocol == protocol);
+    if let Some(s) = by_sequence {
+        return Resume::After(s.sequence);
+    }
+    let prefix = format!("{}.{}.", p.network, p.station);
+    let since = state
+        .streams
+        .iter()
+        .chain(&state.received)
+        .filter(|(id, _)| id.starts_with(&prefix))
+        .map(|(_, &t)| t)
+        .min();
+    match (since, p.exact_station()) {
+        (Some(t), _) => Resume::Since(t),
+        // Appeared while we ran: all the server holds of it.
+        (None, Some(key)) if late.contains(&key) => Resume::Since(0),
+        (None, _) => Resume::Next,
+    }
+}
+
 /// A SeedLink client that keeps going: connection, requests, packets, reconnections.
 pub struct SeedLinkClient {
     config: SeedLinkConfig,
@@ -342,6 +404,9 @@ pub struct SeedLinkClient {
     /// The last data packet of the current connection (`station NET_STA's packet N`), to
     /// place a connection's failure in the stream.
     last_packet: Option<String>,
+    /// What was already said once (a server without `INFO STREAMS`, a station it does not
+    /// list): said at the first connection it applies to, not at every reconnection.
+    told: BTreeSet<String>,
 }
 
 impl SeedLinkClient {
@@ -370,6 +435,7 @@ impl SeedLinkClient {
             sequences_protocol: None,
             heard: BTreeSet::new(),
             last_packet: None,
+            told: BTreeSet::new(),
         })
     }
 
@@ -451,6 +517,8 @@ impl SeedLinkClient {
             .entry(p.stream.clone())
             .or_insert(p.start_ns);
         *latest = (*latest).max(p.start_ns);
+        // Committed: the stream resumes after its latest record from now on.
+        self.state.received.remove(&p.stream);
         if let Some(sequence) = p.resume {
             self.state.stations.insert(
                 p.station_key.clone(),
@@ -510,32 +578,21 @@ impl SeedLinkClient {
             self.state.server_started.clone_from(&conn.server_started);
         }
         let patterns = self.concrete_patterns(&mut conn, timeout)?;
+        let saved = |p: &StreamPattern| saved_resume(&self.state, &self.late_stations, protocol, p);
+        let fresh: Vec<StreamPattern> = patterns
+            .iter()
+            .filter(|p| p.exact_station().is_some() && saved(p) == Resume::Next)
+            .cloned()
+            .collect();
+        let backfill = self.backfill_starts(&mut conn, &fresh, timeout)?;
         let state = &self.state;
         let late = &self.late_stations;
-        let resume = |p: &StreamPattern| {
-            let by_sequence = p
+        let resume = |p: &StreamPattern| match saved_resume(state, late, protocol, p) {
+            Resume::Next => p
                 .exact_station()
-                .and_then(|key| state.stations.get(&key).copied())
-                .filter(|s| s.protocol == protocol);
-            if let Some(s) = by_sequence {
-                return Resume::After(s.sequence);
-            }
-            // Without a number: from the earliest of the latest records delivered on the
-            // station's streams (their records arrive interleaved in time; duplicates are
-            // dropped), else from now.
-            let prefix = format!("{}.{}.", p.network, p.station);
-            let since = state
-                .streams
-                .iter()
-                .filter(|(id, _)| id.starts_with(&prefix))
-                .map(|(_, &t)| t)
-                .min();
-            match (since, p.exact_station()) {
-                (Some(t), _) => Resume::Since(t),
-                // Appeared while we ran: all the server holds of it.
-                (None, Some(key)) if late.contains(&key) => Resume::Since(0),
-                (None, _) => Resume::Next,
-            }
+                .and_then(|key| backfill.get(&key).copied())
+                .map_or(Resume::Next, Resume::Since),
+            other => other,
         };
         let by_sequence: BTreeMap<String, u64> = patterns
             .iter()
@@ -612,6 +669,91 @@ impl SeedLinkClient {
                     last_durable = Instant::now();
                 }
             }
+        }
+    }
+
+    /// Where each station of `fresh` (concrete patterns with no resume point) starts:
+    /// `backfill_s` before the newest data of its selected streams in the server's ring
+    /// (`INFO STREAMS` `end_time`), as `NET_STA` → ns since the epoch. Stations it cannot
+    /// place start from the server's next record, said once: `backfill_s = 0`, a server
+    /// refusing `INFO STREAMS`, a station with no stream (or no `end_time`) in the answer;
+    /// an answer that cannot be read is logged naming the server and counted
+    /// (`unreadable_info`). Only the connection's own failures are errors.
+    fn backfill_starts(
+        &mut self,
+        conn: &mut Connection,
+        fresh: &[StreamPattern],
+        timeout: Duration,
+    ) -> Result<BTreeMap<String, i64>, LinkError> {
+        let mut starts = BTreeMap::new();
+        if fresh.is_empty() || self.config.backfill_s == 0.0 {
+            return Ok(starts);
+        }
+        let spans: Vec<StreamSpan> = match conn.query_streams(timeout)? {
+            Some(Ok(spans)) => spans,
+            Some(Err(e)) => {
+                self.counters.unreadable_info += 1;
+                self.log_once(
+                    "unreadable INFO STREAMS",
+                    "INFO STREAMS".into(),
+                    &format!(
+                        "{}: stations without a resume point start from the server's next record",
+                        printable(&e.to_string(), SERVER_TEXT_CHARS)
+                    ),
+                );
+                return Ok(starts);
+            }
+            None => {
+                self.tell_once(
+                    "INFO STREAMS",
+                    &format!(
+                        "seedlink {}: the server refuses INFO STREAMS: stations without a resume point start from its next record (backfill_s = {} s not applied)",
+                        self.config.server, self.config.backfill_s
+                    ),
+                );
+                return Ok(starts);
+            }
+        };
+        let backfill_ns = (self.config.backfill_s * 1e9).round() as i64;
+        for p in fresh {
+            let Some(key) = p.exact_station() else {
+                continue;
+            };
+            let newest = spans
+                .iter()
+                .filter(|s| p.matches(&s.network, &s.station, &s.location, &s.channel))
+                .filter_map(|s| s.end_ns)
+                .min();
+            let Some(end) = newest else {
+                self.tell_once(
+                    &format!("no span {key}"),
+                    &format!(
+                        "seedlink {}: station {}: no selected stream with an end time in the server's INFO STREAMS answer: it starts from the server's next record (backfill_s not applied)",
+                        self.config.server,
+                        printable(&key, STATION_CHARS)
+                    ),
+                );
+                continue;
+            };
+            let from = end.saturating_sub(backfill_ns);
+            let earlier = starts.get(&key).copied().unwrap_or(from);
+            starts.insert(key.clone(), earlier.min(from));
+            tracing::info!(
+                "seedlink {}: station {} has no resume point: backfilling {} s before the newest data the server holds of its streams ({}), from {}",
+                self.config.server,
+                printable(&key, STATION_CHARS),
+                self.config.backfill_s,
+                rockwatch_core::utc::format_utc_ns(i128::from(end)),
+                rockwatch_core::utc::format_utc_ns(i128::from(earlier.min(from)))
+            );
+        }
+        Ok(starts)
+    }
+
+    /// Logs `line` at info level the first time `key` comes up in this run.
+    fn tell_once(&mut self, key: &str, line: &str) {
+        if self.told.insert(key.to_string()) {
+            tracing::info!("{line}");
         }
     }
 
@@ -868,6 +1010,13 @@ impl SeedLinkClient {
             }
             delivered.insert(start_ns);
             self.counters.delivered += 1;
+            if !self.state.streams.contains_key(&id) {
+                // Nothing of the stream committed yet: its resume point is this record (or
+                // an earlier one received), saved with the next batch, so an `acquire`
+                // killed before publishing it fetches it again.
+                let first = self.state.received.entry(id.clone()).or_insert(start_ns);
+                *first = (*first).min(start_ns);
+            }
             let tracker = self.sequences.entry(key.clone()).or_default();
             let (undone, resume) = match sequence {
                 Some(seq) => (

@@ -1,6 +1,7 @@
 //! The resume state of a SeedLink client in the state directory: per station the last
 //! sequence number committed (and the protocol it belongs to), per stream the latest record
-//! start time delivered. Written atomically (temporary file, then rename), so a crash leaves
+//! start time delivered, and per stream of which nothing is committed yet the start of the
+//! first record received. Written atomically (temporary file, then rename), so a crash leaves
 //! the previous or the new state, never a torn one.
 
 use std::collections::BTreeMap;
@@ -22,6 +23,14 @@ pub struct ResumeState {
     pub stations: BTreeMap<String, StationResume>,
     /// `NET.STA.LOC.CHA` → start of the latest record delivered (ns since the epoch, UTC).
     pub streams: BTreeMap<String, i64>,
+    /// `NET.STA.LOC.CHA` → start of the earliest record received (ns since the epoch, UTC)
+    /// of a stream nothing of which is committed yet (its records are held, e.g. waiting for
+    /// the other components): a station with no committed point resumes from here, so an
+    /// `acquire` killed before its first publication fetches again what it had received.
+    /// Dropped once the stream has a committed record (`streams`). Absent in files written
+    /// before it existed.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub received: BTreeMap<String, i64>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -133,12 +142,23 @@ mod tests {
         state
             .streams
             .insert("XX.STN..HN1".into(), 1_027_313_215_794_233_025);
+        state
+            .received
+            .insert("XX.STN..HN2".into(), 1_027_313_215_000_000_000);
         file.save(&state, true).unwrap();
         assert_eq!(file.load("127.0.0.1:18000").unwrap(), state);
         assert!(file
             .load("other:1")
             .unwrap_err()
             .contains("belongs to server"));
+        // A file of an older acquire (no `received`) still loads.
+        std::fs::write(
+            file.path(),
+            r#"{"server":"127.0.0.1:18000","stations":{},"streams":{"XX.STN..HN1":5}}"#,
+        )
+        .unwrap();
+        let old = file.load("127.0.0.1:18000").unwrap();
+        assert_eq!((old.streams.len(), old.received.len()), (1, 0));
         std::fs::write(file.path(), "{").unwrap();
         assert!(file
             .load("127.0.0.1:18000")
