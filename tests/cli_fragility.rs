@@ -1139,62 +1139,6 @@ fn rotd50_from_pairs_scales_each_pair_to_its_rotd50_and_shakes_the_rock_with_bot
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The README's `--units g` example (section "Fragility of one rock, then its hazard"), run as
-/// printed from the repository's root (its --out in a temporary directory): every line it
-/// shows is a line of the output.
-#[test]
-fn the_readme_units_example_runs_as_printed() {
-    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-    let readme = std::fs::read_to_string(format!("{root}/README.md")).unwrap();
-    let block: Vec<&str> = readme
-        .split("```sh\n")
-        .filter_map(|b| b.split("```").next())
-        .find(|b| b.contains("--units g --out frag-g"))
-        .expect("the README's --units example")
-        .lines()
-        .collect();
-    let command = block
-        .iter()
-        .take_while(|l| !l.starts_with('#'))
-        .map(|l| l.trim_end_matches('\\'))
-        .collect::<Vec<_>>()
-        .join(" ");
-    let shown: Vec<&str> = block.iter().filter_map(|l| l.strip_prefix("# ")).collect();
-    assert!(shown.len() >= 3, "{block:?}");
-    let dir = temp_dir("readme-units");
-    let out = dir.join("frag-g");
-    let args: Vec<String> = command
-        .split_whitespace()
-        .skip(1)
-        .map(|a| a.trim_matches('\'').to_string())
-        .map(|a| {
-            if a == "frag-g" {
-                out.display().to_string()
-            } else {
-                a
-            }
-        })
-        .collect();
-    let output = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(&args)
-        .current_dir(root)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    for line in shown {
-        assert!(
-            stdout.lines().any(|l| l == line),
-            "README shows {line:?}, the command printed:\n{stdout}"
-        );
-    }
-    let _ = std::fs::remove_dir_all(&dir);
-}
-
 /// Issue 20 item 25: pairs that cannot be one record are refused in one line: two components
 /// that are not orthogonal, a station with one horizontal component, a CSV record (no header
 /// to pair it by).

@@ -22,15 +22,7 @@ fn cyclone_dds_subscriber_receives_the_slender_pillar_overturned_and_a_late_one_
         "python3 -m pip install cyclonedds==11.0.1 (see .ci/run)"
     );
     let dir = tempfile::tempdir().unwrap();
-    let config = dir.path().join("node.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "catalogue = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n",
-            repo().join("config/catalogue.toml").display()
-        ),
-    )
-    .unwrap();
+    write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
     let d = dir.path().display();
     let bin = rockwatch().display().to_string();
     let py = repo().join("tests/data/ros2/cyclone_alerts.py");
@@ -98,14 +90,7 @@ fn an_rmw_cyclonedds_client_is_answered_by_the_reset_and_parameter_services() {
         "python3 -m pip install cyclonedds==11.0.1 (see .ci/run)"
     );
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("node.toml"),
-        format!(
-            "catalogue = \"{}\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n",
-            repo().join("config/catalogue.toml").display()
-        ),
-    )
-    .unwrap();
+    write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
     let d = dir.path().display();
     let bin = rockwatch().display().to_string();
     let py = repo().join("tests/data/ros2/cyclone_service.py");

@@ -14,7 +14,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::number_text::short_number;
-use crate::plot::{both_formats, fit_title, log_ticks, DrawResult, PlotError};
+use crate::plot::{both_formats, draw_band, fit_title, log_ticks, DrawResult, PlotError};
 use rockwatch_core::fragility::percentile_interval;
 use rockwatch_core::hazard::{rate_density, ExposureAge, HazardCurve, Lognormal, OverturnRate};
 
@@ -186,15 +186,12 @@ where
             .map(|&x| (x * s, envelope(x, f64::max)))
             .collect();
         band.extend(grid.iter().rev().map(|&x| (x * s, envelope(x, f64::min))));
-        chart
-            .draw_series(std::iter::once(Polygon::new(
-                band,
-                FRACTILE.mix(0.25).filled(),
-            )))?
-            .label("between the fractile curves")
-            .legend(|(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 20, y + 5)], FRACTILE.mix(0.25).filled())
-            });
+        draw_band(
+            &mut chart,
+            band,
+            FRACTILE.mix(0.25).filled(),
+            "between the fractile curves",
+        )?;
     }
     for (c, label, central) in &f.curves {
         let (colour, width) = if *central {
@@ -254,18 +251,12 @@ where
             .map(|(&x, b)| (x * s, b[1]))
             .collect();
         band.extend(grid.iter().zip(&bands).rev().map(|(&x, b)| (x * s, b[0])));
-        chart
-            .draw_series(std::iter::once(Polygon::new(
-                band,
-                FRAGILITY.mix(0.2).filled(),
-            )))?
-            .label(format!(
-                "95 % bootstrap band ({} replicates)",
-                f.replicates.len()
-            ))
-            .legend(|(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 20, y + 5)], FRAGILITY.mix(0.2).filled())
-            });
+        draw_band(
+            &mut chart,
+            band,
+            FRAGILITY.mix(0.2).filled(),
+            format!("95 % bootstrap band ({} replicates)", f.replicates.len()),
+        )?;
     }
     chart
         .draw_series(LineSeries::new(
@@ -474,15 +465,12 @@ where
     if let Some([lo, hi]) = f.rate_interval {
         let mut band: Vec<(f64, f64)> = ages.iter().map(|&t| (t, (-lo * t).exp())).collect();
         band.extend(ages.iter().rev().map(|&t| (t, (-hi * t).exp())));
-        chart
-            .draw_series(std::iter::once(Polygon::new(
-                band,
-                CENTRAL.mix(0.2).filled(),
-            )))?
-            .label("95 % interval of λ")
-            .legend(|(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 20, y + 5)], CENTRAL.mix(0.2).filled())
-            });
+        draw_band(
+            &mut chart,
+            band,
+            CENTRAL.mix(0.2).filled(),
+            "95 % interval of λ",
+        )?;
     }
     chart
         .draw_series(LineSeries::new(

@@ -222,6 +222,27 @@ fn phrases(text: &str) -> Vec<String> {
         .collect()
 }
 
+/// The one way a band is drawn: `outline` (the upper edge, then the lower edge reversed, in
+/// data coordinates) filled with `fill`, and a swatch of that fill beside `label` in the legend.
+pub fn draw_band<DB, X, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    outline: Vec<(f64, f64)>,
+    fill: ShapeStyle,
+    label: impl Into<String>,
+) -> DrawResult
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    chart
+        .draw_series(std::iter::once(Polygon::new(outline, fill)))?
+        .label(label)
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], fill));
+    Ok(())
+}
+
 /// The one tick policy of a logarithmic axis from `lo` to `hi` (> 0): the values 1, 2 and 5
 /// × 10ᵏ within the range, or 1 to 9 × 10ᵏ when those are fewer than four; over a range too
 /// narrow for four of those (less than about a factor of 2), four or more evenly spaced round

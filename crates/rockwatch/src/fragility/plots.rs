@@ -11,7 +11,9 @@ use plotters::prelude::*;
 
 use super::report::{im_slug, stripe_fractions};
 use crate::number_text::short_number;
-use crate::plot::{both_formats, draw_colour_bar, fit_title, log_ticks, DrawResult, PlotError};
+use crate::plot::{
+    both_formats, draw_band, draw_colour_bar, fit_title, log_ticks, DrawResult, PlotError,
+};
 use crate::units::AccelUnits;
 use rockwatch_core::fragility::{
     cell_counts, wilson_interval, FragilityConfig, FragilityResult, ImFragility, Prepared,
@@ -134,12 +136,12 @@ where
                 .rev()
                 .filter_map(|&x| f.band(x).map(|b| (x / div, b.0))),
         );
-        chart
-            .draw_series(std::iter::once(Polygon::new(band, CURVE.mix(0.2).filled())))?
-            .label("95 % bootstrap band (records resampled)")
-            .legend(|(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 20, y + 5)], CURVE.mix(0.2).filled())
-            });
+        draw_band(
+            &mut chart,
+            band,
+            CURVE.mix(0.2).filled(),
+            "95 % bootstrap band (records resampled)",
+        )?;
     }
     let phi = |x: f64| rockwatch_core::stats::normal_cdf((x / fit.median).ln() / fit.beta);
     chart
