@@ -333,31 +333,74 @@ impl Default for AssemblySection {
     }
 }
 
+/// Why an acquisition configuration could not be loaded: `path: problem`.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {problem}", path.display())]
+pub struct AcquireConfigError {
+    /// The configuration file.
+    pub path: PathBuf,
+    pub problem: AcquireConfigProblem,
+}
+
+/// What is wrong with an acquisition configuration file.
+#[derive(Debug, thiserror::Error)]
+pub enum AcquireConfigProblem {
+    /// It could not be read.
+    #[error("{0}")]
+    Read(#[from] std::io::Error),
+    /// It is not valid TOML for this schema: `line N: message`.
+    #[error("{0}")]
+    Syntax(String),
+    /// A `[seedlink]` value (server, streams, timing, backfill) is invalid.
+    #[error("{0}")]
+    SeedLink(String),
+    /// A `[clipping]` value is invalid.
+    #[error("{0}")]
+    Clipping(String),
+    /// `partitions` or `[partition_assign]` is invalid.
+    #[error("{0}")]
+    Partition(String),
+    /// `[inventory] stationxml` lists no file.
+    #[error("inventory.stationxml is empty: list the StationXML files")]
+    NoInventory,
+    /// An `[assembly]` value is out of its range.
+    #[error("{0}")]
+    Assembly(String),
+}
+
 impl AcquireConfig {
     /// Reads and checks `path`; relative paths are taken from the file's directory; errors
     /// name the file (and the line, for TOML syntax).
-    pub fn load(path: &Path) -> Result<AcquireConfig, String> {
-        let fail = |e: String| format!("{}: {e}", path.display());
+    pub fn load(path: &Path) -> Result<AcquireConfig, AcquireConfigError> {
+        use AcquireConfigProblem as P;
+        let fail = |problem: AcquireConfigProblem| AcquireConfigError {
+            path: path.to_owned(),
+            problem,
+        };
         let text = rockwatch_core::bounded_read::read_to_string_bounded(
             path,
             rockwatch_core::bounded_read::MAX_CONFIG_FILE_BYTES,
         )
-        .map_err(|e| fail(e.to_string()))?;
-        let mut config: AcquireConfig = toml::from_str(&text)
-            .map_err(|e| fail(rockwatch_core::catalogue::toml_error_line(&text, &e)))?;
+        .map_err(|e| fail(e.into()))?;
+        let mut config: AcquireConfig = toml::from_str(&text).map_err(|e| {
+            fail(P::Syntax(rockwatch_core::catalogue::toml_error_line(
+                &text, &e,
+            )))
+        })?;
         let base = path.parent().unwrap_or(Path::new("."));
         for file in &mut config.inventory.stationxml {
             *file = base.join(&*file);
         }
         config.state_dir = config.state_dir.map(|d| base.join(d));
         config.iceoryx2.config_file = config.iceoryx2.config_file.map(|f| base.join(f));
-        config.seedlink.patterns().map_err(fail)?;
-        config.clipping.check().map_err(fail)?;
-        config.partition_map().map_err(fail)?;
+        config
+            .seedlink
+            .patterns()
+            .map_err(|e| fail(P::SeedLink(e)))?;
+        config.clipping.check().map_err(|e| fail(P::Clipping(e)))?;
+        config.partition_map().map_err(|e| fail(P::Partition(e)))?;
         if config.inventory.stationxml.is_empty() {
-            return Err(fail(
-                "inventory.stationxml is empty: list the StationXML files".into(),
-            ));
+            return Err(fail(P::NoInventory));
         }
         let a = config.assembly;
         let ok = a.max_wait_s.is_finite()
@@ -367,9 +410,9 @@ impl AcquireConfig {
             && a.max_buffer_s.is_finite()
             && (1.0..=86_400.0).contains(&a.max_buffer_s);
         if !ok {
-            return Err(fail(format!(
+            return Err(fail(P::Assembly(format!(
                 "[assembly] out of range: max_wait_s 0–3600, max_packet_samples 1–100000, max_buffer_s 1–86400 (got {a:?})"
-            )));
+            ))));
         }
         Ok(config)
     }
@@ -1277,16 +1320,22 @@ mod tests {
             std::fs::write(&path, format!("{base}{extra}")).unwrap();
             match AcquireConfig::load(&path) {
                 Ok(_) => assert!(needle.is_empty()),
-                Err(e) => assert!(
-                    !needle.is_empty() && e.contains(needle) && e.contains("a.toml"),
-                    "{e}"
-                ),
+                Err(e) => {
+                    let e = e.to_string();
+                    assert!(
+                        !needle.is_empty() && e.contains(needle) && e.contains("a.toml"),
+                        "{e}"
+                    );
+                }
             }
         }
         std::fs::write(&path, base.replace("XX.S..HN?", "XX.S.HN?")).unwrap();
-        assert!(AcquireConfig::load(&path)
-            .unwrap_err()
-            .contains("not NET.STA.LOC.CHA"));
+        let e = AcquireConfig::load(&path).unwrap_err();
+        assert!(
+            matches!(e.problem, AcquireConfigProblem::SeedLink(_))
+                && e.to_string().contains("not NET.STA.LOC.CHA"),
+            "{e}"
+        );
         std::fs::write(
             &path,
             base.replace("[seedlink]", "[seedlink]\nprotocol = 5"),
@@ -1294,6 +1343,7 @@ mod tests {
         .unwrap();
         assert!(AcquireConfig::load(&path)
             .unwrap_err()
+            .to_string()
             .contains("protocol must be"));
         // backfill_s: 0 (off) is valid, a negative or absurd window is not.
         for (value, ok) in [("0", true), ("-1", false), ("1e9", false)] {
@@ -1304,7 +1354,7 @@ mod tests {
             .unwrap();
             match AcquireConfig::load(&path) {
                 Ok(_) => assert!(ok, "backfill_s = {value}"),
-                Err(e) => assert!(!ok && e.contains("seedlink.backfill_s"), "{e}"),
+                Err(e) => assert!(!ok && e.to_string().contains("seedlink.backfill_s"), "{e}"),
             }
         }
     }

@@ -107,7 +107,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     // First, before any thread starts: the stop signals go to one thread, never to DDS's.
     let stop = stop_on_signals()?;
     let mut systemd = SystemdNotifier::from_env()?;
-    let mut config = AcquireConfig::load(&args.config).map_err(anyhow::Error::msg)?;
+    let mut config = AcquireConfig::load(&args.config)?;
     super::apply_ros_naming(&mut config.ros2);
     let state_dir = args.state_dir.clone().or_else(|| config.state_dir.clone());
     if let Some(dir) = &state_dir {
