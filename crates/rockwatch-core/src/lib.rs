@@ -2,8 +2,9 @@
 //! balanced rocks (PBRs).
 //!
 //! Pure, deterministic and transport-free: no network, no clock, no threads but the engine's
-//! optional shards and the study's data-parallel loop. The shell (`crates/rockwatch`: ROS 2,
-//! iceoryx2, the live node, files of state, CLI) is built on this crate and never the reverse.
+//! optional shards and the data-parallel loops of the study and the fragility runs. The shell
+//! (`crates/rockwatch`: ROS 2, iceoryx2, the live node, files of state, CLI) is built on this
+//! crate and never the reverse.
 //! See ARCHITECTURE.md for the map of modules and their invariants.
 
 pub mod assembly;
