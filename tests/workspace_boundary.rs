@@ -7,6 +7,8 @@
 //! 2. No module imports one that imports it back, at any level of either crate's module tree
 //!    (read from the `crate::`/`super::` paths of the sources; a module may use its ancestors
 //!    and descendants, as `record::mseed::reader` uses `record::Record`).
+//! 3. The core's public functions report failure with typed errors, never `Result<_, String>`
+//!    (read from the sources' `pub fn` signatures).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -420,4 +422,58 @@ fn the_cycle_check_sees_a_cycle() {
         find_cycle(&edges),
         Some(vec!["a".into(), "b".into(), "c".into(), "a".into()])
     );
+}
+
+// ------------------------------------------------------------------ typed errors
+
+/// The `pub fn` signatures of `code` (from `pub fn` to the body's `{` or the `;`) that return
+/// `Result<_, String>`, with their first line.
+fn string_error_signatures(code: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    let mut rest = code;
+    while let Some(at) = rest.find("pub fn ") {
+        let tail = &rest[at..];
+        let end = tail.find(['{', ';']).unwrap_or(tail.len());
+        let signature: String = tail[..end].split_whitespace().collect::<Vec<_>>().join(" ");
+        if let Some(ret) = signature.split("->").nth(1) {
+            let ret = ret.replace(' ', "");
+            if ret.starts_with("Result<") && ret.trim_end().ends_with(",String>") {
+                found.push(signature.clone());
+            }
+        }
+        rest = &tail[end.max(1)..];
+    }
+    found
+}
+
+#[test]
+fn the_core_s_public_functions_return_typed_errors() {
+    let mut files = Vec::new();
+    rust_files(&repo_root().join("crates/rockwatch-core/src"), &mut files);
+    assert!(files.len() > 50, "{files:?}");
+    let offenders: Vec<String> = files
+        .iter()
+        .flat_map(|f| {
+            let code = std::fs::read_to_string(f).expect("source file");
+            string_error_signatures(&code)
+                .into_iter()
+                .map(move |s| format!("{}: {s}", f.display()))
+        })
+        .collect();
+    assert!(
+        offenders.is_empty(),
+        "public functions of the core returning Result<_, String>: {offenders:#?}"
+    );
+}
+
+#[test]
+fn the_typed_error_check_sees_a_string_error() {
+    let code = "pub fn a(x: &str) -> Result<u8, String> { todo!() }\n\
+                pub fn b(\n    x: u8,\n) -> Result<Vec<f64>, String> {}\n\
+                fn private() -> Result<(), String> {}\n\
+                pub fn c() -> Result<u8, MyError> {}\n\
+                pub fn d() -> Option<String> {}\n";
+    let found = string_error_signatures(code);
+    assert_eq!(found.len(), 2, "{found:?}");
+    assert!(found[0].starts_with("pub fn a(") && found[1].starts_with("pub fn b("));
 }

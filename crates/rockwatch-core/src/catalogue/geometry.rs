@@ -169,13 +169,18 @@ pub enum RockModel {
     Rigid3d,
 }
 
+/// A `model` that is neither `"2d"` nor `"3d"`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("model = {0:?}: expected \"2d\" or \"3d\"")]
+pub struct UnknownRockModel(pub String);
+
 impl RockModel {
     /// `"2d"` or `"3d"`, as written in a catalogue.
-    pub fn parse(text: &str) -> Result<RockModel, String> {
+    pub fn parse(text: &str) -> Result<RockModel, UnknownRockModel> {
         match text.trim() {
             "2d" => Ok(RockModel::Planar),
             "3d" => Ok(RockModel::Rigid3d),
-            other => Err(format!("model = {other:?}: expected \"2d\" or \"3d\"")),
+            other => Err(UnknownRockModel(other.to_owned())),
         }
     }
 

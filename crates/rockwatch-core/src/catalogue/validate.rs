@@ -449,12 +449,12 @@ fn directions(written: &RawAzimuths) -> Result<Vec<Azimuth>, (String, String)> {
         RawAzimuths::Steps(AzimuthSteps { from, to, step }) => {
             match azimuth_steps(*from, *to, *step) {
                 Ok(list) => list,
-                Err(e) => return fail(e),
+                Err(e) => return fail(e.to_string()),
             }
         }
         RawAzimuths::Text(text) => match parse_azimuths(text) {
             Ok(list) => list,
-            Err(e) => return fail(e),
+            Err(e) => return fail(e.to_string()),
         },
     };
     if degrees.is_empty() || degrees.len() > MAX_DIRECTIONS {
@@ -481,7 +481,7 @@ fn directions(written: &RawAzimuths) -> Result<Vec<Azimuth>, (String, String)> {
 fn rock_model(raw: &RawPbr) -> Result<RockModel, (String, String)> {
     let model = match &raw.model {
         None => return Ok(RockModel::Planar),
-        Some(text) => RockModel::parse(text).map_err(|e| ("model".to_owned(), e))?,
+        Some(text) => RockModel::parse(text).map_err(|e| ("model".to_owned(), e.to_string()))?,
     };
     if model == RockModel::Rigid3d {
         let refused = [

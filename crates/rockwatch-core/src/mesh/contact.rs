@@ -78,7 +78,7 @@ pub enum UpAxis {
 
 impl UpAxis {
     /// Parses `x`, `y`, `z`, optionally signed (`+z`, `-y`), any case.
-    pub fn parse(text: &str) -> Result<UpAxis, String> {
+    pub fn parse(text: &str) -> Result<UpAxis, DirectionError> {
         Ok(match text.trim().to_ascii_lowercase().as_str() {
             "x" | "+x" => UpAxis::PlusX,
             "-x" => UpAxis::MinusX,
@@ -86,11 +86,7 @@ impl UpAxis {
             "-y" => UpAxis::MinusY,
             "z" | "+z" => UpAxis::PlusZ,
             "-z" => UpAxis::MinusZ,
-            other => {
-                return Err(format!(
-                    "up axis {other:?}: expected x, y or z, optionally signed (+z, -y)"
-                ))
-            }
+            other => return Err(DirectionError::UpAxis(other.to_owned())),
         })
     }
 
@@ -503,16 +499,16 @@ impl RestingContact {
 
 /// Parses an azimuth list: `A:B:STEP` (from A up to but excluding B, B − A ≤ 360, STEP > 0,
 /// at most 3600 directions) or a comma-separated list `0,90,180`. Degrees.
-pub fn parse_azimuths(text: &str) -> Result<Vec<f64>, String> {
-    let number = |w: &str| -> Result<f64, String> {
+pub fn parse_azimuths(text: &str) -> Result<Vec<f64>, DirectionError> {
+    let number = |w: &str| -> Result<f64, DirectionError> {
         let v: f64 = w
             .trim()
             .parse()
-            .map_err(|_| format!("azimuth {w:?} is not a number"))?;
+            .map_err(|_| DirectionError::NotANumber(w.to_owned()))?;
         if v.is_finite() {
             Ok(v)
         } else {
-            Err(format!("azimuth {w:?} is not finite"))
+            Err(DirectionError::NotFinite(w.to_owned()))
         }
     };
     let parts: Vec<&str> = text.split(':').collect();
@@ -522,37 +518,52 @@ pub fn parse_azimuths(text: &str) -> Result<Vec<f64>, String> {
             let list = text
                 .split(',')
                 .map(number)
-                .collect::<Result<Vec<f64>, String>>()?;
+                .collect::<Result<Vec<f64>, DirectionError>>()?;
             if list.is_empty() || list.len() > MAX_AZIMUTHS {
-                return Err(format!("give 1 to {MAX_AZIMUTHS} azimuths"));
+                return Err(DirectionError::Count(list.len()));
             }
             Ok(list)
         }
-        _ => Err(format!(
-            "azimuths {text:?}: give FROM:TO:STEP (degrees, TO excluded) or a list A,B,C"
-        )),
+        _ => Err(DirectionError::Form(text.to_owned())),
     }
 }
 
 /// Most directions of one rock.
 pub const MAX_AZIMUTHS: usize = 3600;
 
+/// Why an up axis or an azimuth list (degrees) was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DirectionError {
+    #[error("up axis {0:?}: expected x, y or z, optionally signed (+z, -y)")]
+    UpAxis(String),
+    #[error("azimuth {0:?} is not a number")]
+    NotANumber(String),
+    #[error("azimuth {0:?} is not finite")]
+    NotFinite(String),
+    #[error("{0} azimuths: give 1 to {MAX_AZIMUTHS} azimuths")]
+    Count(usize),
+    #[error("azimuths {0:?}: give FROM:TO:STEP (degrees, TO excluded) or a list A,B,C")]
+    Form(String),
+    #[error("azimuth step {0} must be > 0")]
+    Step(f64),
+    #[error("azimuth range {0}:{1} must have FROM < TO ≤ FROM + 360")]
+    Range(f64, f64),
+    #[error("{} azimuths from {from}:{to}:{step}, more than {MAX_AZIMUTHS}", ((to - from) / step - 1e-9).ceil())]
+    TooMany { from: f64, to: f64, step: f64 },
+}
+
 /// The azimuths `from`, `from + step`, … below `to` (degrees; `to − from` in (0, 360],
 /// `step > 0`, at most [`MAX_AZIMUTHS`]).
-pub fn azimuth_steps(from: f64, to: f64, step: f64) -> Result<Vec<f64>, String> {
+pub fn azimuth_steps(from: f64, to: f64, step: f64) -> Result<Vec<f64>, DirectionError> {
     if !(step > 0.0 && step.is_finite()) {
-        return Err(format!("azimuth step {step} must be > 0"));
+        return Err(DirectionError::Step(step));
     }
     if !(to > from && to - from <= 360.0) {
-        return Err(format!(
-            "azimuth range {from}:{to} must have FROM < TO ≤ FROM + 360"
-        ));
+        return Err(DirectionError::Range(from, to));
     }
     let n = ((to - from) / step - 1e-9).ceil().max(1.0);
     if n > MAX_AZIMUTHS as f64 {
-        return Err(format!(
-            "{n} azimuths from {from}:{to}:{step}, more than {MAX_AZIMUTHS}"
-        ));
+        return Err(DirectionError::TooMany { from, to, step });
     }
     Ok((0..n as usize).map(|k| from + k as f64 * step).collect())
 }
