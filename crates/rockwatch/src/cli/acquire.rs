@@ -119,8 +119,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         Some(listen) => Some(MetricsServer::start(listen)?),
         None => None,
     };
-    let mut client = SeedLinkClient::new(config.seedlink.clone(), state_dir.as_deref())
-        .map_err(anyhow::Error::msg)?;
+    let mut client = SeedLinkClient::new(config.seedlink.clone(), state_dir.as_deref())?;
     let mut sink: Box<dyn PacketSink> = match args.to {
         Output::Iceoryx2 => {
             if config.iceoryx2.config_file.is_none() {
@@ -189,7 +188,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
         "{}",
         acquire_summary(&client.counters(), &published, &assembled)
     );
-    result.map_err(anyhow::Error::msg)?;
+    result?;
     if !sink.finish(Duration::from_secs(5))? {
         tracing::warn!("acquire: the node did not acknowledge every packet within 5 s");
     }

@@ -31,6 +31,7 @@ use crate::logging::RateLimitedLog;
 /// Shortest time between two log lines of one stream and kind of problem.
 pub const LOG_INTERVAL: Duration = Duration::from_secs(60);
 use connection::{Connection, Resume};
+pub use state::StateFileError;
 use state::{ResumeState, StateFile, StationResume};
 
 /// Streams requested in one log line: each pattern and where it resumes (the first
@@ -409,10 +410,24 @@ pub struct SeedLinkClient {
     told: BTreeSet<String>,
 }
 
+/// Why a SeedLink client could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum SeedLinkClientError {
+    /// `streams` holds a pattern that is not `NET.STA.LOC.CHA`.
+    #[error("{0}")]
+    Streams(String),
+    /// The resume state could not be read.
+    #[error(transparent)]
+    State(#[from] StateFileError),
+}
+
 impl SeedLinkClient {
     /// A client for `config`, resuming from `state_dir`'s state for the server if given.
-    pub fn new(config: SeedLinkConfig, state_dir: Option<&Path>) -> Result<SeedLinkClient, String> {
-        let patterns = config.patterns()?;
+    pub fn new(
+        config: SeedLinkConfig,
+        state_dir: Option<&Path>,
+    ) -> Result<SeedLinkClient, SeedLinkClientError> {
+        let patterns = config.patterns().map_err(SeedLinkClientError::Streams)?;
         let state_file = state_dir.map(|d| StateFile::in_dir(d, &config.server));
         let state = match &state_file {
             Some(f) => f.load(&config.server)?,
@@ -453,7 +468,11 @@ impl SeedLinkClient {
     /// Runs until `stop` is set: connects, requests, passes every new record of a selected
     /// stream to `sink`, reconnects after failures. The state (what the sink has committed)
     /// is saved after every batch and durably on return.
-    pub fn run(&mut self, stop: &AtomicBool, sink: &mut dyn RecordSink) -> Result<(), String> {
+    pub fn run(
+        &mut self,
+        stop: &AtomicBool,
+        sink: &mut dyn RecordSink,
+    ) -> Result<(), StateFileError> {
         let initial = Duration::from_secs_f64(self.config.reconnect_initial_s);
         let max = Duration::from_secs_f64(self.config.reconnect_max_s);
         let mut backoff = initial;
@@ -664,7 +683,8 @@ impl SeedLinkClient {
             let committed = self.commit(sink);
             if self.counters.packets > before || committed {
                 let durable = last_durable.elapsed() >= DURABLE_EVERY;
-                self.save(durable).map_err(LinkError::Io)?;
+                self.save(durable)
+                    .map_err(|e| LinkError::Io(e.to_string()))?;
                 if durable {
                     last_durable = Instant::now();
                 }
@@ -1078,7 +1098,7 @@ impl SeedLinkClient {
         }
     }
 
-    fn save(&self, durable: bool) -> Result<(), String> {
+    fn save(&self, durable: bool) -> Result<(), StateFileError> {
         match &self.state_file {
             Some(file) => file.save(&self.state, durable),
             None => Ok(()),

@@ -10,6 +10,33 @@ use std::path::{Path, PathBuf};
 
 use rockwatch_core::seedlink::Protocol;
 
+/// Why the resume state could not be read or written; each names the file (the cause is in
+/// the message, not a `source`: `{:#}` prints it once).
+#[derive(Debug, thiserror::Error)]
+pub enum StateFileError {
+    #[error("{}: cannot read: {error}", path.display())]
+    Read {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error("{}: not a SeedLink state file: {error}", path.display())]
+    Format {
+        path: PathBuf,
+        error: serde_json::Error,
+    },
+    #[error("{}: belongs to server {found:?}, not {expected:?} (move it away to start afresh)", path.display())]
+    OtherServer {
+        path: PathBuf,
+        found: String,
+        expected: String,
+    },
+    #[error("{}: cannot write: {error}", path.display())]
+    Write {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+}
+
 /// What a client needs to resume.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -73,7 +100,8 @@ impl StateFile {
 
     /// The saved state; empty when there is none yet. A file that cannot be read or parsed
     /// is an error naming it (never silently reset: that would re-deliver or lose data).
-    pub fn load(&self, server: &str) -> Result<ResumeState, String> {
+    pub fn load(&self, server: &str) -> Result<ResumeState, StateFileError> {
+        let path = || self.path.clone();
         let text = match std::fs::read_to_string(&self.path) {
             Ok(t) => t,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
@@ -82,27 +110,38 @@ impl StateFile {
                     ..ResumeState::default()
                 })
             }
-            Err(e) => return Err(format!("{}: cannot read: {e}", self.path.display())),
+            Err(error) => {
+                return Err(StateFileError::Read {
+                    path: path(),
+                    error,
+                })
+            }
         };
-        let state: ResumeState = serde_json::from_str(&text)
-            .map_err(|e| format!("{}: not a SeedLink state file: {e}", self.path.display()))?;
+        let state: ResumeState =
+            serde_json::from_str(&text).map_err(|error| StateFileError::Format {
+                path: path(),
+                error,
+            })?;
         if state.server != server {
-            return Err(format!(
-                "{}: belongs to server {:?}, not {server:?} (move it away to start afresh)",
-                self.path.display(),
-                state.server
-            ));
+            return Err(StateFileError::OtherServer {
+                path: path(),
+                found: state.server,
+                expected: server.to_owned(),
+            });
         }
         Ok(state)
     }
 
     /// Replaces the file with `state` atomically; `durable` also syncs it and its directory
     /// to disk (a rename alone survives a crash of the process, not of the machine).
-    pub fn save(&self, state: &ResumeState, durable: bool) -> Result<(), String> {
-        let fail = |e: std::io::Error| format!("{}: cannot write: {e}", self.path.display());
+    pub fn save(&self, state: &ResumeState, durable: bool) -> Result<(), StateFileError> {
+        let fail = |error: std::io::Error| StateFileError::Write {
+            path: self.path.clone(),
+            error,
+        };
         let tmp = self.path.with_extension("json.tmp");
         let mut file = std::fs::File::create(&tmp).map_err(fail)?;
-        let text = serde_json::to_vec_pretty(state).map_err(|e| e.to_string())?;
+        let text = serde_json::to_vec_pretty(state).map_err(|e| fail(std::io::Error::other(e)))?;
         file.write_all(&text).map_err(fail)?;
         if durable {
             file.sync_all().map_err(fail)?;
@@ -147,10 +186,12 @@ mod tests {
             .insert("XX.STN..HN2".into(), 1_027_313_215_000_000_000);
         file.save(&state, true).unwrap();
         assert_eq!(file.load("127.0.0.1:18000").unwrap(), state);
-        assert!(file
-            .load("other:1")
-            .unwrap_err()
-            .contains("belongs to server"));
+        let e = file.load("other:1").unwrap_err();
+        assert!(
+            matches!(e, StateFileError::OtherServer { .. })
+                && e.to_string().contains("belongs to server"),
+            "{e}"
+        );
         // A file of an older acquire (no `received`) still loads.
         std::fs::write(
             file.path(),
@@ -160,9 +201,11 @@ mod tests {
         let old = file.load("127.0.0.1:18000").unwrap();
         assert_eq!((old.streams.len(), old.received.len()), (1, 0));
         std::fs::write(file.path(), "{").unwrap();
-        assert!(file
-            .load("127.0.0.1:18000")
-            .unwrap_err()
-            .contains("not a SeedLink state file"));
+        let e = file.load("127.0.0.1:18000").unwrap_err();
+        assert!(
+            matches!(e, StateFileError::Format { .. })
+                && e.to_string().contains("not a SeedLink state file"),
+            "{e}"
+        );
     }
 }
