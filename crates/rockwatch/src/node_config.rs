@@ -176,6 +176,9 @@ pub struct NodeConfig {
     /// The optional Prometheus endpoint (`[metrics]`, see `crate::metrics`).
     #[serde(default)]
     pub metrics: crate::metrics::MetricsConfig,
+    /// The optional web dashboard (`[web]`, see `crate::web`).
+    #[serde(default)]
+    pub web: crate::web::WebConfig,
 }
 
 /// Why a configuration file could not be loaded: `path: problem`.
@@ -208,6 +211,9 @@ pub enum NodeConfigProblem {
     /// A `[status]` value is invalid.
     #[error("{0}")]
     Status(String),
+    /// A `[web]` value is invalid (e.g. a non-loopback listen without a token).
+    #[error("{0}")]
+    Web(String),
 }
 
 impl NodeConfig {
@@ -242,6 +248,11 @@ impl NodeConfig {
         config
             .partitioning()
             .map_err(|e| error(NodeConfigProblem::Partition(e)))?;
+        config.web.resolve(base);
+        config
+            .web
+            .validate()
+            .map_err(|e| error(NodeConfigProblem::Web(e)))?;
         for (i, n) in config.notify.iter().enumerate() {
             n.validate()
                 .map_err(|e| error(NodeConfigProblem::Notify(i + 1, e)))?;
