@@ -341,3 +341,235 @@ fn a_non_loopback_dashboard_needs_a_token_and_checks_it_on_every_request() {
     assert_eq!(read("metrics.txt"), "401", "/metrics too\n{context}");
     assert_eq!(read("events.txt"), "401", "the stream too\n{context}");
 }
+
+/// Decodes standard base64 (the WebDriver screenshot), padding and all.
+fn base64_decode(text: &str) -> Vec<u8> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => Some(c - b'A'),
+        b'a'..=b'z' => Some(c - b'a' + 26),
+        b'0'..=b'9' => Some(c - b'0' + 52),
+        b'+' => Some(62),
+        b'/' => Some(63),
+        _ => None,
+    };
+    let (mut out, mut acc, mut bits) = (Vec::new(), 0u32, 0);
+    for v in text.bytes().filter_map(value) {
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+        }
+    }
+    out
+}
+
+/// A WebDriver session of chromedriver on `port` (W3C protocol, JSON over loopback HTTP).
+struct Browser {
+    base: String,
+}
+
+impl Browser {
+    fn call(&self, method: &str, path: &str, body: Option<serde_json::Value>) -> serde_json::Value {
+        let url = format!("{}{path}", self.base);
+        let reply = match (method, body) {
+            ("GET", _) => ureq::get(&url).call(),
+            ("DELETE", _) => ureq::delete(&url).call(),
+            (_, body) => ureq::post(&url)
+                .header("Content-Type", "application/json")
+                .send(body.unwrap_or(serde_json::json!({})).to_string()),
+        };
+        let text = reply
+            .unwrap_or_else(|e| panic!("WebDriver {method} {path}: {e}"))
+            .body_mut()
+            .read_to_string()
+            .unwrap_or_else(|e| panic!("WebDriver {method} {path}: {e}"));
+        serde_json::from_str::<serde_json::Value>(&text).unwrap_or_default()["value"].take()
+    }
+
+    /// Runs `script` (a function body) in the page and returns its value.
+    fn eval(&self, script: &str) -> serde_json::Value {
+        self.call(
+            "POST",
+            "/execute/sync",
+            Some(serde_json::json!({ "script": script, "args": [] })),
+        )
+    }
+
+    /// Waits up to `timeout` for `script` to return true; the time it took.
+    fn wait_for(&self, script: &str, timeout: std::time::Duration) -> Option<std::time::Duration> {
+        let start = std::time::Instant::now();
+        while start.elapsed() < timeout {
+            if self.eval(script) == serde_json::json!(true) {
+                return Some(start.elapsed());
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        None
+    }
+
+    fn screenshot(&self, path: &std::path::Path) {
+        let png = self.call("GET", "/screenshot", None);
+        std::fs::write(path, base64_decode(png.as_str().unwrap_or(""))).unwrap();
+    }
+}
+
+/// The page in a real browser (headless Chromium driven over WebDriver by chromedriver, both
+/// Debian packages, installed by .ci/run), in the test's own network namespace: it loads and
+/// shows every rock of the catalogue; the Rinaldi overturn appears in its alert feed within 2 s
+/// of the replay's end (the stream, not a reload) and the pillar turns to its fallen colour;
+/// once the stations have been silent for `engine.stale_after_s` they are shown STALE. A
+/// screenshot of each state goes to `$CARGO_TARGET_TMPDIR/web_dashboard/`.
+#[test]
+fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
+    let have = |bin: &str| {
+        std::process::Command::new("sh")
+            .args(["-c", &format!("command -v {bin}")])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if !peer_available(
+        have("chromium") && have("chromedriver"),
+        "chromium and chromedriver",
+        "apt-get install chromium chromium-driver",
+    ) {
+        return;
+    }
+    if !reexec_in_netns(
+        "the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations",
+        150,
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    node_config(p, "[web]\nlisten = \"127.0.0.1:8080\"\n");
+    let shots = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("web_dashboard");
+    std::fs::create_dir_all(&shots).unwrap();
+    let node = LoggedChild::spawn(
+        std::process::Command::new(rockwatch())
+            .arg("node")
+            .arg("--config")
+            .arg(p.join("node.toml")),
+    );
+    let up = std::time::Instant::now();
+    while ureq::get(&format!("{WEB}/api/status")).call().is_err() {
+        assert!(
+            up.elapsed().as_secs() < 30,
+            "no status\n{}",
+            node.stderr_so_far()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let mut driver = std::process::Command::new("chromedriver")
+        .args(["--port=9515", "--allowed-ips=127.0.0.1"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("chromedriver");
+    let driver_base = "http://127.0.0.1:9515";
+    while ureq::get(&format!("{driver_base}/status")).call().is_err() {
+        assert!(up.elapsed().as_secs() < 60, "chromedriver did not start");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let session = Browser {
+        base: driver_base.into(),
+    }
+    .call(
+        "POST",
+        "/session",
+        Some(serde_json::json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": {"args": [
+                "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                "--window-size=1100,1000"
+            ]}
+        }}})),
+    );
+    let id = session["sessionId"]
+        .as_str()
+        .unwrap_or_else(|| panic!("no session: {session}"))
+        .to_string();
+    let browser = Browser {
+        base: format!("{driver_base}/session/{id}"),
+    };
+    let second = std::time::Duration::from_secs(1);
+    browser.call("POST", "/url", Some(serde_json::json!({ "url": WEB })));
+
+    // Every rock of the catalogue, standing.
+    let listed = format!(
+        "return {:?}.every(id => {{ const r = document.getElementById('rock-' + id); \
+         return r !== null && r.dataset.display === 'standing'; }})",
+        ROCKS
+    );
+    assert!(
+        browser.wait_for(&listed, 10 * second).is_some(),
+        "{}",
+        browser.eval("return document.body.innerText")
+    );
+    browser.screenshot(&shots.join("1-loaded.png"));
+
+    // The record: the overturn appears in the feed within 2 s of the replay's end.
+    let rec = repo().join("tests/data/records");
+    let replay = std::process::Command::new(rockwatch())
+        .args(["replay", "--record"])
+        .arg(rec.join("Rinaldi228.AT2"))
+        .arg("--vertical")
+        .arg(rec.join("RinaldiUP.AT2"))
+        .args([
+            "--azimuth",
+            "228",
+            "--station",
+            "CI.RRS.00",
+            "--transport",
+            "ros2",
+            "--speed",
+            "max",
+            "--tail",
+            "2",
+            "--wait-s",
+            "20",
+        ])
+        .output()
+        .unwrap();
+    assert!(replay.status.success(), "{}", text(&replay).1);
+    let alerted = "return [...document.querySelectorAll('#feed li.overturned')]\
+                   .some(li => li.dataset.pbr === 'rrs-slender-pillar')";
+    let took = browser.wait_for(alerted, 2 * second);
+    browser.screenshot(&shots.join("2-alert.png"));
+    assert!(
+        took.is_some(),
+        "the overturn not in the feed 2 s after the replay\n{}\n{}",
+        browser.eval("return document.body.innerText"),
+        node.stderr_so_far()
+    );
+    // The pillar in its fallen colour (the page's .fallen, #f08080).
+    let fallen = "const r = document.getElementById('rock-rrs-slender-pillar'); \
+                  return r.dataset.display === 'fallen' && \
+                  getComputedStyle(r.cells[2]).backgroundColor === 'rgb(240, 128, 128)'";
+    assert!(
+        browser.wait_for(fallen, 2 * second).is_some(),
+        "{}",
+        browser.eval("return document.body.innerText")
+    );
+    browser.screenshot(&shots.join("3-fallen.png"));
+
+    // No data for stale_after_s (2 s): both stations STALE, in the stale colour (#bbb).
+    let stale = "return ['CI.RRS.00', 'CI.SYL.00'].every(id => { \
+                 const s = document.getElementById('station-' + id); \
+                 return s !== null && s.dataset.health === 'STALE' && \
+                 getComputedStyle(s.cells[1]).backgroundColor === 'rgb(187, 187, 187)'; })";
+    assert!(
+        browser.wait_for(stale, 10 * second).is_some(),
+        "{}",
+        browser.eval("return document.body.innerText")
+    );
+    browser.screenshot(&shots.join("4-stale.png"));
+
+    browser.call("DELETE", "", None);
+    let _ = driver.kill();
+    let _ = driver.wait();
+    let (status, stderr) = node.stop(std::time::Duration::from_secs(10));
+    assert!(status.success(), "{stderr}");
+    eprintln!("screenshots in {}", shots.display());
+}
