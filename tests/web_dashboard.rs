@@ -342,6 +342,59 @@ fn a_non_loopback_dashboard_needs_a_token_and_checks_it_on_every_request() {
     assert_eq!(read("events.txt"), "401", "the stream too\n{context}");
 }
 
+/// `rockwatch demo --web`: prints the dashboard's URL, keeps the node serving it after the
+/// replay (the overturn on `/api/alerts`) until SIGINT, then exits 0; a non-loopback address
+/// is refused (the demo has no token).
+#[test]
+fn demo_web_serves_the_dashboard_after_the_replay_until_interrupted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display().to_string();
+    let bin = rockwatch().display().to_string();
+    let script = format!(
+        "'{bin}' demo --speed max --tail 1 --web 0.0.0.0:8080 > '{d}/open.out' 2>&1 && echo OPEN_RC=0 || echo OPEN_RC=$?
+         '{bin}' demo --speed max --tail 1 --web > '{d}/demo.out' 2> '{d}/demo.err' & DEMO=$!
+         i=0; until grep -q 'until Ctrl-C' '{d}/demo.out'; do i=$((i+1)); [ $i -lt 600 ] || break; sleep 0.1; done
+         curl -sf --max-time 5 '{WEB}/api/alerts' > '{d}/alerts.json'
+         curl -sf --max-time 5 -o /dev/null '{WEB}/' && echo PAGE_OK
+         kill -INT $DEMO; wait $DEMO; echo DEMO_RC=$?"
+    );
+    let out = run_in_netns(&script, 120, &[]);
+    let read = |name: &str| std::fs::read_to_string(dir.path().join(name)).unwrap_or_default();
+    let (stdout, stderr) = text(&out);
+    let context = format!(
+        "--- stdout\n{stdout}\n--- stderr\n{stderr}\n--- demo\n{}\n{}\n--- refused\n{}",
+        read("demo.out"),
+        read("demo.err"),
+        read("open.out")
+    );
+    assert!(
+        out.status.success() && stdout.contains("DEMO_RC=0"),
+        "{context}"
+    );
+    assert!(stdout.contains("PAGE_OK"), "{context}");
+    let demo = read("demo.out");
+    assert!(
+        demo.contains("dashboard: http://127.0.0.1:8080/")
+            && demo.contains(
+                "the node keeps serving the dashboard on http://127.0.0.1:8080/ until Ctrl-C"
+            ),
+        "{context}"
+    );
+    let alerts = json(dir.path(), "alerts.json", &context);
+    assert!(
+        alert_keys(&alerts).contains(&("rrs-slender-pillar".to_string(), "overturned".to_string())),
+        "{context}"
+    );
+    assert!(
+        stdout.contains("OPEN_RC=") && !stdout.contains("OPEN_RC=0"),
+        "{context}"
+    );
+    assert!(
+        read("open.out").contains("not a loopback address"),
+        "{context}"
+    );
+}
+
 /// Decodes standard base64 (the WebDriver screenshot), padding and all.
 fn base64_decode(text: &str) -> Vec<u8> {
     let value = |c: u8| match c {
