@@ -148,7 +148,7 @@ impl WebServer {
         self.feed.clone()
     }
 
-    /// Whether the server thread still runs (its addresses are bound as long as it does).
+    /// Every address bound: `[web] listen`'s first when configured, then `[metrics] listen`'s.
     #[must_use]
     pub fn addresses(&self) -> &[std::net::SocketAddr] {
         self.thread.addresses()
