@@ -258,7 +258,7 @@ fn scrape() -> String {
     let Ok(mut s) = std::net::TcpStream::connect(acquire_util::ACQUIRE_METRICS) else {
         return String::new();
     };
-    let _ = s.write_all(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n");
+    let _ = s.write_all(b"GET /metrics HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
     let mut reply = String::new();
     let _ = s.read_to_string(&mut reply);
     reply

@@ -30,4 +30,5 @@ pub mod signals;
 pub mod status;
 pub mod study;
 pub mod units;
+pub mod web;
 pub mod wire_codes;

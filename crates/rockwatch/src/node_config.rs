@@ -176,6 +176,9 @@ pub struct NodeConfig {
     /// The optional Prometheus endpoint (`[metrics]`, see `crate::metrics`).
     #[serde(default)]
     pub metrics: crate::metrics::MetricsConfig,
+    /// The optional web dashboard (`[web]`, see `crate::web`).
+    #[serde(default)]
+    pub web: crate::web::WebConfig,
 }
 
 /// Why a configuration file could not be loaded: `path: problem`.
@@ -208,6 +211,9 @@ pub enum NodeConfigProblem {
     /// A `[status]` value is invalid.
     #[error("{0}")]
     Status(String),
+    /// A `[web]` value is invalid (e.g. a non-loopback listen without a token).
+    #[error("{0}")]
+    Web(String),
 }
 
 impl NodeConfig {
@@ -242,6 +248,11 @@ impl NodeConfig {
         config
             .partitioning()
             .map_err(|e| error(NodeConfigProblem::Partition(e)))?;
+        config.web.resolve(base);
+        config
+            .web
+            .validate()
+            .map_err(|e| error(NodeConfigProblem::Web(e)))?;
         for (i, n) in config.notify.iter().enumerate() {
             n.validate()
                 .map_err(|e| error(NodeConfigProblem::Notify(i + 1, e)))?;
@@ -340,6 +351,20 @@ mod tests {
     }
 
     #[test]
+    fn a_web_listen_off_loopback_without_a_token_is_refused_at_load() {
+        let e = load("[web]\nlisten = \"0.0.0.0:8080\"\n").unwrap_err();
+        assert!(
+            e.contains("node.toml: [web] listen = \"0.0.0.0:8080\" is not a loopback address"),
+            "{e}"
+        );
+        let c = load("[web]\nlisten = \"127.0.0.1:8080\"\n").unwrap();
+        assert_eq!(c.web.listen.as_deref(), Some("127.0.0.1:8080"));
+        // The token file is relative to the configuration file (missing here: refused).
+        let e = load("[web]\nlisten = \"0.0.0.0:8080\"\ntoken_file = \"t\"\n").unwrap_err();
+        assert!(e.contains("[web] token_file") && e.contains("/t\""), "{e}");
+    }
+
+    #[test]
     fn full_config_parses_with_paths_relative_to_the_file() {
         let c = load(
             "catalogue = \"cat.toml\"\n[engine]\nstate_interval_s = 2.0\n[engine.alerts]\nimminent_theta_ratio = 0.7\n\
@@ -379,7 +404,13 @@ mod tests {
 
     #[test]
     fn every_key_documented_in_config_node_toml_is_valid_with_its_documented_value() {
-        let config = load(&documented_config()).unwrap();
+        // The token file [web] token_file names is read at load: beside the file, as documented.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("node.toml");
+        std::fs::write(&path, documented_config()).unwrap();
+        std::fs::write(dir.path().join("web.token"), "0123456789abcdef-example\n").unwrap();
+        let config = NodeConfig::load(&path).unwrap();
+        assert_eq!(config.web.listen.as_deref(), Some("127.0.0.1:8080"));
         assert!(config.state_dir.is_some());
         assert_eq!(config.stations[0].gain_mps2_per_count, Some(1.0e-6));
         assert_eq!(config.stations[0].full_scale, Some(8_388_607.0));
@@ -410,6 +441,7 @@ mod tests {
             "[[notify]]\nkind = \"exec\"\ncommand = [\"true\"]",
             "[status]",
             "[metrics]",
+            "[web]",
         ];
         for section in sections {
             let probe = format!("{section}\nno_such_key = 0\n");

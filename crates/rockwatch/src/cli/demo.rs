@@ -42,6 +42,15 @@ pub struct DemoArgs {
     /// Seconds of quiet replayed after the record (blocks may fall after the shaking).
     #[arg(long, default_value_t = 10.0, value_name = "S")]
     tail: f64,
+    /// Also serve the web dashboard on HOST:PORT (loopback only; 127.0.0.1:8080 when given
+    /// without a value) and keep the node serving it after the replay until Ctrl-C.
+    #[arg(
+        long,
+        value_name = "HOST:PORT",
+        num_args = 0..=1,
+        default_missing_value = "127.0.0.1:8080"
+    )]
+    web: Option<String>,
 }
 
 /// Records each alert's node latency (arrival of the triggering packet → publication).
@@ -99,6 +108,9 @@ struct DemoPlan {
     record_s: f64,
     tail_s: f64,
     speed: Speed,
+    /// `--web`: the dashboard's address, and the flag SIGINT/SIGTERM sets (the node then
+    /// serves until it is set).
+    web: Option<(String, Arc<AtomicBool>)>,
 }
 
 /// What the demonstration saw.
@@ -112,7 +124,21 @@ struct DemoOutcome {
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
-    let plan = parse(args)?;
+    // With --web the demo waits for Ctrl-C: signals taken on one thread, before any other.
+    let interrupted = match &args.web {
+        Some(_) => Some(rockwatch::signals::stop_on_signals()?),
+        None => None,
+    };
+    let mut plan = parse(args)?;
+    if let Some(interrupted) = interrupted {
+        plan.web = plan
+            .options
+            .config
+            .web
+            .listen
+            .clone()
+            .map(|l| (l, interrupted));
+    }
     print_header(&plan);
     let outcome = execute(plan)?;
     print_blocks(&outcome);
@@ -141,6 +167,9 @@ fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
     // ROS 2 only: the bundled node.toml names an iceoryx2 config file beside it, which the
     // demo does not ship, and the default iceoryx2 services could clash with a real node's.
     config.iceoryx2.config_file = None;
+    // --web: the dashboard, loopback only (the demo has no token).
+    config.web.listen = args.web.clone();
+    config.web.validate().map_err(|e| anyhow!("--web: {e}"))?;
     let network = network_plan(
         &config.ros2,
         std::env::var("ROS_DOMAIN_ID").ok().as_deref(),
@@ -164,6 +193,7 @@ fn parse(args: DemoArgs) -> anyhow::Result<DemoPlan> {
         record_s: traces.len() as f64 / traces.rate_hz,
         tail_s: args.tail,
         speed: args.speed,
+        web: None,
     })
 }
 
@@ -178,6 +208,9 @@ fn print_header(plan: &DemoPlan) {
         },
         plan.network.domain_id
     );
+    if let Some((listen, _)) = &plan.web {
+        outln!("dashboard: http://{listen}/");
+    }
 }
 
 /// Runs the node and the replay on threads of their own, and prints each alert as it
@@ -190,6 +223,7 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
         network,
         packets,
         speed,
+        web,
         ..
     } = plan;
     let naming = options.config.ros2.naming()?;
@@ -259,6 +293,17 @@ fn execute(plan: DemoPlan) -> anyhow::Result<DemoOutcome> {
         }
         if started.elapsed() > Duration::from_secs(600) {
             break;
+        }
+    }
+    if let Some((listen, interrupted)) = &web {
+        outln!(
+            "replay over: the node keeps serving the dashboard on http://{listen}/ until Ctrl-C"
+        );
+        while !interrupted.load(Ordering::Relaxed) && !node.is_finished() {
+            for alert in listener.recv(Duration::from_millis(200))? {
+                print_alert(&alert, record_origin_ns.load(Ordering::Relaxed));
+                received.push(alert);
+            }
         }
     }
     let replay_result = replayer

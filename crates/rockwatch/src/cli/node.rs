@@ -174,6 +174,9 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         if old.metrics != now.metrics {
             ignored.push("[metrics]");
         }
+        if old.web != now.web {
+            ignored.push("[web]");
+        }
         if options.state_dir != new.state_dir || old.state_dir != now.state_dir {
             ignored.push("state_dir");
         }

@@ -366,6 +366,9 @@ pub(super) struct Outlet<'a> {
     /// publications at its end as `later`.
     pub(super) ros2: Ros2Publisher,
     pub(super) later: Vec<&'a mut dyn Publisher>,
+    /// Handed what `later` is handed and, at start, the journal's alert history too (the web
+    /// dashboard's feed).
+    pub(super) history: Option<&'a mut dyn Publisher>,
     /// Publications for `later` (reused: no allocation per turn).
     pub(super) queue: Vec<Publication>,
     /// Alerts handed to the ROS 2 publisher, to be marked published in the journal
@@ -401,7 +404,7 @@ impl Outlet<'_> {
                 (Ok(()), Publication::Alert { alert, .. }) => self.published.push(alert.clone()),
                 (Ok(()), _) => {}
             }
-            for publisher in &mut self.later {
+            for publisher in self.later.iter_mut().chain(self.history.iter_mut()) {
                 if let Err(e) = publisher.publish(&publication) {
                     Self::failed(&mut self.errors, &mut self.log, &e);
                 }
@@ -449,7 +452,11 @@ pub(super) fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_
             HistoryEntry::Alert(alert, published) => (alert, published),
             HistoryEntry::Reset(reset) => {
                 resets += 1;
-                if let Err(e) = out.ros2.publish(&Publication::Reset(reset)) {
+                let publication = Publication::Reset(reset);
+                if let Err(e) = out.ros2.publish(&publication) {
+                    Outlet::failed(&mut out.errors, &mut out.log, &e);
+                }
+                if let Some(Err(e)) = out.history.as_mut().map(|h| h.publish(&publication)) {
                     Outlet::failed(&mut out.errors, &mut out.log, &e);
                 }
                 continue;
@@ -464,6 +471,9 @@ pub(super) fn republish_journaled(runtime: &mut NodeRuntime, out: &mut Outlet<'_
         };
         if published {
             if let Err(e) = out.ros2.publish(&publication) {
+                Outlet::failed(&mut out.errors, &mut out.log, &e);
+            }
+            if let Some(Err(e)) = out.history.as_mut().map(|h| h.publish(&publication)) {
                 Outlet::failed(&mut out.errors, &mut out.log, &e);
             }
         } else {

@@ -34,10 +34,10 @@ use super::{
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::logging::RateLimitedLog;
 use crate::logging::{take_rosout, RosoutRecord};
-use crate::metrics::MetricsServer;
 use crate::ros2::msg::ResetPbrResponse;
 use crate::ros2::{IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher};
 use crate::sd_notify::SystemdNotifier;
+use crate::web::WebServer;
 use rockwatch_core::engine::{AccelPacket, PbrSummary, Source};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
@@ -137,9 +137,10 @@ pub struct Reactor {
     ros2: Ros2Node,
     ros2_publisher: Ros2Publisher,
     iox: Option<(IoxInput, IoxAlertPublisher)>,
-    /// How often the status goes to `/diagnostics` and the metrics endpoint.
+    /// How often the status goes to `/diagnostics` and the web server.
     status_period: Duration,
-    metrics: Option<MetricsServer>,
+    /// The web dashboard (`[web]`) and/or `/metrics` (`[metrics]`): one server, one thread.
+    web: Option<WebServer>,
 }
 
 /// What supervises a running node from outside: reload requests (SIGHUP) with the way to
@@ -237,12 +238,7 @@ impl Reactor {
         };
         // The node's own log records at or above `[status] rosout_level` also go to /rosout.
         crate::logging::enable_rosout(config.status.rosout().map_err(anyhow::Error::msg)?);
-        let metrics = config
-            .metrics
-            .listen
-            .as_deref()
-            .map(MetricsServer::start)
-            .transpose()?;
+        let web = WebServer::start(&config.web, config.metrics.listen.as_deref())?;
         Ok(Reactor {
             runtime,
             poll,
@@ -252,7 +248,7 @@ impl Reactor {
             ros2_publisher,
             iox,
             status_period: Duration::from_secs_f64(config.status.diagnostics_period_s),
-            metrics,
+            web,
         })
     }
 
@@ -301,12 +297,14 @@ impl Reactor {
             ros2_publisher,
             iox,
             status_period,
-            metrics,
+            web,
         } = self;
         let (mut iox_input, mut iox_publisher) = match iox {
             Some((input, publisher)) => (Some(input), Some(publisher)),
             None => (None, None),
         };
+        // The web side takes alerts and resets without ever making the loop wait.
+        let mut web_feed = web.as_ref().map(WebServer::alert_feed);
         let mut later: Vec<&mut dyn Publisher> = Vec::with_capacity(extra.len());
         for p in extra.iter_mut() {
             later.push(&mut **p);
@@ -315,6 +313,7 @@ impl Reactor {
             immediate: iox_publisher.as_mut().map(|p| p as &mut dyn Publisher),
             ros2: ros2_publisher,
             later,
+            history: web_feed.as_mut().map(|f| f as &mut dyn Publisher),
             queue: Vec::new(),
             published: Vec::new(),
             errors: 0,
@@ -420,8 +419,8 @@ impl Reactor {
                     iceoryx2: iox_input.is_some(),
                 });
                 ros2.publish_status(&status);
-                if let Some(m) = &metrics {
-                    m.update(status.prometheus());
+                if let Some(w) = &web {
+                    w.update_status(status);
                 }
             }
             take_rosout(&mut rosout);

@@ -1,0 +1,402 @@
+//! The dashboard's JSON API and live stream, served from the web thread's shared state
+//! ([`Shared`]): the last status the event loop handed over, the alert history and the
+//! connected stream clients. See the README's "Web dashboard" section for every field.
+
+use std::collections::VecDeque;
+use std::convert::Infallible;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use axum::extract::{Path, Query, State};
+use axum::http::{header, StatusCode};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use serde_json::{json, Value};
+use tokio::sync::{mpsc, watch};
+
+use crate::alert_json::RecordJson;
+use crate::ports::Publication;
+use crate::status::{Level, NodeStatus};
+use crate::wire_codes::mode_code;
+use rockwatch_core::dynamics::Mode;
+use rockwatch_core::engine::JournalRecord;
+
+/// Alerts and resets kept for `/api/alerts` and a new page (the newest; older ones are
+/// forgotten by the web side, never by the journal).
+pub const HISTORY: usize = 1000;
+
+/// Events queued for one stream client (`/api/events`); a client this far behind is dropped.
+pub const CLIENT_QUEUE: usize = 64;
+
+/// Most stream clients at once; one more is refused with 503.
+pub const MAX_CLIENTS: usize = 64;
+
+/// The web side's counters (on `/metrics` as `rockwatch_web_*`).
+#[derive(Debug, Default)]
+pub struct WebCounters {
+    /// Alerts (and resets) the event loop could not hand over: the hand-off queue was full.
+    pub handoff_dropped: AtomicU64,
+    /// Alerts (and resets) handed over.
+    pub handed_over: AtomicU64,
+    /// Stream clients dropped because they fell [`CLIENT_QUEUE`] events behind.
+    pub clients_dropped: AtomicU64,
+    /// Stream clients refused: [`MAX_CLIENTS`] already connected.
+    pub clients_refused: AtomicU64,
+}
+
+/// One item of the alert feed: its JSON text and the time it is filtered on.
+#[derive(Debug)]
+pub struct FeedItem {
+    /// Data time of an alert, wall-clock time of a reset (ns since the Unix epoch).
+    pub time_ns: i64,
+    pub json: Arc<str>,
+}
+
+/// One event for a stream client: its SSE event name and JSON data.
+type StreamEvent = (&'static str, Arc<str>);
+
+/// What the web thread's handlers share.
+pub struct Shared {
+    pub status: watch::Receiver<Option<Arc<NodeStatus>>>,
+    pub history: Mutex<VecDeque<Arc<FeedItem>>>,
+    clients: Mutex<Vec<mpsc::Sender<StreamEvent>>>,
+    pub counters: Arc<WebCounters>,
+}
+
+impl Shared {
+    #[must_use]
+    pub fn new(
+        status: watch::Receiver<Option<Arc<NodeStatus>>>,
+        counters: Arc<WebCounters>,
+    ) -> Shared {
+        Shared {
+            status,
+            history: Mutex::new(VecDeque::new()),
+            clients: Mutex::new(Vec::new()),
+            counters,
+        }
+    }
+
+    /// Hands `event` to every stream client without waiting: a client whose queue is full is
+    /// dropped (its stream ends) and counted; one that has gone is forgotten.
+    fn broadcast(&self, name: &'static str, data: &Arc<str>) {
+        let Ok(mut clients) = self.clients.lock() else {
+            return;
+        };
+        clients.retain(|c| match c.try_send((name, Arc::clone(data))) {
+            Ok(()) => true,
+            Err(mpsc::error::TrySendError::Full(_)) => {
+                self.counters
+                    .clients_dropped
+                    .fetch_add(1, Ordering::Relaxed);
+                tracing::info!("web: a stream client fell {CLIENT_QUEUE} events behind: dropped");
+                false
+            }
+            Err(mpsc::error::TrySendError::Closed(_)) => false,
+        });
+    }
+
+    fn clients(&self) -> usize {
+        self.clients.lock().map(|c| c.len()).unwrap_or(0)
+    }
+
+    /// Takes in one publication handed over by the event loop (alerts and resets; the rest
+    /// is ignored): kept in the history and sent to the stream clients.
+    pub fn take(&self, publication: &Publication) {
+        let Some(item) = feed_item(publication) else {
+            return;
+        };
+        let item = Arc::new(item);
+        if let Ok(mut history) = self.history.lock() {
+            if history.len() == HISTORY {
+                history.pop_front();
+            }
+            history.push_back(Arc::clone(&item));
+        }
+        self.broadcast("alert", &item.json);
+    }
+
+    /// The status changed: sent to the stream clients.
+    pub fn status_changed(&self) {
+        let status = self.status.borrow().clone();
+        if let Some(status) = status {
+            let json: Arc<str> = status_json(&status).to_string().into();
+            self.broadcast("status", &json);
+        }
+    }
+
+    /// The node's Prometheus text with the web side's own series.
+    #[must_use]
+    pub fn prometheus(&self) -> String {
+        let status = self.status.borrow().clone();
+        let mut text = match status {
+            Some(s) => s.prometheus(),
+            None => "# no status yet\n".to_string(),
+        };
+        let c = &self.counters;
+        let mut metric = |name: &str, help: &str, kind: &str, value: u64| {
+            text.push_str(&format!(
+                "# HELP rockwatch_web_{name} {help}\n# TYPE rockwatch_web_{name} {kind}\nrockwatch_web_{name} {value}\n"
+            ));
+        };
+        metric(
+            "handoff_dropped_total",
+            "Alerts and resets the event loop could not hand to the web server (its queue was full).",
+            "counter",
+            c.handoff_dropped.load(Ordering::Relaxed),
+        );
+        metric(
+            "handed_over_total",
+            "Alerts and resets handed to the web server.",
+            "counter",
+            c.handed_over.load(Ordering::Relaxed),
+        );
+        metric(
+            "clients_dropped_total",
+            "Live-stream clients dropped for falling behind.",
+            "counter",
+            c.clients_dropped.load(Ordering::Relaxed),
+        );
+        metric(
+            "clients_refused_total",
+            "Live-stream clients refused (too many connected).",
+            "counter",
+            c.clients_refused.load(Ordering::Relaxed),
+        );
+        metric(
+            "clients",
+            "Live-stream clients connected.",
+            "gauge",
+            self.clients() as u64,
+        );
+        text
+    }
+}
+
+/// The feed's item for an alert or a reset.
+fn feed_item(publication: &Publication) -> Option<FeedItem> {
+    let (time_ns, record) = match publication {
+        Publication::Alert { alert, .. } => (
+            alert.data_time_ns,
+            RecordJson::from(&JournalRecord::Alert(alert.clone())),
+        ),
+        Publication::Reset(reset) => (
+            reset.time_ns,
+            RecordJson::from(&JournalRecord::Reset {
+                pbr_id: reset.pbr_id.clone(),
+                time_ns: Some(reset.time_ns),
+            }),
+        ),
+        _ => return None,
+    };
+    let json = serde_json::to_string(&record).ok()?;
+    Some(FeedItem {
+        time_ns,
+        json: json.into(),
+    })
+}
+
+/// How the page shows a rock: `standing`, `moving` (rocking or sliding: see
+/// `theta_over_alpha`), `fallen`, `not_monitored` (its station is stale).
+fn rock_display(mode: Mode, not_monitored: bool) -> &'static str {
+    match mode {
+        Mode::Overturned => "fallen",
+        _ if not_monitored => "not_monitored",
+        Mode::Rest => "standing",
+        _ => "moving",
+    }
+}
+
+/// A number, or null when not finite.
+fn num(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+/// `/api/status`: the node's status as JSON (see the README for the fields and units).
+#[must_use]
+pub fn status_json(s: &NodeStatus) -> Value {
+    let stations: Vec<Value> = s
+        .stations
+        .iter()
+        .map(|st| {
+            json!({
+                "id": st.health.station,
+                "health": st.level.as_str(),
+                "stale": st.level == Level::Stale,
+                "message": st.message,
+                "data_latency_s": st.data_latency_s.map(num),
+                "seconds_since_last_packet": st.silent_s.map(num),
+                "last_sample_ns": st.health.last_sample_ns,
+                "sample_rate_hz": num(st.health.sample_rate_hz),
+                "packets": st.health.packets,
+                "blocks": st.health.blocks,
+                "monitored": st.health.monitored,
+            })
+        })
+        .collect();
+    let rocks: Vec<Value> = s
+        .rocks
+        .iter()
+        .map(|r| {
+            json!({
+                "pbr_id": r.pbr_id,
+                "station": r.station,
+                "mode": r.mode,
+                "mode_code": mode_code(r.mode),
+                "display": rock_display(r.mode, r.not_monitored),
+                "theta_over_alpha": num(r.theta_over_alpha),
+                "peak_theta_over_alpha": num(r.peak_theta_over_alpha),
+                "not_monitored": r.not_monitored,
+            })
+        })
+        .collect();
+    json!({
+        "stamp_ns": s.stamp_ns,
+        "stations": stations,
+        "rocks": rocks,
+        "node": {
+            "packets": s.packets,
+            "alerts": s.alerts,
+            "journal_configured": s.journal_configured,
+            "journal_backlog": s.journal_backlog,
+            "journal_lost": s.journal_dropped,
+            "ros2_up": s.ros2_up,
+            "iceoryx2": s.iceoryx2,
+            "realtime_factor": s.realtime_factor.map(num),
+        },
+    })
+}
+
+/// A JSON body with status 200.
+fn json_text(text: String) -> Response {
+    ([(header::CONTENT_TYPE, "application/json")], text).into_response()
+}
+
+fn error(status: StatusCode, message: String) -> Response {
+    (
+        status,
+        [(header::CONTENT_TYPE, "application/json")],
+        json!({ "error": message }).to_string(),
+    )
+        .into_response()
+}
+
+/// `GET /api/status`: 503 until the node's first status (one status period after start).
+pub async fn get_status(State(shared): State<Arc<Shared>>) -> Response {
+    let status = shared.status.borrow().clone();
+    match status {
+        Some(s) => json_text(status_json(&s).to_string()),
+        None => error(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "no status yet: the node publishes its first one status period after start".into(),
+        ),
+    }
+}
+
+/// `GET /api/rocks/{id}`: one rock's status and its alerts in the history; 404 for an id
+/// the node does not monitor.
+pub async fn get_rock(State(shared): State<Arc<Shared>>, Path(id): Path<String>) -> Response {
+    let status = shared.status.borrow().clone();
+    let Some(status) = status else {
+        return error(StatusCode::SERVICE_UNAVAILABLE, "no status yet".into());
+    };
+    let Some(rock) = status_json(&status)["rocks"]
+        .as_array()
+        .and_then(|rocks| rocks.iter().find(|r| r["pbr_id"] == id.as_str()).cloned())
+    else {
+        return error(
+            StatusCode::NOT_FOUND,
+            format!("no rock {id:?} on this node: /api/status lists them"),
+        );
+    };
+    let alerts: Vec<Value> = history(&shared, i64::MIN)
+        .into_iter()
+        .filter(|a| a["pbr_id"] == id.as_str())
+        .collect();
+    json_text(json!({ "rock": rock, "alerts": alerts }).to_string())
+}
+
+/// The query of `/api/alerts`.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AlertsQuery {
+    /// Only items at or after this time (ns since the Unix epoch: an alert's data time, a
+    /// reset's wall-clock time).
+    pub since: Option<i64>,
+}
+
+fn history(shared: &Shared, since: i64) -> Vec<Value> {
+    let Ok(history) = shared.history.lock() else {
+        return Vec::new();
+    };
+    history
+        .iter()
+        .filter(|i| i.time_ns >= since)
+        .filter_map(|i| serde_json::from_str(&i.json).ok())
+        .collect()
+}
+
+/// `GET /api/alerts?since=<ns>`: the alerts and resets since the node started (the journal's
+/// history first), oldest first, as `{"alerts": [...]}`.
+pub async fn get_alerts(
+    State(shared): State<Arc<Shared>>,
+    query: Result<Query<AlertsQuery>, axum::extract::rejection::QueryRejection>,
+) -> Response {
+    let Query(query) = match query {
+        Ok(q) => q,
+        Err(e) => {
+            return error(
+                StatusCode::BAD_REQUEST,
+                format!("{e}: /api/alerts takes since=<ns since the Unix epoch, an integer>"),
+            )
+        }
+    };
+    let alerts = history(&shared, query.since.unwrap_or(i64::MIN));
+    json_text(json!({ "alerts": alerts }).to_string())
+}
+
+/// `GET /api/events`: Server-Sent Events, `status` (the `/api/status` object, now and every
+/// status period) and `alert` (one item of `/api/alerts`, as it happens). A client that
+/// falls [`CLIENT_QUEUE`] events behind is dropped.
+pub async fn get_events(State(shared): State<Arc<Shared>>) -> Response {
+    let (tx, rx) = mpsc::channel::<StreamEvent>(CLIENT_QUEUE);
+    if let Some(status) = shared.status.borrow().clone() {
+        let _ = tx.try_send(("status", status_json(&status).to_string().into()));
+    }
+    match shared.clients.lock() {
+        Ok(mut clients) if clients.len() < MAX_CLIENTS => clients.push(tx),
+        _ => {
+            shared
+                .counters
+                .clients_refused
+                .fetch_add(1, Ordering::Relaxed);
+            return error(
+                StatusCode::SERVICE_UNAVAILABLE,
+                format!("too many live-stream clients ({MAX_CLIENTS})"),
+            );
+        }
+    }
+    let stream = futures::stream::unfold(rx, |mut rx| async move {
+        let (name, data) = rx.recv().await?;
+        Some((
+            Ok::<Event, Infallible>(Event::default().event(name).data(&*data)),
+            rx,
+        ))
+    });
+    Sse::new(stream)
+        .keep_alive(KeepAlive::default())
+        .into_response()
+}
+
+/// `GET /metrics`: the Prometheus text.
+pub async fn get_metrics(State(shared): State<Arc<Shared>>) -> Response {
+    (
+        [(header::CONTENT_TYPE, super::PROMETHEUS_CONTENT_TYPE)],
+        shared.prometheus(),
+    )
+        .into_response()
+}

@@ -1,0 +1,164 @@
+//! The `[web]` section of the node configuration:
+//!
+//! ```toml
+//! [web]
+//! listen = "127.0.0.1:8080"        # off when absent; loopback unless token_file is set
+//! token_file = "/etc/rockwatch/web.token"   # a bearer token, required off loopback
+//! ```
+//!
+//! A `listen` address that is not loopback (every address it resolves to must be in
+//! 127.0.0.0/8 or `::1`) is refused at load without `token_file`: the dashboard and its API
+//! show every rock's position and state. With a token every request must carry
+//! `Authorization: Bearer <token>` (compared in constant time), else 401.
+
+use std::net::{SocketAddr, ToSocketAddrs};
+use std::path::{Path, PathBuf};
+
+/// Longest token file read (bytes).
+pub const MAX_TOKEN_BYTES: u64 = 4096;
+
+/// Shortest token accepted (bytes, after trimming whitespace).
+pub const MIN_TOKEN_BYTES: usize = 16;
+
+/// The `[web]` section.
+#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WebConfig {
+    /// Address of the dashboard (`host:port`); none (off) by default.
+    #[serde(default)]
+    pub listen: Option<String>,
+    /// File holding the bearer token every request must carry (one line; relative to the
+    /// configuration file). Required when `listen` is not a loopback address.
+    #[serde(default)]
+    pub token_file: Option<PathBuf>,
+}
+
+impl WebConfig {
+    /// Resolves `token_file` against the configuration file's folder `base`.
+    pub fn resolve(&mut self, base: &Path) {
+        self.token_file = self.token_file.take().map(|f| base.join(f));
+    }
+
+    /// Checks the section: `listen` parses as `host:port`, and an address that is not
+    /// loopback has a `token_file` (which must hold a token of at least [`MIN_TOKEN_BYTES`]).
+    /// The error names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        let Some(listen) = &self.listen else {
+            if self.token_file.is_some() {
+                return Err("[web] token_file is set but [web] listen is not".into());
+            }
+            return Ok(());
+        };
+        let addresses = resolve(listen)?;
+        let loopback = addresses.iter().all(|a| a.ip().is_loopback());
+        match &self.token_file {
+            Some(file) => load_token(file).map(|_| ()),
+            None if loopback => Ok(()),
+            None => Err(format!(
+                "[web] listen = {listen:?} is not a loopback address: the dashboard would be \
+                 open to the network; set [web] token_file (a bearer token checked on every \
+                 request) or listen on 127.0.0.1"
+            )),
+        }
+    }
+
+    /// The token, if `token_file` is set (read now).
+    pub fn token(&self) -> Result<Option<String>, String> {
+        self.token_file.as_deref().map(load_token).transpose()
+    }
+}
+
+/// Every address `listen` (`host:port`) stands for; an error names `[web] listen`.
+fn resolve(listen: &str) -> Result<Vec<SocketAddr>, String> {
+    let addresses: Vec<SocketAddr> = listen
+        .to_socket_addrs()
+        .map_err(|e| format!("[web] listen = {listen:?}: not a host:port address ({e})"))?
+        .collect();
+    if addresses.is_empty() {
+        return Err(format!("[web] listen = {listen:?}: resolves to no address"));
+    }
+    Ok(addresses)
+}
+
+/// Reads a token file: its content trimmed; an error names `[web] token_file`.
+pub fn load_token(file: &Path) -> Result<String, String> {
+    let text = rockwatch_core::bounded_read::read_to_string_bounded(file, MAX_TOKEN_BYTES)
+        .map_err(|e| format!("[web] token_file = {:?}: {e}", file.display().to_string()))?;
+    let token = text.trim();
+    if token.len() < MIN_TOKEN_BYTES || token.chars().any(|c| c.is_whitespace()) {
+        return Err(format!(
+            "[web] token_file = {:?}: the token must be one word of at least {MIN_TOKEN_BYTES} \
+             characters",
+            file.display().to_string()
+        ));
+    }
+    Ok(token.to_string())
+}
+
+/// Compares `given` with `expected` in time independent of where they differ (the length of
+/// `expected` is not secret).
+#[must_use]
+pub fn token_matches(given: &[u8], expected: &[u8]) -> bool {
+    if given.len() != expected.len() {
+        return false;
+    }
+    given
+        .iter()
+        .zip(expected)
+        .fold(0u8, |acc, (a, b)| acc | (a ^ b))
+        == 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(listen: &str, token_file: Option<PathBuf>) -> WebConfig {
+        WebConfig {
+            listen: Some(listen.into()),
+            token_file,
+        }
+    }
+
+    #[test]
+    fn loopback_is_accepted_without_a_token_and_another_address_is_refused() {
+        assert!(config("127.0.0.1:8080", None).validate().is_ok());
+        assert!(config("[::1]:0", None).validate().is_ok());
+        assert!(config("localhost:0", None).validate().is_ok());
+        let e = config("0.0.0.0:8080", None).validate().unwrap_err();
+        assert!(
+            e.contains("not a loopback address") && e.contains("token_file"),
+            "{e}"
+        );
+        let e = config("nonsense", None).validate().unwrap_err();
+        assert!(e.contains("[web] listen"), "{e}");
+        assert!(WebConfig::default().validate().is_ok());
+    }
+
+    #[test]
+    fn a_token_file_must_hold_a_long_enough_token() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("token");
+        std::fs::write(&file, "short\n").unwrap();
+        let e = config("0.0.0.0:0", Some(file.clone()))
+            .validate()
+            .unwrap_err();
+        assert!(e.contains("at least"), "{e}");
+        std::fs::write(&file, "0123456789abcdef0123\n").unwrap();
+        let c = config("0.0.0.0:0", Some(file));
+        assert!(c.validate().is_ok());
+        assert_eq!(c.token().unwrap().as_deref(), Some("0123456789abcdef0123"));
+        let e = config("0.0.0.0:0", Some(dir.path().join("missing")))
+            .validate()
+            .unwrap_err();
+        assert!(e.contains("[web] token_file"), "{e}");
+    }
+
+    #[test]
+    fn tokens_compare_whole() {
+        assert!(token_matches(b"abcdef", b"abcdef"));
+        assert!(!token_matches(b"abcdeg", b"abcdef"));
+        assert!(!token_matches(b"abcde", b"abcdef"));
+        assert!(!token_matches(b"", b"abcdef"));
+    }
+}

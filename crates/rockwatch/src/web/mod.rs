@@ -1,0 +1,387 @@
+//! The node's web dashboard (`[web] listen`, issue 22 §1) and the one HTTP server of the
+//! codebase (Prometheus `/metrics` too, `[metrics] listen`).
+//!
+//! - [`config`]: the `[web]` section (loopback by default; a non-loopback address needs a
+//!   bearer token, `token_file`).
+//! - [`server`]: axum on a tokio current-thread runtime in ONE dedicated thread
+//!   (`rockwatch-web`); the node's mio event loop stays as it is.
+//! - [`api`]: `/api/status`, `/api/alerts?since=<ns>`, `/api/rocks/{id}`, `/api/events`
+//!   (Server-Sent Events), `/metrics`.
+//! - [`page`]: `/`, one self-contained HTML page (no external assets).
+//!
+//! The event loop never waits for the web side: it hands each status snapshot over a
+//! `tokio::sync::watch` (a store of the latest, never blocks) and each alert and reset
+//! through a bounded queue with `try_send` ([`ALERT_QUEUE`]; a full queue drops the item and
+//! counts it: `rockwatch_web_handoff_dropped_total`). The web thread keeps the history and
+//! fans it out to the stream clients, each with a bounded queue; a client that falls behind
+//! is dropped (`rockwatch_web_clients_dropped_total`), never the node.
+
+pub mod api;
+pub mod config;
+pub mod page;
+pub mod server;
+
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+
+use anyhow::Context;
+use axum::routing::get;
+use axum::Router;
+use tokio::sync::{mpsc, watch};
+
+use crate::ports::{Publication, Publisher};
+use crate::status::NodeStatus;
+pub use api::WebCounters;
+pub use config::WebConfig;
+use server::{HttpThread, Listener};
+
+/// Alerts and resets waiting to be taken by the web thread; beyond, they are dropped
+/// (counted) rather than making the event loop wait.
+pub const ALERT_QUEUE: usize = 1024;
+
+/// The Content-Type of the Prometheus text exposition format.
+pub const PROMETHEUS_CONTENT_TYPE: &str = "text/plain; version=0.0.4; charset=utf-8";
+
+/// The node's web server: the dashboard on `[web] listen` and/or `/metrics` alone on
+/// `[metrics] listen`, one thread.
+pub struct WebServer {
+    thread: HttpThread,
+    status: watch::Sender<Option<Arc<NodeStatus>>>,
+    feed: AlertFeed,
+    /// `[web] listen`'s address, when configured.
+    web_address: Option<std::net::SocketAddr>,
+    metrics_address: Option<std::net::SocketAddr>,
+}
+
+impl WebServer {
+    /// Starts the server if `web` or `metrics_listen` asks for it (else None). The dashboard
+    /// requires the token of `web.token_file` when set.
+    pub fn start(
+        web: &WebConfig,
+        metrics_listen: Option<&str>,
+    ) -> anyhow::Result<Option<WebServer>> {
+        if web.listen.is_none() && metrics_listen.is_none() {
+            return Ok(None);
+        }
+        web.validate().map_err(anyhow::Error::msg)?;
+        let (status, status_rx) = watch::channel(None);
+        let counters = Arc::new(WebCounters::default());
+        let shared = Arc::new(api::Shared::new(status_rx, Arc::clone(&counters)));
+        let (alerts, mut alerts_rx) = mpsc::channel::<Publication>(ALERT_QUEUE);
+        let mut listeners = Vec::new();
+        if let Some(listen) = &web.listen {
+            let mut router = dashboard_router(Arc::clone(&shared));
+            if let Some(token) = web.token().map_err(anyhow::Error::msg)? {
+                let token: Arc<str> = token.into();
+                router = router.layer(axum::middleware::from_fn_with_state(
+                    token,
+                    server::require_token,
+                ));
+            }
+            listeners.push(Listener::bind("[web] listen", listen, router)?);
+        }
+        if let Some(listen) = metrics_listen {
+            listeners.push(Listener::bind(
+                "[metrics] listen",
+                listen,
+                metrics_router(Arc::clone(&shared)),
+            )?);
+        }
+        let fan_out = {
+            let shared = Arc::clone(&shared);
+            let mut status_rx = shared.status.clone();
+            async move {
+                loop {
+                    tokio::select! {
+                        p = alerts_rx.recv() => match p {
+                            Some(p) => shared.take(&p),
+                            None => return,
+                        },
+                        changed = status_rx.changed() => match changed {
+                            Ok(()) => shared.status_changed(),
+                            Err(_) => return,
+                        },
+                    }
+                }
+            }
+        };
+        let thread =
+            HttpThread::start(listeners, fan_out).context("cannot start the web server")?;
+        let mut addresses = thread.addresses().iter().copied();
+        let web_address = web.listen.as_ref().and_then(|_| addresses.next());
+        let metrics_address = metrics_listen.and_then(|_| addresses.next());
+        if let Some(a) = web_address {
+            tracing::info!("web: the dashboard on http://{a}/");
+        }
+        if let Some(a) = metrics_address {
+            tracing::info!("metrics: Prometheus text on http://{a}/metrics");
+        }
+        Ok(Some(WebServer {
+            thread,
+            status,
+            feed: AlertFeed { alerts, counters },
+            web_address,
+            metrics_address,
+        }))
+    }
+
+    /// The dashboard's address (the port, when `listen` asked for 0).
+    #[must_use]
+    pub fn web_address(&self) -> Option<std::net::SocketAddr> {
+        self.web_address
+    }
+
+    /// `[metrics] listen`'s address.
+    #[must_use]
+    pub fn metrics_address(&self) -> Option<std::net::SocketAddr> {
+        self.metrics_address
+    }
+
+    /// Hands the web side a new status (never waits: the latest replaces the previous).
+    pub fn update_status(&self, status: NodeStatus) {
+        self.status.send_replace(Some(Arc::new(status)));
+    }
+
+    /// The publisher that hands alerts and resets to the web side (never waits).
+    #[must_use]
+    pub fn alert_feed(&self) -> AlertFeed {
+        self.feed.clone()
+    }
+
+    /// Every address bound: `[web] listen`'s first when configured, then `[metrics] listen`'s.
+    #[must_use]
+    pub fn addresses(&self) -> &[std::net::SocketAddr] {
+        self.thread.addresses()
+    }
+}
+
+/// Hands alerts and resets to the web thread through a bounded queue, never waiting: a full
+/// queue drops the item and counts it.
+#[derive(Clone)]
+pub struct AlertFeed {
+    alerts: mpsc::Sender<Publication>,
+    counters: Arc<WebCounters>,
+}
+
+impl Publisher for AlertFeed {
+    fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
+        if !matches!(
+            publication,
+            Publication::Alert { .. } | Publication::Reset(_)
+        ) {
+            return Ok(());
+        }
+        match self.alerts.try_send(publication.clone()) {
+            Ok(()) => {
+                self.counters.handed_over.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            }
+            Err(mpsc::error::TrySendError::Full(_)) => {
+                self.counters
+                    .handoff_dropped
+                    .fetch_add(1, Ordering::Relaxed);
+                anyhow::bail!("web: the hand-off queue is full ({ALERT_QUEUE}): an alert was not shown on the dashboard")
+            }
+            // The server has stopped: nothing to show it on.
+            Err(mpsc::error::TrySendError::Closed(_)) => Ok(()),
+        }
+    }
+}
+
+/// Everything the dashboard serves.
+fn dashboard_router(shared: Arc<api::Shared>) -> Router {
+    Router::new()
+        .route("/", get(page::index))
+        .route("/api/status", get(api::get_status))
+        .route("/api/alerts", get(api::get_alerts))
+        .route("/api/rocks/{id}", get(api::get_rock))
+        .route("/api/events", get(api::get_events))
+        .route("/metrics", get(api::get_metrics))
+        .fallback(page::not_found)
+        .with_state(shared)
+}
+
+/// `/metrics` alone (`[metrics] listen`).
+fn metrics_router(shared: Arc<api::Shared>) -> Router {
+    Router::new()
+        .route("/metrics", get(api::get_metrics))
+        .fallback(page::not_found)
+        .with_state(shared)
+}
+
+/// A `/metrics` endpoint serving a text the caller replaces (`rockwatch acquire`'s
+/// `[metrics] listen`): the same server implementation as the dashboard's.
+pub fn text_metrics_server(listen: &str) -> anyhow::Result<(HttpThread, Arc<Mutex<String>>)> {
+    let text = Arc::new(Mutex::new("# no status yet\n".to_string()));
+    let served = Arc::clone(&text);
+    let router = Router::new()
+        .route(
+            "/metrics",
+            get(move || {
+                let text = served.lock().map(|t| t.clone()).unwrap_or_default();
+                async move {
+                    (
+                        [(axum::http::header::CONTENT_TYPE, PROMETHEUS_CONTENT_TYPE)],
+                        text,
+                    )
+                }
+            }),
+        )
+        .fallback(page::not_found);
+    let thread = HttpThread::start(
+        vec![Listener::bind("[metrics] listen", listen, router)?],
+        async {},
+    )?;
+    Ok((thread, text))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::status::RockStatus;
+    use std::io::{Read, Write};
+    use std::net::TcpStream;
+    use std::time::{Duration, Instant};
+
+    /// A status of `rocks` rocks (about 200 bytes of JSON each).
+    /// Rocks per status in the stalled-client test (about 35 kB of JSON: a debug build's web
+    /// thread encodes one well within the test's 10 ms between statuses).
+    const ROCKS_N: usize = 200;
+
+    fn status(rocks: usize, stamp_ns: i64) -> NodeStatus {
+        NodeStatus {
+            stamp_ns,
+            stations: Vec::new(),
+            rocks: (0..rocks)
+                .map(|i| RockStatus::new(format!("rock-{i:05}"), "XX.STA.00".into(), false))
+                .collect(),
+            journal_configured: false,
+            journal_failures: 0,
+            journal_backlog: 0,
+            journal_dropped: 0,
+            ros2_up: true,
+            ros2_rebuilds: 0,
+            iceoryx2: false,
+            realtime_factor: None,
+            shards: 1,
+            packets: 0,
+            alerts: 0,
+            rosout_dropped: 0,
+        }
+    }
+
+    fn open_stream(address: std::net::SocketAddr) -> TcpStream {
+        let mut s = TcpStream::connect(address).unwrap();
+        s.write_all(b"GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n")
+            .unwrap();
+        s
+    }
+
+    #[test]
+    fn a_stream_client_that_never_reads_is_dropped_and_the_sender_never_waits() {
+        let server = WebServer::start(
+            &WebConfig {
+                listen: Some("127.0.0.1:0".into()),
+                token_file: None,
+            },
+            None,
+        )
+        .unwrap()
+        .unwrap();
+        let address = server.web_address().unwrap();
+        let stalled = open_stream(address);
+        // A client that keeps up: reads on its own thread.
+        let mut reader = open_stream(address);
+        let received = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let reading = {
+            let received = Arc::clone(&received);
+            std::thread::spawn(move || {
+                let mut buf = vec![0u8; 1 << 16];
+                while let Ok(n @ 1..) = reader.read(&mut buf) {
+                    received.fetch_add(n, Ordering::Relaxed);
+                }
+            })
+        };
+        // About 35 kB per status event: the stalled client's socket buffers hold some, its
+        // queue CLIENT_QUEUE more; then it is dropped.
+        let mut slowest = Duration::ZERO;
+        let deadline = Instant::now() + Duration::from_secs(60);
+        let mut sent = 0;
+        while server.feed.counters.clients_dropped.load(Ordering::Relaxed) == 0 {
+            assert!(Instant::now() < deadline, "not dropped after {sent} events");
+            let s = status(ROCKS_N, sent);
+            let t = Instant::now();
+            server.update_status(s);
+            slowest = slowest.max(t.elapsed());
+            sent += 1;
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert!(
+            sent > api::CLIENT_QUEUE as i64,
+            "dropped after {sent} events"
+        );
+        assert!(
+            slowest < Duration::from_millis(50),
+            "update_status took {slowest:?}"
+        );
+        // The reading client was served meanwhile.
+        let received = received.load(Ordering::Relaxed);
+        assert!(
+            received > 200_000,
+            "the reading client got {received} bytes"
+        );
+        drop(stalled);
+        drop(server); // the thread ends (joined), streams and all
+        reading.join().unwrap();
+    }
+
+    #[test]
+    fn status_and_metrics_are_served_before_and_after_the_first_status() {
+        let server = WebServer::start(
+            &WebConfig {
+                listen: Some("127.0.0.1:0".into()),
+                token_file: None,
+            },
+            Some("127.0.0.1:0"),
+        )
+        .unwrap()
+        .unwrap();
+        let (web, metrics) = (
+            server.web_address().unwrap(),
+            server.metrics_address().unwrap(),
+        );
+        let get = |address, path: &str| {
+            let mut s = TcpStream::connect(address).unwrap();
+            write!(
+                s,
+                "GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+            )
+            .unwrap();
+            let mut reply = String::new();
+            s.read_to_string(&mut reply).unwrap();
+            reply
+        };
+        assert!(get(web, "/api/status").starts_with("HTTP/1.1 503"));
+        assert!(get(metrics, "/metrics").contains("# no status yet"));
+        server.update_status(status(2, 7));
+        let reply = get(web, "/api/status");
+        assert!(reply.starts_with("HTTP/1.1 200"), "{reply}");
+        assert!(
+            reply.contains("\"pbr_id\":\"rock-00001\"")
+                && reply.contains("\"display\":\"standing\"")
+        );
+        for address in [web, metrics] {
+            let m = get(address, "/metrics");
+            assert!(
+                m.contains("rockwatch_rock_state{") && m.contains("rockwatch_web_clients 0"),
+                "{m}"
+            );
+        }
+        // The metrics listener serves /metrics only; the dashboard's paths are unknown there.
+        assert!(get(metrics, "/api/status").starts_with("HTTP/1.1 404"));
+        assert!(get(web, "/api/alerts?since=x").starts_with("HTTP/1.1 400"));
+        assert!(get(web, "/api/alerts?until=1").starts_with("HTTP/1.1 400"));
+        assert!(get(web, "/api/rocks/nope").starts_with("HTTP/1.1 404"));
+        assert!(get(web, "/").contains("<title>rockwatch</title>"));
+    }
+}

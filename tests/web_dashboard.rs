@@ -1,0 +1,628 @@
+//! The node's web dashboard (`[web]`, issue 22 §1), from a real `rockwatch node` in a private
+//! network namespace (loopback only; curl as the client):
+//! - `/api/status` lists every rock of the catalogue and every station from the start;
+//! - after the Rinaldi record (ROS 2 replay) the slender pillar's overturn is in
+//!   `/api/alerts` and was streamed on `/api/events` (SSE), the pillar is `fallen`, and once
+//!   `engine.stale_after_s` has passed without data both stations are STALE and the standing
+//!   rocks `not_monitored`;
+//! - a client that opens `/api/events` and never reads does not stop the node;
+//! - `/metrics` serves the same text on `[web] listen` and `[metrics] listen` (one server);
+//! - restarted on the same state directory, the node's `/api/alerts` holds the journal's
+//!   history before any new data;
+//! - a non-loopback `listen` without `token_file` is refused at start; with a token, a request
+//!   without it (or with a wrong one) gets 401, with it 200.
+
+mod ros2_util;
+use ros2_util::*;
+
+const ROCKS: [&str; 7] = [
+    "rrs-slender-pillar",
+    "rrs-stocky-boulder",
+    "rrs-sliding-slab",
+    "rrs-pinnacle-ensemble",
+    "syl-slender-tombstone",
+    "syl-stocky-block",
+    "syl-slide-rock-column",
+];
+
+/// The last `n` bytes of `text` (about: on a character boundary).
+fn tail(text: &str, n: usize) -> &str {
+    let mut start = text.len().saturating_sub(n);
+    while !text.is_char_boundary(start) {
+        start += 1;
+    }
+    &text[start..]
+}
+
+const WEB: &str = "http://127.0.0.1:8080";
+
+fn node_config(dir: &std::path::Path, extra: &str) {
+    std::fs::write(
+        dir.join("node.toml"),
+        format!(
+            "catalogue = \"{}\"\nstate_dir = \"state\"\n[engine]\nstale_after_s = 2.0\n\
+             [ros2]\ndiscovery_range = \"LOCALHOST\"\n[status]\ndiagnostics_period_s = 0.2\n{extra}",
+            repo().join("config/catalogue.toml").display()
+        ),
+    )
+    .unwrap();
+}
+
+fn json(dir: &std::path::Path, name: &str, context: &str) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join(name)).unwrap_or_default();
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}: {text:?}\n{context}"))
+}
+
+/// The alerts of `/api/alerts` as (pbr_id, level).
+fn alert_keys(alerts: &serde_json::Value) -> Vec<(String, String)> {
+    alerts["alerts"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|a| {
+                    (
+                        a["pbr_id"].as_str().unwrap_or("").to_string(),
+                        a["level"].as_str().unwrap_or("").to_string(),
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn rock<'a>(status: &'a serde_json::Value, id: &str) -> &'a serde_json::Value {
+    status["rocks"]
+        .as_array()
+        .and_then(|r| r.iter().find(|r| r["pbr_id"] == id))
+        .unwrap_or_else(|| panic!("no rock {id} in {status}"))
+}
+
+fn station<'a>(status: &'a serde_json::Value, id: &str) -> &'a serde_json::Value {
+    status["stations"]
+        .as_array()
+        .and_then(|r| r.iter().find(|r| r["id"] == id))
+        .unwrap_or_else(|| panic!("no station {id} in {status}"))
+}
+
+#[test]
+fn the_dashboard_shows_rocks_alerts_and_stale_stations_and_survives_a_stalled_client() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    node_config(
+        p,
+        "[metrics]\nlisten = \"127.0.0.1:9464\"\n[web]\nlisten = \"127.0.0.1:8080\"\n",
+    );
+    let d = p.display().to_string();
+    let bin = rockwatch().display().to_string();
+    let rec = repo().join("tests/data/records");
+    let rec = rec.display();
+    let replay = format!(
+        "'{bin}' replay --record '{rec}/Rinaldi228.AT2' --vertical '{rec}/RinaldiUP.AT2' \
+         --azimuth 228 --station CI.RRS.00 --transport ros2 --speed max --tail 2 --wait-s 20 >/dev/null"
+    );
+    let get =
+        |path: &str, file: &str| format!("curl -sf --max-time 5 '{WEB}{path}' > '{d}/{file}'");
+    let code = |path: &str, file: &str| {
+        format!("curl -s --max-time 5 -o /dev/null -w '%{{http_code}}' '{WEB}{path}' > '{d}/{file}' || true")
+    };
+    let wait_status = |file: &str| {
+        format!(
+            "i=0; until curl -sf --max-time 2 '{WEB}/api/status' > '{d}/{file}'; do i=$((i+1)); [ $i -lt 300 ] || break; sleep 0.1; done"
+        )
+    };
+    let script = format!(
+        "'{bin}' node --config '{d}/node.toml' 2> '{d}/node.err' & NODE=$!
+         {wait_start}
+         curl -sN --max-time 60 '{WEB}/api/events' > '{d}/events.txt' & SSE=$!
+         bash -c 'exec 3<>/dev/tcp/127.0.0.1/8080; printf \"GET /api/events HTTP/1.1\\r\\nHost: x\\r\\n\\r\\n\" >&3; sleep 60' & STALLED=$!
+         sleep 0.5
+         {replay}
+         sleep 1
+         {live}
+         {alerts}
+         {none}
+         {bad}
+         {rock}
+         {rock404}
+         {page}
+         {web_metrics}
+         curl -sf --max-time 5 http://127.0.0.1:9464/metrics > '{d}/metrics.txt'
+         sleep 3
+         {stale}
+         kill $SSE $STALLED 2>/dev/null || true
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
+         '{bin}' node --config '{d}/node.toml' 2> '{d}/node2.err' & NODE=$!
+         {wait_restart}
+         {history}
+         kill -TERM $NODE; wait $NODE; echo NODE2_RC=$?",
+        wait_start = wait_status("start.json"),
+        wait_restart = wait_status("restart.json"),
+        live = get("/api/status", "live.json"),
+        alerts = get("/api/alerts", "alerts.json"),
+        none = get("/api/alerts?since=9223372036854775807", "none.json"),
+        bad = code("/api/alerts?since=yesterday", "bad.txt"),
+        rock = get("/api/rocks/rrs-slender-pillar", "rock.json"),
+        rock404 = code("/api/rocks/no-such-rock", "rock404.txt"),
+        page = get("/", "page.html"),
+        web_metrics = get("/metrics", "web_metrics.txt"),
+        stale = get("/api/status", "stale.json"),
+        history = get("/api/alerts", "history.json"),
+    );
+    let out = run_in_netns(
+        &script,
+        150,
+        &[("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST".into())],
+    );
+    let read = |name: &str| std::fs::read_to_string(p.join(name)).unwrap_or_default();
+    let (stdout, stderr) = text(&out);
+    let context = format!(
+        "--- stdout\n{stdout}\n--- stderr\n{stderr}\n--- node\n{}\n--- node (restarted)\n{}\n--- events\n{}",
+        read("node.err"),
+        read("node2.err"),
+        tail(&read("events.txt"), 3000),
+    );
+    assert!(
+        out.status.success() && stdout.contains("NODE_RC=0") && stdout.contains("NODE2_RC=0"),
+        "{context}"
+    );
+
+    // From the start: every rock of the catalogue, standing; both stations.
+    let start = json(p, "start.json", &context);
+    for id in ROCKS {
+        assert_eq!(rock(&start, id)["display"], "standing", "{id}\n{context}");
+    }
+    assert_eq!(start["rocks"].as_array().map(Vec::len), Some(ROCKS.len()));
+    for id in ["CI.RRS.00", "CI.SYL.00"] {
+        station(&start, id);
+    }
+
+    // After the record: the pillar fell, its alert is in the feed and was streamed.
+    let live = json(p, "live.json", &context);
+    let pillar = rock(&live, "rrs-slender-pillar");
+    assert_eq!(pillar["display"], "fallen", "{context}");
+    assert_eq!(pillar["mode"], "overturned", "{context}");
+    assert!(pillar["peak_theta_over_alpha"].as_f64().unwrap_or(0.0) >= 1.0);
+    assert_eq!(rock(&live, "rrs-stocky-boulder")["display"], "standing");
+    let alerts = json(p, "alerts.json", &context);
+    let keys = alert_keys(&alerts);
+    let overturned = ("rrs-slender-pillar".to_string(), "overturned".to_string());
+    assert!(keys.contains(&overturned), "{keys:?}\n{context}");
+    let first = &alerts["alerts"][0];
+    assert_eq!(first["type"], "alert");
+    assert_eq!(first["station"], "CI.RRS.00");
+    assert!(first["data_time_ns"].as_i64().is_some());
+    assert_eq!(
+        json(p, "none.json", &context)["alerts"]
+            .as_array()
+            .map(Vec::len),
+        Some(0),
+        "since filters by time\n{context}"
+    );
+    assert_eq!(read("bad.txt"), "400", "a bad since is a 400\n{context}");
+    let rock_json = json(p, "rock.json", &context);
+    assert_eq!(rock_json["rock"]["display"], "fallen");
+    assert!(alert_keys(&rock_json).contains(&overturned), "{rock_json}");
+    assert_eq!(read("rock404.txt"), "404", "{context}");
+    let events = read("events.txt");
+    assert!(
+        events.contains("event: status") && events.contains("event: alert"),
+        "{context}"
+    );
+    let streamed = events
+        .lines()
+        .filter_map(|l| l.strip_prefix("data: "))
+        .filter_map(|d| serde_json::from_str::<serde_json::Value>(d).ok())
+        .any(|a| a["pbr_id"] == "rrs-slender-pillar" && a["level"] == "overturned");
+    assert!(streamed, "the overturn was streamed\n{context}");
+
+    // The page is served, self-contained.
+    let page = read("page.html");
+    assert!(page.contains("<title>rockwatch</title>") && page.contains("/api/events"));
+    assert!(
+        !page.contains("http://") && !page.contains("https://"),
+        "no external asset"
+    );
+
+    // /metrics: the node's series and the web side's, on both listeners.
+    for file in ["web_metrics.txt", "metrics.txt"] {
+        let samples = parse_prometheus(&read(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert!(
+            labelled_value(
+                &samples,
+                "rockwatch_rock_state",
+                &[("pbr", "rrs-slender-pillar")]
+            ) == Some(4.0),
+            "{file}\n{context}"
+        );
+        assert!(
+            samples.iter().any(|s| s.0 == "rockwatch_web_clients"),
+            "{file}\n{context}"
+        );
+        assert_eq!(
+            samples
+                .iter()
+                .find(|s| s.0 == "rockwatch_web_handoff_dropped_total")
+                .map(|s| s.2),
+            Some(0.0),
+            "{file}"
+        );
+    }
+
+    // No data for stale_after_s: both stations STALE, their standing rocks not monitored,
+    // the fallen pillar still fallen.
+    let stale = json(p, "stale.json", &context);
+    for id in ["CI.RRS.00", "CI.SYL.00"] {
+        assert_eq!(station(&stale, id)["health"], "STALE", "{id}\n{context}");
+        assert_eq!(station(&stale, id)["stale"], true);
+    }
+    assert_eq!(
+        rock(&stale, "rrs-stocky-boulder")["display"],
+        "not_monitored",
+        "{context}"
+    );
+    assert_eq!(rock(&stale, "rrs-slender-pillar")["display"], "fallen");
+
+    // Restarted: the journal's history is on /api/alerts before any new data.
+    let history = alert_keys(&json(p, "history.json", &context));
+    assert!(history.contains(&overturned), "{history:?}\n{context}");
+    assert!(
+        history.len() >= keys.iter().filter(|(_, l)| !l.is_empty()).count(),
+        "{history:?} vs {keys:?}"
+    );
+}
+
+#[test]
+fn a_non_loopback_dashboard_needs_a_token_and_checks_it_on_every_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let d = p.display().to_string();
+    let bin = rockwatch().display().to_string();
+    // Refused at start: no token for an address open to the network.
+    std::fs::create_dir(p.join("open")).unwrap();
+    node_config(&p.join("open"), "[web]\nlisten = \"0.0.0.0:8080\"\n");
+    // With one (inside the test's own network namespace: nothing is reachable from outside).
+    std::fs::write(p.join("web.token"), "0123456789abcdef-test-token\n").unwrap();
+    node_config(
+        p,
+        "[web]\nlisten = \"0.0.0.0:8080\"\ntoken_file = \"web.token\"\n",
+    );
+    let auth = "-H 'Authorization: Bearer 0123456789abcdef-test-token'";
+    let code = |args: &str, path: &str, file: &str| {
+        format!("curl -s --max-time 5 {args} -o /dev/null -w '%{{http_code}}' '{WEB}{path}' > '{d}/{file}' || true")
+    };
+    let script = format!(
+        "'{bin}' node --config '{d}/open/node.toml' 2> '{d}/open.err' && echo OPEN_RC=0 || echo OPEN_RC=$?
+         '{bin}' node --config '{d}/node.toml' 2> '{d}/node.err' & NODE=$!
+         i=0; until curl -sf --max-time 2 {auth} '{WEB}/api/status' >/dev/null; do i=$((i+1)); [ $i -lt 300 ] || break; sleep 0.1; done
+         {none}
+         {wrong}
+         {status}
+         {page}
+         {metrics}
+         {events}
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?",
+        none = code("", "/api/status", "none.txt"),
+        wrong = code(
+            "-H 'Authorization: Bearer 0123456789abcdef-test-tokeN'",
+            "/api/status",
+            "wrong.txt"
+        ),
+        status = code(auth, "/api/status", "status.txt"),
+        page = code(auth, "/", "page.txt"),
+        metrics = code("", "/metrics", "metrics.txt"),
+        events = code("--max-time 1", "/api/events", "events.txt"),
+    );
+    let out = run_in_netns(&script, 60, &[]);
+    let read = |name: &str| std::fs::read_to_string(p.join(name)).unwrap_or_default();
+    let (stdout, stderr) = text(&out);
+    let context = format!(
+        "--- stdout\n{stdout}\n--- stderr\n{stderr}\n--- refused node\n{}\n--- node\n{}",
+        read("open.err"),
+        read("node.err")
+    );
+    assert!(
+        out.status.success() && stdout.contains("NODE_RC=0"),
+        "{context}"
+    );
+    assert!(
+        stdout.contains("OPEN_RC=") && !stdout.contains("OPEN_RC=0"),
+        "{context}"
+    );
+    let refusal = read("open.err");
+    assert!(
+        refusal.contains("[web] listen = \"0.0.0.0:8080\" is not a loopback address")
+            && refusal.contains("token_file"),
+        "{context}"
+    );
+    assert_eq!(read("none.txt"), "401", "no token\n{context}");
+    assert_eq!(read("wrong.txt"), "401", "a wrong token\n{context}");
+    assert_eq!(read("status.txt"), "200", "{context}");
+    assert_eq!(read("page.txt"), "200", "{context}");
+    assert_eq!(read("metrics.txt"), "401", "/metrics too\n{context}");
+    assert_eq!(read("events.txt"), "401", "the stream too\n{context}");
+}
+
+/// `rockwatch demo --web`: prints the dashboard's URL, keeps the node serving it after the
+/// replay (the overturn on `/api/alerts`) until SIGINT, then exits 0; a non-loopback address
+/// is refused (the demo has no token).
+#[test]
+fn demo_web_serves_the_dashboard_after_the_replay_until_interrupted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display().to_string();
+    let bin = rockwatch().display().to_string();
+    let script = format!(
+        "'{bin}' demo --speed max --tail 1 --web 0.0.0.0:8080 > '{d}/open.out' 2>&1 && echo OPEN_RC=0 || echo OPEN_RC=$?
+         '{bin}' demo --speed max --tail 1 --web > '{d}/demo.out' 2> '{d}/demo.err' & DEMO=$!
+         i=0; until grep -q 'until Ctrl-C' '{d}/demo.out'; do i=$((i+1)); [ $i -lt 600 ] || break; sleep 0.1; done
+         curl -sf --max-time 5 '{WEB}/api/alerts' > '{d}/alerts.json'
+         curl -sf --max-time 5 -o /dev/null '{WEB}/' && echo PAGE_OK
+         kill -INT $DEMO; wait $DEMO; echo DEMO_RC=$?"
+    );
+    let out = run_in_netns(&script, 120, &[]);
+    let read = |name: &str| std::fs::read_to_string(dir.path().join(name)).unwrap_or_default();
+    let (stdout, stderr) = text(&out);
+    let context = format!(
+        "--- stdout\n{stdout}\n--- stderr\n{stderr}\n--- demo\n{}\n{}\n--- refused\n{}",
+        read("demo.out"),
+        read("demo.err"),
+        read("open.out")
+    );
+    assert!(
+        out.status.success() && stdout.contains("DEMO_RC=0"),
+        "{context}"
+    );
+    assert!(stdout.contains("PAGE_OK"), "{context}");
+    let demo = read("demo.out");
+    assert!(
+        demo.contains("dashboard: http://127.0.0.1:8080/")
+            && demo.contains(
+                "the node keeps serving the dashboard on http://127.0.0.1:8080/ until Ctrl-C"
+            ),
+        "{context}"
+    );
+    let alerts = json(dir.path(), "alerts.json", &context);
+    assert!(
+        alert_keys(&alerts).contains(&("rrs-slender-pillar".to_string(), "overturned".to_string())),
+        "{context}"
+    );
+    assert!(
+        stdout.contains("OPEN_RC=") && !stdout.contains("OPEN_RC=0"),
+        "{context}"
+    );
+    assert!(
+        read("open.out").contains("not a loopback address"),
+        "{context}"
+    );
+}
+
+/// Decodes standard base64 (the WebDriver screenshot), padding and all.
+fn base64_decode(text: &str) -> Vec<u8> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => Some(c - b'A'),
+        b'a'..=b'z' => Some(c - b'a' + 26),
+        b'0'..=b'9' => Some(c - b'0' + 52),
+        b'+' => Some(62),
+        b'/' => Some(63),
+        _ => None,
+    };
+    let (mut out, mut acc, mut bits) = (Vec::new(), 0u32, 0);
+    for v in text.bytes().filter_map(value) {
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+        }
+    }
+    out
+}
+
+/// A WebDriver session of chromedriver on `port` (W3C protocol, JSON over loopback HTTP).
+struct Browser {
+    base: String,
+}
+
+impl Browser {
+    fn call(&self, method: &str, path: &str, body: Option<serde_json::Value>) -> serde_json::Value {
+        let url = format!("{}{path}", self.base);
+        let reply = match (method, body) {
+            ("GET", _) => ureq::get(&url).call(),
+            ("DELETE", _) => ureq::delete(&url).call(),
+            (_, body) => ureq::post(&url)
+                .header("Content-Type", "application/json")
+                .send(body.unwrap_or(serde_json::json!({})).to_string()),
+        };
+        let text = reply
+            .unwrap_or_else(|e| panic!("WebDriver {method} {path}: {e}"))
+            .body_mut()
+            .read_to_string()
+            .unwrap_or_else(|e| panic!("WebDriver {method} {path}: {e}"));
+        serde_json::from_str::<serde_json::Value>(&text).unwrap_or_default()["value"].take()
+    }
+
+    /// Runs `script` (a function body) in the page and returns its value.
+    fn eval(&self, script: &str) -> serde_json::Value {
+        self.call(
+            "POST",
+            "/execute/sync",
+            Some(serde_json::json!({ "script": script, "args": [] })),
+        )
+    }
+
+    /// Waits up to `timeout` for `script` to return true; the time it took.
+    fn wait_for(&self, script: &str, timeout: std::time::Duration) -> Option<std::time::Duration> {
+        let start = std::time::Instant::now();
+        while start.elapsed() < timeout {
+            if self.eval(script) == serde_json::json!(true) {
+                return Some(start.elapsed());
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        None
+    }
+
+    fn screenshot(&self, path: &std::path::Path) {
+        let png = self.call("GET", "/screenshot", None);
+        std::fs::write(path, base64_decode(png.as_str().unwrap_or(""))).unwrap();
+    }
+}
+
+/// The page in a real browser (headless Chromium driven over WebDriver by chromedriver, both
+/// Debian packages, installed by .ci/run), in the test's own network namespace: it loads and
+/// shows every rock of the catalogue; the Rinaldi overturn appears in its alert feed within 2 s
+/// of the replay's end (the stream, not a reload) and the pillar turns to its fallen colour;
+/// once the stations have been silent for `engine.stale_after_s` they are shown STALE. A
+/// screenshot of each state goes to `$CARGO_TARGET_TMPDIR/web_dashboard/`.
+#[test]
+fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
+    let have = |bin: &str| {
+        std::process::Command::new("sh")
+            .args(["-c", &format!("command -v {bin}")])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if !peer_available(
+        have("chromium") && have("chromedriver"),
+        "chromium and chromedriver",
+        "apt-get install chromium chromium-driver",
+    ) {
+        return;
+    }
+    if !reexec_in_netns(
+        "the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations",
+        150,
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    node_config(p, "[web]\nlisten = \"127.0.0.1:8080\"\n");
+    let shots = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("web_dashboard");
+    std::fs::create_dir_all(&shots).unwrap();
+    let node = LoggedChild::spawn(
+        std::process::Command::new(rockwatch())
+            .arg("node")
+            .arg("--config")
+            .arg(p.join("node.toml")),
+    );
+    let up = std::time::Instant::now();
+    while ureq::get(&format!("{WEB}/api/status")).call().is_err() {
+        assert!(
+            up.elapsed().as_secs() < 30,
+            "no status\n{}",
+            node.stderr_so_far()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let mut driver = std::process::Command::new("chromedriver")
+        .args(["--port=9515", "--allowed-ips=127.0.0.1"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("chromedriver");
+    let driver_base = "http://127.0.0.1:9515";
+    while ureq::get(&format!("{driver_base}/status")).call().is_err() {
+        assert!(up.elapsed().as_secs() < 60, "chromedriver did not start");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let session = Browser {
+        base: driver_base.into(),
+    }
+    .call(
+        "POST",
+        "/session",
+        Some(serde_json::json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": {"args": [
+                "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                "--window-size=1100,1000"
+            ]}
+        }}})),
+    );
+    let id = session["sessionId"]
+        .as_str()
+        .unwrap_or_else(|| panic!("no session: {session}"))
+        .to_string();
+    let browser = Browser {
+        base: format!("{driver_base}/session/{id}"),
+    };
+    let second = std::time::Duration::from_secs(1);
+    browser.call("POST", "/url", Some(serde_json::json!({ "url": WEB })));
+
+    // Every rock of the catalogue, standing.
+    let listed = format!(
+        "return {:?}.every(id => {{ const r = document.getElementById('rock-' + id); \
+         return r !== null && r.dataset.display === 'standing'; }})",
+        ROCKS
+    );
+    assert!(
+        browser.wait_for(&listed, 10 * second).is_some(),
+        "{}",
+        browser.eval("return document.body.innerText")
+    );
+    browser.screenshot(&shots.join("1-loaded.png"));
+
+    // The record: the overturn appears in the feed within 2 s of the replay's end.
+    let rec = repo().join("tests/data/records");
+    let replay = std::process::Command::new(rockwatch())
+        .args(["replay", "--record"])
+        .arg(rec.join("Rinaldi228.AT2"))
+        .arg("--vertical")
+        .arg(rec.join("RinaldiUP.AT2"))
+        .args([
+            "--azimuth",
+            "228",
+            "--station",
+            "CI.RRS.00",
+            "--transport",
+            "ros2",
+            "--speed",
+            "max",
+            "--tail",
+            "2",
+            "--wait-s",
+            "20",
+        ])
+        .output()
+        .unwrap();
+    assert!(replay.status.success(), "{}", text(&replay).1);
+    let alerted = "return [...document.querySelectorAll('#feed li.overturned')]\
+                   .some(li => li.dataset.pbr === 'rrs-slender-pillar')";
+    let took = browser.wait_for(alerted, 2 * second);
+    browser.screenshot(&shots.join("2-alert.png"));
+    assert!(
+        took.is_some(),
+        "the overturn not in the feed 2 s after the replay\n{}\n{}",
+        browser.eval("return document.body.innerText"),
+        node.stderr_so_far()
+    );
+    // The pillar in its fallen colour (the page's .fallen, #f08080).
+    let fallen = "const r = document.getElementById('rock-rrs-slender-pillar'); \
+                  return r.dataset.display === 'fallen' && \
+                  getComputedStyle(r.cells[2]).backgroundColor === 'rgb(240, 128, 128)'";
+    assert!(
+        browser.wait_for(fallen, 2 * second).is_some(),
+        "{}",
+        browser.eval("return document.body.innerText")
+    );
+    browser.screenshot(&shots.join("3-fallen.png"));
+
+    // No data for stale_after_s (2 s): both stations STALE, in the stale colour (#bbb).
+    let stale = "return ['CI.RRS.00', 'CI.SYL.00'].every(id => { \
+                 const s = document.getElementById('station-' + id); \
+                 return s !== null && s.dataset.health === 'STALE' && \
+                 getComputedStyle(s.cells[1]).backgroundColor === 'rgb(187, 187, 187)'; })";
+    assert!(
+        browser.wait_for(stale, 10 * second).is_some(),
+        "{}",
+        browser.eval("return document.body.innerText")
+    );
+    browser.screenshot(&shots.join("4-stale.png"));
+
+    browser.call("DELETE", "", None);
+    let _ = driver.kill();
+    let _ = driver.wait();
+    let (status, stderr) = node.stop(std::time::Duration::from_secs(10));
+    assert!(status.success(), "{stderr}");
+    eprintln!("screenshots in {}", shots.display());
+}
