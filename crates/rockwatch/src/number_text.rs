@@ -8,6 +8,17 @@ use rockwatch_core::dynamics::BlockParams;
 /// Significant digits of a number in text output.
 pub const SIGNIFICANT_DIGITS: i32 = 4;
 
+/// `x` in JSON output, every digit kept: a number, or null when it is not finite (JSON has no
+/// infinity or NaN).
+#[must_use]
+pub fn json_number(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        serde_json::json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
 /// `x` with [`SIGNIFICANT_DIGITS`] significant digits at most, without trailing zeros
 /// (`0.5806125` → `0.5806`, `1.25` → `1.25`, `2000` → `2000`, `123456.7` → `123457`), in
 /// scientific notation below 10⁻⁴ and from 10⁷ in magnitude (`1.235e-5`, `1.2e9`), so that no

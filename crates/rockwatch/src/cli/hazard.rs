@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use rockwatch::hazard_plots::{write_hazard_plots, HazardFigures};
-use rockwatch::number_text::short_number;
+use rockwatch::number_text::{json_number, short_number};
 use rockwatch::units::AccelUnits;
 use rockwatch_core::fragility::HorizontalDefinition;
 use rockwatch_core::hazard::{
@@ -274,15 +274,6 @@ fn pair_json(pair: Option<[f64; 2]>) -> serde_json::Value {
     pair.map_or(serde_json::Value::Null, |[a, b]| serde_json::json!([a, b]))
 }
 
-/// A finite number as JSON, infinity as null.
-fn finite_json(x: f64) -> serde_json::Value {
-    if x.is_finite() {
-        serde_json::json!(x)
-    } else {
-        serde_json::Value::Null
-    }
-}
-
 /// ` (95 %: a to b)` of an interval in the text, empty without one.
 fn interval_text(interval: Option<[f64; 2]>) -> String {
     interval.map_or_else(String::new, |[a, b]| {
@@ -523,7 +514,7 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
                 .map(|c| {
                     serde_json::json!({
                         "lower": c.lower,
-                        "upper": finite_json(c.upper),
+                        "upper": json_number(c.upper),
                         "annual_overturn_rate": c.annual_rate,
                         "fraction": if rate.annual_rate > 0.0 { c.annual_rate / rate.annual_rate } else { 0.0 },
                     })

@@ -10,7 +10,7 @@ use rockwatch_core::fragility::{
 };
 use serde_json::{json, Map, Value};
 
-use crate::number_text::short_number;
+use crate::number_text::{json_number, short_number};
 use crate::units::AccelUnits;
 
 /// A file name for an IM: `SA(1.0)` → `SA_1p0`, `PGV/PGA` → `PGV_PGA`.
@@ -24,15 +24,6 @@ pub fn im_slug(name: &str) -> String {
             c => Some(c),
         })
         .collect()
-}
-
-/// Finite numbers as JSON numbers, others as null.
-fn num(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
 }
 
 /// The horizontal-component definition of IM `im` in this analysis: the configuration's
@@ -105,8 +96,8 @@ pub fn fragility_json(
                 "model": "P = Phi(c0 + c1 ln im1 + c2 ln im2)",
                 "coefficients": fit.coef,
                 "covariance": fit.covariance,
-                "beta_im1": num(fit.beta1()),
-                "median_im1": {"at_im2_power": num(-fit.coef[2] / fit.coef[1]), "coefficient": num((-fit.coef[0] / fit.coef[1]).exp())},
+                "beta_im1": json_number(fit.beta1()),
+                "median_im1": {"at_im2_power": json_number(-fit.coef[2] / fit.coef[1]), "coefficient": json_number((-fit.coef[0] / fit.coef[1]).exp())},
                 "log_likelihood": fit.log_likelihood,
                 "grid": {"im1": s.grid1, "im2": s.grid2, "p": s.p},
             }),
@@ -141,7 +132,7 @@ pub fn fragility_json(
             "applies_to": "PGA, PGV, PGD, SA(T), PGV/PGA; the other IMs are of the first component (ims.<IM>.horizontal_definition)",
         },
         "members": config.members.len(),
-        "scale_factor_range": [num(scale_range.0), num(scale_range.1)],
+        "scale_factor_range": [json_number(scale_range.0), json_number(scale_range.1)],
         "runs": {"total": result.n_runs, "usable": usable, "overturned": result.n_overturned, "flight": result.n_flight, "failed": result.n_failed},
         "flight_runs": {
             "count": result.n_flight,

@@ -15,6 +15,7 @@ use serde_json::{json, Value};
 use tokio::sync::{mpsc, watch};
 
 use crate::alert_json::RecordJson;
+use crate::number_text::json_number;
 use crate::ports::Publication;
 use crate::status::{Level, NodeStatus};
 use crate::wire_codes::mode_code;
@@ -207,15 +208,6 @@ fn rock_display(mode: Mode, not_monitored: bool) -> &'static str {
     }
 }
 
-/// A number, or null when not finite.
-fn num(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
-}
-
 /// `/api/status`: the node's status as JSON (see the README for the fields and units).
 #[must_use]
 pub fn status_json(s: &NodeStatus) -> Value {
@@ -228,10 +220,10 @@ pub fn status_json(s: &NodeStatus) -> Value {
                 "health": st.level.as_str(),
                 "stale": st.level == Level::Stale,
                 "message": st.message,
-                "data_latency_s": st.data_latency_s.map(num),
-                "seconds_since_last_packet": st.silent_s.map(num),
+                "data_latency_s": st.data_latency_s.map(json_number),
+                "seconds_since_last_packet": st.silent_s.map(json_number),
                 "last_sample_ns": st.health.last_sample_ns,
-                "sample_rate_hz": num(st.health.sample_rate_hz),
+                "sample_rate_hz": json_number(st.health.sample_rate_hz),
                 "packets": st.health.packets,
                 "blocks": st.health.blocks,
                 "monitored": st.health.monitored,
@@ -248,8 +240,8 @@ pub fn status_json(s: &NodeStatus) -> Value {
                 "mode": r.mode,
                 "mode_code": mode_code(r.mode),
                 "display": rock_display(r.mode, r.not_monitored),
-                "theta_over_alpha": num(r.theta_over_alpha),
-                "peak_theta_over_alpha": num(r.peak_theta_over_alpha),
+                "theta_over_alpha": json_number(r.theta_over_alpha),
+                "peak_theta_over_alpha": json_number(r.peak_theta_over_alpha),
                 "not_monitored": r.not_monitored,
             })
         })
@@ -266,7 +258,7 @@ pub fn status_json(s: &NodeStatus) -> Value {
             "journal_lost": s.journal_dropped,
             "ros2_up": s.ros2_up,
             "iceoryx2": s.iceoryx2,
-            "realtime_factor": s.realtime_factor.map(num),
+            "realtime_factor": s.realtime_factor.map(json_number),
         },
     })
 }
