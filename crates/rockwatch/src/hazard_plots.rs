@@ -194,11 +194,7 @@ where
         )?;
     }
     for (c, label, central) in &f.curves {
-        let (colour, width) = if *central {
-            (CENTRAL, 2)
-        } else {
-            (FRACTILE, 1)
-        };
+        let (colour, width) = curve_style(*central);
         chart
             .draw_series(LineSeries::new(
                 grid.iter().map(|&x| (x * s, c.rate(x))),
@@ -359,11 +355,7 @@ where
         CENTRAL.mix(0.2).filled(),
     )))?;
     for (c, label, is_central) in &f.curves {
-        let (colour, width) = if *is_central {
-            (CENTRAL, 2)
-        } else {
-            (FRACTILE, 1)
-        };
+        let (colour, width) = curve_style(*is_central);
         chart
             .draw_series(LineSeries::new(
                 grid.iter().map(|&x| (x * s, density(c, x))),
@@ -498,4 +490,14 @@ where
     legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present()?;
     Ok(())
+}
+
+/// The colour and width of a hazard curve: the curve λ comes from stands out, the fractiles do
+/// not.
+fn curve_style(central: bool) -> (RGBColor, u32) {
+    if central {
+        (CENTRAL, 2)
+    } else {
+        (FRACTILE, 1)
+    }
 }
