@@ -351,7 +351,7 @@ const EXCEPTIONS: &[Exception] = &[
                 "systemd-analyze",
                 "cargo fmt --all -- --check",
                 "cargo clippy --workspace --all-targets --locked -- -D warnings",
-                "cargo bench --workspace --no-run",
+                "cargo test --workspace --benches --no-run",
                 "cargo test --workspace --locked",
             ],
         },
