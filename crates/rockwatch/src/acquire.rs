@@ -366,6 +366,9 @@ pub enum AcquireConfigProblem {
     /// An `[assembly]` value is out of its range.
     #[error("{0}")]
     Assembly(String),
+    /// A `[metrics]` value is invalid (e.g. a non-loopback listen without a token).
+    #[error("{0}")]
+    Metrics(String),
 }
 
 impl AcquireConfig {
@@ -398,6 +401,8 @@ impl AcquireConfig {
             .patterns()
             .map_err(|e| fail(P::SeedLink(e)))?;
         config.clipping.check().map_err(|e| fail(P::Clipping(e)))?;
+        config.metrics.resolve(base);
+        config.metrics.token().map_err(|e| fail(P::Metrics(e)))?;
         config.partition_map().map_err(|e| fail(P::Partition(e)))?;
         if config.inventory.stationxml.is_empty() {
             return Err(fail(P::NoInventory));

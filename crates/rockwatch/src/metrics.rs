@@ -2,11 +2,14 @@
 //! as the text exposition format, on the codebase's one HTTP server ([`crate::web::server`]:
 //! axum on tokio, one thread). The node serves its status ([`crate::status::NodeStatus::prometheus`])
 //! there and on the dashboard's `/metrics` (`[web] listen`) from the same thread
-//! ([`crate::web::WebServer`]); `[metrics] listen` stays as a `/metrics`-only listener without
-//! a token, for a scraper that should not reach the dashboard. `rockwatch acquire` uses
-//! [`MetricsServer`], a text the caller replaces once per period.
+//! ([`crate::web::WebServer`]); `[metrics] listen` is a `/metrics`-only listener, for a scraper
+//! that should not reach the dashboard. As every listener ([`crate::web::config::listener_token`]):
+//! loopback by default, and an address off loopback needs `[metrics] token_file`, a bearer
+//! token every scrape must carry (Prometheus: `authorization: { credentials_file: … }`).
+//! `rockwatch acquire` uses [`MetricsServer`], a text the caller replaces once per period.
 
 use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use crate::web::server::HttpThread;
@@ -18,6 +21,27 @@ pub struct MetricsConfig {
     /// Address of the endpoint (`host:port`); none by default.
     #[serde(default)]
     pub listen: Option<String>,
+    /// File holding the bearer token every request must carry (one line; relative to the
+    /// configuration file). Required when `listen` is not a loopback address.
+    #[serde(default)]
+    pub token_file: Option<PathBuf>,
+}
+
+impl MetricsConfig {
+    /// Resolves `token_file` against the configuration file's folder `base`.
+    pub fn resolve(&mut self, base: &Path) {
+        self.token_file = self.token_file.take().map(|f| base.join(f));
+    }
+
+    /// Checks the section (the rule of [`crate::web::config::listener_token`]) and reads the
+    /// token, if `token_file` is set. The error names the key.
+    pub fn token(&self) -> Result<Option<String>, String> {
+        crate::web::config::listener_token(
+            "[metrics]",
+            self.listen.as_deref(),
+            self.token_file.as_deref(),
+        )
+    }
 }
 
 /// The endpoint's server and the text it serves.
@@ -30,9 +54,9 @@ pub struct MetricsServer {
 
 impl MetricsServer {
     /// Binds `listen` and starts the server (it serves `# no status yet` until the first
-    /// [`MetricsServer::update`]).
-    pub fn start(listen: &str) -> anyhow::Result<MetricsServer> {
-        let (thread, text) = crate::web::text_metrics_server(listen)?;
+    /// [`MetricsServer::update`]); with `token`, every request must carry it.
+    pub fn start(listen: &str, token: Option<String>) -> anyhow::Result<MetricsServer> {
+        let (thread, text) = crate::web::text_metrics_server(listen, token)?;
         let address = thread.addresses()[0];
         tracing::info!("metrics: Prometheus text on http://{address}/metrics");
         Ok(MetricsServer {
@@ -73,7 +97,7 @@ mod tests {
 
     #[test]
     fn serves_the_last_text_on_get_metrics_only() {
-        let server = MetricsServer::start("127.0.0.1:0").unwrap();
+        let server = MetricsServer::start("127.0.0.1:0", None).unwrap();
         let address = server.address();
         let first = get(
             address,
@@ -113,5 +137,41 @@ mod tests {
         drop(idle);
         drop(server); // the thread ends (joined)
         assert!(TcpStream::connect_timeout(&address, Duration::from_millis(200)).is_err());
+    }
+
+    #[test]
+    fn an_address_off_loopback_needs_a_token_and_every_scrape_must_carry_it() {
+        let open = MetricsConfig {
+            listen: Some("0.0.0.0:9464".into()),
+            token_file: None,
+        };
+        let e = open.token().unwrap_err();
+        assert!(
+            e.contains("[metrics] listen") && e.contains("[metrics] token_file"),
+            "{e}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("metrics.token"), "0123456789abcdef0123\n").unwrap();
+        let mut config = MetricsConfig {
+            listen: Some("127.0.0.1:0".into()),
+            token_file: Some("metrics.token".into()),
+        };
+        config.resolve(dir.path());
+        let token = config.token().unwrap();
+        assert_eq!(token.as_deref(), Some("0123456789abcdef0123"));
+        let server = MetricsServer::start("127.0.0.1:0", token).unwrap();
+        server.update("rockwatch_up 1\n".into());
+        let bare = "GET /metrics HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+        assert!(get(server.address(), bare).starts_with("HTTP/1.1 401"));
+        let wrong = "GET /metrics HTTP/1.1\r\nAuthorization: Bearer 0123456789abcdef0124\r\n\
+                     Connection: close\r\n\r\n";
+        assert!(get(server.address(), wrong).starts_with("HTTP/1.1 401"));
+        let good = "GET /metrics HTTP/1.1\r\nAuthorization: Bearer 0123456789abcdef0123\r\n\
+                    Connection: close\r\n\r\n";
+        let reply = get(server.address(), good);
+        assert!(
+            reply.starts_with("HTTP/1.1 200") && reply.ends_with("rockwatch_up 1\n"),
+            "{reply}"
+        );
     }
 }

@@ -211,9 +211,9 @@ pub enum NodeConfigProblem {
     /// A `[status]` value is invalid.
     #[error("{0}")]
     Status(String),
-    /// A `[web]` value is invalid (e.g. a non-loopback listen without a token).
+    /// A `[web]` or `[metrics]` value is invalid (e.g. a non-loopback listen without a token).
     #[error("{0}")]
-    Web(String),
+    Listener(String),
 }
 
 impl NodeConfig {
@@ -252,7 +252,12 @@ impl NodeConfig {
         config
             .web
             .validate()
-            .map_err(|e| error(NodeConfigProblem::Web(e)))?;
+            .map_err(|e| error(NodeConfigProblem::Listener(e)))?;
+        config.metrics.resolve(base);
+        config
+            .metrics
+            .token()
+            .map_err(|e| error(NodeConfigProblem::Listener(e)))?;
         for (i, n) in config.notify.iter().enumerate() {
             n.validate()
                 .map_err(|e| error(NodeConfigProblem::Notify(i + 1, e)))?;
@@ -404,13 +409,23 @@ mod tests {
 
     #[test]
     fn every_key_documented_in_config_node_toml_is_valid_with_its_documented_value() {
-        // The token file [web] token_file names is read at load: beside the file, as documented.
+        // The token files [web] and [metrics] token_file name are read at load: beside the
+        // file, as documented.
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("node.toml");
         std::fs::write(&path, documented_config()).unwrap();
         std::fs::write(dir.path().join("web.token"), "0123456789abcdef-example\n").unwrap();
+        std::fs::write(
+            dir.path().join("metrics.token"),
+            "fedcba9876543210-example\n",
+        )
+        .unwrap();
         let config = NodeConfig::load(&path).unwrap();
         assert_eq!(config.web.listen.as_deref(), Some("127.0.0.1:8080"));
+        assert_eq!(
+            config.metrics.token().unwrap().as_deref(),
+            Some("fedcba9876543210-example")
+        );
         assert!(config.state_dir.is_some());
         assert_eq!(config.stations[0].gain_mps2_per_count, Some(1.0e-6));
         assert_eq!(config.stations[0].full_scale, Some(8_388_607.0));

@@ -238,7 +238,7 @@ impl Reactor {
         };
         // The node's own log records at or above `[status] rosout_level` also go to /rosout.
         crate::logging::enable_rosout(config.status.rosout().map_err(anyhow::Error::msg)?);
-        let web = WebServer::start(&config.web, config.metrics.listen.as_deref())?;
+        let web = WebServer::start(&config.web, &config.metrics)?;
         Ok(Reactor {
             runtime,
             poll,

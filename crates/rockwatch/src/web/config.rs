@@ -43,51 +43,73 @@ impl WebConfig {
     /// loopback has a `token_file` (which must hold a token of at least [`MIN_TOKEN_BYTES`]).
     /// The error names the key.
     pub fn validate(&self) -> Result<(), String> {
-        let Some(listen) = &self.listen else {
-            if self.token_file.is_some() {
-                return Err("[web] token_file is set but [web] listen is not".into());
-            }
-            return Ok(());
-        };
-        let addresses = resolve(listen)?;
-        let loopback = addresses.iter().all(|a| a.ip().is_loopback());
-        match &self.token_file {
-            Some(file) => load_token(file).map(|_| ()),
-            None if loopback => Ok(()),
-            None => Err(format!(
-                "[web] listen = {listen:?} is not a loopback address: the dashboard would be \
-                 open to the network; set [web] token_file (a bearer token checked on every \
-                 request) or listen on 127.0.0.1"
-            )),
-        }
+        self.token().map(|_| ())
     }
 
-    /// The token, if `token_file` is set (read now).
+    /// The token, if `token_file` is set (read now), after the checks of
+    /// [`WebConfig::validate`].
     pub fn token(&self) -> Result<Option<String>, String> {
-        self.token_file.as_deref().map(load_token).transpose()
+        listener_token("[web]", self.listen.as_deref(), self.token_file.as_deref())
     }
 }
 
-/// Every address `listen` (`host:port`) stands for; an error names `[web] listen`.
-fn resolve(listen: &str) -> Result<Vec<SocketAddr>, String> {
+/// The rule of every listener the node opens (`[web]`, `[metrics]`): `listen` parses as
+/// `host:port`; an address that is not loopback (every address it resolves to in 127.0.0.0/8
+/// or `::1`) needs `token_file`, whose token every request must then carry. Returns that
+/// token (read now); errors name `section`'s keys.
+pub fn listener_token(
+    section: &str,
+    listen: Option<&str>,
+    token_file: Option<&Path>,
+) -> Result<Option<String>, String> {
+    let Some(listen) = listen else {
+        if token_file.is_some() {
+            return Err(format!(
+                "{section} token_file is set but {section} listen is not"
+            ));
+        }
+        return Ok(None);
+    };
+    let addresses = resolve(section, listen)?;
+    let loopback = addresses.iter().all(|a| a.ip().is_loopback());
+    match token_file {
+        Some(file) => load_token(section, file).map(Some),
+        None if loopback => Ok(None),
+        None => Err(format!(
+            "{section} listen = {listen:?} is not a loopback address: it would be open to the \
+             network; set {section} token_file (a bearer token checked on every request) or \
+             listen on 127.0.0.1"
+        )),
+    }
+}
+
+/// Every address `listen` (`host:port`) stands for; an error names `{section} listen`.
+fn resolve(section: &str, listen: &str) -> Result<Vec<SocketAddr>, String> {
     let addresses: Vec<SocketAddr> = listen
         .to_socket_addrs()
-        .map_err(|e| format!("[web] listen = {listen:?}: not a host:port address ({e})"))?
+        .map_err(|e| format!("{section} listen = {listen:?}: not a host:port address ({e})"))?
         .collect();
     if addresses.is_empty() {
-        return Err(format!("[web] listen = {listen:?}: resolves to no address"));
+        return Err(format!(
+            "{section} listen = {listen:?}: resolves to no address"
+        ));
     }
     Ok(addresses)
 }
 
-/// Reads a token file: its content trimmed; an error names `[web] token_file`.
-pub fn load_token(file: &Path) -> Result<String, String> {
+/// Reads a token file: its content trimmed; an error names `{section} token_file`.
+fn load_token(section: &str, file: &Path) -> Result<String, String> {
     let text = rockwatch_core::bounded_read::read_to_string_bounded(file, MAX_TOKEN_BYTES)
-        .map_err(|e| format!("[web] token_file = {:?}: {e}", file.display().to_string()))?;
+        .map_err(|e| {
+            format!(
+                "{section} token_file = {:?}: {e}",
+                file.display().to_string()
+            )
+        })?;
     let token = text.trim();
     if token.len() < MIN_TOKEN_BYTES || token.chars().any(|c| c.is_whitespace()) {
         return Err(format!(
-            "[web] token_file = {:?}: the token must be one word of at least {MIN_TOKEN_BYTES} \
+            "{section} token_file = {:?}: the token must be one word of at least {MIN_TOKEN_BYTES} \
              characters",
             file.display().to_string()
         ));

@@ -29,6 +29,7 @@ use axum::routing::get;
 use axum::Router;
 use tokio::sync::{mpsc, watch};
 
+use crate::metrics::MetricsConfig;
 use crate::ports::{Publication, Publisher};
 use crate::status::NodeStatus;
 pub use api::WebCounters;
@@ -54,38 +55,27 @@ pub struct WebServer {
 }
 
 impl WebServer {
-    /// Starts the server if `web` or `metrics_listen` asks for it (else None). The dashboard
-    /// requires the token of `web.token_file` when set.
-    pub fn start(
-        web: &WebConfig,
-        metrics_listen: Option<&str>,
-    ) -> anyhow::Result<Option<WebServer>> {
+    /// Starts the server if `web` or `metrics` asks for it (else None). Each listener requires
+    /// its section's token when `token_file` is set.
+    pub fn start(web: &WebConfig, metrics: &MetricsConfig) -> anyhow::Result<Option<WebServer>> {
+        let metrics_listen = metrics.listen.as_deref();
         if web.listen.is_none() && metrics_listen.is_none() {
             return Ok(None);
         }
-        web.validate().map_err(anyhow::Error::msg)?;
         let (status, status_rx) = watch::channel(None);
         let counters = Arc::new(WebCounters::default());
         let shared = Arc::new(api::Shared::new(status_rx, Arc::clone(&counters)));
         let (alerts, mut alerts_rx) = mpsc::channel::<Publication>(ALERT_QUEUE);
         let mut listeners = Vec::new();
         if let Some(listen) = &web.listen {
-            let mut router = dashboard_router(Arc::clone(&shared));
-            if let Some(token) = web.token().map_err(anyhow::Error::msg)? {
-                let token: Arc<str> = token.into();
-                router = router.layer(axum::middleware::from_fn_with_state(
-                    token,
-                    server::require_token,
-                ));
-            }
+            let token = web.token().map_err(anyhow::Error::msg)?;
+            let router = guarded(dashboard_router(Arc::clone(&shared)), token);
             listeners.push(Listener::bind("[web] listen", listen, router)?);
         }
         if let Some(listen) = metrics_listen {
-            listeners.push(Listener::bind(
-                "[metrics] listen",
-                listen,
-                metrics_router(Arc::clone(&shared)),
-            )?);
+            let token = metrics.token().map_err(anyhow::Error::msg)?;
+            let router = guarded(metrics_router(Arc::clone(&shared)), token);
+            listeners.push(Listener::bind("[metrics] listen", listen, router)?);
         }
         let fan_out = {
             let shared = Arc::clone(&shared);
@@ -209,9 +199,24 @@ fn metrics_router(shared: Arc<api::Shared>) -> Router {
         .with_state(shared)
 }
 
+/// `router` behind `token` (every request must carry it), when there is one.
+fn guarded(router: Router, token: Option<String>) -> Router {
+    match token {
+        Some(token) => router.layer(axum::middleware::from_fn_with_state(
+            Arc::<str>::from(token),
+            server::require_token,
+        )),
+        None => router,
+    }
+}
+
 /// A `/metrics` endpoint serving a text the caller replaces (`rockwatch acquire`'s
-/// `[metrics] listen`): the same server implementation as the dashboard's.
-pub fn text_metrics_server(listen: &str) -> anyhow::Result<(HttpThread, Arc<Mutex<String>>)> {
+/// `[metrics] listen`), behind `token` when given: the same server implementation as the
+/// dashboard's.
+pub fn text_metrics_server(
+    listen: &str,
+    token: Option<String>,
+) -> anyhow::Result<(HttpThread, Arc<Mutex<String>>)> {
     let text = Arc::new(Mutex::new("# no status yet\n".to_string()));
     let served = Arc::clone(&text);
     let router = Router::new()
@@ -228,6 +233,7 @@ pub fn text_metrics_server(listen: &str) -> anyhow::Result<(HttpThread, Arc<Mute
             }),
         )
         .fallback(page::not_found);
+    let router = guarded(router, token);
     let thread = HttpThread::start(
         vec![Listener::bind("[metrics] listen", listen, router)?],
         async {},
@@ -284,7 +290,7 @@ mod tests {
                 listen: Some("127.0.0.1:0".into()),
                 token_file: None,
             },
-            None,
+            &MetricsConfig::default(),
         )
         .unwrap()
         .unwrap();
@@ -342,7 +348,10 @@ mod tests {
                 listen: Some("127.0.0.1:0".into()),
                 token_file: None,
             },
-            Some("127.0.0.1:0"),
+            &MetricsConfig {
+                listen: Some("127.0.0.1:0".into()),
+                token_file: None,
+            },
         )
         .unwrap()
         .unwrap();

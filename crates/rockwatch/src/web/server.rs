@@ -149,7 +149,7 @@ pub async fn require_token(
         _ => (
             StatusCode::UNAUTHORIZED,
             [(header::WWW_AUTHENTICATE, "Bearer")],
-            "401 unauthorized: this dashboard needs `Authorization: Bearer <token>` ([web] token_file)\n",
+            "401 unauthorized: this endpoint needs `Authorization: Bearer <token>` (the listener's token_file)\n",
         )
             .into_response(),
     }
