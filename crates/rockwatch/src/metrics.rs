@@ -9,40 +9,12 @@
 //! `rockwatch acquire` uses [`MetricsServer`], a text the caller replaces once per period.
 
 use std::net::SocketAddr;
-use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use crate::web::server::HttpThread;
 
-/// The `[metrics]` section of the node configuration.
-#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MetricsConfig {
-    /// Address of the endpoint (`host:port`); none by default.
-    #[serde(default)]
-    pub listen: Option<String>,
-    /// File holding the bearer token every request must carry (one line; relative to the
-    /// configuration file). Required when `listen` is not a loopback address.
-    #[serde(default)]
-    pub token_file: Option<PathBuf>,
-}
-
-impl MetricsConfig {
-    /// Resolves `token_file` against the configuration file's folder `base`.
-    pub fn resolve(&mut self, base: &Path) {
-        self.token_file = self.token_file.take().map(|f| base.join(f));
-    }
-
-    /// Checks the section (the rule of [`crate::web::config::listener_token`]) and reads the
-    /// token, if `token_file` is set. The error names the key.
-    pub fn token(&self) -> Result<Option<String>, String> {
-        crate::web::config::listener_token(
-            "[metrics]",
-            self.listen.as_deref(),
-            self.token_file.as_deref(),
-        )
-    }
-}
+/// The `[metrics]` section (node and acquire): kept with `[web]`, the other listener.
+pub use crate::web::config::MetricsConfig;
 
 /// The endpoint's server and the text it serves.
 pub struct MetricsServer {

@@ -1,4 +1,5 @@
-//! The `[web]` section of the node configuration:
+//! The listeners' sections of the configuration, `[web]` and `[metrics]` (one rule for both,
+//! [`listener_token`]):
 //!
 //! ```toml
 //! [web]
@@ -9,7 +10,9 @@
 //! A `listen` address that is not loopback (every address it resolves to must be in
 //! 127.0.0.0/8 or `::1`) is refused at load without `token_file`: the dashboard and its API
 //! show every rock's position and state. With a token every request must carry
-//! `Authorization: Bearer <token>` (compared in constant time), else 401.
+//! `Authorization: Bearer <token>` (compared in constant time), else 401. `[metrics]`
+//! (`listen`, `token_file`: the node's and `rockwatch acquire`'s `/metrics`-only listener)
+//! follows the same rule.
 
 use std::net::{SocketAddr, ToSocketAddrs};
 use std::path::{Path, PathBuf};
@@ -50,6 +53,36 @@ impl WebConfig {
     /// [`WebConfig::validate`].
     pub fn token(&self) -> Result<Option<String>, String> {
         listener_token("[web]", self.listen.as_deref(), self.token_file.as_deref())
+    }
+}
+
+/// The `[metrics]` section of the node configuration.
+#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetricsConfig {
+    /// Address of the endpoint (`host:port`); none by default.
+    #[serde(default)]
+    pub listen: Option<String>,
+    /// File holding the bearer token every request must carry (one line; relative to the
+    /// configuration file). Required when `listen` is not a loopback address.
+    #[serde(default)]
+    pub token_file: Option<PathBuf>,
+}
+
+impl MetricsConfig {
+    /// Resolves `token_file` against the configuration file's folder `base`.
+    pub fn resolve(&mut self, base: &Path) {
+        self.token_file = self.token_file.take().map(|f| base.join(f));
+    }
+
+    /// Checks the section (the rule of [`listener_token`]) and reads the
+    /// token, if `token_file` is set. The error names the key.
+    pub fn token(&self) -> Result<Option<String>, String> {
+        listener_token(
+            "[metrics]",
+            self.listen.as_deref(),
+            self.token_file.as_deref(),
+        )
     }
 }
 

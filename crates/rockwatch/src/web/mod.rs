@@ -29,11 +29,10 @@ use axum::routing::get;
 use axum::Router;
 use tokio::sync::{mpsc, watch};
 
-use crate::metrics::MetricsConfig;
 use crate::ports::{Publication, Publisher};
 use crate::status::NodeStatus;
 pub use api::WebCounters;
-pub use config::WebConfig;
+pub use config::{MetricsConfig, WebConfig};
 use server::{HttpThread, Listener};
 
 /// Alerts and resets waiting to be taken by the web thread; beyond, they are dropped
