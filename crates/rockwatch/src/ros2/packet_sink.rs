@@ -329,8 +329,31 @@ impl Ros2PacketSink {
         let topics: Vec<String> = self.lanes.iter().map(|l| l.topic.clone()).collect();
         // The new participant may die too while it waits for the nodes (another signal):
         // watched like any, and built again, a bounded number of times.
+        // Whether a new writer has replaced the dead one yet (an attempt whose participant
+        // could not be built makes none).
+        let mut switched = false;
         for attempt in 1..=MAX_REBUILD_ATTEMPTS {
-            let (session, reports, writers) = Self::open_parts(&self.plan, &self.naming, &topics)?;
+            // Building fails too when a signal lands in RustDDS's start-up (its discovery
+            // thread misses the hand-shake: "Discovery thread channel error: Timeout"): another
+            // attempt, as a participant that dies while it waits.
+            let (session, reports, writers) =
+                match Self::open_parts(&self.plan, &self.naming, &topics) {
+                    Ok(parts) => parts,
+                    Err(e) if attempt < MAX_REBUILD_ATTEMPTS => {
+                        tracing::error!(
+                            "the replay's DDS participant could not be built again ({e:#}): \
+                             trying again ({attempt} of {MAX_REBUILD_ATTEMPTS})"
+                        );
+                        std::thread::sleep(Duration::from_millis(100));
+                        continue;
+                    }
+                    Err(e) => {
+                        return Err(e.context(format!(
+                            "the replay's DDS participant could not be built again \
+                             {MAX_REBUILD_ATTEMPTS} times in a row: giving up"
+                        )))
+                    }
+                };
             {
                 // The dead participant's teardown: RustDDS logs each endpoint it cannot remove.
                 let _quiet = MuteLibraries::new();
@@ -340,7 +363,7 @@ impl Ros2PacketSink {
                 self.diagnostics = None;
                 for (lane, writer) in self.lanes.iter_mut().zip(writers) {
                     let writer_gid = gid_of(writer.guid());
-                    if attempt == 1 {
+                    if !switched {
                         lane.delivery.watch.switch(writer_gid);
                     } else {
                         // The previous attempt's writer sent nothing: the dead one stays the
@@ -353,6 +376,7 @@ impl Ros2PacketSink {
                     lane.lost_reader = false;
                 }
                 self._session = session;
+                switched = true;
             }
             let deadline = Instant::now() + self.wait;
             let died = loop {
