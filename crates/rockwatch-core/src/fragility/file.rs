@@ -69,3 +69,66 @@ pub struct BootstrapJson {
     #[serde(default)]
     pub median_beta: Vec<[f64; 2]>,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    /// The entry's JSON is the one `rockwatch fragility` wrote before this type existed (its
+    /// `json!` map: keys sorted, undefined numbers null), and reads back equal.
+    #[test]
+    fn an_entry_is_written_as_before_and_reads_back() {
+        let entry = ImFragilityJson {
+            median: 0.5,
+            beta: 0.25,
+            ci95: Ci95Json {
+                median: Some([0.4, 0.6]),
+                beta: None,
+            },
+            n_runs: 40,
+            n_overturned: 12,
+            unit: Some("m/s".into()),
+            horizontal_definition: Some("component".into()),
+            likelihood: Some("binomial over stripes".into()),
+            log_likelihood: Some(f64::NAN),
+            bootstrap: BootstrapJson {
+                replicates: 3,
+                failed: 1,
+                median_beta: vec![[0.45, 0.2], [0.55, 0.3]],
+            },
+            median_if_flight_overturned: None,
+        };
+        let text = serde_json::to_value(&entry).unwrap().to_string();
+        // The former writer's expression (crates/rockwatch/src/fragility/report.rs before
+        // `ImFragilityJson`), with the same values.
+        let pair = |v: Option<[f64; 2]>| v.map_or(serde_json::Value::Null, |[a, b]| json!([a, b]));
+        let former = json!({
+            "median": 0.5,
+            "beta": 0.25,
+            "ci95": {"median": pair(Some([0.4, 0.6])), "beta": pair(None)},
+            "n_runs": 40_usize,
+            "n_overturned": 12_usize,
+            "unit": "m/s",
+            "horizontal_definition": "component",
+            "likelihood": "binomial over stripes",
+            "log_likelihood": f64::NAN,
+            "bootstrap": {"replicates": 3_usize, "failed": 1_usize, "median_beta": vec![(0.45, 0.2), (0.55, 0.3)]},
+            "median_if_flight_overturned": None::<f64>,
+        });
+        assert_eq!(text, former.to_string());
+        assert_eq!(
+            text,
+            r#"{"beta":0.25,"bootstrap":{"failed":1,"median_beta":[[0.45,0.2],[0.55,0.3]],"replicates":3},"ci95":{"beta":null,"median":[0.4,0.6]},"horizontal_definition":"component","likelihood":"binomial over stripes","log_likelihood":null,"median":0.5,"median_if_flight_overturned":null,"n_overturned":12,"n_runs":40,"unit":"m/s"}"#
+        );
+        let back: ImFragilityJson = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.log_likelihood, None);
+        assert_eq!(
+            back,
+            ImFragilityJson {
+                log_likelihood: None,
+                ..entry
+            }
+        );
+    }
+}
