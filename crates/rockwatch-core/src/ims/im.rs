@@ -677,6 +677,29 @@ mod tests {
         assert!(parse("PGX").unwrap_err().to_string().contains("unknown IM"));
     }
 
+    /// `hazard::canonical_im` as it was before `Im` (kept only to check the table below).
+    fn former_canonical_im(name: &str) -> String {
+        let upper = name.trim().to_ascii_uppercase();
+        match upper.as_str() {
+            "PHA" => "PGA".to_owned(),
+            "PHV" => "PGV".to_owned(),
+            _ => upper,
+        }
+    }
+
+    /// `hazard::ImUnit::of_openquake_imt` as it was before `Im` (kept only to check the table
+    /// below; None for its error).
+    fn former_unit_of_openquake_imt(imt: &str) -> Option<ImUnit> {
+        let imt = imt.trim().to_ascii_uppercase();
+        if imt == "PGA" || imt.starts_with("SA(") {
+            Some(ImUnit::G)
+        } else if imt == "PGV" {
+            Some(ImUnit::CentimetrePerSecond)
+        } else {
+            None
+        }
+    }
+
     /// The OpenQuake IMTs hazard reads, before (the removed `ImUnit::of_openquake_imt` and
     /// `hazard::canonical_im`) and after: the unit of each accepted IMT, and whether a curve
     /// of that IMT matches `--im`.
@@ -705,6 +728,7 @@ mod tests {
             ("", None, None),
         ];
         for (imt, before, after) in units {
+            assert_eq!(former_unit_of_openquake_imt(imt), before, "{imt:?}");
             let now = Im::from_openquake_imt(imt)
                 .ok()
                 .and_then(|im| im.openquake_unit());
@@ -729,7 +753,12 @@ mod tests {
             ("SA(1.0)", "SA(0.3)", false, false),
             ("SA(0.3)", "PGA", false, false),
         ];
-        for (imt, wanted, _before, now) in matches {
+        for (imt, wanted, before, now) in matches {
+            assert_eq!(
+                former_canonical_im(imt) == former_canonical_im(wanted),
+                before,
+                "{imt} vs {wanted}"
+            );
             let file = Im::from_openquake_imt(imt).unwrap();
             assert_eq!(file == parse(wanted).unwrap(), now, "{imt} vs {wanted}");
         }
