@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use rockwatch_core::dynamics::{BlockOptions, BlockParams};
 use rockwatch_core::fragility::{
-    analyse, log_spaced, prepare, run_simulations, FragilityConfig, FragilityIm, FragilityRecord,
-    Intensity, Prepared, RockDirection, RockMember, RunResult, RunStatus,
+    analyse, log_spaced, prepare, run_simulations, FragilityConfig, FragilityRecord, Im, Intensity,
+    Prepared, RockDirection, RockMember, RunResult, RunStatus,
 };
 use rockwatch_core::record::Record;
 
@@ -37,12 +37,7 @@ fn records() -> Vec<FragilityRecord> {
 
 fn config(members: Vec<RockMember>, bootstrap: usize) -> FragilityConfig {
     FragilityConfig {
-        ims: vec![
-            FragilityIm::Pga,
-            FragilityIm::Pgv,
-            FragilityIm::PgvPga,
-            FragilityIm::Sa(1.0),
-        ],
+        ims: vec![Im::Pga, Im::Pgv, Im::PgvPga, Im::Sa(1.0)],
         // Stripes from well below uplift to well above overturning: the realistic mix of
         // runs at rest, rocking and falling.
         intensity: Intensity::Stripes {

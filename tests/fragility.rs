@@ -9,8 +9,8 @@ use std::path::Path;
 use rockwatch_core::dynamics::{BlockOptions, BlockParams};
 use rockwatch_core::fragility::fit::{fit_lognormal_groups, fit_surface};
 use rockwatch_core::fragility::{
-    analyse, bootstrap_weights, log_spaced, prepare, run_simulations, FragilityConfig, FragilityIm,
-    FragilityRecord, Intensity, Prepared, RockDirection, RockMember, RunResult, RunStatus,
+    analyse, bootstrap_weights, log_spaced, prepare, run_simulations, FragilityConfig,
+    FragilityRecord, Im, Intensity, Prepared, RockDirection, RockMember, RunResult, RunStatus,
 };
 use rockwatch_core::ims::{compute_ims, ImOptions};
 use rockwatch_core::lhs::{rng_from_seed, standard_normal_quantile, uniform_open01};
@@ -221,7 +221,7 @@ fn surface_fit_recovers_a_known_two_im_probit() {
 fn config_with(levels: Vec<f64>, bootstrap: usize, seed: u64) -> FragilityConfig {
     let params = BlockParams::from_width_height(0.5, 2.0, 1.0, 0.8, None).unwrap();
     FragilityConfig {
-        ims: vec![FragilityIm::Pga],
+        ims: vec![Im::Pga],
         intensity: Intensity::Stripes { im: 0, levels },
         members: vec![RockMember::Planar {
             directions: vec![RockDirection {
@@ -327,7 +327,7 @@ fn bundled(name: &str) -> Record {
 #[test]
 fn scaled_ims_equal_the_ims_of_scaled_records() {
     // IM(s·record) = s^k·IM(record), checked against compute_ims of the scaled record.
-    let ims: Vec<FragilityIm> = [
+    let ims: Vec<Im> = [
         "PGA",
         "PGV",
         "PGD",
@@ -350,7 +350,7 @@ fn scaled_ims_equal_the_ims_of_scaled_records() {
         "VSI(0.5-1.0)",
     ]
     .iter()
-    .map(|n| FragilityIm::parse(n).unwrap())
+    .map(|n| n.parse::<Im>().unwrap())
     .collect();
     let options = ImOptions {
         periods_s: vec![1.0, 0.3],
@@ -542,7 +542,7 @@ fn runs_do_not_depend_on_the_thread_count() {
         })
         .collect();
     let mut config = config_with(log_spaced(1.0, 6.0, 4), 20, 9);
-    config.ims = vec![FragilityIm::Pga, FragilityIm::Pgv];
+    config.ims = vec![Im::Pga, Im::Pgv];
     config.incidences_deg = vec![0.0, 180.0];
     let prepared = prepare(&config, &records).unwrap();
     let run_with = |threads: usize| {

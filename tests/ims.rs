@@ -360,7 +360,13 @@ fn study_ims_are_the_37_named_values() {
     let record = read_record("Rinaldi228.AT2");
     let ims = compute_ims(&record.horizontal_mps2, record.dt_s, &ImOptions::default()).unwrap();
     let study = study_ims(&ims);
-    let get = |name: &str| study.iter().find(|(n, _)| *n == name).unwrap().1;
+    let get = |name: &str| {
+        study
+            .iter()
+            .find(|(n, _)| n.study_name() == name)
+            .unwrap()
+            .1
+    };
     assert_eq!(study.len(), 37);
     assert_eq!(get("pha"), ims.pga_mps2);
     assert_eq!(get("phv"), ims.pgv_mps);

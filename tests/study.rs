@@ -9,7 +9,7 @@ use std::process::{Command, Output};
 
 use rockwatch::study::report;
 use rockwatch_core::fragility::fit::FitError;
-use rockwatch_core::ims::{STUDY_IM_COUNT, STUDY_IM_NAMES};
+use rockwatch_core::ims::{Im, STUDY_IMS, STUDY_IM_COUNT};
 use rockwatch_core::lhs::{rng_from_seed, uniform_open01};
 use rockwatch_core::pulse::PulseParameters;
 use rockwatch_core::stats::{
@@ -289,7 +289,7 @@ fn synthetic_fragility(theta: f64, beta: f64, n: usize, seed: u64) -> (Vec<f64>,
 fn fragility_fit_recovers_known_median_and_beta() {
     let (theta, beta) = (0.8, 0.35);
     let (im, event) = synthetic_fragility(theta, beta, 20_000, 3);
-    let fit = fit_lognormal("asi", "m/s", &im, &event).unwrap();
+    let fit = fit_lognormal(STUDY_IMS[21], &im, &event).unwrap();
     // Standard errors from the observed information; the estimates must lie within 4 of
     // them (a 4σ band: a false failure has probability ~6e−5), and they must be small.
     let se_b = fit.covariance[1][1].sqrt();
@@ -325,7 +325,7 @@ fn fragility_fit_standard_errors_match_the_spread_of_repeated_fits() {
     let mut predicted = 0.0;
     for seed in 0..40 {
         let (im, event) = synthetic_fragility(2.0, 0.5, 400, 100 + seed);
-        let fit = fit_lognormal("pga", "m/s2", &im, &event).unwrap();
+        let fit = fit_lognormal(Im::Pga, &im, &event).unwrap();
         predicted += fit.covariance[1][1].sqrt() / 40.0;
         bs.push(fit.b);
     }
@@ -341,19 +341,19 @@ fn fragility_fit_standard_errors_match_the_spread_of_repeated_fits() {
 fn fragility_fit_reports_unidentifiable_data() {
     let im = [0.1, 0.2, 0.3, 0.4];
     assert_eq!(
-        fit_lognormal("x", "-", &im, &[false; 4]),
+        fit_lognormal(Im::Pga, &im, &[false; 4]),
         Err(FitError::NoEvents)
     );
     assert_eq!(
-        fit_lognormal("x", "-", &im, &[true; 4]),
+        fit_lognormal(Im::Pga, &im, &[true; 4]),
         Err(FitError::AllEvents)
     );
     assert_eq!(
-        fit_lognormal("x", "-", &im, &[false, false, true, true]),
+        fit_lognormal(Im::Pga, &im, &[false, false, true, true]),
         Err(FitError::Separated)
     );
     assert_eq!(
-        fit_lognormal("x", "-", &[0.0, -1.0, 0.5], &[true, false, true]),
+        fit_lognormal(Im::Pga, &[0.0, -1.0, 0.5], &[true, false, true]),
         Err(FitError::TooFewGroups)
     );
 }
@@ -610,7 +610,9 @@ fn cli_study_writes_parseable_files_and_json_summary() {
         assert_eq!(ranking.len(), STUDY_IM_COUNT);
         let mut previous = f64::INFINITY;
         for entry in ranking {
-            assert!(STUDY_IM_NAMES.contains(&entry["im"].as_str().unwrap()));
+            assert!(STUDY_IMS
+                .iter()
+                .any(|im| im.study_name() == entry["im"].as_str().unwrap()));
             if let Some(r2) = entry["r2"].as_f64() {
                 assert!((0.0..=1.0).contains(&r2));
                 assert!(r2 <= previous, "ranking not sorted");

@@ -13,7 +13,7 @@
 //! - a two-column CSV `level,annual_rate` (optional header, `#` comments), whose unit must be
 //!   given.
 //!
-//! Units are explicit ([`ImUnit`]): the hazard levels are converted to the fragility's unit
+//! IMs are [`Im`]s and units [`ImUnit`]s (both from [`crate::ims`]). Units are explicit: the hazard levels are converted to the fragility's unit
 //! with the factor printed by the caller; an acceleration is never compared with a velocity.
 //!
 //! Integration (docs/hazard.md): λ_H is interpolated log-linearly in ln λ against ln im between
@@ -29,7 +29,12 @@
 //! ([`rate_samples`]) gives a 95 % interval ([`rate_interval`]); an exposure age T ± σ
 //! ([`ExposureAge`]) gives P(survival) = E_T[exp(−λT)] in closed form.
 
+use std::collections::BTreeMap;
 use std::fmt;
+
+use crate::fragility::ImFragilityJson;
+pub use crate::ims::{Im, ImNameError, ImUnit, ImUnitError};
+use crate::study::fragility::LognormalFragility;
 
 /// Why a hazard computation could not be done.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -41,93 +46,15 @@ pub enum HazardError {
         line: usize,
         message: String,
     },
-    /// Anything else: inconsistent inputs, units, out-of-range values.
+    /// A unit that is not one, or an acceleration against a velocity.
+    #[error(transparent)]
+    Unit(#[from] ImUnitError),
+    /// An IM or OpenQuake IMT that is not one.
+    #[error(transparent)]
+    Im(#[from] ImNameError),
+    /// Anything else: inconsistent inputs, out-of-range values.
     #[error("{0}")]
     Invalid(String),
-}
-
-/// Units of an intensity measure.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ImUnit {
-    /// Standard gravity g = 9.80665 m/s².
-    G,
-    MetrePerSecond2,
-    CentimetrePerSecond2,
-    MetrePerSecond,
-    CentimetrePerSecond,
-}
-
-impl ImUnit {
-    /// Parses `g`, `m/s2` (or `m/s²`, `m/s^2`), `cm/s2` (`gal`), `m/s`, `cm/s`.
-    pub fn parse(text: &str) -> Result<ImUnit, HazardError> {
-        match text.trim().to_ascii_lowercase().as_str() {
-            "g" => Ok(ImUnit::G),
-            "m/s2" | "m/s²" | "m/s^2" => Ok(ImUnit::MetrePerSecond2),
-            "cm/s2" | "cm/s²" | "cm/s^2" | "gal" => Ok(ImUnit::CentimetrePerSecond2),
-            "m/s" => Ok(ImUnit::MetrePerSecond),
-            "cm/s" => Ok(ImUnit::CentimetrePerSecond),
-            other => Err(HazardError::Invalid(format!(
-                "unknown IM unit {other:?} (known: g, m/s2, cm/s2, m/s, cm/s)"
-            ))),
-        }
-    }
-
-    /// Value of one unit in SI (m/s² or m/s).
-    #[must_use]
-    pub fn to_si(self) -> f64 {
-        match self {
-            ImUnit::G => crate::STANDARD_GRAVITY_MPS2,
-            ImUnit::MetrePerSecond2 | ImUnit::MetrePerSecond => 1.0,
-            ImUnit::CentimetrePerSecond2 | ImUnit::CentimetrePerSecond => 0.01,
-        }
-    }
-
-    /// True for accelerations, false for velocities.
-    #[must_use]
-    pub fn is_acceleration(self) -> bool {
-        matches!(
-            self,
-            ImUnit::G | ImUnit::MetrePerSecond2 | ImUnit::CentimetrePerSecond2
-        )
-    }
-
-    /// The factor that converts a value in `self` into `to`; an error between an
-    /// acceleration and a velocity.
-    pub fn factor_to(self, to: ImUnit) -> Result<f64, HazardError> {
-        if self.is_acceleration() != to.is_acceleration() {
-            return Err(HazardError::Invalid(format!(
-                "unit mismatch: the hazard curve is in {self} and the fragility in {to} (an \
-                 acceleration and a velocity)"
-            )));
-        }
-        Ok(self.to_si() / to.to_si())
-    }
-
-    /// The unit OpenQuake uses for an IMT: g for PGA and SA(T), cm/s for PGV.
-    pub fn of_openquake_imt(imt: &str) -> Result<ImUnit, HazardError> {
-        let imt = imt.trim().to_ascii_uppercase();
-        if imt == "PGA" || imt.starts_with("SA(") {
-            Ok(ImUnit::G)
-        } else if imt == "PGV" {
-            Ok(ImUnit::CentimetrePerSecond)
-        } else {
-            Err(HazardError::Invalid(format!(
-                "OpenQuake IMT {imt:?} is not supported (PGA, PGV, SA(T))"
-            )))
-        }
-    }
-}
-
-impl fmt::Display for ImUnit {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            ImUnit::G => "g",
-            ImUnit::MetrePerSecond2 => "m/s2",
-            ImUnit::CentimetrePerSecond2 => "cm/s2",
-            ImUnit::MetrePerSecond => "m/s",
-            ImUnit::CentimetrePerSecond => "cm/s",
-        })
-    }
 }
 
 /// A hazard curve: annual rates of exceedance at increasing IM levels.
@@ -469,7 +396,9 @@ pub fn parse_openquake_csv(
         rates.push(-(-poe).ln_1p() / time);
     }
     let unit = match &imt {
-        Some(imt) => ImUnit::of_openquake_imt(imt)?,
+        Some(imt) => Im::from_openquake_imt(imt)?
+            .openquake_unit()
+            .ok_or_else(|| ImNameError::NotOpenQuake { imt: imt.clone() })?,
         None => {
             return Err(parse_err(
                 1,
@@ -578,8 +507,10 @@ pub struct FragilityInput {
     /// fragility`, in replicate order; medians in the IM's unit); empty when the file has none
     /// (files written before they were stored, `--bootstrap 0`, a study fragility.json).
     pub bootstrap: Vec<Lognormal>,
-    /// The IM's name as written in the file.
-    pub im: String,
+    /// The IM.
+    pub im: Im,
+    /// The IM's name as written in the file (`PGA`, the study's `phv`).
+    pub im_name: String,
     /// The IM's unit.
     pub unit: ImUnit,
     /// The IM's horizontal-component definition as the file says it (`ims.<IM>.
@@ -588,104 +519,93 @@ pub struct FragilityInput {
     pub horizontal_definition: Option<String>,
 }
 
-/// The canonical name of an IM for matching: upper case, the study's `pha`/`phv` (peak
-/// horizontal acceleration/velocity) as `PGA`/`PGV`.
-#[must_use]
-pub fn canonical_im(name: &str) -> String {
-    let upper = name.trim().to_ascii_uppercase();
-    match upper.as_str() {
-        "PHA" => "PGA".to_owned(),
-        "PHV" => "PGV".to_owned(),
-        _ => upper,
-    }
+/// A fragility JSON as hazard reads it: one of two products, told apart by their top-level
+/// key. They are different results, not two spellings of one: `rockwatch fragility` fits one
+/// rock against many IMs, each with its bootstrap replicates (`ims`, [`ImFragilityJson`]);
+/// `rockwatch study` fits many blocks under synthetic pulses, each with the one curve of its
+/// selected IM and the covariance of the probit coefficients, no replicates (`blocks`,
+/// [`LognormalFragility`]). Each is read through its writer's own serde type.
+#[derive(Debug, serde::Deserialize)]
+struct FragilityFile {
+    #[serde(default)]
+    ims: Option<BTreeMap<String, ImFragilityJson>>,
+    #[serde(default)]
+    blocks: Option<BTreeMap<String, Option<LognormalFragility>>>,
 }
 
-/// The SI unit assumed for an IM when the fragility file does not give one: m/s for PGV,
-/// m/s² for PGA and SA(T).
-fn default_unit(im: &str) -> Result<ImUnit, HazardError> {
-    let im = canonical_im(im);
-    if im == "PGV" {
-        Ok(ImUnit::MetrePerSecond)
-    } else if im == "PGA" || im.starts_with("SA(") {
-        Ok(ImUnit::MetrePerSecond2)
-    } else {
-        Err(HazardError::Invalid(format!(
-            "the fragility gives no unit for IM {im:?}: add \"unit\""
-        )))
-    }
+/// The SI unit taken for an IM when the fragility file does not give one: that of the IM's
+/// quantity in OpenQuake (m/s² for PGA and SA(T), m/s for PGV); an error for the others.
+fn default_unit(im: Im) -> Result<ImUnit, HazardError> {
+    im.openquake_unit().map(ImUnit::si).ok_or_else(|| {
+        HazardError::Invalid(format!(
+            "the fragility gives no unit for IM \"{im}\": add \"unit\""
+        ))
+    })
 }
 
-/// Reads the lognormal fragility of IM `im` from a fragility JSON, either
-/// - `{"ims": {"PGV": {"median", "beta", "unit"?, …}, …}}` (one rock, several IMs; the unit
-///   defaults to SI: m/s for PGV, m/s² for PGA and SA), or
+/// Reads the lognormal fragility of IM `im` from a fragility JSON ([`FragilityFile`]), either
+/// - `{"ims": {"PGV": {"median", "beta", "unit"?, …}, …}}` (one rock, several IMs, as
+///   `rockwatch fragility` writes it; the unit defaults to SI: m/s for PGV, m/s² for PGA and
+///   SA), or
 /// - the `fragility.json` of `rockwatch study`: `{"blocks": {NAME: {"im", "im_unit",
 ///   "median", "beta", …} | null}}`; `block` picks NAME when there are several.
 ///
-/// IM names match case-insensitively, the study's `pha`/`phv` as `PGA`/`PGV`.
+/// IM names in the file are matched as [`Im`]s: any spelling (`PGA`, the study's `pha`,
+/// `SA(1)` for `SA(1.0)`); a key that names no IM matches none.
 pub fn fragility_from_json(
     text: &str,
     source_name: &str,
-    im: &str,
+    im: Im,
     block: Option<&str>,
 ) -> Result<FragilityInput, HazardError> {
-    use serde_json::Value;
     let bad = |m: String| HazardError::Invalid(format!("{source_name}: {m}"));
-    let root: Value =
-        serde_json::from_str(text).map_err(|e| bad(format!("not valid JSON: {e}")))?;
-    let wanted = canonical_im(im);
-    let number = |v: &Value, key: &str| {
-        v.get(key)
-            .and_then(Value::as_f64)
-            .ok_or_else(|| bad(format!("{key} is missing or not a number")))
-    };
-    if let Some(ims) = root.get("ims").and_then(Value::as_object) {
+    let file: FragilityFile = serde_json::from_str(text).map_err(|e| {
+        if e.is_syntax() || e.is_eof() {
+            bad(format!("not valid JSON: {e}"))
+        } else {
+            bad(e.to_string())
+        }
+    })?;
+    if let Some(ims) = &file.ims {
         let (name, entry) = ims
             .iter()
-            .find(|(name, _)| canonical_im(name) == wanted)
+            .find(|(name, _)| name.parse::<Im>() == Ok(im))
             .ok_or_else(|| {
                 bad(format!(
-                    "no fragility for IM {im:?} (the file has {})",
+                    "no fragility for IM \"{im}\" (the file has {})",
                     ims.keys().cloned().collect::<Vec<_>>().join(", ")
                 ))
             })?;
-        let unit = match entry.get("unit").or_else(|| entry.get("im_unit")) {
-            Some(u) => ImUnit::parse(u.as_str().unwrap_or(""))?,
-            None => default_unit(name)?,
+        let unit = match &entry.unit {
+            Some(u) => ImUnit::parse(u)?,
+            None => default_unit(im)?,
         };
-        let curve = Lognormal::new(number(entry, "median")?, number(entry, "beta")?)
+        let curve = Lognormal::new(entry.median, entry.beta)
             .map_err(|e| bad(format!("ims.{name}: {e}")))?;
-        let mut bootstrap = Vec::new();
-        if let Some(pairs) = entry.get("bootstrap").and_then(|b| b.get("median_beta")) {
-            let pairs = pairs
-                .as_array()
-                .ok_or_else(|| bad(format!("ims.{name}.bootstrap.median_beta is not an array")))?;
-            for (b, pair) in pairs.iter().enumerate() {
-                let at = |k: usize| pair.get(k).and_then(Value::as_f64);
-                let replicate = match (pair.as_array().map(Vec::len), at(0), at(1)) {
-                    (Some(2), Some(m), Some(beta)) => Lognormal::new(m, beta).ok(),
-                    _ => None,
-                }
-                .ok_or_else(|| {
+        let bootstrap = entry
+            .bootstrap
+            .median_beta
+            .iter()
+            .enumerate()
+            .map(|(b, &[m, beta])| {
+                Lognormal::new(m, beta).map_err(|_| {
                     bad(format!(
-                        "ims.{name}.bootstrap.median_beta[{b}] = {pair} is not [median > 0, \
-                         beta > 0]"
+                        "ims.{name}.bootstrap.median_beta[{b}] = [{m}, {beta}] is not [median \
+                         > 0, beta > 0]"
                     ))
-                })?;
-                bootstrap.push(replicate);
-            }
-        }
+                })
+            })
+            .collect::<Result<_, _>>()?;
         return Ok(FragilityInput {
             curve,
             bootstrap,
-            im: name.clone(),
+            im,
+            im_name: name.clone(),
             unit,
-            horizontal_definition: entry
-                .get("horizontal_definition")
-                .and_then(Value::as_str)
-                .map(str::to_owned),
+            horizontal_definition: entry.horizontal_definition.clone(),
         });
     }
-    if let Some(blocks) = root.get("blocks").and_then(Value::as_object) {
+    if let Some(blocks) = &file.blocks {
         let (name, entry) = match block {
             Some(b) => blocks
                 .get_key_value(b)
@@ -699,28 +619,30 @@ pub fn fragility_from_json(
                 )))
             }
         };
-        if entry.is_null() {
-            return Err(bad(format!("block {name:?} has no fragility curve (null)")));
-        }
-        let file_im = entry.get("im").and_then(Value::as_str).unwrap_or("");
-        if canonical_im(file_im) != wanted {
+        let entry = entry
+            .as_ref()
+            .ok_or_else(|| bad(format!("block {name:?} has no fragility curve (null)")))?;
+        if entry.im != im {
             return Err(bad(format!(
-                "block {name:?}'s fragility is a function of {file_im:?}, not {im:?}"
+                "block {name:?}'s fragility is a function of {:?}, not \"{im}\"",
+                entry.im.study_name()
             )));
         }
-        let unit = ImUnit::parse(entry.get("im_unit").and_then(Value::as_str).unwrap_or(""))?;
-        let curve = Lognormal::new(number(entry, "median")?, number(entry, "beta")?)
+        let unit = ImUnit::parse(&entry.im_unit)?;
+        let curve = Lognormal::new(entry.median, entry.beta)
             .map_err(|e| bad(format!("blocks.{name}: {e}")))?;
         return Ok(FragilityInput {
             curve,
             bootstrap: Vec::new(),
-            im: file_im.to_owned(),
+            im,
+            im_name: entry.im.study_name(),
             unit,
             horizontal_definition: None,
         });
     }
     Err(bad(
-        "expected {\"ims\": {IM: {\"median\", \"beta\"}}} or a study fragility.json          {\"blocks\": {…}}"
+        "expected {\"ims\": {IM: {\"median\", \"beta\"}}} or a study fragility.json \
+         {\"blocks\": {…}}"
             .into(),
     ))
 }
@@ -1006,25 +928,68 @@ fn gauss_legendre_20() -> ([f64; 20], [f64; 20]) {
 mod tests {
     use super::*;
 
+    /// Each of the two fragility products reads back through its writer's own type: the
+    /// study's `LognormalFragility` (IM in the study's spelling) and `rockwatch fragility`'s
+    /// `ImFragilityJson`.
     #[test]
-    fn unit_factors_and_mismatch() {
-        assert_eq!(
-            ImUnit::CentimetrePerSecond
-                .factor_to(ImUnit::MetrePerSecond)
-                .unwrap(),
-            0.01
-        );
-        assert_eq!(
-            ImUnit::G.factor_to(ImUnit::MetrePerSecond2).unwrap(),
-            crate::STANDARD_GRAVITY_MPS2
-        );
-        assert!(ImUnit::G
-            .factor_to(ImUnit::MetrePerSecond)
-            .unwrap_err()
+    fn both_fragility_products_read_back_what_their_writers_write() {
+        use crate::fragility::{BootstrapJson, Ci95Json};
+        let ims = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8];
+        let event = [false, false, true, false, true, false, true, true];
+        let fit = crate::study::fragility::fit_lognormal(Im::Pgv, &ims, &event).unwrap();
+        let mut blocks = BTreeMap::new();
+        blocks.insert("rocking", Some(fit.clone()));
+        blocks.insert("sliding", None);
+        let text = serde_json::json!({ "blocks": blocks }).to_string();
+        assert!(text.contains(r#""im":"phv""#), "{text}");
+        let read = fragility_from_json(&text, "f.json", Im::Pgv, Some("rocking")).unwrap();
+        // (serde_json, without its float_roundtrip feature, may read the last digit off by one.)
+        assert!((read.curve.median / fit.median - 1.0).abs() < 1e-15);
+        assert!((read.curve.beta / fit.beta - 1.0).abs() < 1e-15);
+        assert_eq!((read.im, read.im_name.as_str()), (Im::Pgv, "phv"));
+        assert_eq!(read.unit, ImUnit::MetrePerSecond);
+        assert!(read.bootstrap.is_empty());
+        let wrong = fragility_from_json(&text, "f.json", Im::Pga, Some("rocking")).unwrap_err();
+        assert!(wrong
             .to_string()
-            .contains("unit mismatch"));
-        assert_eq!(ImUnit::parse("cm/s").unwrap(), ImUnit::CentimetrePerSecond);
-        assert!(ImUnit::parse("inch/s").is_err());
+            .contains(r#"is a function of "phv", not "PGA""#));
+
+        let entry = ImFragilityJson {
+            median: 4.0,
+            beta: 0.4,
+            ci95: Ci95Json::default(),
+            n_runs: 10,
+            n_overturned: 4,
+            unit: Some("m/s2".into()),
+            horizontal_definition: Some("RotD50".into()),
+            likelihood: None,
+            log_likelihood: Some(-3.0),
+            bootstrap: BootstrapJson {
+                replicates: 2,
+                failed: 0,
+                median_beta: vec![[3.5, 0.3], [4.5, 0.5]],
+            },
+            median_if_flight_overturned: None,
+        };
+        let text = serde_json::json!({ "ims": { "SA(1.0)": entry } }).to_string();
+        let read = fragility_from_json(&text, "f.json", Im::Sa(1.0), None).unwrap();
+        assert_eq!(read.curve, Lognormal::new(4.0, 0.4).unwrap());
+        assert_eq!(
+            read.bootstrap,
+            [
+                Lognormal::new(3.5, 0.3).unwrap(),
+                Lognormal::new(4.5, 0.5).unwrap()
+            ]
+        );
+        assert_eq!(read.horizontal_definition.as_deref(), Some("RotD50"));
+        assert_eq!(read.unit, ImUnit::MetrePerSecond2);
+        // SA(1) is the same IM as SA(1.0); a hand-written entry without a unit reads in SI.
+        let text = r#"{"ims": {"sa(1)": {"median": 4.0, "beta": 0.4}}}"#;
+        let read = fragility_from_json(text, "f.json", Im::Sa(1.0), None).unwrap();
+        assert_eq!(read.unit, ImUnit::MetrePerSecond2);
+        let text = r#"{"ims": {"CAV": {"median": 4.0, "beta": 0.4}}}"#;
+        let no_unit = fragility_from_json(text, "f.json", Im::Cav, None).unwrap_err();
+        assert!(no_unit.to_string().contains("gives no unit"), "{no_unit}");
     }
 
     #[test]

@@ -353,13 +353,13 @@ pub enum AcquireConfigProblem {
     Syntax(String),
     /// A `[seedlink]` value (server, streams, timing, backfill) is invalid.
     #[error("{0}")]
-    SeedLink(String),
+    SeedLink(crate::seedlink::SeedLinkConfigError),
     /// A `[clipping]` value is invalid.
     #[error("{0}")]
     Clipping(String),
     /// `partitions` or `[partition_assign]` is invalid.
     #[error("{0}")]
-    Partition(String),
+    Partition(crate::node_config::PartitionConfigError),
     /// `[inventory] stationxml` lists no file.
     #[error("inventory.stationxml is empty: list the StationXML files")]
     NoInventory,
@@ -423,11 +423,20 @@ impl AcquireConfig {
     }
 
     /// The partition map of the ROS 2 output (`partitions`, `[partition_assign]`), if any.
-    pub fn partition_map(&self) -> Result<Option<rockwatch_core::partition::PartitionMap>, String> {
+    pub fn partition_map(
+        &self,
+    ) -> Result<
+        Option<rockwatch_core::partition::PartitionMap>,
+        crate::node_config::PartitionConfigError,
+    > {
         match self.partitions {
             Some(n) => crate::node_config::partition_map(n, &self.partition_assign).map(Some),
             None if self.partition_assign.is_empty() => Ok(None),
-            None => Err("[partition_assign] needs `partitions = N`".into()),
+            None => Err(
+                crate::node_config::PartitionConfigError::AssignWithoutCount {
+                    needs: "partitions = N",
+                },
+            ),
         }
     }
 

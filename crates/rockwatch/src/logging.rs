@@ -139,15 +139,32 @@ impl<S: Subscriber> Layer<S> for Mute {
     }
 }
 
+/// The log could not be installed.
+#[derive(Debug, thiserror::Error)]
+pub enum LogError {
+    /// `--log-level` is not a filter.
+    #[error(
+        "--log-level {level:?} is not a log filter ({error}): give a level (error, warn, info, \
+         debug, trace, off) or target=level pairs, e.g. rockwatch=debug,rustdds=warn"
+    )]
+    BadLevel {
+        level: String,
+        error: tracing_subscriber::filter::ParseError,
+    },
+}
+
 /// The filter in force: `--log-level`, else `RUST_LOG`, else `ROCKWATCH_LOG`, else
 /// [`DEFAULT_FILTER`]. A bad `--log-level` is an error; a bad variable is reported (returned
 /// as a warning) and the default used.
-fn filter(options: &LogOptions) -> Result<(EnvFilter, Option<String>), String> {
+fn filter(options: &LogOptions) -> Result<(EnvFilter, Option<String>), LogError> {
     if let Some(level) = &options.level {
         return EnvFilter::builder()
             .parse(level)
             .map(|f| (f, None))
-            .map_err(|e| format!("--log-level {level:?} is not a log filter ({e}): give a level (error, warn, info, debug, trace, off) or target=level pairs, e.g. rockwatch=debug,rustdds=warn"));
+            .map_err(|error| LogError::BadLevel {
+                level: level.clone(),
+                error,
+            });
     }
     for var in ["RUST_LOG", LOG_ENV] {
         let Ok(value) = std::env::var(var) else {
@@ -169,7 +186,7 @@ fn filter(options: &LogOptions) -> Result<(EnvFilter, Option<String>), String> {
 /// Installs the process's log (once; a second call does nothing): stderr in `options.format`,
 /// the `log` records of the libraries bridged in. Errors: a `--log-level` that is not a
 /// filter.
-pub fn init(options: &LogOptions) -> Result<(), String> {
+pub fn init(options: &LogOptions) -> Result<(), LogError> {
     init_with_writer(options, std::io::stderr)
 }
 
@@ -187,7 +204,7 @@ static QUEUE: std::sync::OnceLock<std::sync::mpsc::SyncSender<Vec<u8>>> =
 /// As [`init`], with stderr written by the thread `rockwatch-log` from a bounded queue: no
 /// thread that logs ever waits for stderr (see the module documentation). The thread blocks
 /// the stop signals (they are the signal thread's, `crate::signals`).
-pub fn init_queued(options: &LogOptions) -> Result<(), String> {
+pub fn init_queued(options: &LogOptions) -> Result<(), LogError> {
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(LOG_QUEUE);
     let spawned = std::thread::Builder::new()
         .name("rockwatch-log".into())
@@ -275,7 +292,7 @@ impl Drop for QueuedLine {
 }
 
 /// As [`init`], writing to `writer` instead of stderr (tests).
-pub fn init_with_writer<W>(options: &LogOptions, writer: W) -> Result<(), String>
+pub fn init_with_writer<W>(options: &LogOptions, writer: W) -> Result<(), LogError>
 where
     W: for<'w> tracing_subscriber::fmt::MakeWriter<'w> + Send + Sync + 'static,
 {
@@ -733,7 +750,7 @@ mod tests {
             level: Some("rockwatch=loud".into()),
             format: LogFormat::Text,
         };
-        let err = filter(&options).unwrap_err();
+        let err = filter(&options).unwrap_err().to_string();
         assert!(err.contains("--log-level") && err.contains("loud"), "{err}");
         let ok = LogOptions {
             level: Some("rockwatch=debug,rustdds=warn".into()),

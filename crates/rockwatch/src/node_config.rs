@@ -204,16 +204,34 @@ pub enum NodeConfigProblem {
     Invalid(#[from] rockwatch_core::engine::ConfigError),
     /// `partition` or `[partition_assign]` is invalid.
     #[error("{0}")]
-    Partition(String),
+    Partition(PartitionConfigError),
     /// A `[[notify]]` entry is invalid: its number (1-based) and why.
     #[error("[[notify]] #{0}: {1}")]
-    Notify(usize, String),
+    Notify(usize, crate::notify::NotifyConfigError),
     /// A `[status]` value is invalid.
     #[error("{0}")]
     Status(String),
     /// A `[web]` or `[metrics]` value is invalid (e.g. a non-loopback listen without a token).
     #[error("{0}")]
     Listener(String),
+}
+
+/// Why a partition setting (`partition`, `partitions`, `[partition_assign]`) is invalid, for
+/// nodes ([`NodeConfig::partitioning`]) and senders (`AcquireConfig::partition_map`).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PartitionConfigError {
+    /// `[partition_assign]` without the setting that says how many partitions there are.
+    #[error("[partition_assign] needs `{needs}`")]
+    AssignWithoutCount { needs: &'static str },
+    /// `partition` is not `i/N`.
+    #[error("{0}")]
+    Partition(PartitionError),
+    /// A key of `[partition_assign]` is not a station id.
+    #[error("[partition_assign]: station {0}")]
+    Station(rockwatch_core::station_id::StationIdError),
+    /// A value of `[partition_assign]` is not a partition of the service.
+    #[error("[partition_assign]: {0}")]
+    Assign(PartitionError),
 }
 
 impl NodeConfig {
@@ -268,21 +286,23 @@ impl NodeConfig {
     /// The node's partition and the service's partition map (`partition`,
     /// `[partition_assign]`), or None if the node owns every station; the error says which
     /// setting is wrong.
-    pub fn partitioning(&self) -> Result<Option<(Partition, PartitionMap)>, String> {
+    pub fn partitioning(&self) -> Result<Option<(Partition, PartitionMap)>, PartitionConfigError> {
         let Some(text) = &self.partition else {
             if self.partition_assign.is_empty() {
                 return Ok(None);
             }
-            return Err("[partition_assign] needs `partition = \"i/N\"`".into());
+            return Err(PartitionConfigError::AssignWithoutCount {
+                needs: "partition = \"i/N\"",
+            });
         };
-        let partition = Partition::parse(text).map_err(|e| e.to_string())?;
+        let partition = Partition::parse(text).map_err(PartitionConfigError::Partition)?;
         let map = partition_map(partition.count(), &self.partition_assign)?;
         Ok(Some((partition, map)))
     }
 
     /// The stations of `[[station]]` this node serves: those of its partition (all without
     /// one); the error says which partition setting is wrong.
-    pub fn owned_stations(&self) -> Result<Vec<StationConfig>, String> {
+    pub fn owned_stations(&self) -> Result<Vec<StationConfig>, PartitionConfigError> {
         Ok(match self.partitioning()? {
             Some((partition, map)) => self
                 .stations
@@ -297,17 +317,19 @@ impl NodeConfig {
 
 /// The partition map of a service of `count` partitions with the `[partition_assign]` table
 /// `assign` (`"NET.STA.LOC" = i`): the one reading of that table, for nodes and senders.
-pub fn partition_map(count: u32, assign: &BTreeMap<String, u32>) -> Result<PartitionMap, String> {
+pub fn partition_map(
+    count: u32,
+    assign: &BTreeMap<String, u32>,
+) -> Result<PartitionMap, PartitionConfigError> {
     let assigned = assign
         .iter()
         .map(|(id, &i)| {
             StationId::parse(id)
                 .map(|s| (s, i))
-                .map_err(|e| format!("[partition_assign]: station {e}"))
+                .map_err(PartitionConfigError::Station)
         })
-        .collect::<Result<Vec<_>, String>>()?;
-    PartitionMap::assign(count, assigned)
-        .map_err(|e: PartitionError| format!("[partition_assign]: {e}"))
+        .collect::<Result<Vec<_>, _>>()?;
+    PartitionMap::assign(count, assigned).map_err(PartitionConfigError::Assign)
 }
 
 #[cfg(test)]

@@ -19,14 +19,35 @@ use rockwatch_core::record::{Record, RecordError, MAX_RECORD_SAMPLES};
 /// Longest quiet tail a replay or monitor run appends (s): one day.
 pub const MAX_TAIL_S: f64 = 86_400.0;
 
+/// Why a replay cannot be cut or calibrated as asked: one sentence naming the flag or the setting.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct ReplayPlanError(pub String);
+
+impl From<String> for ReplayPlanError {
+    fn from(reason: String) -> Self {
+        ReplayPlanError(reason)
+    }
+}
+
+impl From<&str> for ReplayPlanError {
+    fn from(reason: &str) -> Self {
+        ReplayPlanError(reason.to_owned())
+    }
+}
+
 /// Checks the flags of a cut into packets on their own (before any record is read): packets
 /// of 1 ms to 60 s, a tail of 0 to [`MAX_TAIL_S`]. See [`Traces::check_packets`].
-pub fn check_packet_flags(packet_ms: u32, tail_s: f64) -> Result<(), String> {
+pub fn check_packet_flags(packet_ms: u32, tail_s: f64) -> Result<(), ReplayPlanError> {
     if !(1..=60_000).contains(&packet_ms) {
-        return Err(format!("--packet-ms must be 1 to 60000, got {packet_ms}"));
+        return Err(ReplayPlanError::from(format!(
+            "--packet-ms must be 1 to 60000, got {packet_ms}"
+        )));
     }
     if !(tail_s.is_finite() && (0.0..=MAX_TAIL_S).contains(&tail_s)) {
-        return Err(format!("--tail must be 0 to {MAX_TAIL_S} s, got {tail_s}"));
+        return Err(ReplayPlanError::from(format!(
+            "--tail must be 0 to {MAX_TAIL_S} s, got {tail_s}"
+        )));
     }
     Ok(())
 }
@@ -51,17 +72,17 @@ impl<'a> MseedCalibration<'a> {
         inventory: Option<&'a Inventory>,
         config: &NodeConfig,
         station: &StationId,
-    ) -> Result<MseedCalibration<'a>, String> {
+    ) -> Result<MseedCalibration<'a>, ReplayPlanError> {
         let configured = config.stations.iter().find(|s| &s.id == station);
         let gain = configured.and_then(|s| s.gain_mps2_per_count);
         match inventory {
             Some(inventory) => {
                 if let Some(s) = configured {
                     if gain.is_some() || s.orientation != Orientation::EastNorth {
-                        return Err(format!(
+                        return Err(ReplayPlanError::from(format!(
                             "station {station}: --stationxml gives gains and orientation, so \
                              the configuration must not set gain_mps2_per_count or orientation"
-                        ));
+                        )));
                     }
                 }
                 Ok(MseedCalibration::Inventory(inventory))
@@ -360,23 +381,23 @@ impl Traces {
     /// [`MAX_SAMPLES_PER_PACKET`] samples, a tail of 0 to [`MAX_TAIL_S`], and at most
     /// [`MAX_RECORD_SAMPLES`] samples in all (the packets are held in memory). The message
     /// names the flag (`--packet-ms`, `--tail`).
-    pub fn check_packets(&self, packet_ms: u32, tail_s: f64) -> Result<(), String> {
+    pub fn check_packets(&self, packet_ms: u32, tail_s: f64) -> Result<(), ReplayPlanError> {
         check_packet_flags(packet_ms, tail_s)?;
         let per_packet = (f64::from(packet_ms) * 1e-3 * self.rate_hz).round();
         if per_packet > MAX_SAMPLES_PER_PACKET as f64 {
-            return Err(format!(
+            return Err(ReplayPlanError::from(format!(
                 "--packet-ms {packet_ms} at {} Hz makes packets of {per_packet} samples, more than \
                  the {MAX_SAMPLES_PER_PACKET} a packet may hold",
                 self.rate_hz
-            ));
+            )));
         }
         let total = self.len() as f64 + (tail_s * self.rate_hz).round();
         if total > MAX_RECORD_SAMPLES as f64 {
-            return Err(format!(
+            return Err(ReplayPlanError::from(format!(
                 "the record plus --tail {tail_s} s is {total} samples at {} Hz, more than \
                  {MAX_RECORD_SAMPLES}",
                 self.rate_hz
-            ));
+            )));
         }
         Ok(())
     }

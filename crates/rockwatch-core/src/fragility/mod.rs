@@ -1,6 +1,6 @@
 //! Fragility of one rock by multiple-stripe analysis (docs/fragility.md).
 //!
-//! 1. [`prepare`]: every record's IMs, computed once, unscaled ([`im`]); the scale factor of
+//! 1. [`prepare`]: every record's IMs, computed once, unscaled ([`crate::ims::im`]); the scale factor of
 //!    every (record, intensity level): `s = (level/IM_r)^(1/k)` for stripes on an IM with
 //!    scaling exponent k (IM(s·record) = s^k·IM(record)), or the given factors.
 //! 2. [`run_simulations`]: for every record × level × ensemble member × incidence angle, the
@@ -24,21 +24,22 @@
 //! and −x: both pivots). The vertical component, when given, is applied unprojected. Every
 //! component is multiplied by the run's scale factor. Units: SI (m/s², m/s, s).
 
+pub mod file;
 pub mod fit;
-pub mod im;
 
 use rayon::prelude::*;
 
 use crate::dynamics::{BlockOptions, BlockParams};
 pub use crate::ims::rotd::HorizontalDefinition;
+pub use crate::ims::Im;
 use crate::ims::{compute_ims, ImError, ImOptions};
 use crate::lhs::{rng_from_seed, uniform_below};
 use crate::record::{Record, MAX_ABS_ACCEL_MPS2};
 use crate::rocking3d::{simulate_3d_outcome, Rock3dOptions};
 use crate::simulate::{simulate_outcome, SimulateError, Status};
 use crate::stats::{normal_cdf, percentile_sorted, INTERVAL_95};
+pub use file::{BootstrapJson, Ci95Json, ImFragilityJson};
 use fit::{fit_lognormal_groups, fit_surface, FitError, LognormalFit, SurfaceFit};
-pub use im::FragilityIm;
 
 /// z of a two-sided 95 % normal interval.
 pub const Z_95: f64 = 1.959_963_984_540_054;
@@ -141,7 +142,7 @@ pub fn log_spaced(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct FragilityConfig {
     /// The IMs fitted (at least one).
-    pub ims: Vec<FragilityIm>,
+    pub ims: Vec<Im>,
     pub intensity: Intensity,
     /// The rock's ensemble members (at least one, each with at least one direction).
     pub members: Vec<RockMember>,
@@ -158,7 +159,7 @@ pub struct FragilityConfig {
     /// Points per axis of the surface grid (≥ 2).
     pub surface_grid: usize,
     /// The horizontal-component definition of PGA, PGV, PGD, SA(T) and PGV/PGA (the IMs of
-    /// [`FragilityIm::has_horizontal_definition`]): `Component` (one component as recorded)
+    /// [`Im::has_horizontal_definition`]): `Component` (one component as recorded)
     /// or, with pairs of components for every record, RotD50, RotD100 or GM.
     pub horizontal: HorizontalDefinition,
 }
@@ -289,11 +290,7 @@ pub fn prepare(
         return Err(FragilityError::Config("no records".into()));
     }
     let options = ImOptions {
-        periods_s: config
-            .ims
-            .iter()
-            .filter_map(FragilityIm::sa_period)
-            .collect(),
+        periods_s: config.ims.iter().filter_map(Im::sa_period).collect(),
         ..ImOptions::default()
     };
     let paired = config.horizontal != HorizontalDefinition::Component;
@@ -682,7 +679,7 @@ fn surface_groups(
 /// The fragility of one IM.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImFragility {
-    pub im: FragilityIm,
+    pub im: Im,
     /// The maximum-likelihood fit, or why there is none (a scale-invariant IM with stripes
     /// or scale factors is reported as [`FitError::TooFewGroups`]-free `None` in `note`).
     pub fit: Result<LognormalFit, FitError>,

@@ -26,16 +26,19 @@
 //! Signs: IMs are peaks or integrals of magnitudes and are ≥ 0 whatever the sign convention
 //! of the input component.
 //!
-//! [`offline::compute_ims`] gives every IM of a whole record; [`study_ims`] lists the 37 IMs of
-//! the seed's study by stable name; [`running::RunningIms`] keeps the running values of one
+//! [`Im`] names one IM everywhere (its spellings, unit, scaling and OpenQuake IMT: [`im`]);
+//! [`offline::compute_ims`] gives every IM of a whole record; [`study_ims`] the values of the 37
+//! IMs of the seed's study ([`STUDY_IMS`]); [`running::RunningIms`] keeps the running values of one
 //! component sample by sample, equal to the offline values over the samples received so far.
 
 pub mod baseline;
+pub mod im;
 pub mod offline;
 pub mod rotd;
 pub mod running;
 pub mod spectrum;
 
+pub use im::{Im, ImNameError, ImUnit, ImUnitError, KNOWN_IMS, STUDY_IMS, STUDY_IM_COUNT};
 pub use offline::{compute_ims, low_pass_zero_phase, ImOptions, ImSet, DEFAULT_SA_PERIODS_S};
 pub use running::{RunningConfig, RunningIms};
 pub use spectrum::{
@@ -72,97 +75,11 @@ pub enum ImError {
 /// Husid fractions of the significant-duration times t5, t75 and t95.
 pub const HUSID_FRACTIONS: [f64; 3] = [0.05, 0.75, 0.95];
 
-/// Number of IMs in the seed's study.
-pub const STUDY_IM_COUNT: usize = 37;
-
-/// Stable names of the 37 IMs of the seed's study, in the order of [`study_ims`]:
-/// 13 scalar IMs, then SI, ASI and VSI over each of [`STUDY_RANGES`] (`si_0.1-0.5`, …).
-pub const STUDY_IM_NAMES: [&str; STUDY_IM_COUNT] = [
-    "pha",
-    "phv",
-    "phd",
-    "sma",
-    "eda",
-    "tp",
-    "pgv_pga",
-    "d5_95",
-    "a_rms",
-    "ic",
-    "arias",
-    "cav",
-    "epv",
-    "si_0.1-0.5",
-    "si_0.1-2.5",
-    "si_0.5-1.0",
-    "si_1.0-1.5",
-    "si_1.5-2.0",
-    "si_2.0-2.5",
-    "si_2.5-3.0",
-    "si_1.0-2.5",
-    "asi_0.1-0.5",
-    "asi_0.1-2.5",
-    "asi_0.5-1.0",
-    "asi_1.0-1.5",
-    "asi_1.5-2.0",
-    "asi_2.0-2.5",
-    "asi_2.5-3.0",
-    "asi_1.0-2.5",
-    "vsi_0.1-0.5",
-    "vsi_0.1-2.5",
-    "vsi_0.5-1.0",
-    "vsi_1.0-1.5",
-    "vsi_1.5-2.0",
-    "vsi_2.0-2.5",
-    "vsi_2.5-3.0",
-    "vsi_1.0-2.5",
-];
-
-/// SI units of the 37 study IMs, in the order of [`STUDY_IM_NAMES`].
-pub const STUDY_IM_UNITS: [&str; STUDY_IM_COUNT] = [
-    "m/s2",
-    "m/s",
-    "m",
-    "m/s2",
-    "m/s2",
-    "s",
-    "s",
-    "s",
-    "m/s2",
-    "m^1.5/s^2.5",
-    "m/s",
-    "m/s",
-    "m/s",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m/s",
-    "m/s",
-    "m/s",
-    "m/s",
-    "m/s",
-    "m/s",
-    "m/s",
-    "m/s",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m",
-    "m",
-];
-
-/// The 37 IMs of the seed's study as `(stable name, value in SI units)`, in the order of
-/// [`STUDY_IM_NAMES`] (units in [`STUDY_IM_UNITS`]): PHA, PHV, PHD, SMA, EDA, Tp, PGV/PGA,
-/// D5-95, a_rms, Ic, Arias, CAV, EPV, then SI, ASI and VSI over the eight study ranges.
+/// The 37 IMs of the seed's study as `(IM, value in SI units)`, in the order of [`STUDY_IMS`]
+/// (units [`Im::unit`]): PHA, PHV, PHD, SMA, EDA, Tp, PGV/PGA, D5-95, a_rms, Ic, Arias, CAV,
+/// EPV, then SI, ASI and VSI over the eight study ranges.
 #[must_use]
-pub fn study_ims(ims: &ImSet) -> [(&'static str, f64); STUDY_IM_COUNT] {
+pub fn study_ims(ims: &ImSet) -> [(Im, f64); STUDY_IM_COUNT] {
     let scalars = [
         ims.pga_mps2,
         ims.pgv_mps,
@@ -185,7 +102,7 @@ pub fn study_ims(ims: &ImSet) -> [(&'static str, f64); STUDY_IM_COUNT] {
         values[21 + j] = si.asi_mps;
         values[29 + j] = si.vsi_m;
     }
-    std::array::from_fn(|i| (STUDY_IM_NAMES[i], values[i]))
+    std::array::from_fn(|i| (STUDY_IMS[i], values[i]))
 }
 
 #[cfg(test)]
@@ -195,13 +112,18 @@ mod tests {
     #[test]
     fn study_names_match_ranges() {
         for (j, range) in STUDY_RANGES.iter().enumerate() {
-            assert_eq!(STUDY_IM_NAMES[13 + j], format!("si_{}", range.label()));
-            assert_eq!(STUDY_IM_NAMES[21 + j], format!("asi_{}", range.label()));
-            assert_eq!(STUDY_IM_NAMES[29 + j], format!("vsi_{}", range.label()));
+            assert_eq!(
+                STUDY_IMS[13 + j].study_name(),
+                format!("si_{}", range.label())
+            );
+            assert_eq!(
+                STUDY_IMS[21 + j].study_name(),
+                format!("asi_{}", range.label())
+            );
+            assert_eq!(
+                STUDY_IMS[29 + j].study_name(),
+                format!("vsi_{}", range.label())
+            );
         }
-        let mut names = STUDY_IM_NAMES.to_vec();
-        names.sort_unstable();
-        names.dedup();
-        assert_eq!(names.len(), STUDY_IM_COUNT);
     }
 }

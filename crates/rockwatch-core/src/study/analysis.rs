@@ -7,7 +7,7 @@ use super::regression::{
 };
 use super::{BlockResponse, DemandMeasure, ResponseStatus, StudyConfig, StudyData};
 use crate::fragility::fit::FitError;
-use crate::ims::{STUDY_IM_COUNT, STUDY_IM_NAMES, STUDY_IM_UNITS};
+use crate::ims::{Im, STUDY_IMS, STUDY_IM_COUNT};
 use rayon::prelude::*;
 
 /// Why a run is left out of the regressions (or `Used`), and how it is drawn in the plots.
@@ -115,7 +115,7 @@ impl CategoryCounts {
 /// Efficiency and sufficiency of one scalar IM for one block.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImScore {
-    /// Index into [`STUDY_IM_NAMES`].
+    /// Index into [`STUDY_IMS`].
     pub im_index: usize,
     /// DM ~ IM over all used runs.
     pub linear: Option<LinearFit>,
@@ -140,16 +140,22 @@ pub struct ImScore {
 }
 
 impl ImScore {
-    /// Stable name of the IM.
+    /// The IM.
     #[must_use]
-    pub fn name(&self) -> &'static str {
-        STUDY_IM_NAMES[self.im_index]
+    pub fn im(&self) -> Im {
+        STUDY_IMS[self.im_index]
+    }
+
+    /// The IM's name as the study spells it ([`Im::study_name`]).
+    #[must_use]
+    pub fn name(&self) -> String {
+        self.im().study_name()
     }
 
     /// Unit of the IM.
     #[must_use]
     pub fn unit(&self) -> &'static str {
-        STUDY_IM_UNITS[self.im_index]
+        self.im().unit()
     }
 
     /// Overall linear R² (NaN if undefined).
@@ -168,7 +174,7 @@ impl ImScore {
 /// A vector IM (two IMs) for one block.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VectorScore {
-    /// Indices of the two IMs in [`STUDY_IM_NAMES`].
+    /// Indices of the two IMs in [`STUDY_IMS`].
     pub ims: [usize; 2],
     /// DM ~ IM1 + IM2 over the used runs.
     pub linear: Option<MultipleFit>,
@@ -187,7 +193,7 @@ pub struct FragilityAnalysis {
     pub n: usize,
     /// Overturned runs among them.
     pub n_overturned: usize,
-    /// Fit for every IM, in the order of [`STUDY_IM_NAMES`].
+    /// Fit for every IM, in the order of [`STUDY_IMS`].
     pub fits: Vec<Result<LognormalFragility, FitError>>,
     /// The selected curve (`None`: no IM gave a fit; see `note`).
     pub selected: Option<LognormalFragility>,
@@ -368,12 +374,13 @@ fn fragility_analysis(
     let fits: Vec<_> = (0..STUDY_IM_COUNT)
         .map(|j| {
             let im: Vec<f64> = sample.iter().map(|&i| data.cases[i].ims[j]).collect();
-            fit_lognormal(STUDY_IM_NAMES[j], STUDY_IM_UNITS[j], &im, &event)
+            fit_lognormal(STUDY_IMS[j], &im, &event)
         })
         .collect();
     let (selected, note) = match &config.fragility_im {
-        Some(name) => {
-            let j = STUDY_IM_NAMES.iter().position(|n| n == name).unwrap_or(0);
+        Some(im) => {
+            let name = im.study_name();
+            let j = STUDY_IMS.iter().position(|x| x == im).unwrap_or(0);
             match &fits[j] {
                 Ok(f) => (Some(f.clone()), format!("IM {name} chosen by the user")),
                 Err(e) => (None, format!("no curve for IM {name}: {e}")),
@@ -459,14 +466,14 @@ pub fn analyse_block(config: &StudyConfig, data: &StudyData, block_index: usize)
         v.linear.as_ref().map_or(f64::NAN, |f| f.r2)
     });
     let mut vector: Vec<VectorScore> = vectors.iter().take(config.vector_top).cloned().collect();
-    let index_of = |name: &str| STUDY_IM_NAMES.iter().position(|n| *n == name);
+    let index_of = |im: Im| STUDY_IMS.iter().position(|x| *x == im);
     let best_asi = ranking
         .iter()
-        .find(|s| s.name().starts_with("asi_"))
+        .find(|s| matches!(s.im(), Im::Asi(_)))
         .map(|s| s.im_index);
     let named = [
-        index_of("pha").zip(index_of("pgv_pga")),
-        best_asi.zip(index_of("cav")),
+        index_of(Im::Pga).zip(index_of(Im::PgvPga)),
+        best_asi.zip(index_of(Im::Cav)),
     ];
     for (a, b) in named.into_iter().flatten() {
         let key = [a.min(b), a.max(b)];

@@ -7,7 +7,7 @@ use super::{
     DEFAULT_THETA_FLOOR_RAD, DEFAULT_T_EXTRA_S, DEFAULT_VECTOR_TOP,
 };
 use crate::dynamics::BlockParams;
-use crate::ims::STUDY_IM_NAMES;
+use crate::ims::{Im, STUDY_IMS};
 use crate::pulse::PulseScenario;
 
 /// The demand measure (DM) regressed for a block.
@@ -269,7 +269,7 @@ pub struct StudyConfig {
     /// Number of best vector IMs reported per block.
     pub vector_top: usize,
     /// IM of the fragility curves (`None`: the IM of largest likelihood).
-    pub fragility_im: Option<String>,
+    pub fragility_im: Option<Im>,
 }
 
 impl StudyConfig {
@@ -358,8 +358,11 @@ impl StudyConfig {
             }
         }
         if let Some(im) = &self.fragility_im {
-            if !STUDY_IM_NAMES.contains(&im.as_str()) {
-                return bad(format!("unknown fragility IM {im:?}"));
+            if !STUDY_IMS.contains(im) {
+                return bad(format!(
+                    "fragility IM {:?} is not one of the study's IMs",
+                    im.study_name()
+                ));
             }
         }
         for pair in self.pairs() {

@@ -13,6 +13,7 @@
 //! `Φ(η ± z·√Var η)` (z = 1.96 for 95 %), which stays inside [0, 1].
 
 use crate::fragility::fit::{fit_lognormal_groups, FitError};
+use crate::ims::Im;
 use crate::stats::normal_cdf;
 
 /// z of a two-sided 95 % normal interval.
@@ -21,8 +22,10 @@ pub const Z_95: f64 = 1.959_963_984_540_054;
 /// A fitted lognormal fragility curve, small enough to be evaluated by the live node.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LognormalFragility {
-    /// Stable name of the IM the curve is a function of (e.g. `"asi_1.0-2.5"`).
-    pub im: String,
+    /// The IM the curve is a function of, written as the study spells it (e.g.
+    /// `"asi_1.0-2.5"`, [`Im::study_name`]).
+    #[serde(with = "crate::ims::im::study_spelling")]
+    pub im: Im,
     /// Unit of the IM (SI, e.g. `"m/s"`).
     pub im_unit: String,
     /// Probit intercept a (dimensionless).
@@ -82,10 +85,10 @@ impl LognormalFragility {
 
 /// Fits a lognormal fragility curve to `(im, event)` pairs by maximum likelihood (see the
 /// module doc): the one probit fit of [`crate::fragility::fit`], every case a group of one
-/// trial. Points with a non-positive or non-finite IM are ignored.
+/// trial. `im` holds the values of IM `which` (its SI unit, [`Im::unit`]). Points with a
+/// non-positive or non-finite IM are ignored.
 pub fn fit_lognormal(
-    im_name: &str,
-    im_unit: &str,
+    which: Im,
     im: &[f64],
     event: &[bool],
 ) -> Result<LognormalFragility, FitError> {
@@ -99,8 +102,8 @@ pub fn fit_lognormal(
     let fit = fit_lognormal_groups(&ln_im, &trials, &events)?;
     let [a, b] = fit.coef;
     Ok(LognormalFragility {
-        im: im_name.to_string(),
-        im_unit: im_unit.to_string(),
+        im: which,
+        im_unit: which.unit().to_owned(),
         a,
         b,
         covariance: fit.covariance,

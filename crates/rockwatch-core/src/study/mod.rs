@@ -15,7 +15,7 @@
 //!    log–log, overall and per pair), the sufficiency tests, vector IMs and the fragility of
 //!    overturning.
 //!
-//! Units: slide in m, rotation in rad, IMs in the SI units of [`STUDY_IM_UNITS`].
+//! Units: slide in m, rotation in rad, IMs in their SI units ([`crate::ims::Im::unit`]).
 
 mod analysis;
 mod config;
@@ -26,7 +26,6 @@ mod run;
 
 use crate::dynamics::ParamError;
 use crate::ims::ImError;
-pub use crate::ims::STUDY_IM_UNITS;
 use crate::pulse::PulseError;
 
 /// Moment magnitudes of the seed's study.

@@ -26,7 +26,7 @@ pub struct PulseCase {
     pub amplitude_mps: f64,
     /// Pulse duration γ·Tp (s).
     pub duration_s: f64,
-    /// The 37 study IMs in the order of [`STUDY_IM_NAMES`] (units [`STUDY_IM_UNITS`]).
+    /// The 37 study IMs in the order of [`crate::ims::STUDY_IMS`] (SI units).
     pub ims: [f64; STUDY_IM_COUNT],
 }
 

@@ -15,9 +15,8 @@ use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::dynamics::{BlockOptions, BlockParams};
 use rockwatch_core::fragility::HorizontalDefinition;
 use rockwatch_core::fragility::{
-    analyse, log_spaced, prepare, run_simulations, FragilityConfig, FragilityIm, FragilityRecord,
-    Intensity, RockDirection, RockMember, DEFAULT_BOOTSTRAP, DEFAULT_SURFACE_GRID,
-    DEFAULT_T_EXTRA_S,
+    analyse, log_spaced, prepare, run_simulations, FragilityConfig, FragilityRecord, Im, Intensity,
+    RockDirection, RockMember, DEFAULT_BOOTSTRAP, DEFAULT_SURFACE_GRID, DEFAULT_T_EXTRA_S,
 };
 use rockwatch_core::mesh::contact::{parse_azimuths, weakest_side};
 use rockwatch_core::record::{read_at2, At2, Component, Record};
@@ -789,10 +788,10 @@ fn horizontal_pairs(
 }
 
 fn build_config(args: &FragilityArgs, rock: &Rock) -> anyhow::Result<FragilityConfig> {
-    let ims: Vec<FragilityIm> = args
+    let ims: Vec<Im> = args
         .im
         .iter()
-        .map(|n| FragilityIm::parse(n).with_context(|| "--im".to_string()))
+        .map(|n| n.parse::<Im>().context("--im"))
         .collect::<anyhow::Result<_>>()?;
     for (i, a) in ims.iter().enumerate() {
         if ims[..i].contains(a) {
@@ -800,7 +799,7 @@ fn build_config(args: &FragilityArgs, rock: &Rock) -> anyhow::Result<FragilityCo
         }
     }
     let index_of = |name: &str| -> anyhow::Result<usize> {
-        let im = FragilityIm::parse(name)?;
+        let im: Im = name.parse()?;
         ims.iter()
             .position(|x| *x == im)
             .with_context(|| format!("{} is not among --im", im.name()))
@@ -841,8 +840,8 @@ fn build_config(args: &FragilityArgs, rock: &Rock) -> anyhow::Result<FragilityCo
             Some((index_of(a)?, index_of(b)?))
         }
         None => {
-            let pga = ims.iter().position(|x| *x == FragilityIm::Pga);
-            let ratio = ims.iter().position(|x| *x == FragilityIm::PgvPga);
+            let pga = ims.iter().position(|x| *x == Im::Pga);
+            let ratio = ims.iter().position(|x| *x == Im::PgvPga);
             match (pga, ratio) {
                 (Some(a), Some(b)) => Some((a, b)),
                 _ if ims.len() >= 2 => Some((0, 1)),

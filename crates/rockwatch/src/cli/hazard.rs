@@ -10,9 +10,9 @@ use rockwatch::number_text::{json_number, short_number};
 use rockwatch::units::AccelUnits;
 use rockwatch_core::fragility::HorizontalDefinition;
 use rockwatch_core::hazard::{
-    canonical_im, fractile_weights, fragility_from_json, overturn_rate, parse_openquake_csv,
-    parse_two_column_csv, rate_interval, rate_samples, CurveKind, ExposureAge, HazardCurve, ImUnit,
-    Lognormal, OverturnRate, RateSample, Site, SiteSelection,
+    fractile_weights, fragility_from_json, overturn_rate, parse_openquake_csv,
+    parse_two_column_csv, rate_interval, rate_samples, CurveKind, ExposureAge, HazardCurve, Im,
+    ImUnit, Lognormal, OverturnRate, RateSample, Site, SiteSelection,
 };
 
 use super::OutputFormat;
@@ -39,7 +39,7 @@ pub struct HazardArgs {
     #[arg(long, value_name = "FILE")]
     fragility: PathBuf,
     /// The IM of the fragility and the hazard curve: PGA, PGV, SA(T) (case-insensitive; the
-    /// study's pha/phv are PGA/PGV).
+    /// study's pha/phv are PGA/PGV; SA(1) is SA(1.0)).
     #[arg(long, value_name = "IM")]
     im: String,
     /// With a study fragility.json holding several blocks: the block to use.
@@ -124,7 +124,7 @@ pub struct HazardArgs {
 
 /// The hazard curve file: OpenQuake if it starts with a comment line mentioning
 /// investigation_time or has a lon,lat,depth header, else two columns.
-fn read_curve(args: &HazardArgs, text: &str, name: &str) -> anyhow::Result<HazardCurve> {
+fn read_curve(args: &HazardArgs, im: Im, text: &str, name: &str) -> anyhow::Result<HazardCurve> {
     let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
     let openquake = (first.trim_start().starts_with('#') && first.contains("investigation_time"))
         || text
@@ -137,7 +137,7 @@ fn read_curve(args: &HazardArgs, text: &str, name: &str) -> anyhow::Result<Hazar
         };
         let curve = parse_openquake_csv(text, name, site, args.investigation_time)?;
         if let Some(imt) = &curve.imt {
-            if canonical_im(imt) != canonical_im(&args.im) {
+            if Im::from_openquake_imt(imt)? != im {
                 bail!("{name}: the hazard curve is for {imt}, not {}", args.im);
             }
         }
@@ -319,10 +319,11 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot read {}", path.display()))
     };
     let fragility_name = args.fragility.display().to_string();
+    let im: Im = args.im.parse().context("--im")?;
     let fragility = fragility_from_json(
         &read(&args.fragility)?,
         &fragility_name,
-        &args.im,
+        im,
         args.block.as_deref(),
     )?;
     let hazard_definition = match &args.hazard_definition {
@@ -334,12 +335,12 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
     let definition_warning = definition_warning(
         fragility.horizontal_definition.as_deref(),
         hazard_definition,
-        &fragility.im,
+        &fragility.im_name,
     );
     let mut files = Vec::with_capacity(args.hazard_curve.len());
     for path in &args.hazard_curve {
         let name = path.display().to_string();
-        let curve = read_curve(&args, &read(path)?, &name)?;
+        let curve = read_curve(&args, im, &read(path)?, &name)?;
         let converted = curve.converted_to(fragility.unit)?;
         files.push(CurveFile {
             name,
@@ -442,8 +443,8 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("cannot create {}", dir.display()))?;
             let figures = HazardFigures {
-                title: format!("{fragility_name} ({})", fragility.im),
-                im: fragility.im.clone(),
+                title: format!("{fragility_name} ({})", fragility.im_name),
+                im: fragility.im_name.clone(),
                 unit: shown.to_string(),
                 to_shown: fragility.unit.factor_to(shown)?,
                 curves: files
@@ -550,7 +551,7 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
                 "hazard_curves": curves,
                 "contribution_by_level": by_level,
                 "extrapolated_fraction": rate.extrapolated_fraction,
-                "im": fragility.im,
+                "im": fragility.im_name,
                 "unit": fragility.unit.to_string(),
                 "median": fragility.curve.median,
                 "beta": fragility.curve.beta,
@@ -574,7 +575,7 @@ pub fn run(args: HazardArgs) -> anyhow::Result<()> {
             outln!(
                 "fragility   {} ({}): median {} {}, beta {}{replicates_text}",
                 fragility_name,
-                fragility.im,
+                fragility.im_name,
                 short_number(median),
                 shown,
                 short_number(fragility.curve.beta)

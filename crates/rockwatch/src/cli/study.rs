@@ -115,8 +115,8 @@ pub struct StudyArgs {
     #[arg(long = "vector-top", default_value_t = DEFAULT_VECTOR_TOP, value_name = "N")]
     pub vector_top: usize,
 
-    /// IM of the fragility curves (a name of results.csv, e.g. asi_1.0-2.5); default: the IM
-    /// of largest likelihood.
+    /// IM of the fragility curves (a name of results.csv, e.g. asi_1.0-2.5, or its canonical
+    /// name, ASI(1.0-2.5)); default: the IM of largest likelihood.
     #[arg(long = "fragility-im", value_name = "IM")]
     pub fragility_im: Option<String>,
 
@@ -185,7 +185,11 @@ fn build_config(args: &StudyArgs) -> anyhow::Result<StudyConfig> {
         slide_floor_m: args.slide_floor_m,
         theta_floor_rad: args.theta_floor_rad,
         vector_top: args.vector_top,
-        fragility_im: args.fragility_im.clone(),
+        fragility_im: args
+            .fragility_im
+            .as_deref()
+            .map(|im| im.parse().context("--fragility-im"))
+            .transpose()?,
     };
     config.validate()?;
     Ok(config)
@@ -273,7 +277,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                 for sc in block.ranking.iter().take(10) {
                     outln!(
                         "  {:<22} {:>8.4} {:>8.4} {:>10.3e} {:>10.3e}",
-                        display_name(sc.name()),
+                        display_name(sc.im()),
                         sc.r2(),
                         sc.r2_log(),
                         sc.p_mw_log,
@@ -285,7 +289,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                         let (unit, div) = args.units.show(&f.im_unit);
                         outln!(
                             "  fragility of overturning: P = Φ(ln({}/{} {unit})/{})",
-                            display_name(&f.im),
+                            display_name(f.im),
                             short_number(f.median / div),
                             short_number(f.beta)
                         )

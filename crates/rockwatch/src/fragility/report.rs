@@ -5,8 +5,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use rockwatch_core::fragility::{
-    cell_counts, wilson_interval, FragilityConfig, FragilityIm, FragilityRecord, FragilityResult,
-    HorizontalDefinition, Intensity, Prepared, RunResult, Z_95,
+    cell_counts, wilson_interval, BootstrapJson, Ci95Json, FragilityConfig, FragilityRecord,
+    FragilityResult, HorizontalDefinition, Im, ImFragilityJson, Intensity, Prepared, RunResult,
+    Z_95,
 };
 use serde_json::{json, Map, Value};
 
@@ -30,7 +31,7 @@ pub fn im_slug(name: &str) -> String {
 /// (`RotD50`, `RotD100`, `GM`) for the IMs that have one when the records are pairs, else
 /// `component` (one component as recorded, along each incidence).
 #[must_use]
-pub fn definition_of(config: &FragilityConfig, im: &FragilityIm) -> &'static str {
+pub fn definition_of(config: &FragilityConfig, im: &Im) -> &'static str {
     if im.has_horizontal_definition() {
         config.horizontal.name()
     } else {
@@ -54,23 +55,34 @@ pub fn fragility_json(
         let name = f.im.name();
         match &f.fit {
             Ok(fit) => {
-                let pair = |v: Option<[f64; 2]>| v.map_or(Value::Null, |[a, b]| json!([a, b]));
-                ims.insert(
-                    name,
-                    json!({
-                        "median": fit.median,
-                        "beta": fit.beta,
-                        "ci95": {"median": pair(f.ci_median), "beta": pair(f.ci_beta)},
-                        "n_runs": usable,
-                        "n_overturned": result.n_overturned,
-                        "unit": f.im.unit(),
-                        "horizontal_definition": definition_of(config, &f.im),
-                        "likelihood": if f.is_stripe_im { "binomial over stripes" } else { "binomial over (record, scale) groups" },
-                        "log_likelihood": fit.log_likelihood,
-                        "bootstrap": {"replicates": f.bootstrap.len() + f.bootstrap_failed, "failed": f.bootstrap_failed, "median_beta": f.bootstrap},
-                        "median_if_flight_overturned": f.median_flight_overturned,
-                    }),
-                );
+                let entry = ImFragilityJson {
+                    median: fit.median,
+                    beta: fit.beta,
+                    ci95: Ci95Json {
+                        median: f.ci_median,
+                        beta: f.ci_beta,
+                    },
+                    n_runs: usable,
+                    n_overturned: result.n_overturned,
+                    unit: Some(f.im.unit().to_owned()),
+                    horizontal_definition: Some(definition_of(config, &f.im).to_owned()),
+                    likelihood: Some(
+                        if f.is_stripe_im {
+                            "binomial over stripes"
+                        } else {
+                            "binomial over (record, scale) groups"
+                        }
+                        .to_owned(),
+                    ),
+                    log_likelihood: Some(fit.log_likelihood),
+                    bootstrap: BootstrapJson {
+                        replicates: f.bootstrap.len() + f.bootstrap_failed,
+                        failed: f.bootstrap_failed,
+                        median_beta: f.bootstrap.iter().map(|&(m, b)| [m, b]).collect(),
+                    },
+                    median_if_flight_overturned: f.median_flight_overturned,
+                };
+                ims.insert(name, json!(entry));
             }
             Err(e) => {
                 let reason = f.note.clone().unwrap_or_else(|| e.to_string());

@@ -74,7 +74,7 @@ impl Deployment {
     /// Everything to check before creating a node for user `uid`: the root directory (created
     /// with mode 0700 when missing) and the segments with the prefix; restricts this user's
     /// management segment to 0600. The error is one sentence naming the path and the fix.
-    pub fn check_before_node(&self, uid: u32) -> Result<(), String> {
+    pub fn check_before_node(&self, uid: u32) -> Result<(), AccessError> {
         check_root_dir(&self.root_dir, uid)?;
         check_segments(self, uid)?;
         restrict_management_segment(self)?;
@@ -82,9 +82,26 @@ impl Deployment {
     }
 }
 
+/// Why iceoryx2's files are not safe to use for this user (or could not be checked): one sentence naming the path and the fix.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct AccessError(pub String);
+
+impl From<String> for AccessError {
+    fn from(reason: String) -> Self {
+        AccessError(reason)
+    }
+}
+
+impl From<&str> for AccessError {
+    fn from(reason: &str) -> Self {
+        AccessError(reason.to_owned())
+    }
+}
+
 /// The effective user id of this process (the `Uid:` line of `/proc/self/status`: real,
 /// effective, saved, file-system), which owns the files it creates.
-pub fn effective_uid() -> Result<u32, String> {
+pub fn effective_uid() -> Result<u32, AccessError> {
     let status = std::fs::read_to_string("/proc/self/status")
         .map_err(|e| format!("/proc/self/status: {e} (needed to check iceoryx2's permissions)"))?;
     status
@@ -92,19 +109,19 @@ pub fn effective_uid() -> Result<u32, String> {
         .find_map(|l| l.strip_prefix("Uid:"))
         .and_then(|ids| ids.split_whitespace().nth(1))
         .and_then(|euid| euid.parse().ok())
-        .ok_or_else(|| "/proc/self/status: no effective uid".to_string())
+        .ok_or_else(|| AccessError::from("/proc/self/status: no effective uid"))
 }
 
 /// Checks (or creates, mode 0700) the iceoryx2 root directory: a real directory (not a
 /// symbolic link) owned by `uid`, not writable by group or others, whose ancestors only
 /// `uid` or root can replace it in (owned by one of them, and not writable by others unless
 /// sticky, like `/tmp`).
-pub fn check_root_dir(root: &Path, uid: u32) -> Result<(), String> {
+pub fn check_root_dir(root: &Path, uid: u32) -> Result<(), AccessError> {
     let shown = root.display();
     if !root.is_absolute() {
-        return Err(format!(
+        return Err(AccessError::from(format!(
             "iceoryx2 root-path {shown} is not absolute: set [global] root-path to an absolute directory"
-        ));
+        )));
     }
     for ancestor in root.ancestors().skip(1) {
         check_ancestor(ancestor, root, uid)?;
@@ -113,35 +130,35 @@ pub fn check_root_dir(root: &Path, uid: u32) -> Result<(), String> {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
         Err(e) => {
-            return Err(format!(
+            return Err(AccessError::from(format!(
                 "iceoryx2 root-path {shown}: cannot create it: {e} (create its parent, or set [global] root-path to a directory of this user)"
-            ))
+            )))
         }
     }
     let meta =
         std::fs::symlink_metadata(root).map_err(|e| format!("iceoryx2 root-path {shown}: {e}"))?;
     let fix = "remove it, or set [global] root-path to a directory of this user with mode 0700";
     if meta.file_type().is_symlink() {
-        return Err(format!(
+        return Err(AccessError::from(format!(
             "iceoryx2 root-path {shown} is a symbolic link, which another user may have planted: {fix}"
-        ));
+        )));
     }
     if !meta.is_dir() {
-        return Err(format!(
+        return Err(AccessError::from(format!(
             "iceoryx2 root-path {shown} is not a directory: {fix}"
-        ));
+        )));
     }
     if meta.uid() != uid {
-        return Err(format!(
+        return Err(AccessError::from(format!(
             "iceoryx2 root-path {shown} belongs to uid {}, not to this user (uid {uid}): that user could publish on this node's services or replace them; {fix}",
             meta.uid()
-        ));
+        )));
     }
     let mode = meta.mode() & 0o7777;
     if mode & FOREIGN_WRITE != 0 {
-        return Err(format!(
+        return Err(AccessError::from(format!(
             "iceoryx2 root-path {shown} has mode {mode:04o}, writable by other users, who could replace this node's services: chmod 700 it, or {fix}"
-        ));
+        )));
     }
     Ok(())
 }
@@ -177,7 +194,7 @@ fn check_ancestor(dir: &Path, root: &Path, uid: u32) -> Result<(), String> {
 /// Refuses any shared-memory segment with the deployment's prefix that is not a regular file
 /// of `uid`: another user who creates a name of this deployment first (a squatted name) would
 /// own the segment this node uses, or make its creation fail with an obscure iceoryx2 error.
-pub fn check_segments(deployment: &Deployment, uid: u32) -> Result<(), String> {
+pub fn check_segments(deployment: &Deployment, uid: u32) -> Result<(), AccessError> {
     let dir = &deployment.shm_dir;
     let entries = std::fs::read_dir(dir)
         .map_err(|e| format!("iceoryx2 shared memory {}: {e}", dir.display()))?;
@@ -195,17 +212,17 @@ pub fn check_segments(deployment: &Deployment, uid: u32) -> Result<(), String> {
             deployment.prefix
         );
         if meta.uid() != uid {
-            return Err(format!(
+            return Err(AccessError::from(format!(
                 "iceoryx2 shared memory {} belongs to uid {}, not to this user (uid {uid}); {fix}",
                 path.display(),
                 meta.uid()
-            ));
+            )));
         }
         if !meta.is_file() {
-            return Err(format!(
+            return Err(AccessError::from(format!(
                 "iceoryx2 shared memory {} is not a regular file; {fix}",
                 path.display()
-            ));
+            )));
         }
     }
     Ok(())
@@ -226,7 +243,7 @@ pub fn management_segments(deployment: &Deployment) -> Vec<PathBuf> {
 
 /// Restricts this user's global management segment (if it exists) to mode 0600: iceoryx2
 /// creates it readable and writable by everyone. Returns the segments restricted.
-pub fn restrict_management_segment(deployment: &Deployment) -> Result<Vec<PathBuf>, String> {
+pub fn restrict_management_segment(deployment: &Deployment) -> Result<Vec<PathBuf>, AccessError> {
     let mut restricted = Vec::new();
     for path in management_segments(deployment) {
         let Ok(meta) = std::fs::symlink_metadata(&path) else {
@@ -283,7 +300,7 @@ mod tests {
         std::fs::create_dir(&root).unwrap();
         for m in [0o777, 0o720, 0o702] {
             std::fs::set_permissions(&root, std::fs::Permissions::from_mode(m)).unwrap();
-            let e = check_root_dir(&root, uid).unwrap_err();
+            let e = check_root_dir(&root, uid).unwrap_err().to_string();
             assert!(
                 e.contains("writable by other users") && !e.contains('\n'),
                 "{e}"
@@ -296,14 +313,17 @@ mod tests {
         std::os::unix::fs::symlink(&root, &link).unwrap();
         assert!(check_root_dir(&link, uid)
             .unwrap_err()
+            .to_string()
             .contains("symbolic link"));
         let file = dir.path().join("file");
         std::fs::write(&file, "").unwrap();
         assert!(check_root_dir(&file, uid)
             .unwrap_err()
+            .to_string()
             .contains("not a directory"));
         assert!(check_root_dir(Path::new("relative/iox"), uid)
             .unwrap_err()
+            .to_string()
             .contains("not absolute"));
     }
 
@@ -316,7 +336,9 @@ mod tests {
         // Seen as another user: the directory is not theirs (no chown needed).
         // (Refused at the directory itself when this user is root, whose parents every user
         // trusts, else already at its parent, the tempdir of this user.)
-        let e = check_root_dir(&root, effective_uid().unwrap() + 1).unwrap_err();
+        let e = check_root_dir(&root, effective_uid().unwrap() + 1)
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains(&format!("belongs to uid {}", effective_uid().unwrap()))
                 && !e.contains('\n'),
@@ -330,7 +352,9 @@ mod tests {
         let parent = dir.path().join("open");
         std::fs::create_dir(&parent).unwrap();
         std::fs::set_permissions(&parent, std::fs::Permissions::from_mode(0o777)).unwrap();
-        let e = check_root_dir(&parent.join("iox"), effective_uid().unwrap()).unwrap_err();
+        let e = check_root_dir(&parent.join("iox"), effective_uid().unwrap())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("its parent") && e.contains("0777"), "{e}");
         // Sticky, like /tmp: accepted.
         std::fs::set_permissions(&parent, std::fs::Permissions::from_mode(0o1777)).unwrap();
@@ -357,7 +381,7 @@ mod tests {
         assert_eq!(mode(&other_prefix), 0o666);
         assert_eq!(mode(&data), 0o600);
         // Seen by another user, this user's segments are foreign: refused, naming the file.
-        let e = check_segments(&d, uid + 1).unwrap_err();
+        let e = check_segments(&d, uid + 1).unwrap_err().to_string();
         assert!(
             e.contains("belongs to uid") && e.contains("rwtest_") && !e.contains('\n'),
             "{e}"

@@ -8,7 +8,9 @@ use std::path::Path;
 use anyhow::anyhow;
 use iceoryx2::prelude::*;
 
-use super::access::{effective_uid, management_segments, restrict_management_segment, Deployment};
+use super::access::{
+    effective_uid, management_segments, restrict_management_segment, AccessError, Deployment,
+};
 use super::config::IoxConfig;
 use super::types::{AccelHeader, AccelSample, IntakeIox, PbrAlertIox};
 
@@ -106,7 +108,7 @@ pub(super) fn open_alert_service(
 pub(super) fn create_node(config: &IoxConfig) -> anyhow::Result<Node<ipc::Service>> {
     let iox_config = config.load_iceoryx2_config()?;
     let file = config.config_file.as_deref().unwrap_or(Path::new("?"));
-    let refused = |e: String| anyhow!("{e} (iceoryx2 configuration {})", file.display());
+    let refused = |e: AccessError| anyhow!("{e} (iceoryx2 configuration {})", file.display());
     let deployment = Deployment::of(&iox_config);
     effective_uid()
         .and_then(|uid| deployment.check_before_node(uid))

@@ -206,14 +206,23 @@ fn write_padded<const N: usize>(text: &str, field: &mut [u8; N]) -> bool {
     end < text.len()
 }
 
+/// Why a NUL-padded text field is not text.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PaddedTextError {
+    #[error("bytes after the terminating NUL are not NUL")]
+    AfterNul,
+    #[error("not UTF-8: {0}")]
+    NotUtf8(std::str::Utf8Error),
+}
+
 /// The text of a NUL-padded field: bytes up to the first NUL, which must be followed by NULs
 /// only and be valid UTF-8.
-pub fn read_padded(field: &[u8]) -> Result<&str, String> {
+pub fn read_padded(field: &[u8]) -> Result<&str, PaddedTextError> {
     let end = field.iter().position(|&b| b == 0).unwrap_or(field.len());
     if field[end..].iter().any(|&b| b != 0) {
-        return Err("bytes after the terminating NUL are not NUL".into());
+        return Err(PaddedTextError::AfterNul);
     }
-    std::str::from_utf8(&field[..end]).map_err(|e| format!("not UTF-8: {e}"))
+    std::str::from_utf8(&field[..end]).map_err(PaddedTextError::NotUtf8)
 }
 
 impl AccelHeader {
@@ -248,7 +257,7 @@ pub enum WireError {
     #[error("header sample_count {header} differs from the payload length {payload}")]
     CountMismatch { header: u64, payload: usize },
     #[error("station field: {0}")]
-    Station(String),
+    Station(PaddedTextError),
     #[error("unknown header flags {0:#x} or non-zero reserved field")]
     Flags(u32),
     #[error("{got} samples exceed the limit of {limit}")]

@@ -68,9 +68,26 @@ pub const MAX_RETRY_S: f64 = 86_400.0;
 /// Largest `queue`.
 pub const MAX_QUEUE: usize = 1 << 20;
 
+/// A `[[notify]]` entry that is invalid: which key and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct NotifyConfigError(pub String);
+
+impl From<String> for NotifyConfigError {
+    fn from(reason: String) -> Self {
+        NotifyConfigError(reason)
+    }
+}
+
+impl From<&str> for NotifyConfigError {
+    fn from(reason: &str) -> Self {
+        NotifyConfigError(reason.to_owned())
+    }
+}
+
 impl NotifyConfig {
     /// Checks the entry; the error says which key is wrong and why.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), NotifyConfigError> {
         match self.kind {
             NotifyKind::Webhook => {
                 let url = self
@@ -78,51 +95,63 @@ impl NotifyConfig {
                     .as_deref()
                     .ok_or("kind = \"webhook\" needs a url")?;
                 if !(url.starts_with("http://") || url.starts_with("https://")) {
-                    return Err(format!("url {url:?}: must start with http:// or https://"));
+                    return Err(NotifyConfigError::from(format!(
+                        "url {url:?}: must start with http:// or https://"
+                    )));
                 }
                 if !self.command.is_empty() {
-                    return Err("command is for kind = \"exec\"; a webhook has a url".into());
+                    return Err(NotifyConfigError::from(
+                        "command is for kind = \"exec\"; a webhook has a url",
+                    ));
                 }
             }
             NotifyKind::Exec => {
                 if self.command.first().is_none_or(String::is_empty) {
-                    return Err("kind = \"exec\" needs command = [\"program\", …]".into());
+                    return Err(NotifyConfigError::from(
+                        "kind = \"exec\" needs command = [\"program\", …]",
+                    ));
                 }
                 if self.url.is_some() {
-                    return Err("url is for kind = \"webhook\"; exec has a command".into());
+                    return Err(NotifyConfigError::from(
+                        "url is for kind = \"webhook\"; exec has a command",
+                    ));
                 }
             }
         }
         let in_range = |v: f64, max: f64| v.is_finite() && v > 0.0 && v <= max;
         if !in_range(self.timeout_s, MAX_TIMEOUT_S) {
-            return Err(format!(
+            return Err(NotifyConfigError::from(format!(
                 "timeout_s = {}: out of range (0, {MAX_TIMEOUT_S}]",
                 self.timeout_s
-            ));
+            )));
         }
         if !in_range(self.retry_max_s, MAX_RETRY_S) {
-            return Err(format!(
+            return Err(NotifyConfigError::from(format!(
                 "retry_max_s = {}: out of range (0, {MAX_RETRY_S}]",
                 self.retry_max_s
-            ));
+            )));
         }
         if !in_range(self.retry_initial_s, self.retry_max_s) {
-            return Err(format!(
+            return Err(NotifyConfigError::from(format!(
                 "retry_initial_s = {}: out of range (0, retry_max_s = {}]",
                 self.retry_initial_s, self.retry_max_s
-            ));
+            )));
         }
         if !(1..=MAX_QUEUE).contains(&self.queue) {
-            return Err(format!(
+            return Err(NotifyConfigError::from(format!(
                 "queue = {}: out of range 1 to {MAX_QUEUE}",
                 self.queue
-            ));
+            )));
         }
         if self.levels.as_ref().is_some_and(Vec::is_empty) {
-            return Err("levels = []: would deliver nothing (leave it out for all)".into());
+            return Err(NotifyConfigError::from(
+                "levels = []: would deliver nothing (leave it out for all)",
+            ));
         }
         if self.pbrs.as_ref().is_some_and(Vec::is_empty) {
-            return Err("pbrs = []: would deliver nothing (leave it out for all)".into());
+            return Err(NotifyConfigError::from(
+                "pbrs = []: would deliver nothing (leave it out for all)",
+            ));
         }
         Ok(())
     }
@@ -170,7 +199,7 @@ mod tests {
 
     fn parse(text: &str) -> Result<NotifyConfig, String> {
         let c: NotifyConfig = toml::from_str(text).map_err(|e| e.to_string())?;
-        c.validate().map(|()| c)
+        c.validate().map(|()| c).map_err(|e| e.to_string())
     }
 
     #[test]

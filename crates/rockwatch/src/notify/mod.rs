@@ -37,7 +37,9 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use rockwatch_core::engine::JournalRecord;
 
-pub use config::{NotifyConfig, NotifyKind, MAX_QUEUE, MAX_RETRY_S, MAX_TIMEOUT_S};
+pub use config::{
+    NotifyConfig, NotifyConfigError, NotifyKind, MAX_QUEUE, MAX_RETRY_S, MAX_TIMEOUT_S,
+};
 pub use spool::{Spool, SpoolReport};
 
 use crate::alert_json::AlertJson;

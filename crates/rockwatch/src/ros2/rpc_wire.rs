@@ -137,8 +137,25 @@ fn decode_cyclone<R: DeserializeOwned>(wire: &Wire) -> Result<(Framing, R), Stri
     Ok((Framing::Cyclone { client, sequence }, request))
 }
 
+/// A service reply that could not be serialized to CDR (the serializer's message).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct ReplyEncodeError(pub String);
+
+impl From<String> for ReplyEncodeError {
+    fn from(reason: String) -> Self {
+        ReplyEncodeError(reason)
+    }
+}
+
+impl From<&str> for ReplyEncodeError {
+    fn from(reason: &str) -> Self {
+        ReplyEncodeError(reason.to_owned())
+    }
+}
+
 /// The payload of the reply `response` to `id` (little-endian CDR, as the writer declares).
-pub fn encode_reply<S: Serialize>(id: &RequestId, response: &S) -> Result<Wire, String> {
+pub fn encode_reply<S: Serialize>(id: &RequestId, response: &S) -> Result<Wire, ReplyEncodeError> {
     let encoding = RepresentationIdentifier::CDR_LE;
     let mut out = Vec::with_capacity(64);
     if let Framing::Cyclone { client, sequence } = id.framing {

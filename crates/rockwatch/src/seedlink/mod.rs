@@ -166,11 +166,30 @@ fn default_backfill_s() -> f64 {
 /// Longest `backfill_s` accepted (s): 30 days, beyond any ring's depth.
 const MAX_BACKFILL_S: f64 = 30.0 * 86_400.0;
 
+/// A `[seedlink]` setting that is invalid: which and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct SeedLinkConfigError(pub String);
+
+impl From<String> for SeedLinkConfigError {
+    fn from(reason: String) -> Self {
+        SeedLinkConfigError(reason)
+    }
+}
+
+impl From<&str> for SeedLinkConfigError {
+    fn from(reason: &str) -> Self {
+        SeedLinkConfigError(reason.to_owned())
+    }
+}
+
 impl SeedLinkConfig {
     /// The stream patterns, checked; and the durations in range.
-    pub fn patterns(&self) -> Result<Vec<StreamPattern>, String> {
+    pub fn patterns(&self) -> Result<Vec<StreamPattern>, SeedLinkConfigError> {
         if self.streams.is_empty() {
-            return Err("seedlink.streams is empty: list NET.STA.LOC.CHA patterns".into());
+            return Err(SeedLinkConfigError::from(
+                "seedlink.streams is empty: list NET.STA.LOC.CHA patterns",
+            ));
         }
         for (key, v, max) in [
             ("connect_timeout_s", self.connect_timeout_s, 3600.0),
@@ -180,18 +199,23 @@ impl SeedLinkConfig {
             ("station_refresh_s", self.station_refresh_s, 86_400.0),
         ] {
             if !(v.is_finite() && v > 0.0 && v <= max) {
-                return Err(format!("seedlink.{key} = {v} is out of range (0, {max}] s"));
+                return Err(SeedLinkConfigError::from(format!(
+                    "seedlink.{key} = {v} is out of range (0, {max}] s"
+                )));
             }
         }
         if !(self.backfill_s.is_finite() && (0.0..=MAX_BACKFILL_S).contains(&self.backfill_s)) {
-            return Err(format!(
+            return Err(SeedLinkConfigError::from(format!(
                 "seedlink.backfill_s = {} is out of range [0, {MAX_BACKFILL_S}] s",
                 self.backfill_s
-            ));
+            )));
         }
         self.streams
             .iter()
-            .map(|s| StreamPattern::parse(s).map_err(|e| format!("seedlink.streams: {e}")))
+            .map(|s| {
+                StreamPattern::parse(s)
+                    .map_err(|e| SeedLinkConfigError(format!("seedlink.streams: {e}")))
+            })
             .collect()
     }
 }
@@ -415,7 +439,7 @@ pub struct SeedLinkClient {
 pub enum SeedLinkClientError {
     /// `streams` holds a pattern that is not `NET.STA.LOC.CHA`.
     #[error("{0}")]
-    Streams(String),
+    Streams(SeedLinkConfigError),
     /// The resume state could not be read.
     #[error(transparent)]
     State(#[from] StateFileError),

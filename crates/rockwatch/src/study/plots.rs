@@ -106,7 +106,7 @@ where
             .caption(
                 format!(
                     "{} — R² = {:.3}, R²(log) = {:.3}",
-                    display_name(score.name()),
+                    display_name(score.im()),
                     score.r2(),
                     score.r2_log()
                 ),
@@ -175,7 +175,7 @@ where
             .light_line_style(WHITE)
             .x_desc(format!(
                 "{} ({}){}",
-                display_name(score.name()),
+                display_name(score.im()),
                 unit,
                 if n_nonpositive > 0 {
                     format!(" — {n_nonpositive} runs with IM ≤ 0 not shown")
@@ -257,9 +257,9 @@ where
     let Some(curve) = &block.fragility.selected else {
         return Ok(());
     };
-    let j = rockwatch_core::ims::STUDY_IM_NAMES
+    let j = rockwatch_core::ims::STUDY_IMS
         .iter()
-        .position(|n| *n == curve.im)
+        .position(|im| *im == curve.im)
         .unwrap_or(0);
     let values: Vec<(f64, bool)> = (0..data.cases.len())
         .filter(|&i| block.categories[i] != Category::Failed)
@@ -287,7 +287,7 @@ where
         &format!(
             "Block {}: P(overturn | {}) — median {} {unit}, β = {}",
             block.name,
-            display_name(&curve.im),
+            display_name(curve.im),
             short_number(curve.median / div),
             short_number(curve.beta)
         ),
@@ -306,7 +306,7 @@ where
         )?;
     chart
         .configure_mesh()
-        .x_desc(format!("{} ({unit})", display_name(&curve.im)))
+        .x_desc(format!("{} ({unit})", display_name(curve.im)))
         .x_label_formatter(&|x| short_number(*x))
         .y_desc("probability of overturning")
         .label_style(("sans-serif", 13))

@@ -12,9 +12,9 @@ use std::path::{Path, PathBuf};
 
 use serde::ser::{SerializeMap, Serializer};
 
-use rockwatch_core::ims::STUDY_IM_NAMES;
+use rockwatch_core::ims::{Im, PeriodRange, STUDY_IMS};
 use rockwatch_core::study::fragility::{LognormalFragility, Z_95};
-use rockwatch_core::study::{BlockAnalysis, StudyAnalysis, StudyConfig, StudyData, STUDY_IM_UNITS};
+use rockwatch_core::study::{BlockAnalysis, StudyAnalysis, StudyConfig, StudyData};
 
 /// A file of the study could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -54,34 +54,27 @@ fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
-/// The seed's name of an IM: `PHA`, `SI (2.5 to 3.0 s)`, `PGV/PGA`, …
+/// The seed's label of an IM in tables and plots: `PHA`, `SI (2.5 to 3.0 s)`, `PGV/PGA`, …
 #[must_use]
-pub fn display_name(im: &str) -> String {
-    let fixed = match im {
-        "pha" => "PHA",
-        "phv" => "PHV",
-        "phd" => "PHD",
-        "sma" => "SMA",
-        "eda" => "EDA",
-        "tp" => "Tp",
-        "pgv_pga" => "PGV/PGA",
-        "d5_95" => "D5-95",
-        "a_rms" => "a_rms",
-        "ic" => "Ic",
-        "arias" => "Arias",
-        "cav" => "CAV",
-        "epv" => "EPV",
-        _ => "",
+pub fn display_name(im: Im) -> String {
+    let range = |kind: &str, r: PeriodRange| {
+        let label = r.label();
+        let (t1, t2) = label.split_once('-').unwrap_or((&label, ""));
+        format!("{kind} ({t1} to {t2} s)")
     };
-    if !fixed.is_empty() {
-        return fixed.to_string();
-    }
-    match im.split_once('_') {
-        Some((kind, range)) => {
-            let (t1, t2) = range.split_once('-').unwrap_or((range, ""));
-            format!("{} ({t1} to {t2} s)", kind.to_uppercase())
-        }
-        None => im.to_string(),
+    match im {
+        Im::Pga => "PHA".into(),
+        Im::Pgv => "PHV".into(),
+        Im::Pgd => "PHD".into(),
+        Im::Tp => "Tp".into(),
+        Im::D5_95 => "D5-95".into(),
+        Im::ARms => "a_rms".into(),
+        Im::Ic => "Ic".into(),
+        Im::Arias => "Arias".into(),
+        Im::Si(r) => range("SI", r),
+        Im::Asi(r) => range("ASI", r),
+        Im::Vsi(r) => range("VSI", r),
+        other => other.to_string(),
     }
 }
 
@@ -95,9 +88,9 @@ pub fn results_csv(config: &StudyConfig, data: &StudyData, analysis: &StudyAnaly
          overturned,exceeded_alpha,modes,max_abs_slide_m,max_abs_theta_rad,\
          max_abs_theta_over_alpha,category",
     );
-    for name in STUDY_IM_NAMES {
+    for im in STUDY_IMS {
         s.push(',');
-        s.push_str(name);
+        s.push_str(&im.study_name());
     }
     s.push('\n');
     for (i, case) in data.cases.iter().enumerate() {
@@ -234,8 +227,8 @@ pub fn vector_csv(analysis: &StudyAnalysis) -> String {
                 "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 block.name,
                 rank + 1,
-                STUDY_IM_NAMES[v.ims[0]],
-                STUDY_IM_NAMES[v.ims[1]],
+                STUDY_IMS[v.ims[0]].study_name(),
+                STUDY_IMS[v.ims[1]].study_name(),
                 lin.map_or(0, |f| f.n),
                 num(r2),
                 opt(lin.map(|f| f.adjusted_r2)),
@@ -257,10 +250,7 @@ pub fn vector_csv(analysis: &StudyAnalysis) -> String {
 
 /// Log-spaced IM grid over the positive IM values of the fragility sample (60 points).
 fn fragility_grid(data: &StudyData, curve: &LognormalFragility) -> Vec<f64> {
-    let j = STUDY_IM_NAMES
-        .iter()
-        .position(|n| *n == curve.im)
-        .unwrap_or(0);
+    let j = STUDY_IMS.iter().position(|im| *im == curve.im).unwrap_or(0);
     let (lo, hi) = data
         .cases
         .iter()
@@ -291,7 +281,7 @@ pub fn fragility_csv(data: &StudyData, analysis: &StudyAnalysis) -> String {
                     s,
                     "{},{},{},{},{},{},{}",
                     block.name,
-                    curve.im,
+                    curve.im.study_name(),
                     curve.im_unit,
                     num(x),
                     num(curve.probability(x)),
@@ -317,14 +307,14 @@ pub fn fragility_fits_csv(analysis: &StudyAnalysis) -> String {
                 .fragility
                 .selected
                 .as_ref()
-                .is_some_and(|f| f.im == STUDY_IM_NAMES[j]);
+                .is_some_and(|f| f.im == STUDY_IMS[j]);
             match fit {
                 Ok(f) => {
                     let _ = writeln!(
                         s,
                         "{},{},{},{},{},{},{},{},{},{},{},{},{},{},",
                         block.name,
-                        f.im,
+                        f.im.study_name(),
                         f.im_unit,
                         selected,
                         f.n,
@@ -344,8 +334,8 @@ pub fn fragility_fits_csv(analysis: &StudyAnalysis) -> String {
                         s,
                         "{},{},{},false,{},{},,,,,,,,,\"{e}\"",
                         block.name,
-                        STUDY_IM_NAMES[j],
-                        STUDY_IM_UNITS[j],
+                        STUDY_IMS[j].study_name(),
+                        STUDY_IMS[j].unit(),
                         block.fragility.n,
                         block.fragility.n_overturned,
                     );
@@ -386,7 +376,7 @@ impl serde::Serialize for OrderedMap {
 /// One IM of a block's ranking in the JSON summary.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RankingEntry {
-    pub im: &'static str,
+    pub im: String,
     pub unit: &'static str,
     /// Overall R² of DM ~ IM.
     pub r2: Option<f64>,
@@ -407,7 +397,7 @@ pub struct RankingEntry {
 /// One vector IM in the JSON summary.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct VectorEntry {
-    pub ims: [&'static str; 2],
+    pub ims: [String; 2],
     pub r2: Option<f64>,
     pub adjusted_r2: Option<f64>,
     pub r2_log: Option<f64>,
@@ -502,7 +492,7 @@ fn block_summary(config: &StudyConfig, data: &StudyData, b: &BlockAnalysis) -> B
             .vector
             .iter()
             .map(|v| VectorEntry {
-                ims: [STUDY_IM_NAMES[v.ims[0]], STUDY_IM_NAMES[v.ims[1]]],
+                ims: v.ims.map(|j| STUDY_IMS[j].study_name()),
                 r2: v.linear.as_ref().and_then(|f| finite(f.r2)),
                 adjusted_r2: v.linear.as_ref().and_then(|f| finite(f.adjusted_r2)),
                 r2_log: v.log.as_ref().and_then(|f| finite(f.r2)),
@@ -569,7 +559,7 @@ fn md_table(s: &mut String, data: &StudyData, block: &BlockAnalysis, pairs: &[us
         rockwatch_core::study::sort_desc_by(&mut rows, |sc| sc.r2_log());
     }
     for sc in rows {
-        let _ = write!(s, "| {} |", display_name(sc.name()));
+        let _ = write!(s, "| {} |", display_name(sc.im()));
         for &p in pairs {
             let v = if log {
                 sc.r2_log_by_pair[p]
