@@ -423,6 +423,17 @@ impl Engine {
         self.stations.values().map(|s| s.block_bytes()).sum()
     }
 
+    /// Ensemble members (of every rock, in every direction) neither at rest nor fallen: the
+    /// blocks whose integration costs a step per sample (capacity figures, docs/capacity.md).
+    #[must_use]
+    pub fn members_in_motion(&self) -> usize {
+        self.stations
+            .values()
+            .flat_map(|s| s.pbrs.iter())
+            .map(pbr::PbrRuntime::members_in_motion)
+            .sum()
+    }
+
     pub fn reset_pbr(&mut self, pbr_id: &str) -> bool {
         self.stations.values_mut().any(|s| s.reset_pbr(pbr_id))
     }

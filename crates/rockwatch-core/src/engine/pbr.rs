@@ -502,6 +502,19 @@ impl PbrRuntime {
             }
     }
 
+    /// Planar ensemble members (every direction) neither at rest nor fallen (a 3-D rock: 0).
+    pub(super) fn members_in_motion(&self) -> usize {
+        match &self.dynamics {
+            Dynamics::Planar(p) => p
+                .directions
+                .iter()
+                .flat_map(|d| d.members.iter())
+                .filter(|b| !matches!(b.mode(), Mode::Rest | Mode::Overturned))
+                .count(),
+            Dynamics::Rigid(_) => 0,
+        }
+    }
+
     pub(super) fn at_rest(&self) -> bool {
         match &self.dynamics {
             Dynamics::Planar(p) => p
