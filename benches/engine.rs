@@ -286,7 +286,7 @@ fn capacity_case() {
     );
     println!("  {}", run.latency());
     println!(
-        "  resident size: process {:.0} MiB after the run (+{:.0} MiB during it: the stations' running intensity windows, the benchmark's records); blocks {:.1} MiB = {:.0} B per block (Engine::block_bytes; an ensemble member is one RigidBlock, {} B)",
+        "  resident size: process {:.0} MiB after the run (+{:.0} MiB during it: the stations' running intensity windows, the benchmark's records); blocks {:.1} MiB = {:.0} B per block (Engine::block_bytes; an ensemble member in motion is one RigidBlock, {} B, one at rest 104 B: docs/capacity.md)",
         resident_after as f64 / 1048576.0,
         resident_after.saturating_sub(resident_before) as f64 / 1048576.0,
         engine.block_bytes() as f64 / 1048576.0,
