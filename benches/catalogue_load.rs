@@ -8,6 +8,14 @@
 //! the 100 000-block loads. Target (docs/capacity.md): 100 000 TOML blocks in ≤ 2 s in release,
 //! well inside the 60 s start timeout of the shipped systemd unit.
 //!
+//! Then the region's startup (issue 21, docs/capacity.md): a catalogue of 1000 rocks from one
+//! mesh (an 0.8 × 0.6 × 4 m box, planar model, every 15°: 24 directions) with an uncertain
+//! heading, contact tolerance and μs and an ensemble of 100, loaded from its file, each entry
+//! turned into its engine spec (the Latin hypercube and each member's 24 planar bodies from
+//! the mesh) and the engine built: 2 400 000 member blocks. Target ≤ 10 s.
+//! `REGION_STARTUP_ROCKS=100` runs it at a tenth of the scale; `cargo bench --bench
+//! catalogue_load -- region` runs only it.
+//!
 //! The entries: 5000 stations with 20 blocks each (azimuths 18° apart); every 7th a general
 //! body, every 10th an uncertain height with an ensemble of 20, the others a fixed rectangle.
 
@@ -16,6 +24,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput};
 use rockwatch_core::catalogue::Catalogue;
+use rockwatch_core::engine::{Engine, EngineConfig, PbrSpec};
 
 const BLOCKS: usize = 100_000;
 const BLOCKS_PER_STATION: usize = 20;
@@ -92,7 +101,73 @@ fn one_shot(sizes: &[usize]) {
     }
 }
 
+/// An `x` × `y` × `z` m box as an OBJ (up z).
+fn box_obj(x: f64, y: f64, z: f64) -> String {
+    let mut text = String::new();
+    for k in [0.0, z] {
+        for (i, j) in [(0.0, 0.0), (x, 0.0), (x, y), (0.0, y)] {
+            let _ = writeln!(text, "v {i} {j} {k}");
+        }
+    }
+    text + "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+}
+
+/// Loads the region's catalogue and builds the engine (see the module doc).
+fn region_startup() {
+    let rocks: usize = std::env::var("REGION_STARTUP_ROCKS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1000);
+    let dir = tempfile::tempdir().expect("temporary directory");
+    std::fs::write(dir.path().join("rock.obj"), box_obj(0.8, 0.6, 4.0)).expect("mesh written");
+    let mut toml = String::new();
+    for r in 0..rocks {
+        let _ = write!(
+            toml,
+            "[[pbr]]\nid = \"rock-{r:04}\"\nname = \"rock {r}\"\nlat = 34.0\nlon = -118.0\n\
+             station = \"XX.S{:04}.00\"\nmesh = \"rock.obj\"\n\
+             heading_deg = {{ min = -10.0, max = 10.0 }}\n\
+             contact_tolerance_m = {{ min = 0.0, max = 0.01 }}\n\
+             mu_s = {{ min = 0.6, max = 0.9 }}\nmu_k = 0.5\nsource = \"bench\"\nensemble = 100\n\n",
+            2 * r
+        );
+    }
+    let path = dir.path().join("region.toml");
+    std::fs::write(&path, toml).expect("catalogue written");
+    let t = Instant::now();
+    let cat = Catalogue::load(&path).expect("the region catalogue loads");
+    let load_s = t.elapsed().as_secs_f64();
+    let specs: Vec<PbrSpec> = cat
+        .pbrs()
+        .iter()
+        .map(|p| PbrSpec::from_catalogue(p).expect("spec"))
+        .collect();
+    let specs_s = t.elapsed().as_secs_f64() - load_s;
+    let members: usize = specs
+        .iter()
+        .map(|s| {
+            s.members.len()
+                + s.more_directions
+                    .iter()
+                    .map(|d| d.members.len())
+                    .sum::<usize>()
+        })
+        .sum();
+    let engine = Engine::new(EngineConfig::default(), vec![], &specs).expect("engine");
+    let total_s = t.elapsed().as_secs_f64();
+    println!(
+        "region startup: {rocks} rocks × 100 members × {} directions = {members} member blocks: catalogue {load_s:.2} s, ensembles and planar bodies {specs_s:.2} s, engine {:.2} s: {total_s:.2} s in all (target ≤ 10 s); block state {:.0} B per member block",
+        1 + specs[0].more_directions.len(),
+        total_s - load_s - specs_s,
+        engine.block_bytes() as f64 / members as f64
+    );
+}
+
 fn main() {
+    if std::env::args().skip(1).any(|a| a == "region") {
+        region_startup();
+        return;
+    }
     let sizes: Vec<usize> = match std::env::var("CATALOGUE_LOAD_SIZES") {
         Ok(list) => list
             .split(',')
@@ -105,6 +180,7 @@ fn main() {
         Err(_) => vec![20_000, 50_000, BLOCKS],
     };
     one_shot(&sizes);
+    region_startup();
 
     let (toml, csv) = catalogue_texts(BLOCKS);
     let mut c = Criterion::default()

@@ -12,12 +12,19 @@
 //! - **at rest**: 1000 quiet stations with 20 blocks each against the same stations with no
 //!   block: the difference is the amortised cost of a block at rest per sample, with the
 //!   station's shared rest check and without it (every block takes its own rest check).
+//! - **region**: 2000 stations, 1000 rocks (one on every other station), each with a
+//!   100-member ensemble in 24 toppling directions 15° apart: 2 400 000 member blocks. The
+//!   rocks of the first 10 % of the stations see the 0.3 g shaking, the others weak noise;
+//!   run on the sharded engine with 2 workers; prints the member blocks in motion at the
+//!   end (M), the block state per member block and the process's resident size.
+//!   `REGION_ROCKS=100` runs it at a tenth of the scale (stations and shaking scale along).
 //!
 //! Moving blocks' cost per sample: `cargo bench --bench block_step` (b, c).
 
 use std::time::Instant;
 
 use rockwatch_core::azimuth::Azimuth;
+use rockwatch_core::catalogue::DirectionBlocks;
 use rockwatch_core::dynamics::{BlockParams, Mode, RigidBlock};
 use rockwatch_core::engine::{
     AccelPacket, Engine, EngineConfig, Output, PbrSpec, ShardedEngine, StationConfig, StationId,
@@ -112,6 +119,19 @@ fn resident_bytes() -> u64 {
                 .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
         })
         .map_or(0, |kb| kb * 1024)
+}
+
+/// CPU time of this process so far (s; every thread, ended ones included), from
+/// /proc/self/stat (utime + stime at 100 ticks per second; 0 if unavailable).
+fn process_cpu_s() -> f64 {
+    let text = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // The fields after the command name (which may hold spaces) start at the state (field 3).
+    let after = text.rsplit_once(')').map_or("", |(_, rest)| rest);
+    let fields: Vec<f64> = after
+        .split_whitespace()
+        .map(|f| f.parse::<f64>().unwrap_or(0.0))
+        .collect();
+    (fields.get(11).copied().unwrap_or(0.0) + fields.get(12).copied().unwrap_or(0.0)) / 100.0
 }
 
 /// This thread's time on a CPU and waiting for one (run queue), in s, from
@@ -266,7 +286,7 @@ fn capacity_case() {
     );
     println!("  {}", run.latency());
     println!(
-        "  resident size: process {:.0} MiB after the run (+{:.0} MiB during it: the stations' running intensity windows, the benchmark's records); blocks {:.1} MiB = {:.0} B per block (Engine::block_bytes; an ensemble member is one RigidBlock, {} B)",
+        "  resident size: process {:.0} MiB after the run (+{:.0} MiB during it: the stations' running intensity windows, the benchmark's records); blocks {:.1} MiB = {:.0} B per block (Engine::block_bytes; an ensemble member in motion is one RigidBlock, {} B, one at rest 104 B: docs/capacity.md)",
         resident_after as f64 / 1048576.0,
         resident_after.saturating_sub(resident_before) as f64 / 1048576.0,
         engine.block_bytes() as f64 / 1048576.0,
@@ -308,6 +328,100 @@ fn at_rest_case() {
     }
 }
 
+/// Rocks of the region case: rock `r` on station `2r` (see the module doc).
+fn region_specs(rocks: usize) -> Vec<PbrSpec> {
+    const DIRECTIONS: usize = 24;
+    const MEMBERS: usize = 100;
+    let block = |r: usize, d: usize, m: Option<usize>| {
+        // The nominal rock: α ≈ 0.16–0.25 rad as in the other cases; its width seen from
+        // direction d varies by ±15 % (an elongated rock); members ±10 % in height and
+        // ±8 % in width, μs 0.6–0.9 (a Latin-hypercube-like stratification of member m).
+        let k = (r % 10) as f64;
+        let az = (d as f64 * 15.0).to_radians();
+        let mut width = (0.8 + 0.05 * k) * (1.0 + 0.15 * (2.0 * az).cos());
+        let mut height = 4.0 + 0.1 * k;
+        let mut mu_s = 0.75;
+        if let Some(m) = m {
+            let u = |stride: usize| ((m * stride) % MEMBERS) as f64 / (MEMBERS - 1) as f64 - 0.5;
+            height *= 1.0 + 0.2 * u(1);
+            width *= 1.0 + 0.16 * u(37);
+            mu_s += 0.3 * u(61);
+        }
+        BlockParams::from_width_height(width, height, mu_s, 0.8 * mu_s, None).expect("valid block")
+    };
+    (0..rocks)
+        .map(|r| {
+            let directions: Vec<DirectionBlocks> = (0..DIRECTIONS)
+                .map(|d| DirectionBlocks {
+                    azimuth: Azimuth::from_degrees(d as f64 * 15.0).expect("finite azimuth"),
+                    nominal: block(r, d, None),
+                    members: (0..MEMBERS).map(|m| block(r, d, Some(m))).collect(),
+                })
+                .collect();
+            let mut directions = directions.into_iter();
+            let first = directions.next().expect("24 directions");
+            PbrSpec {
+                id: format!("rock-{r:04}"),
+                station: StationId::parse(&station(2 * r)).expect("valid id"),
+                azimuth: first.azimuth,
+                nominal: first.nominal,
+                members: first.members,
+                more_directions: directions.collect(),
+                rock_3d: None,
+                place: Default::default(),
+            }
+        })
+        .collect()
+}
+
+fn region_case() {
+    let rocks: usize = std::env::var("REGION_ROCKS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1000);
+    let case = Case {
+        stations: 2 * rocks,
+        shaking: 2 * rocks / 10,
+        blocks_per_station: 0,
+    };
+    let members = rocks * 100 * 24;
+    let workers = 2;
+    let rounds: Vec<Vec<AccelPacket>> = (0..ROUNDS).map(|r| round(case, r)).collect();
+    let specs = region_specs(rocks);
+    let pool =
+        ShardedEngine::start(EngineConfig::default(), &[], &specs, &[], workers).expect("pool");
+    drop(specs);
+    let cpu0 = process_cpu_s();
+    let start = Instant::now();
+    for packets in rounds {
+        for p in packets {
+            pool.submit(p, 0);
+        }
+        for _ in pool.try_outputs() {}
+    }
+    let (engines, _) = pool.shutdown();
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = process_cpu_s() - cpu0;
+    let in_motion: usize = engines.iter().map(Engine::members_in_motion).sum();
+    let block_bytes: usize = engines.iter().map(Engine::block_bytes).sum();
+    let per_worker: Vec<String> = engines
+        .iter()
+        .map(|e| e.members_in_motion().to_string())
+        .collect();
+    println!(
+        "region: {} stations × 3 components at {RATE_HZ} Hz, {members} blocks ({rocks} rocks × 100 members × 24 directions, {in_motion} in motion at the end), {workers} workers: real-time factor {:.2}, block state {:.0} bytes per block, resident {:.0} MiB",
+        case.stations,
+        SECONDS as f64 / wall,
+        block_bytes as f64 / members as f64,
+        resident_bytes() as f64 / 1048576.0
+    );
+    println!(
+        "  {SECONDS} s of data in {wall:.2} s wall, {cpu:.1} s of CPU ({:.2} cores of work per second of data; the machine's other load shares the 2 cores); members in motion at the end per worker: {}",
+        cpu / SECONDS as f64,
+        per_worker.join(", ")
+    );
+}
+
 fn main() {
     // `cargo bench --bench engine -- capacity` runs only the cases whose name contains an
     // argument (flags such as `--bench` are ignored).
@@ -315,10 +429,11 @@ fn main() {
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
-    let cases: [(&str, fn()); 3] = [
+    let cases: [(&str, fn()); 4] = [
         ("existing", existing_case),
         ("capacity", capacity_case),
         ("at_rest", at_rest_case),
+        ("region", region_case),
     ];
     for (name, case) in cases {
         if filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str())) {

@@ -1384,9 +1384,87 @@ fn the_live_tolerance_changes_peaks_by_at_most_1e_6_relative() {
 }
 
 #[test]
-fn an_ensemble_member_costs_one_rigid_block_of_memory() {
-    // Memory per catalogued block is fixed at start (blocks never allocate afterwards): the
-    // runtime with its nominal block, its id, its members, its rest-group entry.
+fn overturn_probability_equals_the_members_stepped_one_by_one_in_every_direction() {
+    // A rock in two directions (azimuths 90° and 200°) with 40 members from slender to
+    // stocky under Rinaldi (east), a quiet second before and after: the engine stores its
+    // members compactly (engine/members.rs); every state's P(overturn) must equal the
+    // fraction of members fallen in some direction with each member stepped as its own
+    // `RigidBlock`, the engine's unbatched step, on the same projected samples.
+    use rockwatch_core::catalogue::DirectionBlocks;
+    use rockwatch_core::dynamics::{BlockOptions, GroundAccel, Mode, RigidBlock};
+    let r = rinaldi_f32();
+    let mut east = vec![0.0; 100];
+    east.extend(&r.horizontal_mps2);
+    east.extend(std::iter::repeat_n(0.0, 100));
+    let north = vec![0.0; east.len()];
+    let k = 40;
+    let members = |scale: f64| -> Vec<BlockParams> {
+        (0..k)
+            .map(|m| {
+                let width = scale * (0.35 + 0.02 * m as f64);
+                BlockParams::from_width_height(width, 2.0, 0.5 + 0.01 * m as f64, 0.4, None)
+                    .unwrap()
+            })
+            .collect()
+    };
+    let mut rock = spec("rock", "CI.RRS.00", 90.0, slender());
+    rock.members = members(1.0);
+    let second = Azimuth::from_degrees(200.0).unwrap();
+    rock.more_directions = vec![DirectionBlocks {
+        azimuth: second,
+        nominal: stocky(),
+        members: members(1.1),
+    }];
+    let mut engine = Engine::new(EngineConfig::default(), vec![], &[rock.clone()]).unwrap();
+    let out = run(&mut engine, packets("CI.RRS.00", &east, &north, r.dt_s, 25));
+
+    // The reference: fallen fraction after each sample.
+    let options = BlockOptions::default();
+    let axes = [rock.azimuth, second];
+    let mut blocks: Vec<Vec<RigidBlock>> = [&rock.members, &rock.more_directions[0].members]
+        .iter()
+        .map(|ms| ms.iter().map(|p| RigidBlock::new(*p, options)).collect())
+        .collect();
+    let mut fraction = vec![0.0];
+    for w in east.windows(2) {
+        for (axis, dir) in axes.iter().zip(&mut blocks) {
+            let g = |e: f64| GroundAccel {
+                horizontal_mps2: axis.component(e, 0.0),
+                vertical_mps2: 0.0,
+            };
+            for b in dir.iter_mut() {
+                let _ = b.advance(r.dt_s, g(w[0]), g(w[1]), |_| {});
+                b.land_after_flight(g(w[1]));
+            }
+        }
+        let fallen = (0..k)
+            .filter(|&i| blocks.iter().any(|d| d[i].mode() == Mode::Overturned))
+            .count();
+        fraction.push(fallen as f64 / k as f64);
+    }
+    let final_fraction = *fraction.last().unwrap();
+    assert!(
+        final_fraction > 0.0 && final_fraction < 1.0,
+        "some members fall, some not: {final_fraction}"
+    );
+    let dt_ns = (r.dt_s * 1e9).round() as i64;
+    let mut states = 0;
+    for o in &out {
+        if let Output::State(s) = o {
+            let i = ((s.data_time_ns - T0_NS) / dt_ns) as usize;
+            assert_eq!(s.overturn_probability, fraction[i], "state at sample {i}");
+            states += 1;
+        }
+    }
+    assert!(states > 10, "{states} states");
+    assert_eq!(engine.summaries()[0].overturn_probability, final_fraction);
+}
+
+#[test]
+fn an_ensemble_member_at_rest_costs_far_less_than_a_rigid_block() {
+    // Memory per catalogued block at start: the runtime with its nominal block, its id, its
+    // members (at rest: primary parameters, rest limits and a rest record each, not a
+    // `RigidBlock`: engine/members.rs), its rest-group entry.
     use rockwatch_core::dynamics::RigidBlock;
     let bytes = |members: usize| {
         let mut s = spec("XX.M.00-rock", "XX.M.00", 10.0, slender());
@@ -1395,8 +1473,13 @@ fn an_ensemble_member_costs_one_rigid_block_of_memory() {
             .unwrap()
             .block_bytes()
     };
-    let (alone, ensemble) = (bytes(0), bytes(10));
-    assert_eq!(ensemble - alone, 10 * std::mem::size_of::<RigidBlock>());
+    let (alone, ensemble) = (bytes(0), bytes(100));
+    let per_member = (ensemble - alone) as f64 / 100.0;
+    assert!(
+        per_member > 0.0 && per_member <= 128.0,
+        "{per_member} B per member at rest (a RigidBlock is {} B)",
+        std::mem::size_of::<RigidBlock>()
+    );
     assert!(
         (std::mem::size_of::<RigidBlock>()..1024).contains(&alone),
         "{alone} B for a block"

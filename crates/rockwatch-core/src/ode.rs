@@ -157,6 +157,19 @@ impl<const N: usize> Dopri5<N> {
 
     /// Forgets the stored derivative (call after any discontinuity of the right-hand side or
     /// of the state) and sets the next trial step to at most `initial_step`.
+    /// The step size the next step will try first (s).
+    #[must_use]
+    pub fn next_step(&self) -> f64 {
+        self.h_next
+    }
+
+    /// True when the stepper holds an FSAL derivative from its last step (none after
+    /// [`Dopri5::new`] or [`Dopri5::reset`]).
+    #[must_use]
+    pub fn has_stored_derivative(&self) -> bool {
+        self.fsal.is_some()
+    }
+
     pub fn reset(&mut self, initial_step: f64) {
         self.fsal = None;
         self.h_next = self.h_next.min(initial_step);

@@ -220,6 +220,39 @@ impl RestLimit {
     }
 }
 
+/// Everything a block at rest carries besides its parameters, options and clock: what
+/// [`RigidBlock::rest_record`] keeps and [`RigidBlock::from_rest_record`] restores (an
+/// ensemble member at rest is stored as this, `engine::members`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RestRecord {
+    /// u (m), the slip accumulated before the block came to rest.
+    pub slide_m: f64,
+    /// The integrator's next trial step (s): [`Dopri5::reset`] keeps a smaller one.
+    pub next_step_s: f64,
+}
+
+/// Rest limits `[min(μs, tan α₊), min(μs, tan α₋)]` of a body (see [`RigidBlock`]).
+#[inline]
+#[must_use]
+pub fn rest_limits_of(params: &BlockParams) -> [f64; 2] {
+    [
+        params.mu_s.min(params.plus.tan_alpha),
+        params.mu_s.min(params.minus.tan_alpha),
+    ]
+}
+
+/// Rest is consistent for this ground acceleration (spec §7, docs/general-body.md §6):
+/// g' = `gravity_mps2` + ÿg > 0 and −`limits[0]`·g' ≤ ẍg ≤ `limits[1]`·g' (a ground pushed to
+/// +x tips the body onto its −x pivot); `limits` from [`rest_limits_of`]. The one rest test of
+/// a block, whether it is a [`RigidBlock`] or stored compactly at rest.
+#[inline]
+#[must_use]
+pub fn rest_holds_with(gravity_mps2: f64, limits: [f64; 2], ground: GroundAccel) -> bool {
+    let gp = gravity_mps2 + ground.vertical_mps2;
+    let a = ground.horizontal_mps2;
+    gp > 0.0 && a <= limits[1] * gp && -a <= limits[0] * gp
+}
+
 /// A rigid block and its full dynamic state.
 #[derive(Debug, Clone)]
 pub struct RigidBlock {
@@ -497,10 +530,7 @@ impl RigidBlock {
                     .minus
                     .theta_dot_sq_for_excursion(options.zeno_fraction),
             ],
-            rest_limits: [
-                params.mu_s.min(params.plus.tan_alpha),
-                params.mu_s.min(params.minus.tan_alpha),
-            ],
+            rest_limits: rest_limits_of(&params),
             significant_theta_dot_sq: [
                 params
                     .plus
@@ -605,6 +635,40 @@ impl RigidBlock {
         self.phase = Phase::Overturned;
     }
 
+    /// The block's state as a [`RestRecord`] when it is at rest with nothing else to keep
+    /// (θ = θ̇ = u̇ = +0, no stored derivative, as every way into rest leaves it); None
+    /// otherwise. With its parameters, options and clock, [`RigidBlock::from_rest_record`]
+    /// rebuilds a block that advances bit for bit as this one (only [`RigidBlock::stats`] and
+    /// [`RigidBlock::step_counts`] start again from zero).
+    #[must_use]
+    pub fn rest_record(&self) -> Option<RestRecord> {
+        let zero = |x: f64| x.to_bits() == 0;
+        (self.phase == Phase::Rest
+            && zero(self.y[0])
+            && zero(self.y[1])
+            && zero(self.y[3])
+            && !self.integrator.has_stored_derivative())
+        .then_some(RestRecord {
+            slide_m: self.y[2],
+            next_step_s: self.integrator.next_step(),
+        })
+    }
+
+    /// A block at rest at `time_s` (s) from its [`RestRecord`] (see [`RigidBlock::rest_record`]).
+    #[must_use]
+    pub fn from_rest_record(
+        params: BlockParams,
+        options: BlockOptions,
+        time_s: f64,
+        record: RestRecord,
+    ) -> Self {
+        let mut block = RigidBlock::new(params, options);
+        block.time_s = time_s;
+        block.y[2] = record.slide_m;
+        block.integrator = Dopri5::new(options.tolerance, record.next_step_s);
+        block
+    }
+
     /// Integrator step counters (accepted, rejected).
     #[must_use]
     pub fn step_counts(&self) -> (u64, u64) {
@@ -681,9 +745,7 @@ impl RigidBlock {
     /// the body onto its −x pivot).
     #[inline]
     fn rest_holds(&self, ground: GroundAccel) -> bool {
-        let gp = effective_gravity(&self.params, ground);
-        let a = ground.horizontal_mps2;
-        gp > 0.0 && a <= self.rest_limits[1] * gp && -a <= self.rest_limits[0] * gp
+        rest_holds_with(self.params.gravity_mps2, self.rest_limits, ground)
     }
 
     /// A sufficient rest condition of the block (spec §7), symmetric, for a caller that checks

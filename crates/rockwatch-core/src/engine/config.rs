@@ -30,6 +30,14 @@ pub enum ConfigError {
     /// A 3-D rock whose parameters the dynamics refuse.
     #[error("pbr {pbr:?}: 3-D rock: {error}")]
     Rock3d { pbr: String, error: Rock3dSpecError },
+    /// An ensemble member the engine cannot store compactly (parameters built field by field,
+    /// not by `BlockParams::from_body`; `engine::members`).
+    #[error("pbr {pbr:?}: direction {direction_deg}°: {error}")]
+    Member {
+        pbr: String,
+        direction_deg: f64,
+        error: super::members::MemberError,
+    },
     /// A catalogue entry whose ensemble cannot be drawn.
     #[error("pbr {pbr:?}: ensemble: {error}")]
     Ensemble {

@@ -24,6 +24,7 @@
 
 pub mod config;
 pub mod health;
+mod members;
 pub mod output;
 pub mod packet;
 mod pbr;
@@ -43,6 +44,7 @@ pub use config::{
     Rock3dSpecError, RockPlace, StationConfig,
 };
 pub use health::{HealthChange, StationHealth};
+pub use members::MemberError;
 pub use output::{
     compact_journal, fallen_blocks, journaled_alerts, journaled_history, Alert, AlertKey,
     AlertLevel, HistoryEntry, JournalRecord, Notice, NoticeKind, Output, OutputSink, PbrState,
@@ -416,11 +418,24 @@ impl Engine {
     }
 
     /// Bytes held for the catalogued blocks: each block's runtime with its nominal
-    /// `RigidBlock` inline, its id, its ensemble members (one `RigidBlock` each) and its
-    /// rest-group entry; allocator overhead excluded. Fixed after start: blocks never allocate.
+    /// `RigidBlock` inline, its id, its ensemble members (at rest or fallen: primary
+    /// parameters, rest limits and state, 104 B; in motion: also a `RigidBlock`, in a list
+    /// that grows to the largest number in motion at once, `members.rs`) and its rest-group
+    /// entry; allocator overhead excluded.
     #[must_use]
     pub fn block_bytes(&self) -> usize {
         self.stations.values().map(|s| s.block_bytes()).sum()
+    }
+
+    /// Ensemble members (of every rock, in every direction) neither at rest nor fallen: the
+    /// blocks whose integration costs a step per sample (capacity figures, docs/capacity.md).
+    #[must_use]
+    pub fn members_in_motion(&self) -> usize {
+        self.stations
+            .values()
+            .flat_map(|s| s.pbrs.iter())
+            .map(pbr::PbrRuntime::members_in_motion)
+            .sum()
     }
 
     pub fn reset_pbr(&mut self, pbr_id: &str) -> bool {

@@ -6,6 +6,7 @@
 use std::collections::HashSet;
 
 use super::config::{AlertConfig, PbrSpec};
+use super::members::{DirectionMembers, MemberError};
 use super::output::{Alert, AlertKey, AlertLevel, Output, OutputSink, PbrState, RaisedLevels};
 use super::rest_group::GroundSample as Sample;
 use super::rigid_rock::RigidRock;
@@ -50,20 +51,22 @@ struct Direction {
     /// Direction of the blocks' +x axis.
     axis: Azimuth,
     nominal: RigidBlock,
-    members: Vec<RigidBlock>,
+    /// Its ensemble members, stored by what can still change (`members.rs`).
+    members: DirectionMembers,
 }
 
 impl Direction {
-    fn new(axis: Azimuth, nominal: &BlockParams, members: &[BlockParams]) -> Self {
+    fn new(
+        axis: Azimuth,
+        nominal: &BlockParams,
+        members: &[BlockParams],
+    ) -> Result<Self, MemberError> {
         let options = BlockOptions::default();
-        Direction {
+        Ok(Direction {
             axis,
             nominal: RigidBlock::new(*nominal, options),
-            members: members
-                .iter()
-                .map(|p| RigidBlock::new(*p, options))
-                .collect(),
-        }
+            members: DirectionMembers::new(members, options)?,
+        })
     }
 
     fn theta_over_alpha(&self) -> f64 {
@@ -93,6 +96,8 @@ struct Planar {
     directions: Vec<Direction>,
     /// The governing direction (index into `directions`), updated after every step.
     governing: usize,
+    /// Member i has fallen in some direction (as many as each direction's members).
+    fallen: Vec<bool>,
 }
 
 /// How a rock is integrated (a 3-D rock boxed: a planar one, by far the most common, stays
@@ -157,21 +162,12 @@ impl Planar {
         &self.directions[self.governing]
     }
 
-    /// Every block of the rock, nominal and members, in every direction.
-    fn blocks(&self) -> impl Iterator<Item = &RigidBlock> {
-        self.directions
-            .iter()
-            .flat_map(|d| std::iter::once(&d.nominal).chain(d.members.iter()))
-    }
-
-    fn blocks_mut(&mut self) -> impl Iterator<Item = &mut RigidBlock> {
-        self.directions
-            .iter_mut()
-            .flat_map(|d| std::iter::once(&mut d.nominal).chain(d.members.iter_mut()))
-    }
-
     fn members_len(&self) -> usize {
         self.directions[0].members.len()
+    }
+
+    fn members_overturned(&self) -> usize {
+        self.fallen.iter().filter(|f| **f).count()
     }
 
     fn any_nominal_overturned(&self) -> bool {
@@ -207,20 +203,14 @@ impl Planar {
     /// The most demanding rest limit among every block of the rock (the componentwise
     /// minimum: every block's own limit is at least this one).
     fn rest_limit(&self) -> RestLimit {
-        let mut blocks = self.blocks();
-        let first = blocks.next().map_or(
-            RestLimit {
-                friction_limit: 0.0,
-                gravity_mps2: 0.0,
-            },
-            RigidBlock::rest_limit,
-        );
-        blocks.fold(first, |acc, m| {
-            let l = m.rest_limit();
-            RestLimit {
-                friction_limit: acc.friction_limit.min(l.friction_limit),
-                gravity_mps2: acc.gravity_mps2.min(l.gravity_mps2),
-            }
+        let min = |a: RestLimit, b: RestLimit| RestLimit {
+            friction_limit: a.friction_limit.min(b.friction_limit),
+            gravity_mps2: a.gravity_mps2.min(b.gravity_mps2),
+        };
+        let gov = self.gov().nominal.rest_limit();
+        self.directions.iter().fold(gov, |acc, d| {
+            let acc = min(acc, d.nominal.rest_limit());
+            d.members.rest_limit().map_or(acc, |m| min(acc, m))
         })
     }
 
@@ -258,21 +248,15 @@ impl Planar {
             if d.nominal.mode() == Mode::Flight {
                 landed_after_flight |= d.nominal.land_after_flight(to);
             }
-            for m in &mut d.members {
-                failed |= m.advance(dt_s, from, to, |_| {}).is_err();
-                m.land_after_flight(to);
-            }
+            // Member i is one rock: fallen when it has fallen in any direction.
+            let fallen = &mut self.fallen;
+            failed |= d.members.advance(dt_s, from, to, |i| {
+                if let Some(f) = fallen.get_mut(i) {
+                    *f = true;
+                }
+            });
         }
-        // Member i is one rock: fallen when it has fallen in any direction.
-        let members_overturned = (0..self.members_len())
-            .filter(|&i| {
-                self.directions.iter().any(|d| {
-                    d.members
-                        .get(i)
-                        .is_some_and(|m| m.mode() == Mode::Overturned)
-                })
-            })
-            .count();
+        let members_overturned = self.members_overturned();
         self.update_governing();
         let step = BlockStep {
             first_change_ns,
@@ -287,11 +271,7 @@ impl Planar {
             && self.directions.iter().zip(&other.directions).all(|(a, b)| {
                 a.axis == b.axis
                     && a.nominal.params() == b.nominal.params()
-                    && a.members.len() == b.members.len()
-                    && a.members
-                        .iter()
-                        .zip(&b.members)
-                        .all(|(x, y)| x.params() == y.params())
+                    && a.members.same(&b.members)
             })
     }
 
@@ -312,8 +292,9 @@ impl Planar {
             + self
                 .directions
                 .iter()
-                .map(|d| d.members.capacity() * std::mem::size_of::<RigidBlock>())
+                .map(|d| d.members.heap_bytes())
                 .sum::<usize>()
+            + self.fallen.capacity()
     }
 }
 
@@ -327,14 +308,24 @@ impl PbrRuntime {
                 }
             })?)),
             None => {
+                let member_error = |azimuth: Azimuth| {
+                    move |error| super::ConfigError::Member {
+                        pbr: spec.id.clone(),
+                        direction_deg: azimuth.degrees(),
+                        error,
+                    }
+                };
                 let mut directions =
-                    vec![Direction::new(spec.azimuth, &spec.nominal, &spec.members)];
-                directions.extend(
-                    spec.more_directions
-                        .iter()
-                        .map(|d| Direction::new(d.azimuth, &d.nominal, &d.members)),
-                );
+                    vec![Direction::new(spec.azimuth, &spec.nominal, &spec.members)
+                        .map_err(member_error(spec.azimuth))?];
+                for d in &spec.more_directions {
+                    directions.push(
+                        Direction::new(d.azimuth, &d.nominal, &d.members)
+                            .map_err(member_error(d.azimuth))?,
+                    );
+                }
                 Dynamics::Planar(Planar {
+                    fallen: vec![false; directions[0].members.len()],
                     directions,
                     governing: 0,
                 })
@@ -406,17 +397,19 @@ impl PbrRuntime {
     /// guards a config set without validation).
     pub(super) fn may_rest_in_group(&self, clock_s: f64, alerts: &AlertConfig) -> bool {
         let resting = |b: &RigidBlock| b.mode() == Mode::Rest && b.time_s() == clock_s;
-        let all_resting = match &self.dynamics {
-            Dynamics::Planar(p) => {
-                p.directions.iter().all(|d| d.nominal.theta_rad() == 0.0) && p.blocks().all(resting)
-            }
+        let all_resting = || match &self.dynamics {
+            Dynamics::Planar(p) => p.directions.iter().all(|d| {
+                d.nominal.theta_rad() == 0.0
+                    && resting(&d.nominal)
+                    && d.members.all_resting_at(clock_s)
+            }),
             Dynamics::Rigid(r) => r.resting_at(clock_s),
         };
         !self.in_episode
             && self.members_overturned == 0
             && alerts.imminent_theta_ratio > 0.0
             && alerts.imminent_probability > 0.0
-            && all_resting
+            && all_resting()
     }
 
     /// The same block: id, and in every direction the axis, nominal body and ensemble members
@@ -445,8 +438,9 @@ impl PbrRuntime {
     pub(super) fn leave_rest_group(&mut self, clock_s: f64) {
         match &mut self.dynamics {
             Dynamics::Planar(p) => {
-                for b in p.blocks_mut() {
-                    b.stay_at_rest_until(clock_s);
+                for d in &mut p.directions {
+                    d.nominal.stay_at_rest_until(clock_s);
+                    d.members.stay_at_rest_until(clock_s);
                 }
             }
             Dynamics::Rigid(r) => r.stay_at_rest_until(clock_s),
@@ -457,7 +451,10 @@ impl PbrRuntime {
     /// rock keeps none between intervals).
     pub(super) fn input_discontinuity(&mut self) {
         if let Dynamics::Planar(p) = &mut self.dynamics {
-            p.blocks_mut().for_each(RigidBlock::input_discontinuity);
+            for d in &mut p.directions {
+                d.nominal.input_discontinuity();
+                d.members.input_discontinuity();
+            }
         }
     }
 
@@ -465,7 +462,13 @@ impl PbrRuntime {
     /// journaled), every member fallen, the episode open with every level raised.
     pub(super) fn restore_fallen(&mut self, episode: u32) {
         match &mut self.dynamics {
-            Dynamics::Planar(p) => p.blocks_mut().for_each(RigidBlock::set_overturned),
+            Dynamics::Planar(p) => {
+                for d in &mut p.directions {
+                    d.nominal.set_overturned();
+                    d.members.set_all_fallen();
+                }
+                p.fallen.fill(true);
+            }
             Dynamics::Rigid(r) => r.set_fallen(),
         }
         self.members_overturned = self.members_len();
@@ -479,9 +482,11 @@ impl PbrRuntime {
         match &mut self.dynamics {
             Dynamics::Planar(p) => {
                 let options = BlockOptions::default();
-                for b in p.blocks_mut() {
-                    *b = RigidBlock::new(*b.params(), options);
+                for d in &mut p.directions {
+                    d.nominal = RigidBlock::new(*d.nominal.params(), options);
+                    d.members.reset();
                 }
+                p.fallen.fill(false);
                 p.governing = 0;
             }
             Dynamics::Rigid(r) => r.reset(),
@@ -502,11 +507,19 @@ impl PbrRuntime {
             }
     }
 
+    /// Planar ensemble members (every direction) neither at rest nor fallen (a 3-D rock: 0).
+    pub(super) fn members_in_motion(&self) -> usize {
+        match &self.dynamics {
+            Dynamics::Planar(p) => p.directions.iter().map(|d| d.members.in_motion()).sum(),
+            Dynamics::Rigid(_) => 0,
+        }
+    }
+
     pub(super) fn at_rest(&self) -> bool {
         match &self.dynamics {
-            Dynamics::Planar(p) => p
-                .blocks()
-                .all(|b| matches!(b.mode(), Mode::Rest | Mode::Overturned)),
+            Dynamics::Planar(p) => p.directions.iter().all(|d| {
+                matches!(d.nominal.mode(), Mode::Rest | Mode::Overturned) && d.members.settled()
+            }),
             Dynamics::Rigid(r) => r.settled(),
         }
     }
