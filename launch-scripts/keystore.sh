@@ -28,7 +28,8 @@
 # rt/rosout and rt/parameter_events):
 #   /rockwatch/node      the node: reads /pbr/accel, a partitioned node's /pbr/accel/p<i>of<N>
 #                        (docs/capacity.md) and any Imu topic (all three as rt/*), publishes
-#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake, /diagnostics, serves /pbr/reset and its
+#                        /pbr/alerts, /pbr/state, /pbr/ims, /pbr/intake, /pbr/markers, /diagnostics,
+#                        /tf_static (its 3-D view), serves /pbr/reset and its
 #                        parameter services
 #   /rockwatch/station   replay / acquire: publishes /pbr/accel and the partition topics
 #                        /pbr/accel/p<i>of<N> of a scaled-out service (rt/pbr/accel/p*: the
@@ -36,7 +37,7 @@
 #                        too, in RustDDS (glob::Pattern) and Cyclone DDS alike) and acquire's
 #                        status on /diagnostics, reads /pbr/intake
 #   /rockwatch/operator  `rockwatch reset --node`: calls /pbr/reset
-#   /rockwatch/reader    reads /pbr/alerts, /pbr/state, /pbr/ims
+#   /rockwatch/reader    reads /pbr/alerts, /pbr/state, /pbr/ims, /pbr/markers, /tf_static
 # The governance refuses unauthenticated participants, encrypts discovery, liveliness and data,
 # signs every RTPS message, and checks read and write access on every topic.
 set -euo pipefail
@@ -185,11 +186,11 @@ EOF
 under() { local f="$1" ns p; shift; for ns in "${namespaces[@]}"; do
   p="${ns%/}"; for t in "$@"; do printf '%s ' "${f}${p}/$t"; done; done; }
 enclave /rockwatch/node \
-  "$(under rt pbr/alerts pbr/state pbr/ims pbr/intake) $(under rr pbr/resetReply) rt/diagnostics rr/*rockwatch/*" \
+  "$(under rt pbr/alerts pbr/state pbr/ims pbr/intake pbr/markers) $(under rr pbr/resetReply) rt/diagnostics rt/tf_static rr/*rockwatch/*" \
   "rt/* $(under rq pbr/resetRequest) rq/*rockwatch/*"
 enclave /rockwatch/station "$(under rt pbr/accel 'pbr/accel/p*') rt/diagnostics" "$(under rt pbr/intake)"
 enclave /rockwatch/operator "$(under rq pbr/resetRequest)" "$(under rr pbr/resetReply)"
-enclave /rockwatch/reader "" "$(under rt pbr/alerts pbr/state pbr/ims)"
+enclave /rockwatch/reader "" "$(under rt pbr/alerts pbr/state pbr/ims pbr/markers) rt/tf_static"
 
 chmod 0755 "$ks" "$ks/public" "$ks/enclaves" "$ks/enclaves/rockwatch"
 chmod 0600 "$ks/private/"*.pem

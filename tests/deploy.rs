@@ -161,6 +161,7 @@ fn etc_rockwatch_files_load_with_the_programs_own_loaders() {
         engine: node.engine,
         catalogue: String::new(),
         state_dir: String::new(),
+        use_sim_time: false,
     };
     values.apply_overrides(&assignments).unwrap();
 }

@@ -324,6 +324,45 @@ const STN_CATALOGUE: &str = "[[pbr]]\nid = \"stn-needle\"\nname = \"test needle\
 /// The example commands that cannot run to completion offline in a test.
 const EXCEPTIONS: &[Exception] = &[
     Exception {
+        command: "rockwatch status --node http://127.0.0.1:8080",
+        reason: "a client of a running node with [web] (and, to be useful, data): run against \
+                 a token-protected node fed the Rinaldi record by tests/web_dashboard.rs",
+        stand_ins: &[],
+        check: Check::RunBy {
+            test: "tests/web_dashboard.rs",
+            needle: "' status --node {WEB} --token-file",
+        },
+    },
+    Exception {
+        command: "rockwatch status --node http://127.0.0.1:8080 --token-file web.token --format json",
+        reason: "a client of a running, token-protected node: run by tests/web_dashboard.rs",
+        stand_ins: &[],
+        check: Check::RunBy {
+            test: "tests/web_dashboard.rs",
+            needle: "--token-file '{d}/web.token' --format json",
+        },
+    },
+    Exception {
+        command: "rockwatch status --state-dir state/node",
+        reason: "a node's state directory (the reader's): a rehearsal's is read by \
+                 tests/monitor_cli.rs",
+        stand_ins: &[],
+        check: Check::RunBy {
+            test: "tests/monitor_cli.rs",
+            needle: "\"status\", \"--state-dir\"",
+        },
+    },
+    Exception {
+        command: "rockwatch status --state-dir rehearsal",
+        reason: "exits 1 by design (the pillar lies): tests/monitor_cli.rs checks that exit \
+                 code and the fallen pillar on the same rehearsal",
+        stand_ins: &[],
+        check: Check::RunBy {
+            test: "tests/monitor_cli.rs",
+            needle: "assert_eq!(code, Some(1)",
+        },
+    },
+    Exception {
         command: "cargo run --release -- demo",
         reason: "the live node and a replay over DDS: run (at --speed 20, in a network \
                  namespace) by tests/ros2_demo.rs, which checks its alerts and table",

@@ -1015,3 +1015,50 @@ fn hull_of_a_point_cloud_contains_every_point_and_converges_to_the_sphere() {
     let sphere = 4.0 / 3.0 * std::f64::consts::PI;
     assert!(v < sphere && v > sphere * (1.0 - 2e-3), "{v} vs {sphere}");
 }
+
+/// The display triangles of a resting box (2 × 1 × 3 m, up +z): every vertex within the box
+/// centred on the ground point below its centre of mass, the base on the ground (up 0), the
+/// top at 3 m, 12 triangles; turned to heading 90° (the mesh's north towards east), its
+/// 1 m side lies along north-south no more: east spans the 1 m side.
+#[test]
+fn a_box_at_rest_is_displayed_centred_on_its_ground_point_and_turned_by_its_heading() {
+    let rock = RockGeometry::new(&TriMesh::cuboid(2.0, 1.0, 3.0).unwrap()).unwrap();
+    let rest = rock.rest(UpAxis::PlusZ, 0.0).unwrap();
+    let extent = |tri: &[[[f64; 3]; 3]], axis: usize| {
+        let values = tri.iter().flatten().map(|p| p[axis]);
+        let lo = values.clone().fold(f64::INFINITY, f64::min);
+        let hi = values.fold(f64::NEG_INFINITY, f64::max);
+        (lo, hi)
+    };
+    let tri = rock.triangles_at_rest(&rest, 0.0);
+    assert_eq!(tri.len(), 12);
+    for (axis, half) in [(0, 1.0), (1, 0.5)] {
+        let (lo, hi) = extent(&tri, axis);
+        close(lo, -half, 1e-12, "low");
+        close(hi, half, 1e-12, "high");
+    }
+    let (lo, hi) = extent(&tri, 2);
+    assert!(lo.abs() < 1e-12, "base at {lo}");
+    close(hi, 3.0, 1e-12, "top");
+    let turned = rock.triangles_at_rest(&rest, 90.0);
+    let (lo, hi) = extent(&turned, 0);
+    close(lo, -0.5, 1e-12, "east low");
+    close(hi, 0.5, 1e-12, "east high");
+    let (lo, hi) = extent(&turned, 1);
+    close(lo, -1.0, 1e-12, "north low");
+    close(hi, 1.0, 1e-12, "north high");
+    // Outward: a triangle's normal points away from the centre of mass (0, 0, 1.5).
+    for t in &turned {
+        let (u, v) = (
+            [t[1][0] - t[0][0], t[1][1] - t[0][1], t[1][2] - t[0][2]],
+            [t[2][0] - t[0][0], t[2][1] - t[0][1], t[2][2] - t[0][2]],
+        );
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        let r = [t[0][0], t[0][1], t[0][2] - 1.5];
+        assert!(n[0] * r[0] + n[1] * r[1] + n[2] * r[2] > 0.0, "{t:?}");
+    }
+}

@@ -1,4 +1,4 @@
-//! `rockwatch monitor`, `alerts` and `reset` end to end through the binary.
+//! `rockwatch monitor`, `alerts`, `reset` and `status --state-dir` end to end through the binary.
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -927,4 +927,80 @@ fn alerts_filter_by_time_block_and_level_and_every_record_has_its_documented_key
     let bad = rockwatch(&["alerts", "--state-dir", d, "--since", "yesterday"], &[]);
     assert!(!bad.status.success());
     assert_eq!(String::from_utf8_lossy(&bad.stderr).lines().count(), 1);
+}
+
+/// `status --state-dir` on a rehearsal's journal (issue 22 §2): the Rinaldi record overturns
+/// the slender pillar: exit 1, the pillar `fallen` with its episode's direction, peak |θ|/α
+/// (≥ 1: it passed α) and P(overturn) 1; after `reset` the same directory gives exit 0, and
+/// with `--catalogue` every rock of the catalogue is listed (those without records standing).
+/// A directory that does not exist is an error: exit 2, not a silent "all is well".
+#[test]
+fn status_of_a_state_dir_exits_1_while_a_rock_lies_and_0_after_its_reset() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("state");
+    assert!(monitor_rinaldi(Some(&state), &[]).status.success());
+    let s = state.to_str().unwrap();
+    let status = |extra: &[&str]| {
+        let mut args = vec!["status", "--state-dir", s, "--format", "json"];
+        args.extend(extra);
+        let out = rockwatch(&args, &[]);
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout)
+            .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stderr)));
+        (out.status.code(), v)
+    };
+    let (code, v) = status(&[]);
+    assert_eq!(code, Some(1), "{v}");
+    assert_eq!(
+        v["fallen"],
+        serde_json::json!(["rrs-slender-pillar"]),
+        "{v}"
+    );
+    assert_eq!(v["exit_code"], 1);
+    let pillar = v["rocks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["pbr_id"] == "rrs-slender-pillar")
+        .unwrap();
+    assert_eq!(pillar["state"], "fallen", "{pillar}");
+    assert_eq!(pillar["direction_deg"], 228.0, "{pillar}");
+    assert_eq!(pillar["overturn_probability"], 1.0, "{pillar}");
+    assert!(
+        pillar["peak_theta_over_alpha"].as_f64().unwrap() >= 1.0,
+        "{pillar}"
+    );
+    assert_eq!(pillar["station_health"], "unknown", "{pillar}");
+    // The text table says why.
+    let text = rockwatch(&["status", "--state-dir", s], &[]);
+    assert_eq!(text.status.code(), Some(1));
+    let table = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        table.contains("ALARM: 1 fallen (rrs-slender-pillar)"),
+        "{table}"
+    );
+
+    let reset = rockwatch(
+        &["reset", "--state-dir", s, "--pbr", "rrs-slender-pillar"],
+        &[],
+    );
+    assert!(reset.status.success());
+    let catalogue = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml");
+    let (code, v) = status(&["--catalogue", catalogue]);
+    assert_eq!(code, Some(0), "{v}");
+    assert_eq!(v["fallen"], serde_json::json!([]));
+    let rocks = v["rocks"].as_array().unwrap();
+    assert_eq!(rocks.len(), 7, "every rock of the catalogue: {v}");
+    let tombstone = rocks
+        .iter()
+        .find(|r| r["pbr_id"] == "syl-slender-tombstone")
+        .unwrap();
+    assert_eq!(tombstone["state"], "standing", "{tombstone}");
+    assert!(tombstone["peak_theta_over_alpha"].is_null(), "{tombstone}");
+
+    let missing = dir.path().join("nowhere");
+    let out = rockwatch(&["status", "--state-dir", missing.to_str().unwrap()], &[]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no such directory"));
+    // A usage error is 2 as well (1 is the alarm).
+    assert_eq!(rockwatch(&["status"], &[]).status.code(), Some(2));
 }

@@ -626,3 +626,160 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
     assert!(status.success(), "{stderr}");
     eprintln!("screenshots in {}", shots.display());
 }
+
+/// `rockwatch status --node` against a running, token-protected node (issue 22 §2): exit 0
+/// while every rock stands and no station is stale (its table lists both rocks); after the
+/// Rinaldi record, exit 1 with the pillar fallen (direction 228°, P(overturn) 1, its
+/// station's health as `/api/status` has it); once the pillar is reset and the station has
+/// been silent for `engine.stale_after_s`, exit 1 again for the stale station alone. Without
+/// the token (401), or with no node at the address: exit 2, with the reason.
+#[test]
+fn status_of_a_running_node_exits_0_then_1_for_a_fallen_rock_and_a_stale_station_and_2_on_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let d = p.display().to_string();
+    let bin = rockwatch().display().to_string();
+    let catalogue = p.join("catalogue.toml");
+    let block = |id: &str, width_m: f64, height_m: f64, mu_s: f64, mu_k: f64| {
+        format!(
+            "[[pbr]]\nid = \"{id}\"\nname = \"{id}\"\nlat = 34.28\nlon = -118.48\n\
+             station = \"CI.RRS.00\"\nazimuth_deg = 228.0\nwidth_m = {width_m:?}\n\
+             height_m = {height_m:?}\nmu_s = {mu_s:?}\nmu_k = {mu_k:?}\nsource = \"test\"\n\n"
+        )
+    };
+    std::fs::write(
+        &catalogue,
+        block("pillar", 0.30, 1.50, 0.70, 0.55) + &block("boulder", 2.0, 1.6, 0.9, 0.7),
+    )
+    .unwrap();
+    std::fs::write(p.join("web.token"), "0123456789abcdef-test-token\n").unwrap();
+    std::fs::write(
+        p.join("node.toml"),
+        format!(
+            "catalogue = \"{}\"\nstate_dir = \"state\"\n[engine]\nstale_after_s = 10.0\n\
+             [ros2]\ndiscovery_range = \"LOCALHOST\"\n[status]\ndiagnostics_period_s = 0.2\n\
+             [web]\nlisten = \"127.0.0.1:8080\"\ntoken_file = \"web.token\"\n",
+            catalogue.display()
+        ),
+    )
+    .unwrap();
+    let rec = repo().join("tests/data/records");
+    let rec = rec.display();
+    let status = |file: &str, extra: &str| {
+        format!(
+            "'{bin}' status --node {WEB} --token-file '{d}/web.token' --format json {extra} \
+             > '{d}/{file}.json' 2> '{d}/{file}.err'; echo {file}=$?"
+        )
+    };
+    let script = format!(
+        "'{bin}' node --config '{d}/node.toml' 2> '{d}/node.err' & NODE=$!
+         i=0; until curl -sf --max-time 2 -H 'Authorization: Bearer 0123456789abcdef-test-token' \
+             '{WEB}/api/status' >/dev/null; do i=$((i+1)); [ $i -lt 300 ] || break; sleep 0.1; done
+         {before}
+         '{bin}' status --node {WEB} --token-file '{d}/web.token' > '{d}/table.txt'; echo TABLE=$?
+         '{bin}' replay --record '{rec}/Rinaldi228.AT2' --vertical '{rec}/RinaldiUP.AT2' \
+             --azimuth 228 --station CI.RRS.00 --transport ros2 --speed max --tail 5 --wait-s 20 >/dev/null
+         sleep 1
+         {fallen}
+         '{bin}' reset --node --wait-s 20 --pbr pillar > /dev/null
+         i=0; until curl -s -H 'Authorization: Bearer 0123456789abcdef-test-token' '{WEB}/api/status' \
+             | grep -q '\"stale\":true'; do i=$((i+1)); [ $i -lt 300 ] || break; sleep 0.1; done
+         {stale}
+         '{bin}' status --node {WEB} 2> '{d}/no_token.err'; echo NO_TOKEN=$?
+         '{bin}' status --node http://127.0.0.1:9 2> '{d}/nobody.err'; echo NOBODY=$?
+         kill -TERM $NODE; wait $NODE; echo NODE_RC=$?",
+        before = status("before", ""),
+        fallen = status("fallen", ""),
+        stale = status("stale", ""),
+    );
+    let out = run_in_netns(&script, 120, &[]);
+    let read = |name: &str| std::fs::read_to_string(p.join(name)).unwrap_or_default();
+    let (stdout, stderr) = text(&out);
+    let context = format!(
+        "--- stdout\n{stdout}\n--- stderr\n{stderr}\n--- node\n{}",
+        tail(&read("node.err"), 4000)
+    );
+    assert!(
+        out.status.success() && stdout.contains("NODE_RC=0"),
+        "{context}"
+    );
+    let parsed = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&read(&format!("{name}.json")))
+            .unwrap_or_else(|e| panic!("{name}: {e}: {}\n{context}", read(&format!("{name}.err"))))
+    };
+    let row = |v: &serde_json::Value, id: &str| -> serde_json::Value {
+        v["rocks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["pbr_id"] == id)
+            .unwrap_or_else(|| panic!("no {id}: {v}"))
+            .clone()
+    };
+
+    // Before any data: both rocks standing, no station stale.
+    assert!(
+        stdout.contains("before=0"),
+        "{context}\n{}",
+        read("before.json")
+    );
+    let before = parsed("before");
+    assert_eq!(before["rocks"].as_array().unwrap().len(), 2, "{before}");
+    assert_eq!(row(&before, "pillar")["state"], "standing");
+    assert!(stdout.contains("TABLE=0"), "{context}");
+    let table = read("table.txt");
+    assert!(
+        table.contains("pillar") && table.contains("boulder") && table.contains("CI.RRS.00"),
+        "{table}"
+    );
+    assert!(table.contains("OK: none of 2 rocks fallen"), "{table}");
+
+    // After the record: the pillar fallen.
+    assert!(
+        stdout.contains("fallen=1"),
+        "{context}\n{}",
+        read("fallen.json")
+    );
+    let fallen = parsed("fallen");
+    assert_eq!(fallen["fallen"], serde_json::json!(["pillar"]), "{fallen}");
+    assert_eq!(fallen["stale"], serde_json::json!([]), "{fallen}");
+    let pillar = row(&fallen, "pillar");
+    assert_eq!(pillar["state"], "fallen", "{pillar}");
+    assert_eq!(pillar["direction_deg"], 228.0, "{pillar}");
+    assert_eq!(pillar["overturn_probability"], 1.0, "{pillar}");
+    assert!(
+        pillar["peak_theta_over_alpha"].as_f64().unwrap() >= 1.0,
+        "{pillar}"
+    );
+    let health = fallen["stations"][0]["health"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert_eq!(pillar["station_health"], health.as_str(), "{fallen}");
+    assert_ne!(health, "STALE", "{fallen}");
+
+    // Reset, then silent: the station stale alone.
+    assert!(
+        stdout.contains("stale=1"),
+        "{context}\n{}",
+        read("stale.json")
+    );
+    let stale = parsed("stale");
+    assert_eq!(stale["fallen"], serde_json::json!([]), "{stale}");
+    assert_eq!(stale["stale"], serde_json::json!(["CI.RRS.00"]), "{stale}");
+    assert_eq!(row(&stale, "pillar")["station_health"], "STALE", "{stale}");
+
+    // Errors: 2 with the reason.
+    assert!(stdout.contains("NO_TOKEN=2"), "{context}");
+    assert!(
+        read("no_token.err").contains("401"),
+        "{}",
+        read("no_token.err")
+    );
+    assert!(stdout.contains("NOBODY=2"), "{context}");
+    assert!(
+        read("nobody.err").contains("does not answer"),
+        "{}",
+        read("nobody.err")
+    );
+}

@@ -15,6 +15,7 @@ pub mod differentiate;
 pub mod dynamics;
 pub mod engine;
 pub mod fragility;
+pub mod geodesy;
 pub mod hazard;
 pub mod ims;
 pub mod inventory;

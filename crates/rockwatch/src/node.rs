@@ -212,6 +212,13 @@ impl NodeOptions {
     /// As [`NodeOptions::load_blocks`], with the ids of the catalogue's blocks that other
     /// partitions own (empty without a partition). Logs the partition's share.
     pub fn load_partitioned_blocks(&self) -> anyhow::Result<(Vec<PbrSpec>, HashSet<String>)> {
+        let (_, owned, foreign) = self.load_catalogue()?;
+        Ok((owned, foreign))
+    }
+
+    /// As [`NodeOptions::load_partitioned_blocks`], with the catalogue itself (its entries
+    /// as written: positions, meshes).
+    pub fn load_catalogue(&self) -> anyhow::Result<(Catalogue, Vec<PbrSpec>, HashSet<String>)> {
         let path = self.catalogue_path()?;
         let catalogue = Catalogue::load(&path)?;
         for pbr in catalogue.pbrs() {
@@ -239,7 +246,7 @@ impl NodeOptions {
             .partitioning()
             .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
         else {
-            return Ok((specs, HashSet::new()));
+            return Ok((catalogue, specs, HashSet::new()));
         };
         let all = specs.len();
         let stations: HashSet<&str> = specs.iter().map(|s| s.station.as_str()).collect();
@@ -252,7 +259,11 @@ impl NodeOptions {
             "partition {partition}: {owned_stations} of the catalogue's {total_stations} stations, {} of its {all} blocks",
             owned.len()
         );
-        Ok((owned, foreign.into_iter().map(|s| s.id).collect()))
+        Ok((
+            catalogue,
+            owned,
+            foreign.into_iter().map(|s| s.id).collect(),
+        ))
     }
 
     /// Opens the state directory in force (the flag's, else the configuration's), if any,

@@ -123,6 +123,12 @@ pub struct RockStatus {
     pub peak_theta_over_alpha: f64,
     /// Its station is stale: the rock is not monitored.
     pub not_monitored: bool,
+    /// The direction of its last state or alert (degrees clockwise from north; NaN before
+    /// any).
+    pub direction_deg: f64,
+    /// P(overturn) of its last state or alert (the ensemble's fraction overturned, 0..1;
+    /// NaN before any).
+    pub overturn_probability: f64,
 }
 
 impl RockStatus {
@@ -140,6 +146,19 @@ impl RockStatus {
             theta_over_alpha: 0.0,
             peak_theta_over_alpha: 0.0,
             not_monitored: false,
+            direction_deg: f64::NAN,
+            overturn_probability: f64::NAN,
+        }
+    }
+
+    /// Takes in the direction (degrees) and P(overturn) of one state or alert (non-finite
+    /// values are ignored).
+    pub fn observe_direction(&mut self, direction_deg: f64, overturn_probability: f64) {
+        if direction_deg.is_finite() {
+            self.direction_deg = direction_deg;
+        }
+        if overturn_probability.is_finite() {
+            self.overturn_probability = overturn_probability;
         }
     }
 

@@ -323,6 +323,29 @@ impl RockGeometry {
         segments
     }
 
+    /// The mesh's triangles (outward) with the rock resting on `rest` and turned to
+    /// `heading_deg` (the true azimuth of the mesh's north axis, degrees clockwise from north):
+    /// each vertex as (east, north, up) in m from the point of the resting plane below the
+    /// centre of mass — the rock at rest in a local ENU frame, for display.
+    #[must_use]
+    pub fn triangles_at_rest(&self, rest: &RestingContact, heading_deg: f64) -> Vec<[[f64; 3]; 3]> {
+        let (sin_h, cos_h) = heading_deg.to_radians().sin_cos();
+        let c = self.mass.com_m;
+        let local = |p: [f64; 3]| {
+            let r = sub(p, c);
+            let (e, n) = (dot(r, rest.east), dot(r, rest.north));
+            [
+                e * cos_h + n * sin_h,
+                n * cos_h - e * sin_h,
+                dot(r, rest.up) + rest.h_m,
+            ]
+        };
+        self.faces
+            .iter()
+            .map(|face| face.map(|i| local(self.vertices[i])))
+            .collect()
+    }
+
     /// The resting contact for the approximate up axis `up` and the contact tolerance
     /// `tolerance_m` (m, finite, ≥ 0).
     pub fn rest(&self, up: UpAxis, tolerance_m: f64) -> Result<RestingContact, MeshError> {

@@ -50,6 +50,7 @@ mod replay;
 mod rock_flags;
 mod simulate;
 mod stations;
+mod status;
 mod study;
 
 /// rockwatch: seismic monitoring of precariously balanced rocks and other freestanding blocks.
@@ -92,6 +93,9 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Run the monitoring engine over a record: which catalogued blocks move or fall.
     Monitor(monitor::MonitorArgs),
+    /// What stands now: every rock and station of a running node (its web API) or of a
+    /// state directory; exit 1 when a rock is fallen or a station stale, 2 on error.
+    Status(status::StatusArgs),
     /// Run the live node: ROS 2 input (/pbr/accel, Imu topics), engine, /pbr/ims, /pbr/state
     /// and /pbr/alerts.
     Node(node::NodeArgs),
@@ -215,6 +219,7 @@ pub fn run() -> ExitCode {
             c
         }
     });
+    let is_status = own.get(1).is_some_and(|c| c == "status");
     let parsed = command
         .try_get_matches_from(own)
         .and_then(|matches| Cli::from_arg_matches(&matches));
@@ -238,6 +243,10 @@ pub fn run() -> ExitCode {
                 "rockwatch: error: {} (see rockwatch --help)",
                 reason.join(" ")
             );
+            // `status`'s errors are 2 (1 is its alarm).
+            if is_status {
+                return ExitCode::from(status::EXIT_ERROR);
+            }
             return ExitCode::FAILURE;
         }
     };
@@ -276,6 +285,15 @@ pub fn run() -> ExitCode {
         eprintln!("rockwatch: error: {e:#}");
         return ExitCode::FAILURE;
     }
+    // `status` is a monitoring check: its own exit codes (0 OK, 1 alarm, 2 error).
+    let cli = match cli.command {
+        Command::Status(args) => {
+            let code = status::run(args);
+            rockwatch::logging::flush(std::time::Duration::from_secs(2));
+            return code;
+        }
+        _ => cli,
+    };
     let result = match cli.command {
         Command::Acquire(args) => acquire::run(args),
         Command::Alerts(args) => alerts::run_alerts(args),
@@ -292,6 +310,7 @@ pub fn run() -> ExitCode {
         Command::Hazard(args) => hazard::run(args),
         Command::Fragility(args) => fragility::run(args),
         Command::Geometry(args) => geometry::run(args),
+        Command::Status(_) => Ok(()), // run above
     };
     // The queued records first (bounded: a stderr nobody reads cannot hold the exit).
     rockwatch::logging::flush(std::time::Duration::from_secs(2));

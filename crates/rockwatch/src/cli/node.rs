@@ -81,9 +81,11 @@ fn resolve_options(args: &NodeArgs) -> anyhow::Result<NodeOptions> {
         engine: config.engine,
         catalogue: path_text(args.catalogue.as_ref().or(config.catalogue.as_ref())),
         state_dir: path_text(args.state_dir.as_ref().or(config.state_dir.as_ref())),
+        use_sim_time: false,
     };
     params.apply_overrides(&super::ros_args().parameters_for(&naming.node_fqn())?)?;
     config.engine = params.engine;
+    config.ros2.use_sim_time = params.use_sim_time;
     Ok(NodeOptions {
         config,
         catalogue: text_path(&params.catalogue),

@@ -205,6 +205,7 @@ impl<P: FnMut(Publication)> EmitSink<'_, P> {
                     emit.stats.states += 1;
                     if let Some(rock) = emit.rocks.get_mut(&s.pbr_id) {
                         rock.observe(s.mode, s.theta_over_alpha, Some(s.not_monitored));
+                        rock.observe_direction(s.direction_deg, s.overturn_probability);
                     }
                     publish(Publication::State(s));
                 }
@@ -228,6 +229,7 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             }
             if let Some(rock) = self.emit.rocks.get_mut(&a.pbr_id) {
                 rock.observe(a.mode, a.theta_over_alpha, None);
+                rock.observe_direction(a.direction_deg, a.overturn_probability);
             }
         }
         // Without a state directory there is nothing to journal: no copy of the alert (an

@@ -35,7 +35,7 @@ use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::logging::RateLimitedLog;
 use crate::logging::{take_rosout, RosoutRecord};
 use crate::ros2::msg::ResetPbrResponse;
-use crate::ros2::{IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher};
+use crate::ros2::{IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, Scene};
 use crate::sd_notify::SystemdNotifier;
 use crate::web::WebServer;
 use rockwatch_core::engine::{AccelPacket, PbrSummary, Source};
@@ -195,9 +195,24 @@ impl Reactor {
                 let _ = waker.wake();
             })
         };
-        let runtime = NodeRuntime::start_with_wake(options, wake.clone())?;
-        let (control_sender, controls) = ControlSender::channel(wake);
+        let (catalogue, owned, foreign) = options.load_catalogue()?;
         let config = &options.config;
+        // The 3-D view of the node's own rocks and stations (pbr/markers, /tf_static).
+        let scene = {
+            let own: Vec<&rockwatch_core::catalogue::Pbr> = catalogue
+                .pbrs()
+                .iter()
+                .filter(|p| owned.iter().any(|s| s.id == p.id()))
+                .collect();
+            let stations = config
+                .owned_stations()
+                .map_err(|e| anyhow::anyhow!("configuration: {e}"))?;
+            Scene::new(&own, &stations, config.ros2.map_origin)?
+        };
+        drop(catalogue);
+        let mut runtime = NodeRuntime::start_with_blocks(options, owned, wake.clone())?;
+        runtime.foreign_pbr_ids = foreign;
+        let (control_sender, controls) = ControlSender::channel(wake);
 
         let params = ParamValues {
             engine: config.engine,
@@ -206,12 +221,19 @@ impl Reactor {
                 .state_dir_path()
                 .map(|d| d.display().to_string())
                 .unwrap_or_default(),
+            use_sim_time: config.ros2.use_sim_time,
         };
+        if config.ros2.use_sim_time {
+            tracing::info!(
+                "use_sim_time = true: accepted; the node's outputs are stamped with data time \
+                 (sample times) either way, and /clock is not read"
+            );
+        }
         let partition = config
             .partitioning()
             .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
             .map(|(p, _)| p);
-        let (mut ros2, ros2_publisher) = Ros2Node::start(
+        let (mut ros2, mut ros2_publisher) = Ros2Node::start(
             &config.ros2,
             plan,
             params,
@@ -219,6 +241,9 @@ impl Reactor {
             partition,
             runtime.source_tally(),
         )?;
+        let mut scene = scene;
+        scene.set_fallen(&|id| runtime.overturned(id) == Some(true));
+        ros2_publisher.show(scene);
         ros2.register(poll.registry(), ROS2_FIRST)
             .context("cannot register the ROS 2 subscriptions with the event loop")?;
         ros2.register_reset(poll.registry(), RESET)
@@ -411,6 +436,8 @@ impl Reactor {
                 runtime.check_health(&mut |p| out.publish(p));
             }
             out.settle(&mut runtime);
+            // The 3-D view's markers, when a state changed it (rate-limited).
+            out.ros2.tick();
             if last_status.elapsed() >= status_period {
                 last_status = Instant::now();
                 let status = runtime.status(TransportStatus {
@@ -485,6 +512,7 @@ impl Reactor {
         let iox_stats = iox_input.as_ref().map(IoxInput::stats);
         let stopped = runtime.stop(&mut |p| out.publish(p));
         out.flush();
+        out.ros2.tick();
         if let Some(input) = &mut iox_input {
             let _ = poll.registry().deregister(input);
         }
@@ -638,7 +666,11 @@ impl Watchdog {
              attach); rebuilding the participant ({} rebuilds so far)",
             self.rebuilds
         );
-        let rebuilt = ros2.rebuild().and_then(|publisher| {
+        let rebuilt = ros2.rebuild().and_then(|mut publisher| {
+            // The 3-D view carries over: its frames and markers go out on the new participant.
+            if let Some(scene) = out.ros2.take_scene() {
+                publisher.show(scene);
+            }
             out.ros2 = publisher;
             ros2.register(registry, ROS2_FIRST)
                 .context("cannot register the ROS 2 subscriptions with the event loop")?;

@@ -104,12 +104,22 @@ pub struct Ros2Config {
     pub input_depth: usize,
     /// `sensor_msgs/msg/Imu` inputs.
     pub imu: Vec<ImuInput>,
+    /// Origin of the 3-D view's `map` frame (local ENU): `[lat, lon, alt]`, WGS84 degrees
+    /// and ellipsoidal height (m); default the mean position of the node's rocks at 0 m
+    /// (`ros2::markers`). Checked at start.
+    pub map_origin: Option<[f64; 3]>,
     /// The node's name (`rockwatch`; `--ros-args -r __node:=NAME`): command line only.
     #[serde(skip)]
     pub node_name: Option<String>,
     /// Remap rules (`--ros-args -r from:=to`): command line only.
     #[serde(skip)]
     pub remaps: Vec<Remap>,
+    /// `use_sim_time` (`--ros-args -p use_sim_time:=true`, a launch file's
+    /// `SetParameter`): accepted and reported, without effect on the stamps, which are data
+    /// times ([`PARAM_USE_SIM_TIME`](super::parameters::PARAM_USE_SIM_TIME)): command line
+    /// only.
+    #[serde(skip)]
+    pub use_sim_time: bool,
     /// The SROS2 enclave (`--ros-args --enclave NAME`), instead of the command's own
     /// (`ROS_SECURITY_ENCLAVE_OVERRIDE` still wins): command line only.
     #[serde(skip)]
@@ -126,8 +136,10 @@ impl Default for Ros2Config {
             input_qos: InputQos::Reliable,
             input_depth: 1000,
             imu: Vec::new(),
+            map_origin: None,
             node_name: None,
             remaps: Vec::new(),
+            use_sim_time: false,
             enclave: None,
         }
     }

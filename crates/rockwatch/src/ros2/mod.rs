@@ -7,7 +7,9 @@
 //! loopback interface (multicast joins, multicast sends and advertised locators); the `[ros2]`
 //! section of the node configuration may override both and name the interfaces to use.
 //!
-//! - [`msg`]: the `pbr_msgs` messages and service on the wire;
+//! - [`msg`]: the `pbr_msgs` messages and service on the wire; [`viz_msg`]: the standard
+//!   messages of the 3-D view (markers, transforms);
+//! - [`markers`]: the 3-D view, `pbr/markers` and `/tf_static` ([`Scene`]);
 //! - `names.rs`: the node, topic and service names and their resolution ([`Naming`]);
 //! - `ros_args.rs`: `--ros-args` ([`RosArgs`]);
 //! - [`diagnostics`]: the node's status on `/diagnostics`, its log records on `/rosout`;
@@ -30,6 +32,7 @@ mod held_server;
 mod imu;
 mod input;
 mod liveness;
+pub mod markers;
 pub mod msg;
 mod names;
 mod network;
@@ -44,15 +47,18 @@ pub mod ros_args;
 mod rpc_wire;
 mod security;
 mod session;
+pub mod viz_msg;
 
 pub use alert_listener::Ros2AlertListener;
 pub use config::{DiscoveryRange, ImuInput, InputQos, Ros2Config};
 pub use imu::{imu_packet, ImuMsg};
 pub use input::IntakeCounters;
 pub use liveness::DdsThreads;
+pub use markers::{rock_frame, Scene, SceneError, MAP_FRAME, MARKER_PERIOD};
 pub use names::{
     accel_topic, IntoNaming, Naming, Remap, ACCEL_TOPIC, ALERTS_TOPIC, DIAGNOSTICS_TOPIC,
-    IMS_TOPIC, INTAKE_TOPIC, NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING, STATE_TOPIC,
+    IMS_TOPIC, INTAKE_TOPIC, MARKERS_TOPIC, NODE_NAME, RESET_SERVICE, RESET_SERVICE_MAPPING,
+    STATE_TOPIC, TF_STATIC_TOPIC,
 };
 pub use network::{network_plan, network_plan_from_env, NetworkPlan, NetworkPlanError};
 pub use node::Ros2Node;
@@ -65,7 +71,7 @@ pub use parameters::{
 pub use publish::Ros2Publisher;
 pub use qos::{
     alerts_qos, input_qos, intake_qos, output_qos, replay_qos, sender_status_qos, service_qos,
-    REPLAY_HISTORY,
+    view_qos, REPLAY_HISTORY,
 };
 pub use reset::{RESET_MATCH_GRACE, RESET_REPLIES_HELD, RESET_REPLY_WAIT, RESET_REQUESTS_PER_TURN};
 pub use reset_client::Ros2ResetClient;

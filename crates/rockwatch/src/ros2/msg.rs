@@ -96,9 +96,11 @@ pub struct StationIntensity {
 /// `pbr_msgs/PbrState`: one block's state.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PbrState {
-    /// stamp = data time of the latest sample integrated; frame_id = station.
+    /// stamp = data time of the latest sample integrated; frame_id = the rock's frame
+    /// `pbr/<pbr_id>` ([`rock_frame`](super::names::rock_frame), on `/tf_static`).
     pub header: Header,
     pub pbr_id: String,
+    /// The station driving the block (SEED id `NET.STA.LOC`).
     pub station: String,
     /// One of the `MODE_*` constants ([`mode_code`]).
     pub mode: u8,
@@ -284,7 +286,7 @@ impl From<&engine::StationIntensity> for StationIntensity {
 impl From<&engine::PbrState> for PbrState {
     fn from(s: &engine::PbrState) -> PbrState {
         PbrState {
-            header: Header::new(s.data_time_ns, &s.station),
+            header: Header::new(s.data_time_ns, &super::names::rock_frame(&s.pbr_id)),
             pbr_id: s.pbr_id.clone(),
             station: s.station.clone(),
             mode: mode_code(s.mode),

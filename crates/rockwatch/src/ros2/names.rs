@@ -36,6 +36,19 @@ pub const INTAKE_TOPIC: &str = "pbr/intake";
 /// The node's status (`diagnostic_msgs/DiagnosticArray`), absolute as diagnostic_updater's:
 /// one `/diagnostics` per ROS 2 graph, whatever the node's namespace.
 pub const DIAGNOSTICS_TOPIC: &str = "/diagnostics";
+/// The 3-D view's markers (`visualization_msgs/MarkerArray`), relative: in the node's namespace.
+pub const MARKERS_TOPIC: &str = "pbr/markers";
+/// The rocks' static frames (`tf2_msgs/TFMessage`), absolute as tf2's.
+pub const TF_STATIC_TOPIC: &str = "/tf_static";
+/// The fixed frame of the 3-D view (`markers.rs`): local ENU at `[ros2] map_origin`.
+pub const MAP_FRAME: &str = "map";
+
+/// The frame of rock `pbr_id`: `pbr/<id>` (the `header.frame_id` of its `PbrState`; `map` →
+/// `pbr/<id>` on `/tf_static`).
+#[must_use]
+pub fn rock_frame(pbr_id: &str) -> String {
+    format!("pbr/{pbr_id}")
+}
 /// The operator reset service (`pbr_msgs/srv/ResetPbr`), relative like the topics.
 pub const RESET_SERVICE: &str = "pbr/reset";
 /// The ROS 2 <-> DDS mapping the reset CLIENT (`rockwatch reset`) uses: the "enhanced"

@@ -38,6 +38,11 @@ pub const PARAM_STATE_INTERVAL_S: &str = "state_interval_s";
 /// Read-only parameters (strings): settable at start only (`-p`, `--params-file`).
 pub const PARAM_CATALOGUE: &str = "catalogue";
 pub const PARAM_STATE_DIR: &str = "state_dir";
+/// rclcpp's `use_sim_time` (bool, default false), declared so that a launch-wide
+/// `SetParameter(name='use_sim_time', value=True)` or `-p use_sim_time:=true` is accepted.
+/// The node reads no clock for its outputs: every stamp is a data time (the time of a
+/// sample), so simulated and wall time give the same messages; `/clock` is not read.
+pub const PARAM_USE_SIM_TIME: &str = "use_sim_time";
 
 /// One parameter's descriptor.
 #[derive(Debug, Clone, Copy)]
@@ -46,20 +51,23 @@ pub struct ParamSpec {
     pub description: &'static str,
     /// What the range cannot say (an open bound).
     pub constraints: &'static str,
-    /// Inclusive range of a double (`floating_point_range`); `None` for strings.
+    /// Inclusive range of a double (`floating_point_range`); `None` for strings and bools.
     pub range: Option<(f64, f64)>,
+    /// A bool (`use_sim_time`) rather than a string, when `range` is `None`.
+    pub boolean: bool,
     pub read_only: bool,
 }
 
 /// Every parameter of the node, in listing order. The ranges are those of
 /// `EngineConfig::validate` (a test checks each bound against it).
-pub const PARAMETERS: [ParamSpec; 7] = [
+pub const PARAMETERS: [ParamSpec; 8] = [
     ParamSpec {
         name: PARAM_IMMINENT_THETA_RATIO,
         description: "overturn_imminent is raised when the block's |θ|/α reaches this ratio \
                       (θ: rocking angle, α: its overturning angle; 1 = tipped past static balance)",
         constraints: "greater than 0",
         range: Some((0.0, 1.0)),
+        boolean: false,
         read_only: false,
     },
     ParamSpec {
@@ -68,6 +76,7 @@ pub const PARAMETERS: [ParamSpec; 7] = [
                       reaches this value",
         constraints: "greater than 0",
         range: Some((0.0, 1.0)),
+        boolean: false,
         read_only: false,
     },
     ParamSpec {
@@ -75,6 +84,7 @@ pub const PARAMETERS: [ParamSpec; 7] = [
         description: "a station is quiet while every |a| stays below this (m/s²)",
         constraints: "",
         range: Some((0.0, 100.0)),
+        boolean: false,
         read_only: false,
     },
     ParamSpec {
@@ -83,6 +93,7 @@ pub const PARAMETERS: [ParamSpec; 7] = [
                       this long (s)",
         constraints: "greater than 0",
         range: Some((0.0, 86_400.0)),
+        boolean: false,
         read_only: false,
     },
     ParamSpec {
@@ -90,6 +101,7 @@ pub const PARAMETERS: [ParamSpec; 7] = [
         description: "interval of PbrState publications per block (s of data)",
         constraints: "greater than 0",
         range: Some((0.0, 3600.0)),
+        boolean: false,
         read_only: false,
     },
     ParamSpec {
@@ -97,6 +109,7 @@ pub const PARAMETERS: [ParamSpec; 7] = [
         description: "the PBR catalogue file in force (reload it with SIGHUP)",
         constraints: "settable at start only",
         range: None,
+        boolean: false,
         read_only: true,
     },
     ParamSpec {
@@ -104,7 +117,18 @@ pub const PARAMETERS: [ParamSpec; 7] = [
         description: "the state directory (alert journal); empty: none",
         constraints: "settable at start only",
         range: None,
+        boolean: false,
         read_only: true,
+    },
+    ParamSpec {
+        name: PARAM_USE_SIM_TIME,
+        description: "rclcpp's use_sim_time, accepted for launch files: the node's outputs are \
+                      stamped with data time (sample times) whatever its value; /clock is not \
+                      read",
+        constraints: "no effect on the stamps",
+        range: None,
+        boolean: true,
+        read_only: false,
     },
 ];
 
@@ -121,6 +145,8 @@ pub struct ParamValues {
     pub engine: EngineConfig,
     pub catalogue: String,
     pub state_dir: String,
+    /// `use_sim_time` ([`PARAM_USE_SIM_TIME`]).
+    pub use_sim_time: bool,
 }
 
 /// What an accepted change touched.
@@ -130,6 +156,8 @@ pub enum ParamChange {
     StateInterval,
     /// A read-only parameter (at start).
     Path,
+    /// `use_sim_time` (nothing to hand over: the stamps are data times).
+    SimTime,
 }
 
 impl ParamValues {
@@ -145,6 +173,7 @@ impl ParamValues {
             PARAM_STATE_INTERVAL_S => ParameterValue::Double(self.engine.state_interval_s),
             PARAM_CATALOGUE => ParameterValue::String(self.catalogue.clone()),
             PARAM_STATE_DIR => ParameterValue::String(self.state_dir.clone()),
+            PARAM_USE_SIM_TIME => ParameterValue::Boolean(self.use_sim_time),
             _ => return None,
         })
     }
@@ -164,6 +193,13 @@ impl ParamValues {
             return Err(format!(
                 "parameter {name} is read-only (set it at start with --ros-args -p)"
             ));
+        }
+        if spec.boolean {
+            let ParameterValue::Boolean(b) = value else {
+                return Err(format!("parameter {name} must be a bool"));
+            };
+            self.use_sim_time = *b;
+            return Ok(ParamChange::SimTime);
         }
         if spec.range.is_none() {
             let ParameterValue::String(s) = value else {
@@ -236,9 +272,10 @@ impl ParamValues {
         };
         raw::ParameterDescriptor {
             name: name.into(),
-            r#type: match spec.range {
-                Some(_) => raw::ParameterType::DOUBLE,
-                None => raw::ParameterType::STRING,
+            r#type: match (spec.range, spec.boolean) {
+                (Some(_), _) => raw::ParameterType::DOUBLE,
+                (None, true) => raw::ParameterType::BOOL,
+                (None, false) => raw::ParameterType::STRING,
             },
             description: spec.description.into(),
             additional_constraints: spec.constraints.into(),
@@ -507,7 +544,7 @@ fn hand_over(values: &ParamValues, change: ParamChange, controls: &ControlSender
     match change {
         ParamChange::Alerts => controls.set_alert_config(values.engine.alerts),
         ParamChange::StateInterval => controls.set_state_interval_s(values.engine.state_interval_s),
-        ParamChange::Path => {}
+        ParamChange::Path | ParamChange::SimTime => {}
     }
 }
 
@@ -556,6 +593,7 @@ mod tests {
             engine: EngineConfig::default(),
             catalogue: "/etc/rockwatch/catalogue.toml".into(),
             state_dir: String::new(),
+            use_sim_time: false,
         }
     }
 
@@ -653,9 +691,43 @@ mod tests {
         assert_eq!(all.names.len(), PARAMETERS.len());
         assert_eq!(all.prefixes, ["alerts"]);
         let top = ParamValues::list(&[], 1);
-        assert_eq!(top.names, ["state_interval_s", "catalogue", "state_dir"]);
+        assert_eq!(
+            top.names,
+            ["state_interval_s", "catalogue", "state_dir", "use_sim_time"]
+        );
         let alerts = ParamValues::list(&["alerts".into()], 0);
         assert_eq!(alerts.names.len(), 4);
+        assert_eq!(
+            v.describe(PARAM_USE_SIM_TIME).r#type,
+            raw::ParameterType::BOOL
+        );
+    }
+
+    /// A launch-wide `SetParameter(use_sim_time)` (`-p use_sim_time:=true`) is accepted at
+    /// start and later, as a bool only; before it was declared, it ended the node at start.
+    #[test]
+    fn use_sim_time_is_a_bool_parameter_accepted_at_start_and_later() {
+        let mut v = values();
+        assert_eq!(
+            v.get(PARAM_USE_SIM_TIME),
+            Some(ParameterValue::Boolean(false))
+        );
+        v.apply_overrides(&[ParamAssignment {
+            name: PARAM_USE_SIM_TIME.into(),
+            value: ParameterValue::Boolean(true),
+            source: "-p".into(),
+        }])
+        .unwrap();
+        assert!(v.use_sim_time);
+        assert_eq!(
+            v.set(PARAM_USE_SIM_TIME, &ParameterValue::Boolean(false), false),
+            Ok(ParamChange::SimTime)
+        );
+        let e = v
+            .set(PARAM_USE_SIM_TIME, &ParameterValue::Double(1.0), false)
+            .unwrap_err();
+        assert!(e.contains("must be a bool"), "{e}");
+        assert!(!v.use_sim_time);
     }
 
     #[test]

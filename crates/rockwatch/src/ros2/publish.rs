@@ -1,11 +1,13 @@
-//! The node's output publishers: alerts on `/pbr/alerts`, block states on `/pbr/state` and
-//! station intensity measures on `/pbr/ims`.
+//! The node's output publishers: alerts on `/pbr/alerts`, block states on `/pbr/state`,
+//! station intensity measures on `/pbr/ims`, and the 3-D view (`markers.rs`: `pbr/markers`,
+//! `/tf_static`), which follows the states and alerts.
 
 use anyhow::anyhow;
 
+use super::markers::{MarkerPublisher, Scene};
 use super::msg;
-use super::names::{ALERTS_TOPIC, IMS_TOPIC, STATE_TOPIC};
-use super::qos::{alerts_qos, output_qos};
+use super::names::{ALERTS_TOPIC, IMS_TOPIC, MARKERS_TOPIC, STATE_TOPIC, TF_STATIC_TOPIC};
+use super::qos::{alerts_qos, output_qos, view_qos};
 use super::session::Ros2Session;
 use crate::ports::{Publication, Publisher};
 
@@ -14,6 +16,7 @@ pub struct Ros2Publisher {
     alerts: ros2_client::Publisher<msg::PbrAlert>,
     states: ros2_client::Publisher<msg::PbrState>,
     ims: ros2_client::Publisher<msg::StationIntensity>,
+    view: MarkerPublisher,
 }
 
 impl Ros2Publisher {
@@ -23,12 +26,39 @@ impl Ros2Publisher {
             alerts: session.publisher(ALERTS_TOPIC, "PbrAlert", alerts_qos())?,
             states: session.publisher(STATE_TOPIC, "PbrState", output_qos())?,
             ims: session.publisher(IMS_TOPIC, "StationIntensity", output_qos())?,
+            view: MarkerPublisher::new(
+                session.publisher_of(
+                    MARKERS_TOPIC,
+                    "visualization_msgs",
+                    "MarkerArray",
+                    view_qos(),
+                )?,
+                session.publisher_of(TF_STATIC_TOPIC, "tf2_msgs", "TFMessage", view_qos())?,
+            ),
         })
+    }
+
+    /// Shows `scene` in the 3-D view: its frames on `/tf_static` and its markers, now (and
+    /// the markers again as states and alerts change it, see [`Ros2Publisher::tick`]).
+    pub fn show(&mut self, scene: Scene) {
+        self.view.show(scene);
+    }
+
+    /// The scene of the 3-D view, handed over to the publishers of a rebuilt participant.
+    pub fn take_scene(&mut self) -> Option<Scene> {
+        self.view.take_scene()
+    }
+
+    /// Publishes the markers if the view changed and their rate allows
+    /// ([`MARKER_PERIOD`](super::MARKER_PERIOD)); cheap otherwise: call it every turn.
+    pub fn tick(&mut self) {
+        self.view.tick();
     }
 }
 
 impl Publisher for Ros2Publisher {
     fn publish(&mut self, publication: &Publication) -> anyhow::Result<()> {
+        self.view.observe(publication);
         let result = match publication {
             Publication::Alert {
                 alert,

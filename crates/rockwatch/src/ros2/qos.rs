@@ -28,6 +28,17 @@ pub fn output_qos() -> QosProfile {
         .history(History::KeepLast { depth: 100 })
 }
 
+/// QoS of `pbr/markers` and `/tf_static`: reliable, transient local, keep last 1 (tf2's
+/// static broadcaster's profile): a subscriber that joins late gets the last array, which is
+/// the whole picture.
+#[must_use]
+pub fn view_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
 /// QoS of a sender's status on `/diagnostics` (`rockwatch acquire`): that of
 /// [`output_qos`], but a send window full of unacknowledged reports (a slow subscriber) fails
 /// the publication at once ([`WhenFull::Fail`]) instead of waiting: the acquisition loop

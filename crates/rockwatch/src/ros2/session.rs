@@ -189,7 +189,18 @@ impl Ros2Session {
         type_name: &str,
         qos: QosProfile,
     ) -> anyhow::Result<ros2_client::Publisher<M>> {
-        let topic = self.topic(name, msg::PACKAGE, type_name, &qos)?;
+        self.publisher_of(name, msg::PACKAGE, type_name, qos)
+    }
+
+    /// A publisher of `<package>/<type_name>` on `name`.
+    pub fn publisher_of<M: serde::Serialize>(
+        &mut self,
+        name: &str,
+        package: &str,
+        type_name: &str,
+        qos: QosProfile,
+    ) -> anyhow::Result<ros2_client::Publisher<M>> {
+        let topic = self.topic(name, package, type_name, &qos)?;
         self.node
             .create_publisher(&topic, Some(qos))
             .map_err(|e| anyhow!("ROS 2 publisher {name}: {e:?}"))

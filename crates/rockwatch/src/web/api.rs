@@ -242,6 +242,8 @@ pub fn status_json(s: &NodeStatus) -> Value {
                 "display": rock_display(r.mode, r.not_monitored),
                 "theta_over_alpha": json_number(r.theta_over_alpha),
                 "peak_theta_over_alpha": json_number(r.peak_theta_over_alpha),
+                "direction_deg": json_number(r.direction_deg),
+                "overturn_probability": json_number(r.overturn_probability),
                 "not_monitored": r.not_monitored,
             })
         })
