@@ -251,8 +251,8 @@ fn report(args: &StatusArgs) -> anyhow::Result<Report> {
         (Some(url), _) => {
             let token = match &args.token_file {
                 Some(file) => Some(
-                    rockwatch::web::config::load_token(file)
-                        .map_err(|e| anyhow::anyhow!("--token-file: {e}"))?,
+                    rockwatch::web::config::load_token("--token-file", file)
+                        .map_err(anyhow::Error::msg)?,
                 ),
                 None => None,
             };

@@ -106,7 +106,7 @@ pub fn listener_token(
     let addresses = resolve(section, listen)?;
     let loopback = addresses.iter().all(|a| a.ip().is_loopback());
     match token_file {
-        Some(file) => load_token(section, file).map(Some),
+        Some(file) => load_token(&format!("{section} token_file"), file).map(Some),
         None if loopback => Ok(None),
         None => Err(format!(
             "{section} listen = {listen:?} is not a loopback address: it would be open to the \
@@ -130,19 +130,15 @@ fn resolve(section: &str, listen: &str) -> Result<Vec<SocketAddr>, String> {
     Ok(addresses)
 }
 
-/// Reads a token file: its content trimmed; an error names `{section} token_file`.
-fn load_token(section: &str, file: &Path) -> Result<String, String> {
+/// Reads a token file: its content trimmed; an error names `key` (`[web] token_file`,
+/// `--token-file`).
+pub fn load_token(key: &str, file: &Path) -> Result<String, String> {
     let text = rockwatch_core::bounded_read::read_to_string_bounded(file, MAX_TOKEN_BYTES)
-        .map_err(|e| {
-            format!(
-                "{section} token_file = {:?}: {e}",
-                file.display().to_string()
-            )
-        })?;
+        .map_err(|e| format!("{key} = {:?}: {e}", file.display().to_string()))?;
     let token = text.trim();
     if token.len() < MIN_TOKEN_BYTES || token.chars().any(|c| c.is_whitespace()) {
         return Err(format!(
-            "{section} token_file = {:?}: the token must be one word of at least {MIN_TOKEN_BYTES} \
+            "{key} = {:?}: the token must be one word of at least {MIN_TOKEN_BYTES} \
              characters",
             file.display().to_string()
         ));
