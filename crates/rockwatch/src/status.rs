@@ -104,6 +104,10 @@ pub struct StationStatus {
     /// Since the last accepted packet (s), if any.
     pub silent_s: Option<f64>,
     pub last_alert: Option<AlertLatency>,
+    /// Its WGS84 position (degrees north, east) from its `[[station]]` `lat`/`lon`, when
+    /// configured (the dashboard's map; a station without one is listed, not drawn).
+    pub lat_deg: Option<f64>,
+    pub lon_deg: Option<f64>,
 }
 
 /// One rock (catalogue block) as the engine's states and alerts last described it: the
@@ -123,6 +127,10 @@ pub struct RockStatus {
     pub peak_theta_over_alpha: f64,
     /// Its station is stale: the rock is not monitored.
     pub not_monitored: bool,
+    /// Its WGS84 position (degrees north, east) from the catalogue (`lat`, `lon`); None for
+    /// a block made in code.
+    pub lat_deg: Option<f64>,
+    pub lon_deg: Option<f64>,
 }
 
 impl RockStatus {
@@ -140,7 +148,16 @@ impl RockStatus {
             theta_over_alpha: 0.0,
             peak_theta_over_alpha: 0.0,
             not_monitored: false,
+            lat_deg: None,
+            lon_deg: None,
         }
+    }
+
+    /// The same rock at `lat_deg`, `lon_deg` (WGS84 degrees).
+    #[must_use]
+    pub fn at(mut self, lat_deg: Option<f64>, lon_deg: Option<f64>) -> RockStatus {
+        (self.lat_deg, self.lon_deg) = (lat_deg, lon_deg);
+        self
     }
 
     /// Takes in one state or alert: its `mode` and signed `theta_over_alpha` (a motion that
@@ -185,6 +202,9 @@ pub struct NodeStatus {
     pub packets: u64,
     pub alerts: u64,
     pub rosout_dropped: u64,
+    /// `engine.alerts.imminent_theta_ratio`: a moving rock at or above this |θ|/α is shown
+    /// "overturn imminent" (the ratio of the node's `overturn_imminent` alert).
+    pub imminent_theta_ratio: f64,
 }
 
 /// The figures of one item of a status (the node's journal, transports, engine, a station;
@@ -678,6 +698,8 @@ impl StatusBuilder {
             data_latency_s,
             silent_s,
             last_alert,
+            lat_deg: None,
+            lon_deg: None,
         }
     }
 }
@@ -807,6 +829,7 @@ mod tests {
             packets: 10,
             alerts: 0,
             rosout_dropped: 0,
+            imminent_theta_ratio: 0.8,
         };
         let text = status.prometheus();
         assert!(text.contains("# TYPE rockwatch_station_packets_total counter\n"));
