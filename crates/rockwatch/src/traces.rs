@@ -14,7 +14,8 @@
 //!   start, or by a reload), never per sample; a gap in the data leaves empty bins, a late
 //!   packet fills its bins if they are still in the ring, older samples are ignored
 //!   (counted).
-//! - [`EpisodeTrace`]: at most [`EPISODE_POINTS`] points per rock (from its states, every
+//! - [`EpisodeTrace`]: from a rock's `motion_onset` alert (a new episode number) on, at most
+//!   [`EPISODE_POINTS`] points (from its states, every
 //!   `engine.state_interval_s` while it moves and at each mode change, and from its alerts)
 //!   and [`EPISODE_MARKS`] alert marks; when the points are full every other one is dropped
 //!   and from then on only every 2nd (4th, …) state is kept: the whole episode at a coarser
@@ -271,28 +272,24 @@ impl EpisodeTrace {
         self.points.push(point);
     }
 
-    /// Takes in one of the rock's states.
+    /// Takes in one of the rock's states. A state never starts a new trace: an episode may
+    /// hold brief rests (the engine ends it after a quiet time), and the next episode starts
+    /// with its `motion_onset` alert ([`EpisodeTrace::alert`]).
     pub fn state(&mut self, point: EpisodePoint) {
         let moving = !matches!(point.mode, Mode::Rest | Mode::Overturned | Mode::Flight);
-        if self.ended {
-            if !moving {
-                return; // at rest (or fallen) and already recorded so
-            }
-            self.restart(None);
+        if self.ended && !moving {
+            return; // at rest (or fallen) and already recorded so
         }
         self.add(point, !moving);
-        if !moving {
-            self.ended = true;
-        }
+        self.ended = !moving;
     }
 
     /// Takes in one of the rock's alerts: a mark, and a point (always kept). An alert of
     /// another episode starts that episode.
     pub fn alert(&mut self, episode: u32, mark: AlertMark, point: EpisodePoint) {
-        if self.episode != Some(episode) && (self.ended || self.episode.is_some()) {
+        if self.episode != Some(episode) {
             self.restart(Some(episode));
         }
-        self.episode = Some(episode);
         if self.marks.len() < EPISODE_MARKS {
             self.marks.push(mark);
         }
@@ -567,6 +564,13 @@ mod tests {
         let n = e.points.len();
         e.state(point(1 << 41, 0.0, Mode::Rest));
         assert_eq!(e.points.len(), n);
+        // Moving again within the same episode (no new onset): the same trace goes on.
+        e.alert(1, mark(6), point(3 << 40, 0.9, Mode::Rock));
+        e.state(point(4 << 40, 0.5, Mode::Rock));
+        // (the alert's point always kept; the state's as the stride says)
+        assert_eq!((e.episode, e.marks.len()), (Some(1), 2));
+        assert!(e.points.iter().any(|p| p.data_time_ns == 3 << 40) && e.points.len() > n);
+        assert!(!e.ended);
         // The next episode's onset: a fresh trace.
         e.alert(2, mark(5), point(5 << 40, 0.1, Mode::Rock));
         assert_eq!((e.episode, e.points.len(), e.marks.len()), (Some(2), 1, 1));
