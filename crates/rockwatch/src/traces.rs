@@ -37,6 +37,10 @@ pub const BINS: usize = 600;
 /// Data time per bin (ns): [`RETENTION_S`] / [`BINS`] = 0.2 s.
 pub const BIN_NS: i64 = RETENTION_S as i64 * 1_000_000_000 / BINS as i64;
 
+/// A packet stamped further than this ahead of the node's clock (UTC) is not taken: one bad
+/// stamp would otherwise move the ring into the future and leave the real data "too old".
+pub const MAX_AHEAD_NS: i64 = 60_000_000_000;
+
 /// Most points of one rock's episode trace.
 pub const EPISODE_POINTS: usize = 1024;
 
@@ -76,7 +80,8 @@ pub struct StationTrace {
     /// Samples older than the ring, ignored.
     pub too_old_samples: u64,
     /// Packets not taken (no usable rate, components of different lengths, counts without
-    /// a gain, an unknown unit): the engine refuses and reports them too.
+    /// a gain, an unknown unit, stamped more than [`MAX_AHEAD_NS`] ahead of the clock): the
+    /// engine refuses and reports most of them too.
     pub refused_packets: u64,
 }
 
@@ -92,8 +97,9 @@ impl StationTrace {
         }
     }
 
-    /// Takes in one packet's samples (no allocation).
-    pub fn push(&mut self, packet: &AccelPacket) {
+    /// Takes in one packet's samples (no allocation), `now_ns` being UTC now (ns since the
+    /// Unix epoch).
+    pub fn push(&mut self, packet: &AccelPacket, now_ns: i64) {
         let scale = match (packet.unit, self.gain_mps2_per_count) {
             (SampleUnit::MetresPerSecondSquared, _) => 1.0,
             (SampleUnit::Counts, Some(gain)) => gain as f32,
@@ -105,6 +111,7 @@ impl StationTrace {
         let n = packet.east.len();
         let rate = packet.sample_rate_hz;
         if !(rate.is_finite() && (1.0..=10_000.0).contains(&rate))
+            || packet.start_time_ns > now_ns.saturating_add(MAX_AHEAD_NS)
             || packet.north.len() != n
             || !(packet.up.is_empty() || packet.up.len() == n)
         {
@@ -346,7 +353,14 @@ impl Traces {
     /// Takes in one packet (before the engine does; no allocation).
     pub fn push_packet(&mut self, packet: &AccelPacket) {
         match self.stations.get_mut(packet.station.as_str()) {
-            Some(trace) => trace.push(packet),
+            Some(trace) => {
+                let now_ns = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(i64::MAX, |d| {
+                        i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)
+                    });
+                trace.push(packet, now_ns);
+            }
             None => self.untraced_packets += 1,
         }
     }
@@ -452,6 +466,9 @@ pub struct TracesSnapshot {
 mod tests {
     use super::*;
 
+    /// UTC now in the tests (2024).
+    const NOW: i64 = 1_700_000_000_000_000_000;
+
     fn packet(start_s: f64, rate: f64, east: Vec<f32>) -> AccelPacket {
         let n = east.len();
         AccelPacket {
@@ -477,7 +494,7 @@ mod tests {
         east[301] = 7.0;
         // In packets of 50 samples.
         for (j, chunk) in east.chunks(50).enumerate() {
-            t.push(&packet(1000.0 + j as f64 * 0.5, rate, chunk.to_vec()));
+            t.push(&packet(1000.0 + j as f64 * 0.5, rate, chunk.to_vec()), NOW);
         }
         let view = t.view();
         assert_eq!(view.bins.len(), BINS);
@@ -508,26 +525,33 @@ mod tests {
         let mut t = StationTrace::new(Some(2.0));
         let mut p = packet(0.0, 10.0, vec![1.0; 10]);
         p.unit = SampleUnit::Counts;
-        t.push(&p);
+        t.push(&p, NOW);
         // 5 s later (a gap of 4 s), then 200 s later (the whole ring replaced).
         p.start_time_ns = 5_000_000_000;
-        t.push(&p);
+        t.push(&p, NOW);
         let view = t.view();
         let (_, bins) = view.last(6.0);
         let filled: Vec<bool> = bins.iter().map(|b| b.samples > 0).collect();
         assert_eq!(filled.iter().filter(|f| **f).count(), 10, "{filled:?}");
         assert_eq!(bins.last().unwrap().max[0], 2.0, "counts × gain");
         p.start_time_ns = 200_000_000_000;
-        t.push(&p);
+        t.push(&p, NOW);
         assert_eq!(t.view().bins.iter().filter(|b| b.samples > 0).count(), 5);
         // Data from before the ring: ignored, counted.
         p.start_time_ns = 0;
-        t.push(&p);
+        t.push(&p, NOW);
         assert_eq!(t.too_old_samples, 10);
+        // A packet from the future: refused, the ring untouched.
+        let before = t.view();
+        p.start_time_ns = NOW + MAX_AHEAD_NS + 1;
+        t.push(&p, NOW);
+        assert_eq!((t.refused_packets, t.view()), (1, before));
+        p.start_time_ns = 0;
         // Counts without a gain: refused.
         let mut t = StationTrace::new(None);
-        t.push(&p);
+        t.push(&p, NOW);
         assert_eq!((t.refused_packets, t.view().first_bin), (1, None));
+        assert_eq!(p.start_time_ns, 0);
     }
 
     fn point(t: i64, theta: f64, mode: Mode) -> EpisodePoint {
