@@ -786,8 +786,8 @@ fn rss_kb(pid: u32) -> u64 {
 
 /// Clients that open `/api/events` and never read do not grow the node's memory: with 20 of
 /// them connected while a node of 401 rocks streams its status (≈ 100 kB of JSON, 10 times a
-/// second) and the Rinaldi record's alerts, the node's VmRSS stays within 48 MB of what it was
-/// before they came (they are sent well over 500 MB in all), each is dropped and counted
+/// second) and the Rinaldi record's alerts, the node's VmRSS stays within 24 MB of what it was
+/// before they came (measured: +8.6 MB; the statuses streamed meanwhile, ≈ 22 MB, would stay in memory if a stalled client's queue were not bounded), each is dropped and counted
 /// (`rockwatch_web_clients_dropped_total`), and the node goes on serving.
 #[test]
 fn stream_clients_that_never_read_are_dropped_and_do_not_grow_the_node() {
@@ -906,7 +906,7 @@ fn stream_clients_that_never_read_are_dropped_and_do_not_grow_the_node() {
         "{dropped} of {STALLED} dropped\n{stderr}"
     );
     assert!(
-        grew_mb < 48.0,
+        grew_mb < 24.0,
         "the node grew by {grew_mb:.1} MB with {STALLED} stalled clients"
     );
     assert!(
