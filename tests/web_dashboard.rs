@@ -25,6 +25,17 @@ const ROCKS: [&str; 7] = [
     "syl-slide-rock-column",
 ];
 
+/// The samples of a PEER AT2 file (g), read here independently of the code under test:
+/// four header lines, then the values.
+fn at2_g(path: &std::path::Path) -> Vec<f64> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(4)
+        .flat_map(|l| l.split_whitespace().map(|v| v.parse::<f64>().unwrap()))
+        .collect()
+}
+
 /// The last `n` bytes of `text` (about: on a character boundary).
 fn tail(text: &str, n: usize) -> &str {
     let mut start = text.len().saturating_sub(n);
@@ -124,6 +135,9 @@ fn the_dashboard_shows_rocks_alerts_and_stale_stations_and_survives_a_stalled_cl
          {bad}
          {rock}
          {rock404}
+         {trace}
+         {trace_long}
+         {trace404}
          {page}
          {web_metrics}
          curl -sf --max-time 5 http://127.0.0.1:9464/metrics > '{d}/metrics.txt'
@@ -143,6 +157,9 @@ fn the_dashboard_shows_rocks_alerts_and_stale_stations_and_survives_a_stalled_cl
         bad = code("/api/alerts?since=yesterday", "bad.txt"),
         rock = get("/api/rocks/rrs-slender-pillar", "rock.json"),
         rock404 = code("/api/rocks/no-such-rock", "rock404.txt"),
+        trace = get("/api/stations/CI.RRS.00/trace?seconds=120", "trace.json"),
+        trace_long = code("/api/stations/CI.RRS.00/trace?seconds=121", "trace_long.txt"),
+        trace404 = code("/api/stations/XX.NONE.00/trace", "trace404.txt"),
         page = get("/", "page.html"),
         web_metrics = get("/metrics", "web_metrics.txt"),
         stale = get("/api/status", "stale.json"),
@@ -203,6 +220,71 @@ fn the_dashboard_shows_rocks_alerts_and_stale_stations_and_survives_a_stalled_cl
     assert_eq!(rock_json["rock"]["display"], "fallen");
     assert!(alert_keys(&rock_json).contains(&overturned), "{rock_json}");
     assert_eq!(read("rock404.txt"), "404", "{context}");
+    // The pillar's episode: its θ/α trace reaches the overturn, with its three alert marks.
+    let episode = &rock_json["episode"];
+    let marks: Vec<&str> = episode["alerts"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|m| m["level"].as_str()).collect())
+        .unwrap_or_default();
+    assert_eq!(
+        marks,
+        ["motion_onset", "overturn_imminent", "overturned"],
+        "{rock_json}"
+    );
+    let peak = episode["theta_over_alpha"]
+        .as_array()
+        .map(|t| {
+            t.iter()
+                .filter_map(|v| v.as_f64())
+                .fold(0.0, |m: f64, v| m.max(v.abs()))
+        })
+        .unwrap_or(0.0);
+    assert!(peak >= 1.0 && episode["ended"] == true, "{rock_json}");
+    assert_eq!(rock_json["imminent_theta_ratio"], 0.8);
+
+    // CI.RRS.00's trace: the record's east component (its 228° component projected), as
+    // read from the AT2 file here: the envelope's extremes are the record's, sample for
+    // sample (f32), and its PGA the peak of the record.
+    let trace = json(p, "trace.json", &context);
+    let record = at2_g(&repo().join("tests/data/records/Rinaldi228.AT2"));
+    let g = 9.80665;
+    let east_peak = record
+        .iter()
+        .map(|a| (a * g * 228f64.to_radians().sin()).abs())
+        .fold(0.0, f64::max);
+    let values = |key: &str| -> Vec<f64> {
+        trace[key][0]
+            .as_array()
+            .map(|v| v.iter().filter_map(|v| v.as_f64()).collect())
+            .unwrap_or_default()
+    };
+    let envelope_peak = values("min")
+        .into_iter()
+        .chain(values("max"))
+        .fold(0.0, |m: f64, v| m.max(v.abs()));
+    assert!(
+        (envelope_peak - east_peak).abs() <= 1e-5 * east_peak,
+        "envelope {envelope_peak} vs the record's east peak {east_peak}\n{trace}"
+    );
+    assert_eq!(trace["bin_s"], 0.2);
+    assert_eq!(trace["samples"].as_array().map(Vec::len), Some(600));
+    // 100 Hz: 20 samples in a full bin.
+    let counts: Vec<u64> = trace["samples"]
+        .as_array()
+        .map(|s| s.iter().filter_map(|v| v.as_u64()).collect())
+        .unwrap_or_default();
+    assert!(
+        counts.iter().filter(|c| **c == 20).count() >= 95,
+        "{counts:?}"
+    );
+    let pga = record.iter().fold(0.0, |m: f64, a| m.max(a.abs())) * g;
+    let ims_pga = trace["ims"]["pga_mps2"].as_f64().unwrap_or(0.0);
+    assert!(
+        (ims_pga - pga).abs() <= 0.02 * pga,
+        "running PGA {ims_pga} vs the record's {pga}\n{trace}"
+    );
+    assert_eq!(read("trace_long.txt"), "400", "{context}");
+    assert_eq!(read("trace404.txt"), "404", "{context}");
     let events = read("events.txt");
     assert!(
         events.contains("event: status") && events.contains("event: alert"),
@@ -496,7 +578,12 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
     }
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
-    node_config(p, "[web]\nlisten = \"127.0.0.1:8080\"\n");
+    // CI.RRS.00 placed (drawn on the map), CI.SYL.00 not (listed, not drawn).
+    node_config(
+        p,
+        "[web]\nlisten = \"127.0.0.1:8080\"\n\
+         [[station]]\nid = \"CI.RRS.00\"\nlat = 34.2811\nlon = -118.4787\n",
+    );
     let shots = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("web_dashboard");
     std::fs::create_dir_all(&shots).unwrap();
     let node = LoggedChild::spawn(
@@ -535,7 +622,7 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
             "browserName": "chrome",
             "goog:chromeOptions": {"args": [
                 "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                "--window-size=1100,1000"
+                "--window-size=1200,1500"
             ]}
         }}})),
     );
@@ -559,6 +646,21 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
         browser.wait_for(&listed, 10 * second).is_some(),
         "{}",
         browser.eval("return document.body.innerText")
+    );
+    // On the map too: every rock (all have catalogue coordinates), standing; the placed
+    // station drawn, the other listed only.
+    let mapped = format!(
+        "return {:?}.every(id => {{ const c = document.getElementById('map-rock-' + id); \
+         return c !== null && c.dataset.display === 'standing'; }}) && \
+         document.getElementById('map-station-CI.RRS.00') !== null && \
+         document.getElementById('map-station-CI.SYL.00') === null && \
+         document.getElementById('station-CI.SYL.00') !== null",
+        ROCKS
+    );
+    assert!(
+        browser.wait_for(&mapped, 10 * second).is_some(),
+        "{}",
+        browser.eval("return document.getElementById('map').outerHTML")
     );
     browser.screenshot(&shots.join("1-loaded.png"));
 
@@ -605,6 +707,42 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
         "{}",
         browser.eval("return document.body.innerText")
     );
+    // On the map: the pillar in its fallen colour (#d02020), the others not.
+    let fallen_on_map = "const c = document.getElementById('map-rock-rrs-slender-pillar'); \
+                         return c.dataset.display === 'fallen' && \
+                         getComputedStyle(c).fill === 'rgb(208, 32, 32)' && \
+                         getComputedStyle(document.getElementById('map-rock-rrs-stocky-boulder')).fill \
+                         !== 'rgb(208, 32, 32)'";
+    assert!(
+        browser.wait_for(fallen_on_map, 2 * second).is_some(),
+        "{}",
+        browser.eval("return document.getElementById('map').outerHTML")
+    );
+    // CI.RRS.00's trace drawn (the station first in the list, shown by default): the
+    // record's ≈ 22 s in 0.2 s bins, and ink on the canvas.
+    let drawn = "const c = document.getElementById('trace'); \
+                 if (c.dataset.station !== 'CI.RRS.00' || !(Number(c.dataset.bins) >= 100)) return false; \
+                 const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data; \
+                 let ink = 0; for (let i = 0; i < d.length; i += 4) \
+                 if (d[i + 3] > 0 && d[i + 2] > d[i] + 40) ink++; return ink > 500";
+    assert!(
+        browser.wait_for(drawn, 5 * second).is_some(),
+        "trace: {}",
+        browser.eval("return JSON.stringify(document.getElementById('trace').dataset)")
+    );
+    // The pillar's episode: its θ/α and slide traces, with the three alert marks.
+    browser.eval(
+        "const s = document.getElementById('episode-rock'); s.value = 'rrs-slender-pillar'; \
+         s.dispatchEvent(new Event('change')); return true",
+    );
+    let episode = "const c = document.getElementById('episode'); \
+                   return c.dataset.rock === 'rrs-slender-pillar' && Number(c.dataset.points) > 3 && \
+                   document.getElementById('episode-note').textContent.includes('overturned')";
+    assert!(
+        browser.wait_for(episode, 5 * second).is_some(),
+        "episode: {}",
+        browser.eval("return document.getElementById('episode-note').textContent")
+    );
     browser.screenshot(&shots.join("3-fallen.png"));
 
     // No data for stale_after_s (2 s): both stations STALE, in the stale colour (#bbb).
@@ -616,6 +754,15 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
         browser.wait_for(stale, 10 * second).is_some(),
         "{}",
         browser.eval("return document.body.innerText")
+    );
+    // On the map: CI.RRS.00 grey (#999) and labelled STALE.
+    let stale_on_map = "const t = document.getElementById('map-station-CI.RRS.00'); \
+                        return t.dataset.health === 'STALE' && getComputedStyle(t).fill === 'rgb(153, 153, 153)' && \
+                        document.getElementById('map').textContent.includes('CI.RRS.00 STALE')";
+    assert!(
+        browser.wait_for(stale_on_map, 2 * second).is_some(),
+        "{}",
+        browser.eval("return document.getElementById('map').outerHTML")
     );
     browser.screenshot(&shots.join("4-stale.png"));
 
@@ -781,5 +928,146 @@ fn status_of_a_running_node_exits_0_then_1_for_a_fallen_rock_and_a_stale_station
         read("nobody.err").contains("does not answer"),
         "{}",
         read("nobody.err")
+    );
+}
+
+/// VmRSS of process `pid` (kB), from /proc/<pid>/status.
+fn rss_kb(pid: u32) -> u64 {
+    std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .unwrap_or_default()
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+        .unwrap_or(0)
+}
+
+/// Clients that open `/api/events` and never read do not grow the node's memory: with 20 of
+/// them connected while a node of 401 rocks streams its status (≈ 100 kB of JSON, 10 times a
+/// second) and the Rinaldi record's alerts, the node's VmRSS stays within 24 MB of what it was
+/// before they came (measured: +8.6 MB; the statuses streamed meanwhile, ≈ 22 MB, would stay in memory if a stalled client's queue were not bounded), each is dropped and counted
+/// (`rockwatch_web_clients_dropped_total`), and the node goes on serving.
+#[test]
+fn stream_clients_that_never_read_are_dropped_and_do_not_grow_the_node() {
+    if !reexec_in_netns(
+        "stream_clients_that_never_read_are_dropped_and_do_not_grow_the_node",
+        150,
+    ) {
+        return;
+    }
+    const STALLED: usize = 20;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let mut catalogue = String::new();
+    for i in 0..401 {
+        // One slender pillar that the record throws over (the alerts), 400 stocky boulders.
+        let (id, width, height) = match i {
+            0 => ("rrs-slender-pillar".to_string(), 0.3, 1.5),
+            _ => (format!("rrs-boulder-{i:04}"), 2.0, 1.6),
+        };
+        catalogue.push_str(&format!(
+            "[[pbr]]\nid = \"{id}\"\nname = \"rock {i}\"\nlat = {}\nlon = -118.4765\n\
+             station = \"CI.RRS.00\"\nazimuth_deg = 228.0\nwidth_m = {width}\nheight_m = {height}\n\
+             mu_s = 0.7\nmu_k = 0.55\nsource = \"test\"\n\n",
+            34.28 + i as f64 * 1e-5
+        ));
+    }
+    std::fs::write(p.join("catalogue.toml"), catalogue).unwrap();
+    std::fs::write(
+        p.join("node.toml"),
+        "catalogue = \"catalogue.toml\"\n[ros2]\ndiscovery_range = \"LOCALHOST\"\n\
+         [status]\ndiagnostics_period_s = 0.1\n[web]\nlisten = \"127.0.0.1:8080\"\n",
+    )
+    .unwrap();
+    let node = LoggedChild::spawn(
+        std::process::Command::new(rockwatch())
+            .arg("node")
+            .arg("--config")
+            .arg(p.join("node.toml")),
+    );
+    let pid = node.child.id();
+    let up = std::time::Instant::now();
+    let status_len = loop {
+        if let Ok(mut r) = ureq::get(&format!("{WEB}/api/status")).call() {
+            break r.body_mut().read_to_string().unwrap_or_default().len();
+        }
+        assert!(
+            up.elapsed().as_secs() < 60,
+            "no status\n{}",
+            node.stderr_so_far()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    assert!(status_len > 80_000, "a status of {status_len} bytes");
+    std::thread::sleep(std::time::Duration::from_secs(1));
+    let before = rss_kb(pid);
+    let stalled: Vec<std::net::TcpStream> = (0..STALLED)
+        .map(|_| {
+            let mut s = std::net::TcpStream::connect("127.0.0.1:8080").unwrap();
+            std::io::Write::write_all(&mut s, b"GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n")
+                .unwrap();
+            s
+        })
+        .collect();
+    let rec = repo().join("tests/data/records");
+    let replay = std::process::Command::new(rockwatch())
+        .args(["replay", "--record"])
+        .arg(rec.join("Rinaldi228.AT2"))
+        .args([
+            "--azimuth",
+            "228",
+            "--station",
+            "CI.RRS.00",
+            "--transport",
+            "ros2",
+            "--speed",
+            "1",
+            "--wait-s",
+            "20",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // 25 s: the record in real time (20 s) and more.
+    let (mut peak, mut dropped) = (before, 0.0);
+    let start = std::time::Instant::now();
+    while start.elapsed().as_secs() < 25 {
+        std::thread::sleep(std::time::Duration::from_millis(250));
+        peak = peak.max(rss_kb(pid));
+    }
+    let mut replay = replay;
+    let replayed = replay.wait().unwrap();
+    if let Ok(mut r) = ureq::get(&format!("{WEB}/metrics")).call() {
+        let text = r.body_mut().read_to_string().unwrap_or_default();
+        let samples = parse_prometheus(&text).unwrap_or_default();
+        dropped = samples
+            .iter()
+            .find(|s| s.0 == "rockwatch_web_clients_dropped_total")
+            .map(|s| s.2)
+            .unwrap_or(0.0);
+    }
+    let served = ureq::get(&format!("{WEB}/api/alerts"))
+        .call()
+        .ok()
+        .and_then(|mut r| r.body_mut().read_to_string().ok())
+        .unwrap_or_default();
+    drop(stalled);
+    let (status, stderr) = node.stop(std::time::Duration::from_secs(10));
+    let grew_mb = (peak.saturating_sub(before)) as f64 / 1024.0;
+    eprintln!(
+        "status {status_len} B; VmRSS before {before} kB, peak {peak} kB (+{grew_mb:.1} MB); {dropped} stalled clients dropped"
+    );
+    assert!(status.success() && replayed.success(), "{stderr}");
+    assert!(
+        dropped >= STALLED as f64,
+        "{dropped} of {STALLED} dropped\n{stderr}"
+    );
+    assert!(
+        grew_mb < 24.0,
+        "the node grew by {grew_mb:.1} MB with {STALLED} stalled clients"
+    );
+    assert!(
+        served.contains("\"overturned\"") && served.contains("rrs-slender-pillar"),
+        "the alerts were served meanwhile: {served}"
     );
 }

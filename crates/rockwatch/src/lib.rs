@@ -29,6 +29,7 @@ pub mod seedlink;
 pub mod signals;
 pub mod status;
 pub mod study;
+pub mod traces;
 pub mod units;
 pub mod web;
 pub mod wire_codes;

@@ -372,7 +372,8 @@ fn rock_statuses(
             let station = spec.station.to_string();
             let rock = match known.remove(&spec.id) {
                 Some(rock) if rock.station == station => rock,
-                _ => RockStatus::new(spec.id.clone(), station, overturned.contains_key(&spec.id)),
+                _ => RockStatus::new(spec.id.clone(), station, overturned.contains_key(&spec.id))
+                    .at(spec.place.lat_deg, spec.place.lon_deg),
             };
             (spec.id.clone(), rock)
         })
@@ -420,6 +421,9 @@ pub struct NodeRuntime {
     /// The stations as configured now (at start, then by each reload), for the reload's
     /// account of what it changed.
     stations: Vec<rockwatch_core::engine::StationConfig>,
+    /// `engine.alerts.imminent_theta_ratio` as configured (the sharded engine's; the inline
+    /// engine's own value is read from it, ROS 2 parameter changes included).
+    imminent_theta_ratio: f64,
 }
 
 impl NodeRuntime {
@@ -514,6 +518,7 @@ impl NodeRuntime {
             tally,
             pbr_ids: specs.into_iter().map(|s| s.id).collect(),
             stations,
+            imminent_theta_ratio: config.engine.alerts.imminent_theta_ratio,
             foreign_pbr_ids: HashSet::new(),
             last_flush: Instant::now(),
             max_ahead_ns: options
@@ -521,6 +526,23 @@ impl NodeRuntime {
                 .then_some((config.engine.plausibility.max_ahead_s * 1e9) as i64),
             journaled,
         })
+    }
+
+    /// The node's stations now with their gains ((m/s²)/count): those of `[[station]]` (this
+    /// node's partition) and those its rocks name without a `[[station]]` entry.
+    #[must_use]
+    pub fn traced_stations(&self) -> Vec<(String, Option<f64>)> {
+        let mut stations: Vec<(String, Option<f64>)> = self
+            .stations
+            .iter()
+            .map(|s| (s.id.as_str().to_string(), s.gain_mps2_per_count))
+            .collect();
+        for rock in self.emit.rocks.values() {
+            if !stations.iter().any(|(id, _)| *id == rock.station) {
+                stations.push((rock.station.clone(), None));
+            }
+        }
+        stations
     }
 
     /// The journal's alert history at start ([`journaled_history`]: the last
@@ -716,6 +738,7 @@ impl NodeRuntime {
             None => anyhow::bail!("the engine has stopped"),
         };
         self.stations = stations;
+        self.imminent_theta_ratio = config.alerts.imminent_theta_ratio;
         let known = std::mem::take(&mut self.emit.rocks);
         self.emit.rocks = rock_statuses(&blocks, &self.emit.overturned, known);
         self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
@@ -800,7 +823,8 @@ impl NodeRuntime {
             });
         }
         if let Some(rock) = self.emit.rocks.get_mut(pbr_id) {
-            *rock = RockStatus::new(rock.pbr_id.clone(), rock.station.clone(), false);
+            *rock = RockStatus::new(rock.pbr_id.clone(), rock.station.clone(), false)
+                .at(rock.lat_deg, rock.lon_deg);
         }
         match &mut self.engine {
             Some(EngineMode::Inline(e)) => {
@@ -876,7 +900,16 @@ impl NodeRuntime {
             .into_iter()
             .map(|h| {
                 let last_alert = self.emit.last_alerts.get(h.station.as_str()).copied();
-                self.status.station(h, now, epoch_utc_ns, last_alert)
+                let place = self
+                    .stations
+                    .iter()
+                    .find(|s| s.id.as_str() == h.station)
+                    .map(|s| (s.lat, s.lon));
+                let mut station = self.status.station(h, now, epoch_utc_ns, last_alert);
+                if let Some((lat, lon)) = place {
+                    (station.lat_deg, station.lon_deg) = (lat, lon);
+                }
+                station
             })
             .collect();
         let realtime_factor = (self.data_s > 0.0 && self.busy_ns > 0)
@@ -899,6 +932,10 @@ impl NodeRuntime {
             packets: stats.packets,
             alerts: stats.alerts,
             rosout_dropped: crate::logging::rosout_dropped(),
+            imminent_theta_ratio: match &self.engine {
+                Some(EngineMode::Inline(engine)) => engine.config().alerts.imminent_theta_ratio,
+                _ => self.imminent_theta_ratio,
+            },
         }
     }
 

@@ -104,6 +104,10 @@ pub struct StationStatus {
     /// Since the last accepted packet (s), if any.
     pub silent_s: Option<f64>,
     pub last_alert: Option<AlertLatency>,
+    /// Its WGS84 position (degrees north, east) from its `[[station]]` `lat`/`lon`, when
+    /// configured (the dashboard's map; a station without one is listed, not drawn).
+    pub lat_deg: Option<f64>,
+    pub lon_deg: Option<f64>,
 }
 
 /// One rock (catalogue block) as the engine's states and alerts last described it: the
@@ -129,6 +133,10 @@ pub struct RockStatus {
     /// P(overturn) of its last state or alert (the ensemble's fraction overturned, 0..1;
     /// NaN before any).
     pub overturn_probability: f64,
+    /// Its WGS84 position (degrees north, east) from the catalogue (`lat`, `lon`); None for
+    /// a block made in code.
+    pub lat_deg: Option<f64>,
+    pub lon_deg: Option<f64>,
 }
 
 impl RockStatus {
@@ -148,6 +156,8 @@ impl RockStatus {
             not_monitored: false,
             direction_deg: f64::NAN,
             overturn_probability: f64::NAN,
+            lat_deg: None,
+            lon_deg: None,
         }
     }
 
@@ -160,6 +170,13 @@ impl RockStatus {
         if overturn_probability.is_finite() {
             self.overturn_probability = overturn_probability;
         }
+    }
+
+    /// The same rock at `lat_deg`, `lon_deg` (WGS84 degrees).
+    #[must_use]
+    pub fn at(mut self, lat_deg: Option<f64>, lon_deg: Option<f64>) -> RockStatus {
+        (self.lat_deg, self.lon_deg) = (lat_deg, lon_deg);
+        self
     }
 
     /// Takes in one state or alert: its `mode` and signed `theta_over_alpha` (a motion that
@@ -204,6 +221,9 @@ pub struct NodeStatus {
     pub packets: u64,
     pub alerts: u64,
     pub rosout_dropped: u64,
+    /// `engine.alerts.imminent_theta_ratio`: a moving rock at or above this |θ|/α is shown
+    /// "overturn imminent" (the ratio of the node's `overturn_imminent` alert).
+    pub imminent_theta_ratio: f64,
 }
 
 /// The figures of one item of a status (the node's journal, transports, engine, a station;
@@ -697,6 +717,8 @@ impl StatusBuilder {
             data_latency_s,
             silent_s,
             last_alert,
+            lat_deg: None,
+            lon_deg: None,
         }
     }
 }
@@ -826,6 +848,7 @@ mod tests {
             packets: 10,
             alerts: 0,
             rosout_dropped: 0,
+            imminent_theta_ratio: 0.8,
         };
         let text = status.prometheus();
         assert!(text.contains("# TYPE rockwatch_station_packets_total counter\n"));

@@ -18,6 +18,7 @@ use crate::alert_json::RecordJson;
 use crate::number_text::json_number;
 use crate::ports::Publication;
 use crate::status::{Level, NodeStatus};
+use crate::traces::{EpisodeTrace, TracesSnapshot, BIN_NS, COMPONENTS, RETENTION_S};
 use crate::wire_codes::mode_code;
 use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::JournalRecord;
@@ -59,6 +60,7 @@ type StreamEvent = (&'static str, Arc<str>);
 /// What the web thread's handlers share.
 pub struct Shared {
     pub status: watch::Receiver<Option<Arc<NodeStatus>>>,
+    pub traces: watch::Receiver<Arc<TracesSnapshot>>,
     pub history: Mutex<VecDeque<Arc<FeedItem>>>,
     clients: Mutex<Vec<mpsc::Sender<StreamEvent>>>,
     pub counters: Arc<WebCounters>,
@@ -68,10 +70,12 @@ impl Shared {
     #[must_use]
     pub fn new(
         status: watch::Receiver<Option<Arc<NodeStatus>>>,
+        traces: watch::Receiver<Arc<TracesSnapshot>>,
         counters: Arc<WebCounters>,
     ) -> Shared {
         Shared {
             status,
+            traces,
             history: Mutex::new(VecDeque::new()),
             clients: Mutex::new(Vec::new()),
             counters,
@@ -198,12 +202,20 @@ fn feed_item(publication: &Publication) -> Option<FeedItem> {
 }
 
 /// How the page shows a rock: `standing`, `moving` (rocking or sliding: see
-/// `theta_over_alpha`), `fallen`, `not_monitored` (its station is stale).
-fn rock_display(mode: Mode, not_monitored: bool) -> &'static str {
+/// `theta_over_alpha`), `imminent` (moving with |θ|/α at or above `imminent_theta_ratio`,
+/// the threshold of the node's `overturn_imminent` alert, `engine.alerts.imminent_theta_ratio`),
+/// `fallen`, `not_monitored` (its station is stale).
+pub fn rock_display(
+    mode: Mode,
+    theta_over_alpha: f64,
+    not_monitored: bool,
+    imminent_theta_ratio: f64,
+) -> &'static str {
     match mode {
         Mode::Overturned => "fallen",
         _ if not_monitored => "not_monitored",
         Mode::Rest => "standing",
+        _ if theta_over_alpha.abs() >= imminent_theta_ratio => "imminent",
         _ => "moving",
     }
 }
@@ -227,6 +239,8 @@ pub fn status_json(s: &NodeStatus) -> Value {
                 "packets": st.health.packets,
                 "blocks": st.health.blocks,
                 "monitored": st.health.monitored,
+                "lat_deg": st.lat_deg.map(json_number),
+                "lon_deg": st.lon_deg.map(json_number),
             })
         })
         .collect();
@@ -239,12 +253,19 @@ pub fn status_json(s: &NodeStatus) -> Value {
                 "station": r.station,
                 "mode": r.mode,
                 "mode_code": mode_code(r.mode),
-                "display": rock_display(r.mode, r.not_monitored),
+                "display": rock_display(
+                    r.mode,
+                    r.theta_over_alpha,
+                    r.not_monitored,
+                    s.imminent_theta_ratio
+                ),
                 "theta_over_alpha": json_number(r.theta_over_alpha),
                 "peak_theta_over_alpha": json_number(r.peak_theta_over_alpha),
                 "direction_deg": json_number(r.direction_deg),
                 "overturn_probability": json_number(r.overturn_probability),
                 "not_monitored": r.not_monitored,
+                "lat_deg": r.lat_deg.map(json_number),
+                "lon_deg": r.lon_deg.map(json_number),
             })
         })
         .collect();
@@ -261,6 +282,7 @@ pub fn status_json(s: &NodeStatus) -> Value {
             "ros2_up": s.ros2_up,
             "iceoryx2": s.iceoryx2,
             "realtime_factor": s.realtime_factor.map(json_number),
+            "imminent_theta_ratio": json_number(s.imminent_theta_ratio),
         },
     })
 }
@@ -311,7 +333,116 @@ pub async fn get_rock(State(shared): State<Arc<Shared>>, Path(id): Path<String>)
         .into_iter()
         .filter(|a| a["pbr_id"] == id.as_str())
         .collect();
-    json_text(json!({ "rock": rock, "alerts": alerts }).to_string())
+    let traces = shared.traces.borrow().clone();
+    let episode = traces.rocks.get(&id).map(|e| episode_json(e));
+    json_text(
+        json!({
+            "rock": rock,
+            "alerts": alerts,
+            "episode": episode,
+            "imminent_theta_ratio": json_number(status.imminent_theta_ratio),
+        })
+        .to_string(),
+    )
+}
+
+/// A rock's episode trace: parallel arrays, oldest first, and its alert marks (see
+/// [`crate::traces`] for the bounds).
+fn episode_json(e: &EpisodeTrace) -> Value {
+    let marks: Vec<Value> = e
+        .marks
+        .iter()
+        .map(|m| {
+            json!({
+                "data_time_ns": m.data_time_ns,
+                "level": m.level.as_str(),
+                "theta_over_alpha": json_number(m.theta_over_alpha),
+                "overturn_probability": json_number(m.overturn_probability),
+            })
+        })
+        .collect();
+    json!({
+        "episode": e.episode,
+        "ended": e.ended,
+        "stride": e.stride,
+        "data_time_ns": e.points.iter().map(|p| p.data_time_ns).collect::<Vec<_>>(),
+        "theta_over_alpha": e.points.iter().map(|p| json_number(p.theta_over_alpha)).collect::<Vec<_>>(),
+        "slide_m": e.points.iter().map(|p| json_number(p.slide_m)).collect::<Vec<_>>(),
+        "mode": e.points.iter().map(|p| p.mode).collect::<Vec<_>>(),
+        "alerts": marks,
+    })
+}
+
+/// The query of `/api/stations/{id}/trace`.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TraceQuery {
+    /// Data seconds up to the newest sample, in (0, [`RETENTION_S`]]; default 120.
+    pub seconds: Option<f64>,
+}
+
+/// `GET /api/stations/{id}/trace?seconds=<s>`: the station's last `seconds` of its three
+/// components as a min/max envelope of [`BIN_NS`] bins (see [`crate::traces`]) and its
+/// running intensity measures; 404 for a station the node does not have, 400 for a
+/// `seconds` out of (0, retention].
+pub async fn get_station_trace(
+    State(shared): State<Arc<Shared>>,
+    Path(id): Path<String>,
+    query: Result<Query<TraceQuery>, axum::extract::rejection::QueryRejection>,
+) -> Response {
+    let usage = format!("seconds=<s in (0, {RETENTION_S}]>");
+    let seconds = match query {
+        Ok(Query(q)) => q.seconds.unwrap_or(f64::from(RETENTION_S)),
+        Err(e) => return error(StatusCode::BAD_REQUEST, format!("{e}: takes {usage}")),
+    };
+    if !(seconds > 0.0 && seconds <= f64::from(RETENTION_S)) {
+        return error(
+            StatusCode::BAD_REQUEST,
+            format!("seconds = {seconds}: takes {usage} (the node keeps {RETENTION_S} s)"),
+        );
+    }
+    let traces = shared.traces.borrow().clone();
+    let Some(view) = traces.stations.get(&id) else {
+        return error(
+            StatusCode::NOT_FOUND,
+            format!("no station {id:?} on this node: /api/status lists them"),
+        );
+    };
+    let (first, bins) = view.last(seconds);
+    let series = |pick: &dyn Fn(&crate::traces::Bin, usize) -> f32| -> Vec<Vec<Value>> {
+        (0..3)
+            .map(|c| {
+                bins.iter()
+                    .map(|b| {
+                        if b.min[c] <= b.max[c] {
+                            json_number(f64::from(pick(b, c)))
+                        } else {
+                            Value::Null
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let ims = traces
+        .intensities
+        .get(&id)
+        .and_then(|i| serde_json::to_value(&**i).ok());
+    json_text(
+        json!({
+            "station": id,
+            "seconds": json_number(seconds),
+            "bin_s": json_number(BIN_NS as f64 * 1e-9),
+            "start_ns": first.map(|f| f * BIN_NS),
+            "components": COMPONENTS,
+            "unit": "m/s²",
+            "min": series(&|b, c| b.min[c]),
+            "max": series(&|b, c| b.max[c]),
+            "samples": bins.iter().map(|b| b.samples).collect::<Vec<_>>(),
+            "ims": ims,
+        })
+        .to_string(),
+    )
 }
 
 /// The query of `/api/alerts`.

@@ -31,6 +31,7 @@ use tokio::sync::{mpsc, watch};
 
 use crate::ports::{Publication, Publisher};
 use crate::status::NodeStatus;
+use crate::traces::TracesSnapshot;
 pub use api::WebCounters;
 pub use config::{MetricsConfig, WebConfig};
 use server::{HttpThread, Listener};
@@ -47,6 +48,7 @@ pub const PROMETHEUS_CONTENT_TYPE: &str = "text/plain; version=0.0.4; charset=ut
 pub struct WebServer {
     thread: HttpThread,
     status: watch::Sender<Option<Arc<NodeStatus>>>,
+    traces: watch::Sender<Arc<TracesSnapshot>>,
     feed: AlertFeed,
     /// `[web] listen`'s address, when configured.
     web_address: Option<std::net::SocketAddr>,
@@ -62,8 +64,13 @@ impl WebServer {
             return Ok(None);
         }
         let (status, status_rx) = watch::channel(None);
+        let (traces, traces_rx) = watch::channel(Arc::new(TracesSnapshot::default()));
         let counters = Arc::new(WebCounters::default());
-        let shared = Arc::new(api::Shared::new(status_rx, Arc::clone(&counters)));
+        let shared = Arc::new(api::Shared::new(
+            status_rx,
+            traces_rx,
+            Arc::clone(&counters),
+        ));
         let (alerts, mut alerts_rx) = mpsc::channel::<Publication>(ALERT_QUEUE);
         let mut listeners = Vec::new();
         if let Some(listen) = &web.listen {
@@ -108,6 +115,7 @@ impl WebServer {
         Ok(Some(WebServer {
             thread,
             status,
+            traces,
             feed: AlertFeed { alerts, counters },
             web_address,
             metrics_address,
@@ -129,6 +137,12 @@ impl WebServer {
     /// Hands the web side a new status (never waits: the latest replaces the previous).
     pub fn update_status(&self, status: NodeStatus) {
         self.status.send_replace(Some(Arc::new(status)));
+    }
+
+    /// Hands the web side the stations' and rocks' traces (never waits: the latest replaces
+    /// the previous).
+    pub fn update_traces(&self, traces: TracesSnapshot) {
+        self.traces.send_replace(Arc::new(traces));
     }
 
     /// The publisher that hands alerts and resets to the web side (never waits).
@@ -184,6 +198,7 @@ fn dashboard_router(shared: Arc<api::Shared>) -> Router {
         .route("/api/status", get(api::get_status))
         .route("/api/alerts", get(api::get_alerts))
         .route("/api/rocks/{id}", get(api::get_rock))
+        .route("/api/stations/{id}/trace", get(api::get_station_trace))
         .route("/api/events", get(api::get_events))
         .route("/metrics", get(api::get_metrics))
         .fallback(page::not_found)
@@ -272,6 +287,7 @@ mod tests {
             packets: 0,
             alerts: 0,
             rosout_dropped: 0,
+            imminent_theta_ratio: 0.8,
         }
     }
 
@@ -390,6 +406,38 @@ mod tests {
         assert!(get(web, "/api/alerts?since=x").starts_with("HTTP/1.1 400"));
         assert!(get(web, "/api/alerts?until=1").starts_with("HTTP/1.1 400"));
         assert!(get(web, "/api/rocks/nope").starts_with("HTTP/1.1 404"));
+        // A station's trace: the newest bins of its ring, as the snapshot holds them.
+        let mut traces = crate::traces::Traces::new(&[("XX.STA.00".into(), None)]);
+        traces.push_packet(&rockwatch_core::engine::AccelPacket {
+            station: "XX.STA.00".into(),
+            start_time_ns: 1_000_000_000_000,
+            sample_rate_hz: 100.0,
+            sequence: 0,
+            east: (0..100).map(|i| i as f32 * 0.01).collect(),
+            north: vec![0.0; 100],
+            up: Vec::new(),
+            unit: Default::default(),
+        });
+        server.update_traces(traces.snapshot());
+        let reply = get(web, "/api/stations/XX.STA.00/trace?seconds=1");
+        let body: serde_json::Value =
+            serde_json::from_str(reply.split("\r\n\r\n").nth(1).unwrap_or("")).unwrap();
+        assert_eq!(
+            body["samples"],
+            serde_json::json!([20, 20, 20, 20, 20]),
+            "{body}"
+        );
+        assert_eq!(body["start_ns"], 1_000_000_000_000i64);
+        assert_eq!(body["max"][0][4], f64::from(99.0f32 * 0.01));
+        assert_eq!(body["min"][0][0], 0.0);
+        assert_eq!(
+            body["min"][2][0],
+            serde_json::Value::Null,
+            "no up component"
+        );
+        assert!(get(web, "/api/stations/XX.STA.00/trace?seconds=121").starts_with("HTTP/1.1 400"));
+        assert!(get(web, "/api/stations/XX.STA.00/trace?seconds=0").starts_with("HTTP/1.1 400"));
+        assert!(get(web, "/api/stations/XX.NO.00/trace").starts_with("HTTP/1.1 404"));
         assert!(get(web, "/").contains("<title>rockwatch</title>"));
     }
 }

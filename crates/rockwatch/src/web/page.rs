@@ -26,7 +26,7 @@ pub async fn not_found(uri: Uri) -> Response {
     (
         StatusCode::NOT_FOUND,
         format!(
-            "not found: {}: try / (dashboard), /api/status, /api/alerts?since=<ns>, /api/rocks/<id>, /api/events, /metrics\n",
+            "not found: {}: try / (dashboard), /api/status, /api/alerts?since=<ns>, /api/rocks/<id>, /api/stations/<id>/trace?seconds=<s>, /api/events, /metrics\n",
             uri.path()
         ),
     )
