@@ -4,7 +4,10 @@
 //! measures. Filled on the event loop's thread ([`Traces::push_packet`] before the engine
 //! takes a packet, [`Traces::observe`] for each publication), never waiting for anyone; a
 //! [`TracesSnapshot`] (shared, immutable) is taken once per status period and handed to the
-//! web thread the way the status is (a `watch`, the latest replaces the previous).
+//! web thread the way the status is (a `watch`, the latest replaces the previous). A snapshot
+//! copies the rings of the stations the web side asked for in the last [`WANTED_FOR`] only
+//! ([`WantedStations`]; 16.8 kB a ring): a node of thousands of stations copies what its
+//! viewers look at, not every ring every period.
 //!
 //! Bounded, allocated up front:
 //! - [`StationTrace`]: a ring of [`BINS`] time-aligned bins of [`BIN_NS`] each (bin `k`
@@ -22,7 +25,8 @@
 //!   step. Alert points are always kept.
 
 use std::collections::HashMap;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use crate::ports::Publication;
 use rockwatch_core::dynamics::Mode;
@@ -307,10 +311,36 @@ impl EpisodeTrace {
     }
 }
 
+/// How long a station's ring stays in the snapshots after the web side last asked for it.
+pub const WANTED_FOR: Duration = Duration::from_secs(10);
+
+/// The stations whose traces the web side asked for lately: marked by the web thread (only
+/// stations the node has: at most one entry each), read by the event loop at each snapshot
+/// with `try_lock` — when the web thread holds the lock, the event loop takes the previous
+/// period's set instead of waiting.
+#[derive(Debug, Default)]
+pub struct WantedStations(Mutex<HashMap<String, Instant>>);
+
+impl WantedStations {
+    /// Asks for `station`'s ring in the snapshots of the next [`WANTED_FOR`].
+    pub fn mark(&self, station: &str) {
+        if let Ok(mut wanted) = self.0.lock() {
+            match wanted.get_mut(station) {
+                Some(at) => *at = Instant::now(),
+                None => {
+                    wanted.insert(station.to_string(), Instant::now());
+                }
+            }
+        }
+    }
+}
+
 /// What the event loop keeps (see the module's doc).
 #[derive(Debug, Default)]
 pub struct Traces {
     stations: HashMap<String, StationTrace>,
+    /// The stations of the last [`WantedStations`] read (kept when the lock was busy).
+    wanted: Vec<String>,
     rocks: HashMap<String, Rock>,
     intensities: HashMap<String, Arc<StationIntensity>>,
     /// Packets of stations without a trace (not configured here).
@@ -428,9 +458,15 @@ impl Traces {
         self.rocks.get(pbr_id).map(|r| &r.trace)
     }
 
-    /// A copy of everything for the web thread (each station's ring copied; a rock's trace
-    /// copied only when it changed since the last snapshot).
-    pub fn snapshot(&mut self) -> TracesSnapshot {
+    /// A copy for the web thread: the rings of the stations `wanted` lists, every rock's
+    /// trace (copied only when it changed since the last snapshot), the intensities. Never
+    /// waits on `wanted` (see [`WantedStations`]).
+    pub fn snapshot(&mut self, wanted: &WantedStations) -> TracesSnapshot {
+        if let Ok(mut asked) = wanted.0.try_lock() {
+            asked.retain(|_, at| at.elapsed() < WANTED_FOR);
+            self.wanted.clear();
+            self.wanted.extend(asked.keys().cloned());
+        }
         let rocks = self
             .rocks
             .iter_mut()
@@ -444,9 +480,9 @@ impl Traces {
             .collect();
         TracesSnapshot {
             stations: self
-                .stations
+                .wanted
                 .iter()
-                .map(|(id, t)| (id.clone(), t.view()))
+                .filter_map(|id| self.stations.get(id).map(|t| (id.clone(), t.view())))
                 .collect(),
             rocks,
             intensities: self.intensities.clone(),
@@ -481,6 +517,32 @@ mod tests {
             up: vec![0.5; n],
             unit: SampleUnit::MetresPerSecondSquared,
         }
+    }
+
+    #[test]
+    fn a_snapshot_copies_the_rings_asked_for_and_never_waits_for_the_lock() {
+        let ids = ["XX.A.00", "XX.B.00", "XX.C.00"];
+        let stations: Vec<(String, Option<f64>)> =
+            ids.iter().map(|id| (id.to_string(), None)).collect();
+        let mut traces = Traces::new(&stations);
+        let wanted = WantedStations::default();
+        assert!(traces.snapshot(&wanted).stations.is_empty());
+        wanted.mark("XX.B.00");
+        let snapshot = traces.snapshot(&wanted);
+        assert_eq!(snapshot.stations.keys().collect::<Vec<_>>(), ["XX.B.00"]);
+        // The web thread holds the lock: the event loop takes the previous set, at once.
+        let held = wanted.0.lock().unwrap();
+        let snapshot = traces.snapshot(&wanted);
+        assert_eq!(snapshot.stations.keys().collect::<Vec<_>>(), ["XX.B.00"]);
+        drop(held);
+        // An entry older than WANTED_FOR goes.
+        wanted
+            .0
+            .lock()
+            .unwrap()
+            .insert("XX.B.00".into(), Instant::now() - WANTED_FOR);
+        assert!(traces.snapshot(&wanted).stations.is_empty());
+        assert!(wanted.0.lock().unwrap().is_empty());
     }
 
     #[test]

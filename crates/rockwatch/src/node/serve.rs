@@ -457,7 +457,7 @@ impl Reactor {
                 if let Some(w) = &web {
                     w.update_status(status);
                     if let Some(traces) = &mut out.traces {
-                        w.update_traces(traces.snapshot());
+                        w.update_traces(traces.snapshot(w.wanted_stations()));
                     }
                 }
             }

@@ -18,7 +18,9 @@ use crate::alert_json::RecordJson;
 use crate::number_text::json_number;
 use crate::ports::Publication;
 use crate::status::{Level, NodeStatus};
-use crate::traces::{EpisodeTrace, TracesSnapshot, BIN_NS, COMPONENTS, RETENTION_S};
+use crate::traces::{
+    EpisodeTrace, TracesSnapshot, WantedStations, BIN_NS, COMPONENTS, RETENTION_S,
+};
 use crate::wire_codes::mode_code;
 use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::JournalRecord;
@@ -61,6 +63,8 @@ type StreamEvent = (&'static str, Arc<str>);
 pub struct Shared {
     pub status: watch::Receiver<Option<Arc<NodeStatus>>>,
     pub traces: watch::Receiver<Arc<TracesSnapshot>>,
+    /// The stations whose rings a client asked for (the next snapshots hold them).
+    pub wanted: Arc<WantedStations>,
     pub history: Mutex<VecDeque<Arc<FeedItem>>>,
     clients: Mutex<Vec<mpsc::Sender<StreamEvent>>>,
     pub counters: Arc<WebCounters>,
@@ -71,11 +75,13 @@ impl Shared {
     pub fn new(
         status: watch::Receiver<Option<Arc<NodeStatus>>>,
         traces: watch::Receiver<Arc<TracesSnapshot>>,
+        wanted: Arc<WantedStations>,
         counters: Arc<WebCounters>,
     ) -> Shared {
         Shared {
             status,
             traces,
+            wanted,
             history: Mutex::new(VecDeque::new()),
             clients: Mutex::new(Vec::new()),
             counters,
@@ -401,7 +407,10 @@ pub async fn get_station_trace(
             format!("seconds = {seconds}: takes {usage} (the node keeps {RETENTION_S} s)"),
         );
     }
-    let traces = shared.traces.borrow().clone();
+    let traces = match station_traces(&shared, &id).await {
+        Ok(traces) => traces,
+        Err(response) => return response,
+    };
     let Some(view) = traces.stations.get(&id) else {
         return error(
             StatusCode::NOT_FOUND,
@@ -443,6 +452,60 @@ pub async fn get_station_trace(
         })
         .to_string(),
     )
+}
+
+/// Longest a trace request waits for the snapshot that holds its station's ring (a station
+/// not asked for in the last [`crate::traces::WANTED_FOR`] comes with the next status).
+const TRACE_WAIT: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// The traces snapshot holding station `id`'s ring: marks `id` wanted (a station of the
+/// node's status only, so the wanted set stays bounded) and, when the current snapshot lacks
+/// it, waits up to [`TRACE_WAIT`] for one that has it. Errors: 404 for a station the node does
+/// not have, 503 when no snapshot came in time.
+async fn station_traces(shared: &Shared, id: &str) -> Result<Arc<TracesSnapshot>, Response> {
+    let mut traces = shared.traces.clone();
+    let current = traces.borrow_and_update().clone();
+    if current.stations.contains_key(id) {
+        shared.wanted.mark(id);
+        return Ok(current);
+    }
+    let known = shared
+        .status
+        .borrow()
+        .as_ref()
+        .is_some_and(|s| s.stations.iter().any(|st| st.health.station == id));
+    if !known {
+        return Err(error(
+            StatusCode::NOT_FOUND,
+            format!("no station {id:?} on this node: /api/status lists them"),
+        ));
+    }
+    shared.wanted.mark(id);
+    let arrived = tokio::time::timeout(TRACE_WAIT, async {
+        loop {
+            if traces.changed().await.is_err() {
+                return None;
+            }
+            let next = traces.borrow_and_update().clone();
+            if next.stations.contains_key(id) {
+                return Some(next);
+            }
+        }
+    })
+    .await;
+    match arrived {
+        Ok(Some(next)) => Ok(next),
+        _ => Err((
+            StatusCode::SERVICE_UNAVAILABLE,
+            [(header::RETRY_AFTER, "1")],
+            json!({ "error": format!(
+                "the trace of {id:?} comes with the node's next status ([status] \
+                 diagnostics_period_s): ask again"
+            ) })
+            .to_string(),
+        )
+            .into_response()),
+    }
 }
 
 /// The query of `/api/alerts`.

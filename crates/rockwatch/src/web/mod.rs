@@ -31,7 +31,7 @@ use tokio::sync::{mpsc, watch};
 
 use crate::ports::{Publication, Publisher};
 use crate::status::NodeStatus;
-use crate::traces::TracesSnapshot;
+use crate::traces::{TracesSnapshot, WantedStations};
 pub use api::WebCounters;
 pub use config::{MetricsConfig, WebConfig};
 use server::{HttpThread, Listener};
@@ -49,6 +49,8 @@ pub struct WebServer {
     thread: HttpThread,
     status: watch::Sender<Option<Arc<NodeStatus>>>,
     traces: watch::Sender<Arc<TracesSnapshot>>,
+    /// The stations whose rings the web side asked for (shared with the handlers).
+    wanted: Arc<WantedStations>,
     feed: AlertFeed,
     /// `[web] listen`'s address, when configured.
     web_address: Option<std::net::SocketAddr>,
@@ -66,9 +68,11 @@ impl WebServer {
         let (status, status_rx) = watch::channel(None);
         let (traces, traces_rx) = watch::channel(Arc::new(TracesSnapshot::default()));
         let counters = Arc::new(WebCounters::default());
+        let wanted = Arc::new(WantedStations::default());
         let shared = Arc::new(api::Shared::new(
             status_rx,
             traces_rx,
+            Arc::clone(&wanted),
             Arc::clone(&counters),
         ));
         let (alerts, mut alerts_rx) = mpsc::channel::<Publication>(ALERT_QUEUE);
@@ -116,6 +120,7 @@ impl WebServer {
             thread,
             status,
             traces,
+            wanted,
             feed: AlertFeed { alerts, counters },
             web_address,
             metrics_address,
@@ -143,6 +148,12 @@ impl WebServer {
     /// the previous).
     pub fn update_traces(&self, traces: TracesSnapshot) {
         self.traces.send_replace(Arc::new(traces));
+    }
+
+    /// The stations whose rings the next snapshot should hold ([`crate::traces::Traces::snapshot`]).
+    #[must_use]
+    pub fn wanted_stations(&self) -> &WantedStations {
+        &self.wanted
     }
 
     /// The publisher that hands alerts and resets to the web side (never waits).
@@ -418,7 +429,11 @@ mod tests {
             up: Vec::new(),
             unit: Default::default(),
         });
-        server.update_traces(traces.snapshot());
+        // Not asked for: the snapshot holds no ring.
+        server.update_traces(traces.snapshot(server.wanted_stations()));
+        assert!(server.traces.borrow().stations.is_empty());
+        server.wanted_stations().mark("XX.STA.00");
+        server.update_traces(traces.snapshot(server.wanted_stations()));
         let reply = get(web, "/api/stations/XX.STA.00/trace?seconds=1");
         let body: serde_json::Value =
             serde_json::from_str(reply.split("\r\n\r\n").nth(1).unwrap_or("")).unwrap();
