@@ -22,7 +22,8 @@
 //!   `engine.state_interval_s` while it moves and at each mode change, and from its alerts)
 //!   and [`EPISODE_MARKS`] alert marks; when the points are full every other one is dropped
 //!   and from then on only every 2nd (4th, …) state is kept: the whole episode at a coarser
-//!   step. Alert points are always kept.
+//!   step. An alert's point is always added (a later thinning drops it like any other); its
+//!   mark is kept with the marks.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -243,8 +244,10 @@ impl Default for EpisodeTrace {
     fn default() -> Self {
         EpisodeTrace {
             episode: None,
-            points: Vec::with_capacity(EPISODE_POINTS),
-            marks: Vec::with_capacity(EPISODE_MARKS),
+            // Reserved at the rock's first episode ([`EpisodeTrace::restart`]): a rock that
+            // never moves costs no buffer.
+            points: Vec::new(),
+            marks: Vec::new(),
             ended: true,
             stride: 1,
             skipped: 0,
@@ -253,22 +256,25 @@ impl Default for EpisodeTrace {
 }
 
 impl EpisodeTrace {
-    /// Starts afresh (the buffers are kept).
+    /// Starts afresh (the buffers, allocated at the first episode, are kept).
     fn restart(&mut self, episode: Option<u32>) {
         self.episode = episode;
         self.points.clear();
         self.marks.clear();
+        self.points.reserve_exact(EPISODE_POINTS);
+        self.marks.reserve_exact(EPISODE_MARKS);
         self.ended = false;
         self.stride = 1;
         self.skipped = 0;
     }
 
-    /// Appends `point`; when full, every other point is dropped first and the stride doubles.
-    fn add(&mut self, point: EpisodePoint, always: bool) {
+    /// Appends `point` (unless the stride skips it: then false); when full, every other
+    /// point is dropped first and the stride doubles.
+    fn add(&mut self, point: EpisodePoint, always: bool) -> bool {
         if !always {
             self.skipped += 1;
             if self.skipped < self.stride {
-                return;
+                return false;
             }
         }
         self.skipped = 0;
@@ -281,21 +287,25 @@ impl EpisodeTrace {
             self.stride = self.stride.saturating_mul(2);
         }
         self.points.push(point);
+        true
     }
 
     /// Takes in one of the rock's states. A state never starts a new trace: an episode may
     /// hold brief rests (the engine ends it after a quiet time), and the next episode starts
-    /// with its `motion_onset` alert ([`EpisodeTrace::alert`]).
-    pub fn state(&mut self, point: EpisodePoint) {
+    /// with its `motion_onset` alert ([`EpisodeTrace::alert`]). Returns whether the trace
+    /// changed (a rock at rest or fallen, already recorded so, leaves it as it was).
+    pub fn state(&mut self, point: EpisodePoint) -> bool {
         let moving = !matches!(point.mode, Mode::Rest | Mode::Overturned | Mode::Flight);
         if self.ended && !moving {
-            return; // at rest (or fallen) and already recorded so
+            return false; // at rest (or fallen) and already recorded so
         }
-        self.add(point, !moving);
+        let added = self.add(point, !moving);
+        let ended_changed = self.ended == moving;
         self.ended = !moving;
+        added || ended_changed
     }
 
-    /// Takes in one of the rock's alerts: a mark, and a point (always kept). An alert of
+    /// Takes in one of the rock's alerts: a mark, and a point (always added). An alert of
     /// another episode starts that episode.
     pub fn alert(&mut self, episode: u32, mark: AlertMark, point: EpisodePoint) {
         if self.episode != Some(episode) {
@@ -304,7 +314,7 @@ impl EpisodeTrace {
         if self.marks.len() < EPISODE_MARKS {
             self.marks.push(mark);
         }
-        self.add(point, true);
+        let _ = self.add(point, true);
         if matches!(point.mode, Mode::Overturned | Mode::Flight) {
             self.ended = true;
         }
@@ -401,13 +411,12 @@ impl Traces {
         match publication {
             Publication::State(s) => {
                 let rock = self.rock(&s.pbr_id);
-                rock.trace.state(EpisodePoint {
+                rock.changed |= rock.trace.state(EpisodePoint {
                     data_time_ns: s.data_time_ns,
                     theta_over_alpha: s.theta_over_alpha,
                     slide_m: s.slide_m,
                     mode: s.mode,
                 });
-                rock.changed = true;
             }
             Publication::Alert { alert: a, .. } => {
                 let rock = self.rock(&a.pbr_id);
@@ -458,9 +467,9 @@ impl Traces {
         self.rocks.get(pbr_id).map(|r| &r.trace)
     }
 
-    /// A copy for the web thread: the rings of the stations `wanted` lists, every rock's
-    /// trace (copied only when it changed since the last snapshot), the intensities. Never
-    /// waits on `wanted` (see [`WantedStations`]).
+    /// A copy for the web thread: the rings of the stations `wanted` lists, the trace of every
+    /// rock that has had an episode (copied only when it changed since the last snapshot),
+    /// the intensities. Never waits on `wanted` (see [`WantedStations`]).
     pub fn snapshot(&mut self, wanted: &WantedStations) -> TracesSnapshot {
         if let Ok(mut asked) = wanted.0.try_lock() {
             asked.retain(|_, at| at.elapsed() < WANTED_FOR);
@@ -470,6 +479,7 @@ impl Traces {
         let rocks = self
             .rocks
             .iter_mut()
+            .filter(|(_, rock)| rock.trace.episode.is_some() || !rock.trace.points.is_empty())
             .map(|(id, rock)| {
                 if rock.changed {
                     rock.shared = Arc::new(rock.trace.clone());
@@ -628,6 +638,9 @@ mod tests {
     #[test]
     fn an_episode_trace_is_bounded_and_a_new_episode_starts_afresh() {
         let mut e = EpisodeTrace::default();
+        // A rock that never moved holds no buffer, and its rest states change nothing.
+        assert_eq!((e.points.capacity(), e.marks.capacity()), (0, 0));
+        assert!(!e.state(point(-1, 0.0, Mode::Rest)));
         let mark = |t| AlertMark {
             data_time_ns: t,
             level: AlertLevel::MotionOnset,
@@ -636,6 +649,7 @@ mod tests {
         };
         e.alert(1, mark(0), point(0, 0.1, Mode::Rock));
         let capacity = e.points.capacity();
+        assert_eq!(capacity, EPISODE_POINTS);
         for i in 1..=10 * EPISODE_POINTS as i64 {
             e.state(point(i, 0.2, Mode::Rock));
             assert!(e.points.len() <= EPISODE_POINTS);
@@ -646,9 +660,9 @@ mod tests {
         assert!(e.stride >= 8 && e.points.capacity() == capacity);
         e.state(point(1 << 40, 0.0, Mode::Rest));
         assert!(e.ended);
-        // At rest again: nothing more recorded.
+        // At rest again: nothing more recorded, and the trace did not change.
         let n = e.points.len();
-        e.state(point(1 << 41, 0.0, Mode::Rest));
+        assert!(!e.state(point(1 << 41, 0.0, Mode::Rest)));
         assert_eq!(e.points.len(), n);
         // Moving again within the same episode (no new onset): the same trace goes on.
         e.alert(1, mark(6), point(3 << 40, 0.9, Mode::Rock));

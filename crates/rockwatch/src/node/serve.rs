@@ -200,15 +200,33 @@ impl Reactor {
         let config = &options.config;
         // The 3-D view of the node's own rocks and stations (pbr/markers, /tf_static).
         let scene = {
+            let owned_ids: std::collections::HashSet<&str> =
+                owned.iter().map(|s| s.id.as_str()).collect();
             let own: Vec<&rockwatch_core::catalogue::Pbr> = catalogue
                 .pbrs()
                 .iter()
-                .filter(|p| owned.iter().any(|s| s.id == p.id()))
+                .filter(|p| owned_ids.contains(p.id()))
                 .collect();
             let stations = config
                 .owned_stations()
                 .map_err(|e| anyhow::anyhow!("configuration: {e}"))?;
-            Scene::new(&own, &stations, config.ros2.map_origin)?
+            let partition = config
+                .partitioning()
+                .map_err(|e| anyhow::anyhow!("configuration: {e}"))?
+                .map(|(p, _)| p);
+            match partition {
+                None => Scene::new(&own, &stations, config.ros2.map_origin)?,
+                // Every node of the service must put `map` at the same place: without
+                // [ros2] map_origin, the mean of the whole catalogue, not of its own rocks.
+                Some(partition) => {
+                    let origin = config.ros2.map_origin.or_else(|| {
+                        let all: Vec<&rockwatch_core::catalogue::Pbr> =
+                            catalogue.pbrs().iter().collect();
+                        Scene::mean_origin(&all)
+                    });
+                    Scene::new(&own, &stations, origin)?.in_partition(partition)
+                }
+            }
         };
         drop(catalogue);
         let mut runtime = NodeRuntime::start_with_blocks(options, owned, wake.clone())?;

@@ -3,12 +3,14 @@
 //!
 //! - **Frames.** `map`: a local ENU frame (x east, y north, z up, m; REP 103) whose origin is
 //!   `[ros2] map_origin = [lat, lon, alt]` (WGS84 degrees and ellipsoidal height in m;
-//!   default: the mean position of the node's rocks at altitude 0), positions projected by
+//!   default: the mean position of the node's rocks at altitude 0 — of the whole catalogue's
+//!   when the node has a partition), positions projected by
 //!   the local tangent plane of `rockwatch_core::geodesy` (WGS84 → ECEF → ENU, exact). Each
 //!   rock with a position has the static frame `pbr/<id>` ([`rock_frame`]): its resting base
 //!   point (the ground below its centre of mass; the catalogue has no altitude: the origin's
 //!   is taken), axes parallel to `map`'s. It is `PbrState.header.frame_id`.
-//! - **Markers** (frame `map`; one array is the whole picture: it starts with a DELETEALL):
+//! - **Markers** (frame `map`; one array is the whole picture: it starts with a DELETEALL —
+//!   for a node with a partition, in namespaces suffixed `/p<i>of<N>` and without it):
 //!   per rock a TRIANGLE_LIST (ns `pbr`) — its mesh (heading applied; over
 //!   [`MAX_DISPLAY_TRIANGLES`] triangles, its bounding box) or, for a planar block, its box
 //!   (b₋ + b₊ along its direction, as deep as wide, twice its centre-of-mass height) —
@@ -32,6 +34,7 @@ use rockwatch_core::catalogue::{Geometry, Pbr};
 use rockwatch_core::dynamics::Mode;
 use rockwatch_core::engine::{AlertLevel, StationConfig};
 use rockwatch_core::geodesy::{Geodetic, LocalEnu, RockingPose};
+use rockwatch_core::partition::Partition;
 
 use super::msg::Header;
 pub use super::names::{rock_frame, MAP_FRAME};
@@ -120,6 +123,9 @@ pub struct Scene {
     /// Data time of the latest state taken in (ns; 0 before any).
     stamp_ns: i64,
     dirty: bool,
+    /// The node's partition of a scaled-out service, if any: its markers go in namespaces of
+    /// their own (`pbr/p<i>of<N>`…) and no DELETEALL clears the other nodes' markers.
+    partition: Option<Partition>,
 }
 
 impl Scene {
@@ -132,18 +138,11 @@ impl Scene {
         stations: &[StationConfig],
         origin: Option<[f64; 3]>,
     ) -> Result<Scene, SceneError> {
-        let placed: Vec<(f64, f64)> = pbrs
-            .iter()
-            .map(|p| (p.lat_deg(), p.lon_deg()))
-            .filter(|(lat, lon)| Geodetic::new(*lat, *lon, 0.0).is_ok())
-            .collect();
         let origin = match origin {
             Some(given) => Geodetic::new(given[0], given[1], given[2])
                 .map_err(|error| SceneError::Origin { given, error })?,
             None => {
-                let n = placed.len().max(1) as f64;
-                let lat = placed.iter().map(|p| p.0).sum::<f64>() / n;
-                let lon = placed.iter().map(|p| p.1).sum::<f64>() / n;
+                let [lat, lon, _] = Self::mean_origin(pbrs).unwrap_or([0.0; 3]);
                 let origin = Geodetic::new(lat, lon, 0.0).unwrap_or(Geodetic {
                     lat_deg: 0.0,
                     lon_deg: 0.0,
@@ -191,7 +190,51 @@ impl Scene {
             stations,
             stamp_ns: 0,
             dirty: true,
+            partition: None,
         })
+    }
+
+    /// The mean position of those of `pbrs` that have one, at altitude 0 (`[lat, lon, 0]`,
+    /// degrees and m): latitudes averaged, longitudes averaged on the circle (rocks either
+    /// side of ±180° average near it, not near 0°). None when none has a position.
+    #[must_use]
+    pub fn mean_origin(pbrs: &[&Pbr]) -> Option<[f64; 3]> {
+        let placed: Vec<(f64, f64)> = pbrs
+            .iter()
+            .map(|p| (p.lat_deg(), p.lon_deg()))
+            .filter(|(lat, lon)| Geodetic::new(*lat, *lon, 0.0).is_ok())
+            .collect();
+        if placed.is_empty() {
+            return None;
+        }
+        let lat = placed.iter().map(|p| p.0).sum::<f64>() / placed.len() as f64;
+        let (sin, cos) = placed.iter().fold((0.0, 0.0), |(s, c), p| {
+            let (ps, pc) = p.1.to_radians().sin_cos();
+            (s + ps, c + pc)
+        });
+        Some([lat, sin.atan2(cos).to_degrees(), 0.0])
+    }
+
+    /// The view of one node of a scaled-out service (`partition = "i/N"`): the other nodes
+    /// publish the same topics, so its markers get namespaces of their own and the arrays no
+    /// DELETEALL (which would clear the other nodes' markers in RViz).
+    #[must_use]
+    pub fn in_partition(mut self, partition: Partition) -> Scene {
+        self.partition = Some(partition);
+        self
+    }
+
+    /// Marker namespace `base`, with the partition's suffix (`pbr/p0of3`) when partitioned.
+    fn namespace(&self, base: &str) -> String {
+        match self.partition {
+            Some(p) => format!("{base}/p{}of{}", p.index(), p.count()),
+            None => base.to_string(),
+        }
+    }
+
+    /// The markers must be sent again (the last array could not be published).
+    pub fn mark_dirty(&mut self) {
+        self.dirty = true;
     }
 
     /// The map origin.
@@ -243,7 +286,10 @@ impl Scene {
             }
             Publication::Alert { alert, .. } if alert.level == AlertLevel::Overturned => self
                 .update(&alert.pbr_id, |r| {
-                    if r.look != RockLook::Fallen && r.theta_rad.abs() < 1e-9 {
+                    if r.look != RockLook::Fallen
+                        && r.theta_rad.abs() < 1e-9
+                        && alert.direction_deg.is_finite()
+                    {
                         r.theta_rad = std::f64::consts::FRAC_PI_2.copysign(alert.theta_over_alpha);
                         r.direction_deg = alert.direction_deg;
                     }
@@ -291,7 +337,11 @@ impl Scene {
             RockLook::Standing.color(),
         );
         clear.action = MARKER_DELETEALL;
-        let mut markers = vec![clear];
+        let mut markers = match self.partition {
+            None => vec![clear],
+            // The other nodes' markers stay: this node's replace its own (same ns and id).
+            Some(_) => Vec::new(),
+        };
         let white = ColorRgba {
             r: 1.0,
             g: 1.0,
@@ -317,7 +367,7 @@ impl Scene {
             ];
             let mut body = Marker::new(
                 header.clone(),
-                "pbr",
+                &self.namespace("pbr"),
                 id,
                 MARKER_TRIANGLE_LIST,
                 pose(position, Quaternion { x, y, z, w }),
@@ -332,7 +382,7 @@ impl Scene {
             markers.push(body);
             let mut label = Marker::new(
                 header.clone(),
-                "pbr_label",
+                &self.namespace("pbr_label"),
                 id,
                 MARKER_TEXT_VIEW_FACING,
                 pose(
@@ -354,7 +404,7 @@ impl Scene {
             let [e, n, u] = station.enu;
             markers.push(Marker::new(
                 header.clone(),
-                "station",
+                &self.namespace("station"),
                 id,
                 MARKER_CYLINDER,
                 pose([e, n, u + 0.5], Quaternion::IDENTITY),
@@ -372,7 +422,7 @@ impl Scene {
             ));
             let mut label = Marker::new(
                 header.clone(),
-                "station_label",
+                &self.namespace("station_label"),
                 id,
                 MARKER_TEXT_VIEW_FACING,
                 pose([e, n, u + 1.5], Quaternion::IDENTITY),
@@ -614,6 +664,8 @@ impl MarkerPublisher {
         self.last = Some(Instant::now());
         let array = scene.take_markers();
         if let Err(e) = self.markers.publish(array) {
+            // Sent again at the next tick: the last change (often "fallen") is not lost.
+            scene.mark_dirty();
             self.failed("pbr/markers", &format!("{e:?}"));
         }
     }
@@ -736,6 +788,44 @@ mod tests {
         assert_eq!(body(&m, "pbr", 1).pose.orientation, Quaternion::IDENTITY);
         // An unknown rock changes nothing.
         assert!(!scene.observe(&state("zz", Mode::Rock, 0.1)));
+    }
+
+    #[test]
+    fn a_partition_s_markers_have_namespaces_of_their_own_and_no_deleteall() {
+        let cat = catalogue();
+        let pbrs: Vec<&Pbr> = cat.pbrs().iter().collect();
+        let partition = Partition::new(1, 3).unwrap();
+        let mut scene = Scene::new(&pbrs, &[], Some([34.28, -118.48, 0.0]))
+            .unwrap()
+            .in_partition(partition);
+        let array = scene.take_markers();
+        assert!(array.markers.iter().all(|m| m.action != MARKER_DELETEALL));
+        assert_eq!(body(&array, "pbr/p1of3", 0).id, 0);
+        assert_eq!(body(&array, "pbr_label/p1of3", 1).text, "b");
+        assert!(array.markers.iter().all(|m| m.ns.ends_with("/p1of3")));
+        // A failed publication is sent again.
+        assert!(!scene.dirty());
+        scene.mark_dirty();
+        assert!(scene.dirty());
+    }
+
+    #[test]
+    fn the_default_origin_averages_longitudes_on_the_circle() {
+        let text = "[[pbr]]\nid = \"e\"\nname = \"e\"\nlat = 10.0\nlon = 179.9\n\
+                    station = \"XX.A.00\"\nazimuth_deg = 0.0\nwidth_m = 1.0\nheight_m = 1.0\n\
+                    mu_s = 0.9\nmu_k = 0.7\nsource = \"test\"\n\n\
+                    [[pbr]]\nid = \"w\"\nname = \"w\"\nlat = 20.0\nlon = -179.9\n\
+                    station = \"XX.A.00\"\nazimuth_deg = 0.0\nwidth_m = 1.0\nheight_m = 1.0\n\
+                    mu_s = 0.9\nmu_k = 0.7\nsource = \"test\"\n";
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.toml");
+        std::fs::write(&path, text).unwrap();
+        let cat = Catalogue::load(&path).unwrap();
+        let pbrs: Vec<&Pbr> = cat.pbrs().iter().collect();
+        let [lat, lon, alt] = Scene::mean_origin(&pbrs).unwrap();
+        assert!((lat - 15.0).abs() < 1e-12 && alt == 0.0);
+        assert!((lon.abs() - 180.0).abs() < 1e-9, "{lon}");
+        assert_eq!(Scene::mean_origin(&[]), None);
     }
 
     #[test]

@@ -469,11 +469,14 @@ async fn station_traces(shared: &Shared, id: &str) -> Result<Arc<TracesSnapshot>
         shared.wanted.mark(id);
         return Ok(current);
     }
-    let known = shared
-        .status
-        .borrow()
-        .as_ref()
-        .is_some_and(|s| s.stations.iter().any(|st| st.health.station == id));
+    let known = match shared.status.borrow().as_ref() {
+        Some(s) => s.stations.iter().any(|st| st.health.station == id),
+        None => {
+            return Err(retry_later(
+                "the node has not made its first status yet: ask again".into(),
+            ))
+        }
+    };
     if !known {
         return Err(error(
             StatusCode::NOT_FOUND,
@@ -495,17 +498,24 @@ async fn station_traces(shared: &Shared, id: &str) -> Result<Arc<TracesSnapshot>
     .await;
     match arrived {
         Ok(Some(next)) => Ok(next),
-        _ => Err((
-            StatusCode::SERVICE_UNAVAILABLE,
-            [(header::RETRY_AFTER, "1")],
-            json!({ "error": format!(
-                "the trace of {id:?} comes with the node's next status ([status] \
-                 diagnostics_period_s): ask again"
-            ) })
-            .to_string(),
-        )
-            .into_response()),
+        _ => Err(retry_later(format!(
+            "the trace of {id:?} comes with the node's next status ([status] \
+             diagnostics_period_s): ask again"
+        ))),
     }
+}
+
+/// 503 with `Retry-After: 1`.
+fn retry_later(message: String) -> Response {
+    (
+        StatusCode::SERVICE_UNAVAILABLE,
+        [
+            (header::RETRY_AFTER, "1"),
+            (header::CONTENT_TYPE, "application/json"),
+        ],
+        json!({ "error": message }).to_string(),
+    )
+        .into_response()
 }
 
 /// The query of `/api/alerts`.
