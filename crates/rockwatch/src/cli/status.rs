@@ -27,8 +27,9 @@ pub const EXIT_ALARM: u8 = 1;
 /// Exit code when the status could not be read.
 pub const EXIT_ERROR: u8 = 2;
 
-/// Longest answer read from the node (bytes).
-const MAX_ANSWER_BYTES: u64 = 16 << 20;
+/// Longest answer read from the node (bytes): `/api/status` is about 300 B per rock, so
+/// 256 MiB holds the 100 000-rock capacity case with room.
+const MAX_ANSWER_BYTES: u64 = 256 << 20;
 
 /// What stands now: every rock (state, direction, peak |θ|/α of its last episode,
 /// P(overturn), its station's health) and every station, from a running node or a state
@@ -181,12 +182,12 @@ impl Report {
             out += &format!(
                 "{:<24} {:<13} {:>9} {:>11} {:>11} {:<14} {}\n",
                 printable(&r.pbr_id, 64),
-                r.state,
+                printable(&r.state, 16),
                 dash(r.direction_deg, "°"),
                 dash(r.peak_theta_over_alpha, ""),
                 dash(r.overturn_probability, ""),
                 printable(&r.station, 32),
-                self.health(&r.station)
+                printable(self.health(&r.station), 16)
             );
         }
         out += &format!(
@@ -197,12 +198,19 @@ impl Report {
             out += &format!(
                 "{:<14} {:<12} {:>10} {:>10}  {}\n",
                 printable(&s.id, 32),
-                s.health,
+                printable(&s.health, 16),
                 dash(s.data_latency_s, " s"),
                 dash(s.seconds_since_last_packet, " s"),
                 printable(&s.message, 200)
             );
         }
+        // Ids come from the node's answer or a journal: printed escaped, as every cell.
+        let ids = |ids: &[&str]| -> String {
+            ids.iter()
+                .map(|id| printable(id, 64))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         let (fallen, stale) = (self.fallen(), self.stale());
         out += &if fallen.is_empty() && stale.is_empty() {
             format!(
@@ -213,14 +221,10 @@ impl Report {
         } else {
             let mut parts = Vec::new();
             if !fallen.is_empty() {
-                parts.push(format!("{} fallen ({})", fallen.len(), fallen.join(", ")));
+                parts.push(format!("{} fallen ({})", fallen.len(), ids(&fallen)));
             }
             if !stale.is_empty() {
-                parts.push(format!(
-                    "{} stations stale ({})",
-                    stale.len(),
-                    stale.join(", ")
-                ));
+                parts.push(format!("{} stations stale ({})", stale.len(), ids(&stale)));
             }
             format!("ALARM: {}\n", parts.join("; "))
         };
@@ -275,7 +279,10 @@ fn fetch_status(url: &str, token: Option<&str>, timeout_s: f64) -> anyhow::Resul
     }
     let endpoint = format!("{base}/api/status");
     let agent: ureq::Agent = ureq::Agent::config_builder()
-        .timeout_global(Some(Duration::from_secs_f64(timeout_s)))
+        .timeout_global(Some(
+            Duration::try_from_secs_f64(timeout_s)
+                .with_context(|| format!("--timeout-s {timeout_s}: not a duration"))?,
+        ))
         .http_status_as_error(false)
         .user_agent(concat!("rockwatch/", env!("CARGO_PKG_VERSION")))
         .build()
@@ -297,7 +304,7 @@ fn fetch_status(url: &str, token: Option<&str>, timeout_s: f64) -> anyhow::Resul
     if !status.is_success() {
         let reason = serde_json::from_str::<Value>(&body)
             .ok()
-            .and_then(|v| v["error"].as_str().map(str::to_owned))
+            .and_then(|v| v["error"].as_str().map(|e| printable(e, 200)))
             .unwrap_or_else(|| printable(&body, 200));
         bail!("{endpoint}: HTTP {status}: {reason}");
     }
@@ -444,6 +451,27 @@ fn from_state_dir(dir: &Path, catalogue: Option<&Path>) -> anyhow::Result<Report
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_table_escapes_what_the_node_or_a_journal_says() {
+        let r = Report {
+            rocks: vec![RockRow {
+                pbr_id: "a\u{1b}[2J".into(),
+                station: "XX.A.00".into(),
+                state: "fallen".into(),
+                ..RockRow::default()
+            }],
+            stations: vec![StationRow {
+                id: "XX.A.00".into(),
+                health: "OK\u{1b}]0;x\u{7}".into(),
+                ..StationRow::default()
+            }],
+            ..Report::default()
+        };
+        let text = r.text();
+        assert!(!text.contains('\u{1b}') && !text.contains('\u{7}'), "{text:?}");
+        assert!(text.contains("ALARM: 1 fallen (a\\u{1b}[2J)"), "{text}");
+    }
 
     #[test]
     fn the_exit_code_is_1_for_a_fallen_rock_or_a_stale_station_only() {
