@@ -19,9 +19,10 @@
 //! - a fallen member's outcome never changes (overturned is terminal), so it is not visited.
 //!
 //! Only a member's [`RigidBlock::stats`] and step counts start again when it is rebuilt; the
-//! engine reads neither of a member. The moving members' list grows to the largest number in
-//! motion at once (amortised doubling, at most ⌈log₂ K⌉ + 1 allocations per direction in a
-//! node's life, K members) and never shrinks.
+//! engine reads neither of a member. The moving members' list is allocated once, for all K
+//! members of the direction, when its first member moves (one allocation per direction in a
+//! node's life, not a doubling series in the first seconds of strong shaking), and freed by a
+//! reset (an operator's act, not the hot path).
 
 use crate::dynamics::block::{rest_holds_with, rest_limits_of, RestRecord};
 use crate::dynamics::{BlockOptions, BlockParams, GroundAccel, Mode, RestLimit, RigidBlock};
@@ -282,6 +283,7 @@ impl Members {
             let shared = self.rest_limit.holds(to) && self.rest_limit.holds(from);
             if !shared {
                 let g = self.rest_limit_gravity();
+                let members = self.states.len();
                 for (i, state) in self.states.iter_mut().enumerate() {
                     let State::Rest(record) = *state else {
                         continue;
@@ -297,6 +299,10 @@ impl Members {
                         record,
                     );
                     *state = State::Moving;
+                    if self.moving.capacity() == 0 {
+                        // Room for every member at once: the only allocation of the list.
+                        self.moving.reserve_exact(members);
+                    }
                     self.moving.push((i as u32, block));
                 }
             }
@@ -394,7 +400,8 @@ impl Members {
 
     /// Every member standing again at rest at time 0 ([`RigidBlock::new`]).
     fn reset(&mut self) {
-        self.moving.clear();
+        // Standing again: the room the moving members took is given back.
+        self.moving = Vec::new();
         self.states
             .fill(State::Rest(Self::fresh_record(self.options)));
         self.clock_s = 0.0;
@@ -643,13 +650,17 @@ mod tests {
             vertical_mps2: 0.0,
         };
         let mut fell = 0;
-        for _ in 0..400 {
+        members.advance(0.01, hard, hard, |_| fell += 1);
+        // The moving list: one allocation, room for every member.
+        assert_eq!(members.moving.capacity(), params.len());
+        for _ in 1..400 {
             members.advance(0.01, hard, hard, |_| fell += 1);
         }
         assert_eq!(fell, 10, "every member falls once");
         assert!(members.moving.is_empty(), "fallen members are not stepped");
         assert!(members.settled());
         members.reset();
+        assert_eq!(members.moving.capacity(), 0, "a reset gives the room back");
         assert_eq!(members.member(3).mode, Mode::Rest);
         assert_eq!(members.params(3), params[3]);
     }

@@ -469,7 +469,10 @@ mod tests {
             ..Report::default()
         };
         let text = r.text();
-        assert!(!text.contains('\u{1b}') && !text.contains('\u{7}'), "{text:?}");
+        assert!(
+            !text.contains('\u{1b}') && !text.contains('\u{7}'),
+            "{text:?}"
+        );
         assert!(text.contains("ALARM: 1 fallen (a\\u{1b}[2J)"), "{text}");
     }
 
