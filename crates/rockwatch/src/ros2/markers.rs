@@ -51,6 +51,10 @@ pub const MARKER_PERIOD: Duration = Duration::from_millis(200);
 /// Most triangles of a rock's mesh drawn; a larger mesh is drawn as its bounding box.
 pub const MAX_DISPLAY_TRIANGLES: usize = 20_000;
 
+/// Most triangles of the whole view (one array: 72 B a triangle, ≈ 7 MB): beyond it the
+/// largest meshes are drawn as their bounding boxes (12 triangles) until the view fits.
+pub const MAX_SCENE_TRIANGLES: usize = 100_000;
+
 /// A `[ros2] map_origin` or rock position the view refuses.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -160,6 +164,7 @@ impl Scene {
         let frame = LocalEnu::new(origin);
         let mut rocks: Vec<SceneRock> = pbrs.iter().map(|p| scene_rock(p, &frame)).collect();
         rocks.sort_by(|a, b| a.id.cmp(&b.id));
+        fit_budget(&mut rocks, MAX_SCENE_TRIANGLES);
         let unplaced: Vec<&str> = rocks
             .iter()
             .filter(|r| r.enu.is_none())
@@ -510,7 +515,7 @@ fn scene_rock(pbr: &Pbr, frame: &LocalEnu) -> SceneRock {
                 .collect();
             let triangles = mesh.rock().triangles_at_rest(rest, heading);
             if triangles.len() > MAX_DISPLAY_TRIANGLES {
-                bounding_box(&triangles)
+                bounding_box(triangles.iter().flatten().copied())
             } else {
                 triangles
             }
@@ -588,11 +593,46 @@ fn planar_box(
     box_triangles(&std::array::from_fn(corner))
 }
 
-/// The axis-aligned bounding box of `triangles`.
-fn bounding_box(triangles: &[[[f64; 3]; 3]]) -> Vec<[[f64; 3]; 3]> {
+/// Draws the largest meshes of `rocks` as their bounding boxes until the view has at most
+/// `budget` triangles (or every rock is a box); says how many, if any.
+fn fit_budget(rocks: &mut [SceneRock], budget: usize) {
+    let triangles = |r: &SceneRock| r.points.len() / 3;
+    let mut total: usize = rocks.iter().map(triangles).sum();
+    if total <= budget {
+        return;
+    }
+    let mut largest: Vec<usize> = (0..rocks.len()).collect();
+    largest.sort_by_key(|&i| std::cmp::Reverse(triangles(&rocks[i])));
+    let mut boxed = 0;
+    for i in largest {
+        let n = triangles(&rocks[i]);
+        if total <= budget || n <= 12 {
+            break;
+        }
+        let corners = bounding_box(rocks[i].points.iter().map(|p| [p.x, p.y, p.z]));
+        rocks[i].points = corners
+            .iter()
+            .flatten()
+            .map(|p| Point {
+                x: p[0],
+                y: p[1],
+                z: p[2],
+            })
+            .collect();
+        total -= n - 12;
+        boxed += 1;
+    }
+    tracing::info!(
+        "3-D view: {boxed} meshes drawn as their bounding boxes, to keep the view within \
+         {budget} triangles ({total} now)"
+    );
+}
+
+/// The axis-aligned bounding box of `points`.
+fn bounding_box(points: impl Iterator<Item = [f64; 3]>) -> Vec<[[f64; 3]; 3]> {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
-    for p in triangles.iter().flatten() {
+    for p in points {
         for k in 0..3 {
             lo[k] = lo[k].min(p[k]);
             hi[k] = hi[k].max(p[k]);
@@ -807,6 +847,39 @@ mod tests {
         assert!(!scene.dirty());
         scene.mark_dirty();
         assert!(scene.dirty());
+    }
+
+    #[test]
+    fn the_largest_meshes_become_boxes_until_the_view_fits_its_budget() {
+        let rock = |id: &str, triangles: usize| SceneRock {
+            id: id.into(),
+            enu: Some([0.0; 3]),
+            points: (0..3 * triangles)
+                .map(|k| Point {
+                    x: k as f64,
+                    y: -(k as f64),
+                    z: (k % 7) as f64,
+                })
+                .collect(),
+            height_m: 1.0,
+            pivots: Vec::new(),
+            look: RockLook::Standing,
+            theta_rad: 0.0,
+            slide_m: 0.0,
+            direction_deg: 0.0,
+        };
+        let mut rocks = vec![rock("a", 30), rock("b", 20), rock("c", 6)];
+        fit_budget(&mut rocks, 40);
+        let sizes: Vec<usize> = rocks.iter().map(|r| r.points.len() / 3).collect();
+        assert_eq!(sizes, [12, 20, 6]);
+        // The box spans the mesh's extremes.
+        let xs: Vec<f64> = rocks[0].points.iter().map(|p| p.x).collect();
+        assert_eq!(xs.iter().copied().fold(f64::INFINITY, f64::min), 0.0);
+        assert_eq!(xs.iter().copied().fold(f64::NEG_INFINITY, f64::max), 89.0);
+        // Within budget: nothing changes.
+        let mut small = vec![rock("a", 10)];
+        fit_budget(&mut small, 40);
+        assert_eq!(small[0].points.len(), 30);
     }
 
     #[test]

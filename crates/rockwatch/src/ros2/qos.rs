@@ -30,11 +30,12 @@ pub fn output_qos() -> QosProfile {
 
 /// QoS of `pbr/markers` and `/tf_static`: reliable, transient local, keep last 1 (tf2's
 /// static broadcaster's profile): a subscriber that joins late gets the last array, which is
-/// the whole picture.
+/// the whole picture. A full writer fails the publication at once (the view is sent again at
+/// the next tick) instead of making the event loop wait.
 #[must_use]
 pub fn view_qos() -> QosProfile {
     QosProfile::publisher_default()
-        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .reliability_reliable(WhenFull::Fail)
         .durability(Durability::TransientLocal)
         .history(History::KeepLast { depth: 1 })
 }
