@@ -490,9 +490,10 @@ impl NodeRuntime {
             let tally = engine.source_tally();
             (EngineMode::Sharded(engine), tally)
         };
-        Ok(NodeRuntime {
+        let mut runtime = NodeRuntime {
             engine: Some(engine),
             emit: Emitter {
+                reports: None,
                 marker_errors: 0,
                 journal,
                 epoch: Instant::now(),
@@ -516,7 +517,7 @@ impl NodeRuntime {
             busy_ns: 0,
             data_s: 0.0,
             tally,
-            pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+            pbr_ids: specs.iter().map(|s| s.id.clone()).collect(),
             stations,
             imminent_theta_ratio: config.engine.alerts.imminent_theta_ratio,
             foreign_pbr_ids: HashSet::new(),
@@ -525,7 +526,30 @@ impl NodeRuntime {
                 .reject_future
                 .then_some((config.engine.plausibility.max_ahead_s * 1e9) as i64),
             journaled,
-        })
+        };
+        // Event reports go with a state directory; one that cannot take them (e.g. a full
+        // disk) leaves the node without reports, never without monitoring.
+        if let Some(dir) = options.state_dir_path() {
+            let stations = runtime.traced_stations();
+            match crate::reports::ReportFeed::start(&dir, &specs, &stations, &config.engine.alerts)
+            {
+                Ok(feed) => runtime.emit.reports = Some(feed),
+                Err(e) => tracing::error!(
+                    target: "rockwatch::reports",
+                    "event reports disabled: {e}"
+                ),
+            }
+        }
+        Ok(runtime)
+    }
+
+    /// The event report writer's counts (None: no state directory, or it refused reports).
+    #[must_use]
+    pub fn report_counts(&self) -> Option<Arc<crate::reports::ReportCounts>> {
+        self.emit
+            .reports
+            .as_ref()
+            .map(crate::reports::ReportFeed::counts)
     }
 
     /// The node's stations now with their gains ((m/s²)/count): those of `[[station]]` (this
@@ -626,6 +650,9 @@ impl NodeRuntime {
             return;
         }
         self.emit.stats.packets += 1;
+        if let Some(reports) = &mut self.emit.reports {
+            reports.traces.push_packet(&packet);
+        }
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
                 // Each alert is journaled and published the moment the engine raises it; the
@@ -996,7 +1023,14 @@ impl NodeRuntime {
         };
         // A last attempt for what waits; what still waits is in `stats.journal_backlog`.
         self.emit.retry_journal();
+        // The reports queued are written before this returns.
+        let reports = self
+            .emit
+            .reports
+            .take()
+            .map(crate::reports::ReportFeed::finish);
         Stopped {
+            reports,
             engines,
             stats: self.emit.stats,
             notice_counts: self.emit.notice_counts,
@@ -1013,6 +1047,8 @@ pub struct Stopped {
     pub stats: NodeStats,
     /// Notices per (station, kind), with [`NoticeLog::Counted`] (else empty).
     pub notice_counts: BTreeMap<(String, &'static str), u64>,
+    /// The event report writer's counts, its queue written (None: no reports).
+    pub reports: Option<Arc<crate::reports::ReportCounts>>,
 }
 
 impl Stopped {

@@ -62,6 +62,9 @@ pub(super) struct Emitter {
     pub(super) rocks: BTreeMap<String, RockStatus>,
     /// `Published` markers that could not be journaled.
     pub(super) marker_errors: u64,
+    /// Event reports (with a state directory): the traces they need, fed here with each
+    /// publication and by the runtime with each packet.
+    pub(super) reports: Option<crate::reports::ReportFeed>,
 }
 
 impl Emitter {
@@ -208,11 +211,19 @@ impl<P: FnMut(Publication)> EmitSink<'_, P> {
                         rock.observe(s.mode, s.theta_over_alpha, Some(s.not_monitored));
                         rock.observe_direction(s.direction_deg, s.overturn_probability);
                     }
-                    publish(Publication::State(s));
+                    let publication = Publication::State(s);
+                    if let Some(reports) = &mut emit.reports {
+                        reports.observe(&publication);
+                    }
+                    publish(publication);
                 }
                 Output::Intensity(i) => {
                     emit.stats.intensities += 1;
-                    publish(Publication::Intensity(i));
+                    let publication = Publication::Intensity(i);
+                    if let Some(reports) = &mut emit.reports {
+                        reports.observe(&publication);
+                    }
+                    publish(publication);
                 }
                 _ => {}
             }
@@ -276,13 +287,25 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 if self.emit.notice_log == NoticeLog::RateLimited {
                     log_alert(&alert, &latency, !journaled);
                 }
-                (self.publish)(Publication::Alert {
+                let publication = Publication::Alert {
                     alert,
                     latency_ns,
                     journal_pending: !journaled,
-                });
+                };
+                if let Some(reports) = &mut self.emit.reports {
+                    reports.observe(&publication);
+                }
+                (self.publish)(publication);
             }
-            Output::EpisodeEnd { .. } => {}
+            Output::EpisodeEnd {
+                pbr_id,
+                episode,
+                data_time_ns,
+            } => {
+                if let Some(reports) = &mut self.emit.reports {
+                    reports.episode_end(&pbr_id, episode, data_time_ns);
+                }
+            }
             Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
             Output::Notice(n) => self.emit.notice(&n),
             Output::Health(change) => log_health(&change, self.emit.stale_after_s),
