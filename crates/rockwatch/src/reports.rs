@@ -159,18 +159,25 @@ pub struct EventReport {
 }
 
 impl EventReport {
-    /// `<UTC data time>_<pbr>` (the time as `YYYYMMDDThhmmss.fffZ`: sorts as time, no `_`).
+    /// Its file name without extension ([`report_stem`]).
     #[must_use]
     pub fn file_stem(&self) -> String {
-        let iso = rockwatch_core::utc::format_utc_ns(i128::from(self.data_time_ns));
-        // YYYY-MM-DDThh:mm:ss.fffffffffZ → YYYYMMDDThhmmss.fffZ
-        let compact: String = iso
-            .chars()
-            .filter(|c| *c != '-' && *c != ':')
-            .take(19)
-            .collect();
-        format!("{compact}Z_{}", self.pbr_id)
+        report_stem(self.data_time_ns, &self.pbr_id)
     }
+}
+
+/// The file name (without extension) of `pbr_id`'s report of an event at `data_time_ns`:
+/// `<UTC data time>_<pbr>`, the time as `YYYYMMDDThhmmss.fffZ` (sorts as time, no `_`).
+#[must_use]
+pub fn report_stem(data_time_ns: i64, pbr_id: &str) -> String {
+    let iso = rockwatch_core::utc::format_utc_ns(i128::from(data_time_ns));
+    // YYYY-MM-DDThh:mm:ss.fffffffffZ → YYYYMMDDThhmmss.fffZ
+    let compact: String = iso
+        .chars()
+        .filter(|c| *c != '-' && *c != ':')
+        .take(19)
+        .collect();
+    format!("{compact}Z_{pbr_id}")
 }
 
 /// Counts of the report writer (shared with the writer thread).
