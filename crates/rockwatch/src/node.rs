@@ -33,6 +33,7 @@ use delivery::Emitter;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -943,6 +944,8 @@ impl NodeRuntime {
             .then(|| self.data_s / (self.busy_ns as f64 * 1e-9));
         (self.busy_ns, self.data_s) = (0, 0.0);
         let stats = self.emit.stats;
+        let reports = self.emit.reports.as_ref().map(|r| r.counts());
+        let reports = reports.as_deref();
         NodeStatus {
             stamp_ns: epoch_utc_ns + now,
             stations,
@@ -951,6 +954,9 @@ impl NodeRuntime {
             journal_failures: stats.journal_failures,
             journal_backlog: stats.journal_backlog,
             journal_dropped: stats.journal_dropped,
+            reports_written: reports.map_or(0, |c| c.written.load(Ordering::Relaxed)),
+            reports_dropped: reports.map_or(0, |c| c.dropped.load(Ordering::Relaxed)),
+            reports_failed: reports.map_or(0, |c| c.failed.load(Ordering::Relaxed)),
             ros2_up: transports.ros2_up,
             ros2_rebuilds: transports.ros2_rebuilds,
             iceoryx2: transports.iceoryx2,
