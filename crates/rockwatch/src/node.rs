@@ -544,6 +544,28 @@ impl NodeRuntime {
         Ok(runtime)
     }
 
+    /// Feeds the traces (each station's recent data, each rock's episode) for the web
+    /// dashboard: without a state directory they are not kept otherwise.
+    pub fn enable_traces(&mut self) {
+        if self.emit.reports.is_none() {
+            let stations = self.traced_stations();
+            self.emit.reports = Some(crate::reports::ReportFeed::traces_only(&stations));
+        }
+    }
+
+    /// After a reload: a trace for each new station ([`crate::traces::Traces::configure`]).
+    pub fn configure_traces(&mut self) {
+        let stations = self.traced_stations();
+        if let Some(reports) = &mut self.emit.reports {
+            reports.traces.configure(&stations);
+        }
+    }
+
+    /// A copy of the traces for the web thread (None: not kept).
+    pub fn traces_snapshot(&mut self) -> Option<crate::traces::TracesSnapshot> {
+        self.emit.reports.as_mut().map(|r| r.traces.snapshot())
+    }
+
     /// The event report writer's counts (None: no state directory, or it refused reports).
     #[must_use]
     pub fn report_counts(&self) -> Option<Arc<crate::reports::ReportCounts>> {

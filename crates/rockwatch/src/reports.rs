@@ -190,7 +190,8 @@ pub struct ReportCounts {
     pub failed: AtomicU64,
 }
 
-/// The event loop's side: the traces a report needs, and the writer's queue.
+/// The event loop's side: the traces a report needs (the web dashboard's too), and the
+/// writer's queue (none: [`ReportFeed::traces_only`]).
 pub struct ReportFeed {
     /// Fed each packet and publication by the runtime.
     pub traces: Traces,
@@ -269,6 +270,22 @@ impl ReportFeed {
             worker: Some(worker),
             counts,
         })
+    }
+
+    /// The traces without reports (no state directory: the web dashboard's only).
+    #[must_use]
+    pub fn traces_only(stations: &[(String, Option<f64>)]) -> ReportFeed {
+        ReportFeed {
+            traces: Traces::new(stations),
+            rocks: HashMap::new(),
+            thresholds: Thresholds {
+                imminent_theta_ratio: 1.0,
+                imminent_probability: 1.0,
+            },
+            sender: None,
+            worker: None,
+            counts: Arc::new(ReportCounts::default()),
+        }
     }
 
     /// The writer's counts.
@@ -691,4 +708,82 @@ where
     chart.draw_series(alert_lines(lo, hi))?;
     root.present()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn report(pbr: &str, t_s: i64, episode: u32) -> EventReport {
+        EventReport {
+            pbr_id: pbr.into(),
+            episode: Some(episode),
+            reason: ReportReason::EpisodeEnd,
+            data_time_ns: t_s * 1_000_000_000,
+            data_time: String::new(),
+            rock: RockParams {
+                name: "n".into(),
+                station: "XX.STA.00".into(),
+                azimuth_deg: 90.0,
+                b_plus_m: 0.1,
+                b_minus_m: 0.1,
+                com_height_m: 0.5,
+                alpha_rad: 0.2,
+                mu_s: 0.7,
+                mu_k: 0.5,
+            },
+            thresholds: Thresholds {
+                imminent_theta_ratio: 0.8,
+                imminent_probability: 0.5,
+            },
+            station: None,
+            intensity: None,
+            points: Vec::new(),
+            alerts: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn names_sort_by_time_and_each_rock_keeps_its_newest() {
+        assert_eq!(
+            report("a_b", 1_700_000_000, 1).file_stem(),
+            "20231114T221320.000Z_a_b"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let reports = dir.path().join(DIR);
+        std::fs::create_dir_all(&reports).unwrap();
+        // Rock "b" and rock "a_b" (an id with "_"): each its own reports.
+        for i in 0..KEEP_PER_ROCK as i64 + 3 {
+            let r = report("b", 1_000 + i, 1 + i as u32 / 10);
+            std::fs::write(
+                reports.join(format!("{}.json", r.file_stem())),
+                serde_json::to_vec(&r).unwrap(),
+            )
+            .unwrap();
+            prune(&reports, "b", KEEP_PER_ROCK).unwrap();
+        }
+        let other = report("a_b", 500, 7);
+        std::fs::write(
+            reports.join(format!("{}.json", other.file_stem())),
+            serde_json::to_vec(&other).unwrap(),
+        )
+        .unwrap();
+        prune(&reports, "b", KEEP_PER_ROCK).unwrap();
+        let kept = list_reports(&reports, "b").unwrap();
+        assert_eq!(kept.len(), KEEP_PER_ROCK);
+        assert_eq!(
+            read_report(&kept[0]).unwrap().data_time_ns,
+            1_003_000_000_000
+        );
+        assert_eq!(list_reports(&reports, "a_b").unwrap().len(), 1);
+        // The last report, of all or of an episode.
+        let last = find_report(dir.path(), "b", None).unwrap();
+        assert_eq!(read_report(&last).unwrap().data_time_ns, 1_022_000_000_000);
+        let of_2 = find_report(dir.path(), "b", Some(2)).unwrap();
+        assert_eq!(read_report(&of_2).unwrap().data_time_ns, 1_019_000_000_000);
+        assert!(matches!(
+            find_report(dir.path(), "b", Some(9)),
+            Err(ReportError::NotFound { .. })
+        ));
+    }
 }

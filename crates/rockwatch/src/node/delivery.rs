@@ -23,7 +23,6 @@ use crate::logging::RateLimitedLog;
 use crate::ports::{Publication, Publisher};
 use crate::ros2::{Ros2Publisher, ALERTS_TOPIC};
 use crate::status::{AlertLatency, RockStatus};
-use crate::traces::Traces;
 use rockwatch_core::engine::{
     Alert, AlertLevel, HealthChange, HistoryEntry, JournalRecord, Notice, Output, OutputSink,
     ResetEvent, StationHealth,
@@ -402,9 +401,6 @@ pub(super) struct Outlet<'a> {
     pub(super) published: Vec<Alert>,
     pub(super) errors: u64,
     pub(super) log: RateLimitedLog,
-    /// The stations' recent data and the rocks' episode traces, for the web dashboard: fed
-    /// each packet by the event loop and each publication here (when `[web] listen` is set).
-    pub(super) traces: Option<Traces>,
 }
 
 /// Everything handed to the outlet has been journaled: whatever ends the event loop, an
@@ -437,9 +433,6 @@ impl Outlet<'_> {
                 if let Err(e) = publisher.publish(&publication) {
                     Self::failed(&mut self.errors, &mut self.log, &e);
                 }
-            }
-            if let Some(traces) = &mut self.traces {
-                traces.observe(&publication);
             }
         }
     }
