@@ -553,14 +553,6 @@ impl NodeRuntime {
         }
     }
 
-    /// After a reload: a trace for each new station ([`crate::traces::Traces::configure`]).
-    pub fn configure_traces(&mut self) {
-        let stations = self.traced_stations();
-        if let Some(reports) = &mut self.emit.reports {
-            reports.traces.configure(&stations);
-        }
-    }
-
     /// A copy of the traces for the web thread (None: not kept).
     pub fn traces_snapshot(&mut self) -> Option<crate::traces::TracesSnapshot> {
         self.emit.reports.as_mut().map(|r| r.traces.snapshot())
@@ -791,6 +783,10 @@ impl NodeRuntime {
         self.imminent_theta_ratio = config.alerts.imminent_theta_ratio;
         let known = std::mem::take(&mut self.emit.rocks);
         self.emit.rocks = rock_statuses(&blocks, &self.emit.overturned, known);
+        let traced = self.traced_stations();
+        if let Some(reports) = &mut self.emit.reports {
+            reports.reconfigure(&blocks, &traced, &config.alerts);
+        }
         self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
         self.foreign_pbr_ids = foreign_blocks;
         self.emit.stale_after_s = config.stale_after_s;

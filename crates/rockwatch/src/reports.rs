@@ -235,37 +235,10 @@ impl ReportFeed {
                     error,
                 })?
         };
-        let mut all: Vec<(String, Option<f64>)> = stations.to_vec();
-        for s in specs {
-            if !all.iter().any(|(id, _)| id == s.station.as_str()) {
-                all.push((s.station.to_string(), None));
-            }
-        }
         Ok(ReportFeed {
-            traces: Traces::new(&all),
-            rocks: specs
-                .iter()
-                .map(|s| {
-                    (
-                        s.id.clone(),
-                        RockParams {
-                            name: s.place.name.clone(),
-                            station: s.station.to_string(),
-                            azimuth_deg: s.azimuth.degrees(),
-                            b_plus_m: s.nominal.b_plus_m,
-                            b_minus_m: s.nominal.b_minus_m,
-                            com_height_m: s.nominal.com_height_m,
-                            alpha_rad: s.nominal.alpha_rad,
-                            mu_s: s.nominal.mu_s,
-                            mu_k: s.nominal.mu_k,
-                        },
-                    )
-                })
-                .collect(),
-            thresholds: Thresholds {
-                imminent_theta_ratio: alerts.imminent_theta_ratio,
-                imminent_probability: alerts.imminent_probability,
-            },
+            traces: Traces::new(&traced(specs, stations)),
+            rocks: rock_params(specs),
+            thresholds: thresholds(alerts),
             sender: Some(sender),
             worker: Some(worker),
             counts,
@@ -285,6 +258,21 @@ impl ReportFeed {
             sender: None,
             worker: None,
             counts: Arc::new(ReportCounts::default()),
+        }
+    }
+
+    /// After a reload: the rocks', stations' and thresholds' new values (traces of stations
+    /// kept stay as they are).
+    pub fn reconfigure(
+        &mut self,
+        specs: &[PbrSpec],
+        stations: &[(String, Option<f64>)],
+        alerts: &AlertConfig,
+    ) {
+        self.traces.configure(&traced(specs, stations));
+        if self.sender.is_some() {
+            self.rocks = rock_params(specs);
+            self.thresholds = thresholds(alerts);
         }
     }
 
@@ -404,6 +392,47 @@ impl ReportFeed {
             let _ = worker.join();
         }
         Arc::clone(&self.counts)
+    }
+}
+
+/// The stations to trace: `stations` and those of `specs`' rocks.
+fn traced(specs: &[PbrSpec], stations: &[(String, Option<f64>)]) -> Vec<(String, Option<f64>)> {
+    let mut all: Vec<(String, Option<f64>)> = stations.to_vec();
+    for s in specs {
+        if !all.iter().any(|(id, _)| id == s.station.as_str()) {
+            all.push((s.station.to_string(), None));
+        }
+    }
+    all
+}
+
+/// Each rock's parameters as a report gives them.
+fn rock_params(specs: &[PbrSpec]) -> HashMap<String, RockParams> {
+    specs
+        .iter()
+        .map(|s| {
+            (
+                s.id.clone(),
+                RockParams {
+                    name: s.place.name.clone(),
+                    station: s.station.to_string(),
+                    azimuth_deg: s.azimuth.degrees(),
+                    b_plus_m: s.nominal.b_plus_m,
+                    b_minus_m: s.nominal.b_minus_m,
+                    com_height_m: s.nominal.com_height_m,
+                    alpha_rad: s.nominal.alpha_rad,
+                    mu_s: s.nominal.mu_s,
+                    mu_k: s.nominal.mu_k,
+                },
+            )
+        })
+        .collect()
+}
+
+fn thresholds(alerts: &AlertConfig) -> Thresholds {
+    Thresholds {
+        imminent_theta_ratio: alerts.imminent_theta_ratio,
+        imminent_probability: alerts.imminent_probability,
     }
 }
 

@@ -417,7 +417,6 @@ impl Reactor {
                 .is_some_and(|r| r.swap(false, Ordering::Relaxed))
             {
                 apply_reload(&mut runtime, &mut ros2, &mut supervision);
-                runtime.configure_traces();
             }
             if params_due {
                 params_due = ros2.serve_parameters();
