@@ -1154,6 +1154,70 @@ fn a_fall_writes_an_event_report_that_rockwatch_report_draws_again() {
         &std::fs::read(json_path.with_extension("png")).unwrap()[..8],
         b"\x89PNG\r\n\x1a\n"
     );
+    // With a minute of quiet after the record, the rocks that moved and stand again end their
+    // episodes: each gets its report (the fallen pillar only its fall's).
+    let longer = tempfile::tempdir().unwrap();
+    let rec = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/records/");
+    let out = rockwatch(
+        &[
+            "monitor",
+            "--config",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml"),
+            "--record",
+            &format!("{rec}Rinaldi228.AT2"),
+            "--vertical",
+            &format!("{rec}RinaldiUP.AT2"),
+            "--azimuth",
+            "228",
+            "--station",
+            "CI.RRS.00",
+            "--tail",
+            "60",
+            "--state-dir",
+            longer.path().to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(out.status.success());
+    let history = rockwatch(
+        &[
+            "alerts",
+            "--state-dir",
+            longer.path().to_str().unwrap(),
+            "--format",
+            "json",
+        ],
+        &[],
+    );
+    let ends: Vec<serde_json::Value> =
+        serde_json::from_slice::<Vec<serde_json::Value>>(&history.stdout)
+            .unwrap()
+            .into_iter()
+            .filter(|r| r["type"] == "episode_end")
+            .collect();
+    assert!(!ends.is_empty());
+    for end in &ends {
+        let pbr = end["pbr_id"].as_str().unwrap();
+        let shown = rockwatch(
+            &[
+                "report",
+                "--state-dir",
+                longer.path().to_str().unwrap(),
+                "--pbr",
+                pbr,
+                "--format",
+                "json",
+            ],
+            &[],
+        );
+        assert!(shown.status.success(), "{pbr}");
+        let r: serde_json::Value = serde_json::from_slice(&shown.stdout).unwrap();
+        assert_eq!(
+            (&r["reason"], &r["episode"], &r["data_time_ns"]),
+            (&"episode_end".into(), &end["episode"], &end["data_time_ns"]),
+            "{pbr}"
+        );
+    }
     // No report of another episode, nor of a rock that did not move.
     for args in [
         ["--pbr", "rrs-slender-pillar", "--episode", "2"],
