@@ -33,7 +33,7 @@ use rockwatch_core::engine::{AlertConfig, AlertLevel, PbrSpec};
 pub const DIR: &str = "reports";
 
 /// Reports waiting for the writer thread at most (more are dropped, counted).
-pub const QUEUE: usize = 4;
+pub const QUEUE: usize = 16;
 
 /// Newest reports kept per rock (older ones are deleted when a new one is written).
 pub const KEEP_PER_ROCK: usize = 20;
