@@ -1004,3 +1004,230 @@ fn status_of_a_state_dir_exits_1_while_a_rock_lies_and_0_after_its_reset() {
     // A usage error is 2 as well (1 is the alarm).
     assert_eq!(rockwatch(&["status"], &[]).status.code(), Some(2));
 }
+
+/// The samples of an AT2 file (in g), read here independently of the crate's reader.
+fn at2_samples(path: &str) -> (f64, Vec<f64>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.nth(3).unwrap();
+    let dt: f64 = header
+        .split("DT=")
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .trim_end_matches(',')
+        .parse()
+        .unwrap();
+    let values = lines
+        .flat_map(|l| l.split_whitespace())
+        .map(|v| v.parse::<f64>().unwrap())
+        .collect();
+    (dt, values)
+}
+
+/// Issue 22 §4: the pillar's fall writes an event report (JSON and PNG) into the rehearsal's
+/// state directory; its station envelope keeps the record's peaks (computed here from the AT2
+/// files: a·g·sin 228° east, a·g·cos 228° north, the vertical), its alerts are the run's, in
+/// order; `rockwatch report` draws it again from the JSON, unchanged.
+#[test]
+fn a_fall_writes_an_event_report_that_rockwatch_report_draws_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = monitor_rinaldi(Some(dir.path()), &[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let alerts: Vec<serde_json::Value> = lines(&out)
+        .into_iter()
+        .filter(|v| v["type"] == "alert" && v["pbr_id"] == "rrs-slender-pillar")
+        .collect();
+    assert_eq!(alerts.last().unwrap()["level"], "overturned");
+    let reports = dir.path().join("reports");
+    let names: Vec<String> = std::fs::read_dir(&reports)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.ends_with("_rrs-slender-pillar.json"))
+        .collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+    let json_path = reports.join(&names[0]);
+    let bytes = std::fs::read(&json_path).unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+    assert_eq!(report["reason"], "overturned");
+    assert_eq!(report["episode"], alerts[0]["episode"]);
+    assert_eq!(
+        report["data_time_ns"],
+        alerts.last().unwrap()["data_time_ns"]
+    );
+    assert_eq!(report["rock"]["azimuth_deg"], 228.0);
+    assert_eq!(report["thresholds"]["imminent_theta_ratio"], 0.8);
+    assert!(report["intensity"]["pga_mps2"].as_f64().unwrap() > 1.0);
+    // The alerts: the run's, in order.
+    let marks = report["alerts"].as_array().unwrap();
+    let got: Vec<(&serde_json::Value, &serde_json::Value)> = marks
+        .iter()
+        .map(|m| (&m["level"], &m["data_time_ns"]))
+        .collect();
+    let want: Vec<(&serde_json::Value, &serde_json::Value)> = alerts
+        .iter()
+        .map(|a| (&a["level"], &a["data_time_ns"]))
+        .collect();
+    assert_eq!(got, want);
+    assert!(marks
+        .windows(2)
+        .all(|w| w[0]["data_time_ns"].as_i64() < w[1]["data_time_ns"].as_i64()));
+    // The station's envelope: its peaks are the record's over the same span (f32 precision).
+    let station = &report["station"];
+    let start_ns = station["start_ns"].as_i64().unwrap();
+    let bin_s = station["bin_s"].as_f64().unwrap();
+    let records = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/records/");
+    let (dt, horizontal) = at2_samples(&format!("{records}Rinaldi228.AT2"));
+    let (_, vertical) = at2_samples(&format!("{records}RinaldiUP.AT2"));
+    let g = 9.80665;
+    let azimuth = 228f64.to_radians();
+    let component = |c: usize, a: f64, v: f64| match c {
+        0 => a * g * azimuth.sin(),
+        1 => a * g * azimuth.cos(),
+        _ => v * g,
+    };
+    for (c, name) in ["E", "N", "Z"].iter().enumerate() {
+        let env = &station["components"][c];
+        assert_eq!(env["component"], *name);
+        let bins = env["max_mps2"].as_array().unwrap().len();
+        let end_s = (start_ns as f64 * 1e-9) + bins as f64 * bin_s;
+        assert!(
+            end_s * 1e9 >= report["data_time_ns"].as_f64().unwrap(),
+            "the envelope reaches the fall"
+        );
+        let peak_report = env["min_mps2"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .chain(env["max_mps2"].as_array().unwrap())
+            .filter_map(serde_json::Value::as_f64)
+            .fold(0.0, |m: f64, v| m.max(v.abs()));
+        let peak_record = horizontal
+            .iter()
+            .zip(&vertical)
+            .enumerate()
+            .filter(|(i, _)| (*i as f64 * dt) < end_s - 1e-9)
+            .map(|(_, (a, v))| component(c, *a, *v).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            (peak_report - peak_record).abs() <= 1e-5 * peak_record,
+            "{name}: report {peak_report} vs record {peak_record}"
+        );
+    }
+    // The PNG: a PNG of the report's size.
+    let png = std::fs::read(json_path.with_extension("png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    assert_eq!(&png[12..16], b"IHDR");
+    let size = |o: usize| u32::from_be_bytes(png[o..o + 4].try_into().unwrap());
+    assert_eq!((size(16), size(20)), (1100, 1000));
+    // Drawn again: the PNG rewritten, the JSON unchanged and printed as the file holds it.
+    std::fs::remove_file(json_path.with_extension("png")).unwrap();
+    let state_dir = dir.path().to_str().unwrap();
+    let again = rockwatch(
+        &[
+            "report",
+            "--state-dir",
+            state_dir,
+            "--pbr",
+            "rrs-slender-pillar",
+            "--episode",
+            "1",
+            "--format",
+            "json",
+        ],
+        &[],
+    );
+    assert!(
+        again.status.success(),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
+    assert_eq!(again.stdout, bytes);
+    assert_eq!(std::fs::read(&json_path).unwrap(), bytes);
+    assert_eq!(
+        &std::fs::read(json_path.with_extension("png")).unwrap()[..8],
+        b"\x89PNG\r\n\x1a\n"
+    );
+    // With a minute of quiet after the record, the rocks that moved and stand again end their
+    // episodes: each gets its report (the fallen pillar only its fall's).
+    let longer = tempfile::tempdir().unwrap();
+    let rec = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/records/");
+    let out = rockwatch(
+        &[
+            "monitor",
+            "--config",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml"),
+            "--record",
+            &format!("{rec}Rinaldi228.AT2"),
+            "--vertical",
+            &format!("{rec}RinaldiUP.AT2"),
+            "--azimuth",
+            "228",
+            "--station",
+            "CI.RRS.00",
+            "--tail",
+            "60",
+            "--state-dir",
+            longer.path().to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(out.status.success());
+    let history = rockwatch(
+        &[
+            "alerts",
+            "--state-dir",
+            longer.path().to_str().unwrap(),
+            "--format",
+            "json",
+        ],
+        &[],
+    );
+    let ends: Vec<serde_json::Value> =
+        serde_json::from_slice::<Vec<serde_json::Value>>(&history.stdout)
+            .unwrap()
+            .into_iter()
+            .filter(|r| r["type"] == "episode_end")
+            .collect();
+    assert!(!ends.is_empty());
+    for end in &ends {
+        let pbr = end["pbr_id"].as_str().unwrap();
+        let shown = rockwatch(
+            &[
+                "report",
+                "--state-dir",
+                longer.path().to_str().unwrap(),
+                "--pbr",
+                pbr,
+                "--format",
+                "json",
+            ],
+            &[],
+        );
+        assert!(shown.status.success(), "{pbr}");
+        let r: serde_json::Value = serde_json::from_slice(&shown.stdout).unwrap();
+        assert_eq!(
+            (&r["reason"], &r["episode"], &r["data_time_ns"]),
+            (&"episode_end".into(), &end["episode"], &end["data_time_ns"]),
+            "{pbr}"
+        );
+    }
+    // No report of another episode, nor of a rock that did not move.
+    for args in [
+        ["--pbr", "rrs-slender-pillar", "--episode", "2"],
+        ["--pbr", "no-such-rock", "--format", "text"],
+    ] {
+        let out = rockwatch(
+            &[&["report", "--state-dir", state_dir][..], &args[..]].concat(),
+            &[],
+        );
+        assert!(!out.status.success());
+        assert!(String::from_utf8_lossy(&out.stderr).contains("no report of rock"));
+    }
+}

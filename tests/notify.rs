@@ -418,6 +418,26 @@ fn levels_and_blocks_filter_what_a_receiver_gets() {
     notifier.shutdown(Duration::from_secs(2));
     assert_eq!(received_lines(&fell), want_fell);
     assert_eq!(received_lines(&pillar), want_pillar);
+    // An `overturned` alert's payload names its event report (issue 22 §4), written by the
+    // runtime (stopped: its reports are written); the other levels name none.
+    for line in std::fs::read_to_string(&pillar).unwrap().lines() {
+        let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        match v["level"].as_str().unwrap() {
+            "overturned" => {
+                let png = Path::new(v["report"].as_str().unwrap());
+                assert_eq!(png.parent().unwrap(), state.path().join("reports"));
+                assert!(png.is_file(), "{}", png.display());
+                let json: serde_json::Value =
+                    serde_json::from_slice(&std::fs::read(png.with_extension("json")).unwrap())
+                        .unwrap();
+                assert_eq!(
+                    (&json["pbr_id"], &json["data_time_ns"], &json["reason"]),
+                    (&v["pbr_id"], &v["data_time_ns"], &"overturned".into())
+                );
+            }
+            _ => assert!(v.get("report").is_none(), "{line}"),
+        }
+    }
 }
 
 /// Through the binary: `rockwatch node` (in its own network namespace: its ROS 2 side opens

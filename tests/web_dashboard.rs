@@ -330,6 +330,32 @@ fn the_dashboard_shows_rocks_alerts_and_stale_stations_and_survives_a_stalled_cl
         );
     }
 
+    // The live node wrote the pillar's fall report (issue 22 §4) into its state directory,
+    // from the same traces the dashboard shows: the station's envelope and the fall's alerts.
+    let reports: Vec<std::path::PathBuf> = std::fs::read_dir(p.join("state/reports"))
+        .unwrap_or_else(|e| panic!("state/reports: {e}\n{context}"))
+        .map(|e| e.unwrap().path())
+        .filter(|f| {
+            f.to_str()
+                .is_some_and(|n| n.ends_with("_rrs-slender-pillar.json"))
+        })
+        .collect();
+    assert_eq!(reports.len(), 1, "{reports:?}\n{context}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&reports[0]).unwrap()).unwrap();
+    assert_eq!(report["reason"], "overturned");
+    let levels: Vec<&str> = report["alerts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["level"].as_str().unwrap())
+        .collect();
+    assert_eq!(levels, ["motion_onset", "overturn_imminent", "overturned"]);
+    assert!(report["station"]["components"][0]["max_mps2"]
+        .as_array()
+        .is_some_and(|b| b.len() > 10));
+    assert!(reports[0].with_extension("png").is_file());
+
     // No data for stale_after_s: both stations STALE, their standing rocks not monitored,
     // the fallen pillar still fallen.
     let stale = json(p, "stale.json", &context);

@@ -22,6 +22,7 @@ pub mod number_text;
 pub mod plot;
 pub mod ports;
 pub mod replay;
+pub mod reports;
 pub mod rock_plots;
 pub mod ros2;
 pub mod sd_notify;

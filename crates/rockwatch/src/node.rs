@@ -33,6 +33,7 @@ use delivery::Emitter;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -490,9 +491,10 @@ impl NodeRuntime {
             let tally = engine.source_tally();
             (EngineMode::Sharded(engine), tally)
         };
-        Ok(NodeRuntime {
+        let mut runtime = NodeRuntime {
             engine: Some(engine),
             emit: Emitter {
+                reports: None,
                 marker_errors: 0,
                 journal,
                 epoch: Instant::now(),
@@ -516,7 +518,7 @@ impl NodeRuntime {
             busy_ns: 0,
             data_s: 0.0,
             tally,
-            pbr_ids: specs.into_iter().map(|s| s.id).collect(),
+            pbr_ids: specs.iter().map(|s| s.id.clone()).collect(),
             stations,
             imminent_theta_ratio: config.engine.alerts.imminent_theta_ratio,
             foreign_pbr_ids: HashSet::new(),
@@ -525,7 +527,50 @@ impl NodeRuntime {
                 .reject_future
                 .then_some((config.engine.plausibility.max_ahead_s * 1e9) as i64),
             journaled,
-        })
+        };
+        // Event reports go with a state directory; one that cannot take them (e.g. a full
+        // disk) leaves the node without reports, never without monitoring.
+        if let Some(dir) = options.state_dir_path() {
+            let stations = runtime.traced_stations();
+            match crate::reports::ReportFeed::start(&dir, &specs, &stations, &config.engine.alerts)
+            {
+                Ok(feed) => runtime.emit.reports = Some(feed),
+                Err(e) => tracing::error!(
+                    target: "rockwatch::reports",
+                    "event reports disabled: {e}"
+                ),
+            }
+        }
+        Ok(runtime)
+    }
+
+    /// Feeds the traces (each station's recent data, each rock's episode) for the web
+    /// dashboard: without a state directory they are not kept otherwise.
+    pub fn enable_traces(&mut self) {
+        if self.emit.reports.is_none() {
+            let stations = self.traced_stations();
+            self.emit.reports = Some(crate::reports::ReportFeed::traces_only(&stations));
+        }
+    }
+
+    /// A copy of the traces for the web thread (None: not kept).
+    pub fn traces_snapshot(
+        &mut self,
+        wanted: &crate::traces::WantedStations,
+    ) -> Option<crate::traces::TracesSnapshot> {
+        self.emit
+            .reports
+            .as_mut()
+            .map(|r| r.traces.snapshot(wanted))
+    }
+
+    /// The event report writer's counts (None: no state directory, or it refused reports).
+    #[must_use]
+    pub fn report_counts(&self) -> Option<Arc<crate::reports::ReportCounts>> {
+        self.emit
+            .reports
+            .as_ref()
+            .map(crate::reports::ReportFeed::counts)
     }
 
     /// The node's stations now with their gains ((m/s²)/count): those of `[[station]]` (this
@@ -626,6 +671,9 @@ impl NodeRuntime {
             return;
         }
         self.emit.stats.packets += 1;
+        if let Some(reports) = &mut self.emit.reports {
+            reports.traces.push_packet(&packet);
+        }
         match &mut self.engine {
             Some(EngineMode::Inline(engine)) => {
                 // Each alert is journaled and published the moment the engine raises it; the
@@ -741,6 +789,10 @@ impl NodeRuntime {
         self.imminent_theta_ratio = config.alerts.imminent_theta_ratio;
         let known = std::mem::take(&mut self.emit.rocks);
         self.emit.rocks = rock_statuses(&blocks, &self.emit.overturned, known);
+        let traced = self.traced_stations();
+        if let Some(reports) = &mut self.emit.reports {
+            reports.reconfigure(&blocks, &traced, &config.alerts);
+        }
         self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
         self.foreign_pbr_ids = foreign_blocks;
         self.emit.stale_after_s = config.stale_after_s;
@@ -916,6 +968,8 @@ impl NodeRuntime {
             .then(|| self.data_s / (self.busy_ns as f64 * 1e-9));
         (self.busy_ns, self.data_s) = (0, 0.0);
         let stats = self.emit.stats;
+        let reports = self.emit.reports.as_ref().map(|r| r.counts());
+        let reports = reports.as_deref();
         NodeStatus {
             stamp_ns: epoch_utc_ns + now,
             stations,
@@ -924,6 +978,9 @@ impl NodeRuntime {
             journal_failures: stats.journal_failures,
             journal_backlog: stats.journal_backlog,
             journal_dropped: stats.journal_dropped,
+            reports_written: reports.map_or(0, |c| c.written.load(Ordering::Relaxed)),
+            reports_dropped: reports.map_or(0, |c| c.dropped.load(Ordering::Relaxed)),
+            reports_failed: reports.map_or(0, |c| c.failed.load(Ordering::Relaxed)),
             ros2_up: transports.ros2_up,
             ros2_rebuilds: transports.ros2_rebuilds,
             iceoryx2: transports.iceoryx2,
@@ -996,7 +1053,14 @@ impl NodeRuntime {
         };
         // A last attempt for what waits; what still waits is in `stats.journal_backlog`.
         self.emit.retry_journal();
+        // The reports queued are written before this returns.
+        let reports = self
+            .emit
+            .reports
+            .take()
+            .map(crate::reports::ReportFeed::finish);
         Stopped {
+            reports,
             engines,
             stats: self.emit.stats,
             notice_counts: self.emit.notice_counts,
@@ -1013,6 +1077,8 @@ pub struct Stopped {
     pub stats: NodeStats,
     /// Notices per (station, kind), with [`NoticeLog::Counted`] (else empty).
     pub notice_counts: BTreeMap<(String, &'static str), u64>,
+    /// The event report writer's counts, its queue written (None: no reports).
+    pub reports: Option<Arc<crate::reports::ReportCounts>>,
 }
 
 impl Stopped {

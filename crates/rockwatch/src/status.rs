@@ -210,6 +210,11 @@ pub struct NodeStatus {
     pub journal_failures: u64,
     pub journal_backlog: u64,
     pub journal_dropped: u64,
+    /// Event reports written, dropped (the writer's queue full) and failed (not written,
+    /// logged) since the start (`crate::reports`; 0 without a state directory).
+    pub reports_written: u64,
+    pub reports_dropped: u64,
+    pub reports_failed: u64,
     pub ros2_up: bool,
     pub ros2_rebuilds: u64,
     pub iceoryx2: bool,
@@ -439,6 +444,24 @@ impl NodeStatus {
             "Records waiting for a failing state directory",
             "gauge",
             &node(self.journal_backlog as f64),
+        );
+        metric(
+            "reports_written_total",
+            "Event reports written (reports/ in the state directory)",
+            "counter",
+            &node(self.reports_written as f64),
+        );
+        metric(
+            "reports_dropped_total",
+            "Event reports dropped: the report writer was behind",
+            "counter",
+            &node(self.reports_dropped as f64),
+        );
+        metric(
+            "reports_failed_total",
+            "Event reports that could not be written (logged)",
+            "counter",
+            &node(self.reports_failed as f64),
         );
         metric(
             "ros2_up",
@@ -840,6 +863,9 @@ mod tests {
             journal_failures: 0,
             journal_backlog: 0,
             journal_dropped: 0,
+            reports_written: 0,
+            reports_dropped: 0,
+            reports_failed: 0,
             ros2_up: true,
             ros2_rebuilds: 0,
             iceoryx2: false,

@@ -461,6 +461,12 @@ impl Traces {
         self.stations.get(id)
     }
 
+    /// A station's last intensity measures.
+    #[must_use]
+    pub fn intensity(&self, station: &str) -> Option<&Arc<StationIntensity>> {
+        self.intensities.get(station)
+    }
+
     /// A rock's episode trace.
     #[must_use]
     pub fn episode(&self, pbr_id: &str) -> Option<&EpisodeTrace> {

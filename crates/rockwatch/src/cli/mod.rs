@@ -47,6 +47,7 @@ mod mseed_flags;
 mod node;
 mod pulses;
 mod replay;
+mod report;
 mod rock_flags;
 mod simulate;
 mod stations;
@@ -93,6 +94,8 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Run the monitoring engine over a record: which catalogued blocks move or fall.
     Monitor(monitor::MonitorArgs),
+    /// Draw an event report (a rock's fall or episode end) again from a state directory.
+    Report(report::ReportArgs),
     /// What stands now: every rock and station of a running node (its web API) or of a
     /// state directory; exit 1 when a rock is fallen or a station stale, 2 on error.
     Status(status::StatusArgs),
@@ -300,6 +303,7 @@ pub fn run() -> ExitCode {
         Command::Reset(args) => alerts::run_reset(args),
         Command::Demo(args) => demo::run(args),
         Command::Monitor(args) => monitor::run(args),
+        Command::Report(args) => report::run(args),
         Command::Node(args) => node::run(args),
         Command::Replay(args) => replay::run(args),
         Command::Simulate(args) => simulate::run(args),

@@ -307,6 +307,13 @@ fn execute(plan: MonitorPlan) -> anyhow::Result<MonitorOutcome> {
             stopped.stats.journal_failures
         );
     }
+    if let Some(reports) = &stopped.reports {
+        let lost = reports.dropped.load(std::sync::atomic::Ordering::Relaxed)
+            + reports.failed.load(std::sync::atomic::Ordering::Relaxed);
+        if lost > 0 {
+            eprintln!("rockwatch: warning: {lost} event reports not written (see above)");
+        }
+    }
     let engine = stopped.engines.first().context("the engine did not run")?;
     Ok(MonitorOutcome {
         alerts: stopped.stats.alerts,

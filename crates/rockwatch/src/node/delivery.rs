@@ -23,7 +23,6 @@ use crate::logging::RateLimitedLog;
 use crate::ports::{Publication, Publisher};
 use crate::ros2::{Ros2Publisher, ALERTS_TOPIC};
 use crate::status::{AlertLatency, RockStatus};
-use crate::traces::Traces;
 use rockwatch_core::engine::{
     Alert, AlertLevel, HealthChange, HistoryEntry, JournalRecord, Notice, Output, OutputSink,
     ResetEvent, StationHealth,
@@ -62,6 +61,9 @@ pub(super) struct Emitter {
     pub(super) rocks: BTreeMap<String, RockStatus>,
     /// `Published` markers that could not be journaled.
     pub(super) marker_errors: u64,
+    /// Event reports (with a state directory): the traces they need, fed here with each
+    /// publication and by the runtime with each packet.
+    pub(super) reports: Option<crate::reports::ReportFeed>,
 }
 
 impl Emitter {
@@ -208,11 +210,19 @@ impl<P: FnMut(Publication)> EmitSink<'_, P> {
                         rock.observe(s.mode, s.theta_over_alpha, Some(s.not_monitored));
                         rock.observe_direction(s.direction_deg, s.overturn_probability);
                     }
-                    publish(Publication::State(s));
+                    let publication = Publication::State(s);
+                    if let Some(reports) = &mut emit.reports {
+                        reports.observe(&publication);
+                    }
+                    publish(publication);
                 }
                 Output::Intensity(i) => {
                     emit.stats.intensities += 1;
-                    publish(Publication::Intensity(i));
+                    let publication = Publication::Intensity(i);
+                    if let Some(reports) = &mut emit.reports {
+                        reports.observe(&publication);
+                    }
+                    publish(publication);
                 }
                 _ => {}
             }
@@ -276,13 +286,25 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 if self.emit.notice_log == NoticeLog::RateLimited {
                     log_alert(&alert, &latency, !journaled);
                 }
-                (self.publish)(Publication::Alert {
+                let publication = Publication::Alert {
                     alert,
                     latency_ns,
                     journal_pending: !journaled,
-                });
+                };
+                if let Some(reports) = &mut self.emit.reports {
+                    reports.observe(&publication);
+                }
+                (self.publish)(publication);
             }
-            Output::EpisodeEnd { .. } => {}
+            Output::EpisodeEnd {
+                pbr_id,
+                episode,
+                data_time_ns,
+            } => {
+                if let Some(reports) = &mut self.emit.reports {
+                    reports.episode_end(&pbr_id, episode, data_time_ns);
+                }
+            }
             Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
             Output::Notice(n) => self.emit.notice(&n),
             Output::Health(change) => log_health(&change, self.emit.stale_after_s),
@@ -379,9 +401,6 @@ pub(super) struct Outlet<'a> {
     pub(super) published: Vec<Alert>,
     pub(super) errors: u64,
     pub(super) log: RateLimitedLog,
-    /// The stations' recent data and the rocks' episode traces, for the web dashboard: fed
-    /// each packet by the event loop and each publication here (when `[web] listen` is set).
-    pub(super) traces: Option<Traces>,
 }
 
 /// Everything handed to the outlet has been journaled: whatever ends the event loop, an
@@ -414,9 +433,6 @@ impl Outlet<'_> {
                 if let Err(e) = publisher.publish(&publication) {
                     Self::failed(&mut self.errors, &mut self.log, &e);
                 }
-            }
-            if let Some(traces) = &mut self.traces {
-                traces.observe(&publication);
             }
         }
     }

@@ -37,7 +37,6 @@ use crate::logging::{take_rosout, RosoutRecord};
 use crate::ros2::msg::ResetPbrResponse;
 use crate::ros2::{IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, Scene};
 use crate::sd_notify::SystemdNotifier;
-use crate::traces::Traces;
 use crate::web::WebServer;
 use rockwatch_core::engine::{AccelPacket, PbrSummary, Source};
 
@@ -362,11 +361,12 @@ impl Reactor {
             published: Vec::new(),
             errors: 0,
             log: RateLimitedLog::new(),
-            traces: web
-                .as_ref()
-                .filter(|w| w.web_address().is_some())
-                .map(|_| Traces::new(&runtime.traced_stations())),
         };
+        // The dashboard shows the traces the event reports are made of (one copy, fed by
+        // the runtime).
+        if web.as_ref().is_some_and(|w| w.web_address().is_some()) {
+            runtime.enable_traces();
+        }
 
         republish_journaled(&mut runtime, &mut out);
         if let Some(systemd) = &mut supervision.systemd {
@@ -435,9 +435,6 @@ impl Reactor {
                 .is_some_and(|r| r.swap(false, Ordering::Relaxed))
             {
                 apply_reload(&mut runtime, &mut ros2, &mut supervision);
-                if let Some(traces) = &mut out.traces {
-                    traces.configure(&runtime.traced_stations());
-                }
             }
             if params_due {
                 params_due = ros2.serve_parameters();
@@ -474,8 +471,8 @@ impl Reactor {
                 ros2.publish_status(&status);
                 if let Some(w) = &web {
                     w.update_status(status);
-                    if let Some(traces) = &mut out.traces {
-                        w.update_traces(traces.snapshot(w.wanted_stations()));
+                    if let Some(traces) = runtime.traces_snapshot(w.wanted_stations()) {
+                        w.update_traces(traces);
                     }
                 }
             }
@@ -790,9 +787,6 @@ fn turn(
                 processed += 1;
                 // A parameter change queued before this packet was taken applies to it.
                 apply_controls(controls, runtime);
-                if let Some(traces) = &mut out.traces {
-                    traces.push_packet(&packet);
-                }
                 runtime.submit_arrived(packet, arrival_ns, source, &mut |p| out.publish(p));
             }
         }

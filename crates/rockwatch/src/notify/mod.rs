@@ -132,7 +132,9 @@ impl Notifier {
                 }
                 None => Spool::in_memory(),
             };
-            let shared = Arc::new(Shared::new(name.clone(), spool));
+            let mut shared = Shared::new(name.clone(), spool);
+            shared.reports_dir = state_dir.map(|d| d.join(crate::reports::DIR));
+            let shared = Arc::new(shared);
             let (tx, rx) = sync_channel(config.queue);
             let target = deliver::Target::new(config);
             let timeout = Duration::from_secs_f64(config.timeout_s);

@@ -12,6 +12,7 @@ use super::deliver::Target;
 use super::spool::Spool;
 use crate::alert_json::{AlertJson, RecordJson};
 use crate::log_text::{printable, PBR_ID_CHARS};
+use rockwatch_core::engine::AlertLevel;
 
 /// Longest a worker waits on its queue before looking at its stop and overflow flags.
 const WORKER_TICK: Duration = Duration::from_millis(50);
@@ -37,6 +38,8 @@ pub(crate) struct Shared {
     /// Set at shutdown: deliver what is queued until `deadline`, give up at the first failure.
     pub stopping: AtomicBool,
     pub deadline: Mutex<Option<Instant>>,
+    /// `<state_dir>/reports`: an `overturned` alert's payload names its event report there.
+    pub reports_dir: Option<std::path::PathBuf>,
 }
 
 impl Shared {
@@ -48,6 +51,7 @@ impl Shared {
             counters: Counters::default(),
             stopping: AtomicBool::new(false),
             deadline: Mutex::new(None),
+            reports_dir: None,
         }
     }
 
@@ -113,7 +117,7 @@ pub(crate) fn run(
             backlog.pop_front(); // queued twice around an overflow: delivered already
             continue;
         }
-        let body = serde_json::to_vec(&RecordJson::Alert(alert.clone())).unwrap_or_default();
+        let body = payload(alert, shared.reports_dir.as_deref());
         let what = format!(
             "alert {} {} episode {}",
             printable(&key.0, PBR_ID_CHARS),
@@ -171,4 +175,24 @@ pub(crate) fn run(
             }
         }
     }
+}
+
+/// A receiver's payload: the alert in the shared schema; an `overturned` alert with a state
+/// directory also has `"report"`, the path of the PNG its event report is written to
+/// (`crate::reports`; written by its own thread, it may appear a moment after the alert).
+pub(crate) fn payload(
+    alert: &crate::alert_json::AlertJson,
+    reports_dir: Option<&std::path::Path>,
+) -> Vec<u8> {
+    let mut value = serde_json::to_value(RecordJson::Alert(alert.clone())).unwrap_or_default();
+    if let (Some(dir), AlertLevel::Overturned, Some(object)) =
+        (reports_dir, alert.level, value.as_object_mut())
+    {
+        let png = dir.join(format!(
+            "{}.png",
+            crate::reports::report_stem(alert.data_time_ns, &alert.pbr_id)
+        ));
+        object.insert("report".into(), png.display().to_string().into());
+    }
+    serde_json::to_vec(&value).unwrap_or_default()
 }
