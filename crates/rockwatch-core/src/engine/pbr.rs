@@ -98,6 +98,8 @@ struct Planar {
     governing: usize,
     /// Member i has fallen in some direction (as many as each direction's members).
     fallen: Vec<bool>,
+    /// How many of `fallen` are true (kept with it: not counted per sample).
+    overturned: usize,
 }
 
 /// How a rock is integrated (a 3-D rock boxed: a planar one, by far the most common, stays
@@ -167,7 +169,7 @@ impl Planar {
     }
 
     fn members_overturned(&self) -> usize {
-        self.fallen.iter().filter(|f| **f).count()
+        self.overturned
     }
 
     fn any_nominal_overturned(&self) -> bool {
@@ -249,10 +251,13 @@ impl Planar {
                 landed_after_flight |= d.nominal.land_after_flight(to);
             }
             // Member i is one rock: fallen when it has fallen in any direction.
-            let fallen = &mut self.fallen;
+            let (fallen, overturned) = (&mut self.fallen, &mut self.overturned);
             failed |= d.members.advance(dt_s, from, to, |i| {
                 if let Some(f) = fallen.get_mut(i) {
-                    *f = true;
+                    if !*f {
+                        *f = true;
+                        *overturned += 1;
+                    }
                 }
             });
         }
@@ -326,6 +331,7 @@ impl PbrRuntime {
                 }
                 Dynamics::Planar(Planar {
                     fallen: vec![false; directions[0].members.len()],
+                    overturned: 0,
                     directions,
                     governing: 0,
                 })
@@ -468,6 +474,7 @@ impl PbrRuntime {
                     d.members.set_all_fallen();
                 }
                 p.fallen.fill(true);
+                p.overturned = p.fallen.len();
             }
             Dynamics::Rigid(r) => r.set_fallen(),
         }
@@ -487,6 +494,7 @@ impl PbrRuntime {
                     d.members.reset();
                 }
                 p.fallen.fill(false);
+                p.overturned = 0;
                 p.governing = 0;
             }
             Dynamics::Rigid(r) => r.reset(),
