@@ -734,6 +734,11 @@ mod tests {
                     [[pbr]]\nid = \"a\"\nname = \"a\"\nlat = 34.281\nlon = -118.48\n\
                     station = \"CI.RRS.00\"\nazimuth_deg = 0.0\nwidth_m = 1.0\nheight_m = 1.0\n\
                     mu_s = 0.90\nmu_k = 0.70\nsource = \"test\"\n";
+        load(text)
+    }
+
+    /// The catalogue `text` (TOML).
+    fn load(text: &str) -> Catalogue {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("c.toml");
         std::fs::write(&path, text).unwrap();
@@ -890,10 +895,7 @@ mod tests {
                     [[pbr]]\nid = \"w\"\nname = \"w\"\nlat = 20.0\nlon = -179.9\n\
                     station = \"XX.A.00\"\nazimuth_deg = 0.0\nwidth_m = 1.0\nheight_m = 1.0\n\
                     mu_s = 0.9\nmu_k = 0.7\nsource = \"test\"\n";
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("c.toml");
-        std::fs::write(&path, text).unwrap();
-        let cat = Catalogue::load(&path).unwrap();
+        let cat = load(text);
         let pbrs: Vec<&Pbr> = cat.pbrs().iter().collect();
         let [lat, lon, alt] = Scene::mean_origin(&pbrs).unwrap();
         assert!((lat - 15.0).abs() < 1e-12 && alt == 0.0);
