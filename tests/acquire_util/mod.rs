@@ -10,8 +10,8 @@
 //! Data: the K2 accelerograph counts of tests/data/mseed/k2_STNA_HN123_counts.mseed with the
 //! ObsPy-written inventory tests/data/stationxml/obspy_XX.STN_k2.xml; blocks slender enough
 //! for its ~0.05 m/s² to rock them, at several thresholds so alerts fall through the record.
-//! Callers run inside a network namespace (`rockwatch_test_harness::netns::reexec_in_netns`): the node and the
-//! `/pbr/ims` subscriber open DDS.
+//! Callers run inside a network namespace (`rockwatch_test_harness::netns::reexec_in_netns`):
+//! the node and the `/pbr/ims` subscriber open DDS.
 
 use std::collections::BTreeMap;
 use std::net::SocketAddr;

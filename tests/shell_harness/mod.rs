@@ -3,8 +3,9 @@
 //! the Rinaldi record as `rockwatch replay` cuts it into packets, and a ROS 2 alert listener
 //! drained.
 
-// A module compiled into each test binary that declares it, and each uses one of the two
-// helpers: the other is dead code there. They cannot move into the harness crate (see above).
+// A module compiled into each test binary that declares it (11 binaries): 8 use only
+// `rinaldi_packets` and one only `collect`; there the other is dead code. The two cannot move
+// into the harness crate, whose public items would not be (see above).
 #![allow(dead_code)]
 
 use std::time::{Duration, Instant};

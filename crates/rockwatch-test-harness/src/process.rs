@@ -51,7 +51,6 @@ impl Rockwatch {
     }
 
     /// `rockwatch ARGS…`, to be given more options and run.
-    #[must_use]
     pub fn run(&self, args: &[&str]) -> Invocation {
         Invocation {
             program: self.path.into(),
@@ -449,4 +448,47 @@ impl LoggedChild {
 /// SIGTERM to a node of [`Rockwatch::spawn_node_in_netns`]; its exit status and stderr.
 pub fn stop_node(node: LoggedChild) -> (ExitStatus, String) {
     node.stop(Duration::from_secs(60))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arguments_environment_and_stdin_reach_the_program_and_its_output_comes_back() {
+        let ran = Rockwatch::new("sh")
+            .run(&["-c", "cat; echo \"$HARNESS_TEST_VAR $0\" >&2; exit 3"])
+            .env("HARNESS_TEST_VAR", "set")
+            .stdin(b"from stdin")
+            .text();
+        assert!(!ran.success);
+        assert_eq!(ran.code, Some(3));
+        assert_eq!(ran.stdout, "from stdin");
+        assert_eq!(ran.stderr, "set sh\n");
+    }
+
+    #[test]
+    #[should_panic(expected = "still running after")]
+    fn a_run_past_its_deadline_is_killed_and_fails_the_test() {
+        let _ = Rockwatch::new("sleep")
+            .run(&["30"])
+            .deadline(Duration::from_millis(200))
+            .output();
+    }
+
+    #[test]
+    fn the_memory_cap_applies_to_the_program() {
+        // `ulimit -v` as the program sees it: the cap in KiB.
+        let out = Rockwatch::new("sh")
+            .run(&["-c", "ulimit -v"])
+            .memory_limit_kib(500_000)
+            .success_stdout();
+        assert_eq!(out.trim(), "500000");
+    }
+
+    #[test]
+    #[should_panic(expected = "[\"-c\", \"exit 1\"]")]
+    fn success_stdout_fails_the_test_on_a_failed_run_naming_its_arguments() {
+        let _ = Rockwatch::new("sh").run(&["-c", "exit 1"]).success_stdout();
+    }
 }
