@@ -47,11 +47,13 @@ fn tail(text: &str, n: usize) -> &str {
 
 const WEB: &str = "http://127.0.0.1:8080";
 
+/// The node's configuration of these tests. `stale_after_s = 5`: long enough that the page is
+/// loaded (a browser's start on a loaded 2-core machine) before the stations turn stale.
 fn node_config(dir: &std::path::Path, extra: &str) {
     std::fs::write(
         dir.join("node.toml"),
         format!(
-            "catalogue = \"{}\"\nstate_dir = \"state\"\n[engine]\nstale_after_s = 2.0\n\
+            "catalogue = \"{}\"\nstate_dir = \"state\"\n[engine]\nstale_after_s = 5.0\n\
              [ros2]\ndiscovery_range = \"LOCALHOST\"\n[status]\ndiagnostics_period_s = 0.2\n{extra}",
             repo().join("config/catalogue.toml").display()
         ),
@@ -141,7 +143,7 @@ fn the_dashboard_shows_rocks_alerts_and_stale_stations_and_survives_a_stalled_cl
          {page}
          {web_metrics}
          curl -sf --max-time 5 http://127.0.0.1:9464/metrics > '{d}/metrics.txt'
-         sleep 3
+         sleep 6
          {stale}
          kill $SSE $STALLED 2>/dev/null || true
          kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
@@ -771,7 +773,7 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
     );
     browser.screenshot(&shots.join("3-fallen.png"));
 
-    // No data for stale_after_s (2 s): both stations STALE, in the stale colour (#bbb).
+    // No data for stale_after_s (5 s): both stations STALE, in the stale colour (#bbb).
     let stale = "return ['CI.RRS.00', 'CI.SYL.00'].every(id => { \
                  const s = document.getElementById('station-' + id); \
                  return s !== null && s.dataset.health === 'STALE' && \
