@@ -8,7 +8,7 @@
 //! reported per unit mass (m/s²): `F` horizontal and `N` vertical contact force on the body
 //! at the pivot.
 
-use super::params::{BlockParams, PivotSide};
+use super::params::BlockParams;
 
 /// Ground acceleration at one instant.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -66,64 +66,6 @@ pub fn effective_gravity(p: &BlockParams, ground: GroundAccel) -> f64 {
     p.gravity_mps2 + ground.vertical_mps2
 }
 
-/// sin φ and cos φ of the angle φ = α_σ − σθ between the pivot's diagonal and the vertical,
-/// by angle addition from the pivot's sin α_σ, cos α_σ and a polynomial sin θ, cos θ
-/// ([`small_angle_sin_cos`]) while |θ| ≤ π/4 (a rocking block: |θ| < α_σ ≤ π/4 for any body
-/// taller than wide, and beyond α only on its way to overturning), libm's `sin_cos(φ)`
-/// beyond. The two agree to a few units in the last place (the unit test); the polynomial
-/// is inlined, where libm's call was 28 % of a moving block's time.
-#[inline]
-#[must_use]
-pub fn pivot_angle_sin_cos(side: &PivotSide, sigma: f64, theta: f64) -> (f64, f64) {
-    if theta.abs() <= std::f64::consts::FRAC_PI_4 {
-        let (s, c) = small_angle_sin_cos(theta);
-        let (sa, ca) = (side.sin_alpha, side.cos_alpha);
-        (sa * c - sigma * (ca * s), ca * c + sigma * (sa * s))
-    } else {
-        (side.alpha_rad - sigma * theta).sin_cos()
-    }
-}
-
-/// (sin x, cos x) for |x| ≤ π/4 by their Taylor series to x¹⁷ and x¹⁶ (in x²): the
-/// first omitted terms, x¹⁹/19! and x¹⁸/18!, are below 10⁻¹⁷ there, so the result is the
-/// series' rounding, within a few units in the last place of libm's.
-#[inline]
-#[must_use]
-pub fn small_angle_sin_cos(x: f64) -> (f64, f64) {
-    // (−1)^k/(2k+1)! and (−1)^k/(2k)!, k = 1…8.
-    const S: [f64; 8] = [
-        -1.0 / 6.0,
-        1.0 / 120.0,
-        -1.0 / 5040.0,
-        1.0 / 362_880.0,
-        -1.0 / 39_916_800.0,
-        1.0 / 6_227_020_800.0,
-        -1.0 / 1_307_674_368_000.0,
-        1.0 / 355_687_428_096_000.0,
-    ];
-    const C: [f64; 8] = [
-        -1.0 / 2.0,
-        1.0 / 24.0,
-        -1.0 / 720.0,
-        1.0 / 40_320.0,
-        -1.0 / 3_628_800.0,
-        1.0 / 479_001_600.0,
-        -1.0 / 87_178_291_200.0,
-        1.0 / 20_922_789_888_000.0,
-    ];
-    // Estrin's scheme in y = x²: four independent pairs, then two levels (a short chain of
-    // dependent operations, where Horner's eight in a row made the call slower than libm's).
-    let y = x * x;
-    let y2 = y * y;
-    let y4 = y2 * y2;
-    let estrin = |c: &[f64; 8]| {
-        let (p01, p23) = (c[0] + c[1] * y, c[2] + c[3] * y);
-        let (p45, p67) = (c[4] + c[5] * y, c[6] + c[7] * y);
-        (p01 + p23 * y2) + (p45 + p67 * y2) * y4
-    };
-    (x + x * (y * estrin(&S)), 1.0 + y * estrin(&C))
-}
-
 /// Pure rocking about pivot `sigma` (no slip): equations (R1)–(R3) with
 /// θ̈ = −(m R_σ/I_O,σ)[σ g' sin φ + ẍg cos φ] (docs/general-body.md §3).
 #[inline]
@@ -138,7 +80,7 @@ pub fn rocking(
     let side = p.side(sigma);
     let r = side.half_diagonal_m;
     let gp = effective_gravity(p, ground);
-    let (sin_phi, cos_phi) = pivot_angle_sin_cos(side, sigma, theta);
+    let (sin_phi, cos_phi) = (side.alpha_rad - sigma * theta).sin_cos();
     let theta_ddot =
         -(side.rocking_factor / r) * (sigma * gp * sin_phi + ground.horizontal_mps2 * cos_phi);
     let w2 = theta_dot * theta_dot;
@@ -168,7 +110,7 @@ pub fn slide_rocking(
     let side = p.side(sigma);
     let r = side.half_diagonal_m;
     let gp = effective_gravity(p, ground);
-    let (sin_phi, cos_phi) = pivot_angle_sin_cos(side, sigma, theta);
+    let (sin_phi, cos_phi) = (side.alpha_rad - sigma * theta).sin_cos();
     let w2 = theta_dot * theta_dot;
     let k = sigma * sin_phi - p.mu_k * s * cos_phi;
     let theta_ddot =
@@ -241,41 +183,6 @@ mod tests {
         let r = p.plus.half_diagonal_m;
         let ax = g.horizontal_mps2 + d.slip_ddot + r * cos_phi * d.theta_ddot + r * sin_phi * w * w;
         assert!(ax.abs() < 1e-13, "{ax}");
-    }
-
-    #[test]
-    fn small_angle_sin_cos_is_libm_within_two_ulp() {
-        // Against libm on 200 001 points of [−π/4, π/4] (both ends included).
-        let ulp = |v: f64| f64::EPSILON * v.abs().max(f64::MIN_POSITIVE);
-        for i in 0..=200_000 {
-            let x = std::f64::consts::FRAC_PI_4 * (i as f64 / 100_000.0 - 1.0);
-            let (s, c) = small_angle_sin_cos(x);
-            let (s0, c0) = x.sin_cos();
-            assert!((s - s0).abs() <= 2.0 * ulp(s0), "sin {x}: {s} vs {s0}");
-            assert!((c - c0).abs() <= 2.0 * ulp(c0), "cos {x}: {c} vs {c0}");
-        }
-    }
-
-    #[test]
-    fn pivot_angle_by_angle_addition_is_libm_within_5e_16() {
-        // φ = α_σ − σθ on both pivots of an asymmetric body, θ across both branches.
-        let p = BlockParams::from_body(0.2, 0.45, 1.1, 0.5, 0.8, 0.6, None).unwrap();
-        for sigma in [1.0, -1.0] {
-            let side = p.side(sigma);
-            for i in 0..=20_000 {
-                let theta = 1.6 * (i as f64 / 10_000.0 - 1.0);
-                let (s, c) = pivot_angle_sin_cos(side, sigma, theta);
-                let (s0, c0) = (side.alpha_rad - sigma * theta).sin_cos();
-                assert!(
-                    (s - s0).abs() <= 5e-16,
-                    "σ {sigma} θ {theta}: sin {s} vs {s0}"
-                );
-                assert!(
-                    (c - c0).abs() <= 5e-16,
-                    "σ {sigma} θ {theta}: cos {c} vs {c0}"
-                );
-            }
-        }
     }
 
     #[test]
