@@ -463,7 +463,7 @@ impl ModeSystem {
 }
 
 /// The geometric event `index` (impact, overturn, α-crossing or peak) of a pivot mode on
-/// corner `sigma`: the same operations as [`pivot_events`].
+/// corner `sigma`: the one definition, used by [`pivot_events`] and [`ModeSystem::event`].
 #[inline]
 fn geometric_event(p: &BlockParams, sigma: f64, y: &Vector4<f64>, index: usize) -> f64 {
     let st = sigma * y[0];
@@ -477,14 +477,14 @@ fn geometric_event(p: &BlockParams, sigma: f64, y: &Vector4<f64>, index: usize) 
 
 #[inline]
 fn pivot_events(p: &BlockParams, sigma: f64, y: &Vector4<f64>, slip: f64, normal: f64) -> [f64; 6] {
-    let st = sigma * y[0];
+    let geometric = |index| geometric_event(p, sigma, y, index);
     [
-        st,
+        geometric(EV_IMPACT),
         slip,
         normal,
-        std::f64::consts::FRAC_PI_2 - st,
-        st - p.side(sigma).alpha_rad,
-        sigma * y[1],
+        geometric(EV_OVERTURN),
+        geometric(EV_ALPHA),
+        geometric(EV_PEAK),
     ]
 }
 
