@@ -469,6 +469,7 @@ impl Reactor {
                     iceoryx2: iox_input.is_some(),
                 });
                 ros2.publish_status(&status);
+                out.ros2.observe_station_health(&status.stations);
                 if let Some(w) = &web {
                     w.update_status(status);
                     if let Some(traces) = runtime.traces_snapshot(w.wanted_stations()) {

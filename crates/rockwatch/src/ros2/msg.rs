@@ -124,9 +124,12 @@ pub struct PbrState {
 /// `pbr_msgs/PbrAlert`: an alert about one block.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PbrAlert {
-    /// stamp = data time of the triggering sample; frame_id = station.
+    /// stamp = data time of the triggering sample (a reset's: its wall-clock time);
+    /// frame_id = the rock's frame `pbr/<pbr_id>` ([`rock_frame`](super::names::rock_frame),
+    /// as the rock's `PbrState`; its station is in `station`).
     pub header: Header,
     pub pbr_id: String,
+    /// The station driving the block (SEED id `NET.STA.LOC`).
     pub station: String,
     /// One of the `LEVEL_*` constants ([`level_code`]).
     pub level: u8,
@@ -306,7 +309,7 @@ impl From<&engine::ResetEvent> for PbrAlert {
     /// reset's wall-clock time.
     fn from(r: &engine::ResetEvent) -> PbrAlert {
         PbrAlert {
-            header: Header::new(r.time_ns, &r.station),
+            header: Header::new(r.time_ns, &super::names::rock_frame(&r.pbr_id)),
             pbr_id: r.pbr_id.clone(),
             station: r.station.clone(),
             level: crate::wire_codes::LEVEL_RESET,
@@ -332,7 +335,7 @@ impl From<&engine::ResetEvent> for PbrAlert {
 impl From<&engine::Alert> for PbrAlert {
     fn from(a: &engine::Alert) -> PbrAlert {
         PbrAlert {
-            header: Header::new(a.data_time_ns, &a.station),
+            header: Header::new(a.data_time_ns, &super::names::rock_frame(&a.pbr_id)),
             pbr_id: a.pbr_id.clone(),
             station: a.station.clone(),
             level: level_code(a.level),
