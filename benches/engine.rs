@@ -92,7 +92,7 @@ fn round(case: Case, r: usize) -> Vec<AccelPacket> {
                 (amp * (2.0 * std::f64::consts::PI * f * t + phase).sin()) as f32
             };
             AccelPacket {
-                station: station(s),
+                station: StationId::parse(&station(s)).expect("valid id"),
                 start_time_ns: (r * PACKET) as i64 * 10_000_000,
                 sample_rate_hz: RATE_HZ,
                 sequence: r as u64,

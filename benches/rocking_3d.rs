@@ -146,7 +146,7 @@ fn bench_engine_at_rest(c: &mut Criterion) {
                 .collect()
         };
         AccelPacket {
-            station: "XX.Q.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.Q.00").unwrap(),
             start_time_ns: 1_700_000_000_000_000_000 + i as i64 * 1_000_000_000,
             sample_rate_hz: 100.0,
             sequence: i as u64,

@@ -23,7 +23,7 @@ fn packets(station: &str, record: &Record) -> Vec<AccelPacket> {
     east.chunks(LEN)
         .enumerate()
         .map(|(i, e)| AccelPacket {
-            station: station.into(),
+            station: rockwatch_core::engine::StationId::parse(station).unwrap(),
             start_time_ns: T0_NS + (i * LEN) as i64 * (record.dt_s * 1e9).round() as i64,
             sample_rate_hz: 1.0 / record.dt_s,
             sequence: i as u64,

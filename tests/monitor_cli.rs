@@ -425,7 +425,7 @@ fn a_crash_during_journal_compaction_loses_nothing() {
     let alert = |episode: u32, level| {
         JournalRecord::Alert(Alert {
             pbr_id: "old-rock".into(),
-            station: "CI.OLD.00".into(),
+            station: rockwatch_core::engine::StationId::parse("CI.OLD.00").unwrap(),
             level,
             episode,
             mode: Mode::Rock,

@@ -146,7 +146,7 @@ fn a_quiet_station_with_resting_blocks_does_not_allocate() {
         })
         .collect();
     let packet = |i: usize| AccelPacket {
-        station: "XX.Q.00".into(),
+        station: rockwatch_core::engine::StationId::parse("XX.Q.00").unwrap(),
         start_time_ns: i as i64 * 100_000_000,
         sample_rate_hz: 100.0,
         sequence: i as u64,

@@ -328,7 +328,7 @@ fn iceoryx2_alerts_carry_the_ros2_level_and_mode_codes() {
         for mode in modes {
             let alert = Alert {
                 pbr_id: "slender-pillar".into(),
-                station: "CI.RRS.00".into(),
+                station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
                 level,
                 episode: 1,
                 mode,

@@ -269,7 +269,7 @@ fn write_fallen_journal(state: &Path) {
     journal
         .append(&JournalRecord::Alert(Alert {
             pbr_id: SLENDER.into(),
-            station: "CI.RRS.00".into(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             level: AlertLevel::Overturned,
             episode: 1,
             mode: Mode::Overturned,

@@ -900,7 +900,7 @@ fn send_all<'s>(
             if counters.send_errors == 0 {
                 tracing::warn!(
                     "acquire: cannot publish a packet of {}: {e:#} (further failures counted)",
-                    printable(&packet.station, STATION_CHARS)
+                    printable(packet.station.as_str(), STATION_CHARS)
                 );
             }
             counters.send_errors += 1;

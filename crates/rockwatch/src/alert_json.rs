@@ -41,7 +41,7 @@
 //! `latency_us` to its alert lines, and keys may be added later.
 
 use rockwatch_core::dynamics::Mode;
-use rockwatch_core::engine::{Alert, AlertLevel, JournalRecord};
+use rockwatch_core::engine::{Alert, AlertLevel, JournalRecord, StationId};
 use rockwatch_core::record::mseed::format_time_ns;
 
 /// An alert in the shared schema (see the module documentation).
@@ -55,8 +55,8 @@ pub struct AlertJson {
     pub data_time: String,
     /// The same time as ns since the Unix epoch.
     pub data_time_ns: i64,
-    /// SEED `NET.STA.LOC` of the station the block follows.
-    pub station: String,
+    /// SEED `NET.STA.LOC` of the station the block follows (a JSON string).
+    pub station: StationId,
     pub mode: Mode,
     /// θ/α, signed (dimensionless).
     pub theta_over_alpha: f64,
@@ -196,7 +196,7 @@ mod tests {
     fn alert() -> Alert {
         Alert {
             pbr_id: "rrs-slender-pillar".into(),
-            station: "CI.RRS.00".into(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             level: AlertLevel::OverturnImminent,
             episode: 2,
             mode: Mode::SlideRock,

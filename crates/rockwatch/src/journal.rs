@@ -1069,7 +1069,7 @@ mod tests {
     fn alert(id: &str, episode: u32, level: rockwatch_core::engine::AlertLevel) -> JournalRecord {
         JournalRecord::Alert(rockwatch_core::engine::Alert {
             pbr_id: id.into(),
-            station: "CI.RRS.00".into(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             level,
             episode,
             mode: rockwatch_core::dynamics::Mode::Rock,

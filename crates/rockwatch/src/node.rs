@@ -51,8 +51,8 @@ use crate::status::{NodeStatus, RockStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
     fallen_blocks, journaled_history, AccelPacket, Alert, AlertLevel, Engine, HistoryEntry,
-    JournalRecord, Output, OutputSink, PbrSpec, PbrSummary, ResetEvent, ShardedEngine, Source,
-    SourceTally, StationHealth, Verdict,
+    JournalRecord, MalformedStation, Output, OutputSink, PbrSpec, PbrSummary, ResetEvent,
+    ShardedEngine, Source, SourceTally, StationHealth, StationId, Verdict,
 };
 
 /// Longest time a live packet waits in the engine's reorder window for missing data.
@@ -130,7 +130,7 @@ impl ResetOutcome {
 
 /// The blocks fallen according to the journal ([`fallen_blocks`]), each with the station and
 /// episode of its last `overturned` alert.
-fn fallen_with_their_fall(records: &[JournalRecord]) -> HashMap<String, (String, u32)> {
+fn fallen_with_their_fall(records: &[JournalRecord]) -> HashMap<String, (StationId, u32)> {
     let fallen = fallen_blocks(records);
     let mut falls = HashMap::new();
     for record in records {
@@ -316,6 +316,9 @@ pub struct NodeStats {
     /// Packets rejected for a time stamp too far ahead of their arrival
     /// ([`NodeOptions::reject_future`]); not handed to the engine.
     pub future_packets: u64,
+    /// Packets refused at their transport's edge for a station id that is not
+    /// `NET.STA.LOC` ([`NodeRuntime::refuse_malformed`]); not handed to the engine.
+    pub malformed_station_packets: u64,
 }
 
 /// What the engine made of its input, summed over every shard (the node's closing summary).
@@ -326,7 +329,8 @@ pub struct InputTotals {
     /// Packets rejected by validation: empty, mismatched component lengths, non-finite
     /// samples, sample rate or start time out of range, too many samples.
     pub rejected_packets: u64,
-    /// Packets whose station id is not `NET.STA.LOC`.
+    /// Packets whose station id is not `NET.STA.LOC`, refused at their transport's edge
+    /// ([`NodeStats::malformed_station_packets`]; not counted in `packets`).
     pub malformed_station_packets: u64,
     /// Packets from stations neither configured nor in the catalogue.
     pub unknown_station_packets: u64,
@@ -348,7 +352,6 @@ impl InputTotals {
     fn add(&mut self, engine: &Engine) {
         let c = engine.counters();
         self.packets += c.packets;
-        self.malformed_station_packets += c.malformed_station_packets;
         self.unknown_station_packets += c.unknown_station_packets;
         for (_, station, stream) in engine.station_counters() {
             self.rejected_packets += station.rejected_packets;
@@ -364,7 +367,7 @@ impl InputTotals {
 /// keeps the blocks it keeps), else standing (or fallen, if in `overturned`).
 fn rock_statuses(
     specs: &[PbrSpec],
-    overturned: &HashMap<String, (String, u32)>,
+    overturned: &HashMap<String, (StationId, u32)>,
     mut known: BTreeMap<String, RockStatus>,
 ) -> BTreeMap<String, RockStatus> {
     specs
@@ -732,7 +735,7 @@ impl NodeRuntime {
         }
         self.emit.stats.future_packets += 1;
         self.emit.log.log(
-            &packet.station,
+            packet.station.as_str(),
             "future",
             &format!(
                 "packet {} rejected: its data end {ahead_s:.3} s ahead of the node's clock \
@@ -743,6 +746,19 @@ impl NodeRuntime {
             ),
         );
         true
+    }
+
+    /// Refuses a packet whose station id, as a transport received it, is not `NET.STA.LOC`
+    /// (`rockwatch_core::engine::station_at_edge`, the one check of every transport's edge):
+    /// counted ([`NodeStats::malformed_station_packets`]), said as the engine's notices are
+    /// (kind `rejected`, under the id as received: [`MalformedStation::notice`]), and
+    /// counted as refused for its `source`, whichever transport it came by.
+    pub fn refuse_malformed(&mut self, refused: &MalformedStation, source: Option<Source>) {
+        self.emit.stats.malformed_station_packets += 1;
+        if let Some(source) = source {
+            self.tally.count(source, Verdict::Refused);
+        }
+        self.emit.notice(&refused.notice());
     }
 
     /// Applies a settings change, effective for the next packet.
@@ -955,7 +971,7 @@ impl NodeRuntime {
                 let place = self
                     .stations
                     .iter()
-                    .find(|s| s.id.as_str() == h.station)
+                    .find(|s| s.id == h.station)
                     .map(|s| (s.lat, s.lon));
                 let mut station = self.status.station(h, now, epoch_utc_ns, last_alert);
                 if let Some((lat, lon)) = place {
@@ -1093,6 +1109,7 @@ impl Stopped {
     pub fn input_totals(&self) -> InputTotals {
         let mut totals = InputTotals {
             future_packets: self.stats.future_packets,
+            malformed_station_packets: self.stats.malformed_station_packets,
             ..InputTotals::default()
         };
         for e in &self.engines {

@@ -398,7 +398,7 @@ impl NodeStatus {
             }
             items.push(Item {
                 name: format!("station {}", h.station),
-                hardware_id: h.station.clone(),
+                hardware_id: h.station.to_string(),
                 level: s.level,
                 message: s.message.clone(),
                 values,
@@ -487,7 +487,12 @@ impl NodeStatus {
             self.stations
                 .iter()
                 .filter_map(|s| {
-                    f(s).map(|v| (format!("{{station=\"{}\"}}", label(&s.health.station)), v))
+                    f(s).map(|v| {
+                        (
+                            format!("{{station=\"{}\"}}", label(s.health.station.as_str())),
+                            v,
+                        )
+                    })
                 })
                 .collect()
         };
@@ -675,7 +680,7 @@ impl StatusBuilder {
         ];
         let before = self
             .previous
-            .insert(health.station.clone(), counts)
+            .insert(health.station.to_string(), counts)
             .unwrap_or([0; 5]);
         let new = |i: usize| counts[i].saturating_sub(before[i]);
         let data_latency_s = match (health.last_arrival_ns, health.last_sample_ns) {
@@ -752,7 +757,7 @@ mod tests {
 
     fn health(station: &str) -> StationHealth {
         StationHealth {
-            station: station.into(),
+            station: rockwatch_core::engine::StationId::parse(station).unwrap(),
             monitored: true,
             blocks: 2,
             last_arrival_ns: Some(5_000_000_000),

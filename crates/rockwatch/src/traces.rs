@@ -440,7 +440,7 @@ impl Traces {
             Publication::Intensity(i) => {
                 if self.stations.contains_key(i.station.as_str()) {
                     self.intensities
-                        .insert(i.station.clone(), Arc::new(i.clone()));
+                        .insert(i.station.to_string(), Arc::new(i.clone()));
                 }
             }
             Publication::Reset(_) => {}
@@ -524,7 +524,7 @@ mod tests {
     fn packet(start_s: f64, rate: f64, east: Vec<f32>) -> AccelPacket {
         let n = east.len();
         AccelPacket {
-            station: "XX.STA.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.STA.00").unwrap(),
             start_time_ns: (start_s * 1e9) as i64,
             sample_rate_hz: rate,
             sequence: 0,

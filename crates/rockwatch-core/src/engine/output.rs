@@ -3,6 +3,7 @@
 use std::collections::{HashMap, HashSet};
 
 use crate::dynamics::Mode;
+use crate::station_id::StationId;
 
 /// Where the engine puts its outputs, each as soon as it is produced (an alert mid-packet
 /// need not wait for the rest of the packet). A `Vec<Output>` just collects them.
@@ -56,7 +57,7 @@ impl AlertLevel {
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Alert {
     pub pbr_id: String,
-    pub station: String,
+    pub station: StationId,
     pub level: AlertLevel,
     /// Episode number of this block (1 for the first), part of the alert's identity.
     pub episode: u32,
@@ -102,7 +103,7 @@ impl Alert {
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PbrState {
     pub pbr_id: String,
-    pub station: String,
+    pub station: StationId,
     pub mode: Mode,
     pub theta_rad: f64,
     /// θ/α, signed (dimensionless): the rocking angle θ (> 0 clockwise about the +x pivot,
@@ -126,7 +127,7 @@ pub struct PbrState {
 /// A station's running intensity measures over the current event window.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct StationIntensity {
-    pub station: String,
+    pub station: StationId,
     pub data_time_ns: i64,
     /// PGA (m/s²): the peak of the horizontal vector |(a_E, a_N)| (orientation-independent;
     /// = RotD100); PGV, PGD, CAV, Arias: the larger of the two horizontal components (m/s, m,
@@ -148,7 +149,10 @@ pub struct StationIntensity {
 /// A noteworthy irregularity, for the shell to log (rate-limited) and count.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Notice {
-    /// Station id as received (may be malformed).
+    /// Station id as received: the text, not a [`StationId`], because a packet refused at
+    /// its transport's edge for a malformed id ([`MalformedStation`](super::MalformedStation))
+    /// has no `StationId` and its notice must still say what came (bound and escape it
+    /// before showing it).
     pub station: String,
     pub kind: NoticeKind,
     pub message: String,
@@ -268,7 +272,7 @@ pub fn journaled_alerts(records: &[JournalRecord], depth: usize) -> Vec<(Alert, 
 pub struct ResetEvent {
     pub pbr_id: String,
     /// The block's station, and the episode in which it fell (of its last alert).
-    pub station: String,
+    pub station: StationId,
     pub episode: u32,
     /// Wall-clock UTC time of the reset (ns since the Unix epoch; 0 if the journal did not
     /// keep it).
@@ -449,7 +453,7 @@ mod tests {
     fn alert(pbr_id: &str, level: AlertLevel) -> JournalRecord {
         JournalRecord::Alert(Alert {
             pbr_id: pbr_id.into(),
-            station: "CI.RRS.00".into(),
+            station: StationId::parse("CI.RRS.00").unwrap(),
             level,
             episode: 1,
             mode: Mode::Rock,

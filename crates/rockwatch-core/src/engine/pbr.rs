@@ -15,12 +15,13 @@ use crate::dynamics::{
     BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RestLimit, RigidBlock,
 };
 use crate::rocking3d::report::PlanarView as Pose;
+use crate::station_id::StationId;
 
 /// A block's response summary (the last line of `rockwatch monitor`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PbrSummary {
     pub pbr_id: String,
-    pub station: String,
+    pub station: StationId,
     pub max_theta_over_alpha: f64,
     pub max_slide_m: f64,
     pub overturned: bool,
@@ -138,7 +139,7 @@ pub(crate) struct PacketContext<'a> {
 
 /// One sample of a station, as its blocks see it.
 pub(super) struct SampleContext<'a> {
-    pub(super) station: &'a str,
+    pub(super) station: &'a StationId,
     /// Data time of the sample (ns).
     pub(super) t_ns: i64,
     /// The station's running PGA and PGV, larger horizontal component (m/s², m/s).
@@ -532,21 +533,21 @@ impl PbrRuntime {
         }
     }
 
-    pub(super) fn state(&self, station: &str, data_time_ns: i64) -> PbrState {
+    pub(super) fn state(&self, station: &StationId, data_time_ns: i64) -> PbrState {
         self.state_monitored(station, data_time_ns, false)
     }
 
     /// The block's state, flagged `not_monitored` as given (a stale station's blocks).
     pub(super) fn state_monitored(
         &self,
-        station: &str,
+        station: &StationId,
         data_time_ns: i64,
         not_monitored: bool,
     ) -> PbrState {
         let pose = self.pose();
         PbrState {
             pbr_id: self.id.clone(),
-            station: station.to_string(),
+            station: station.clone(),
             mode: pose.mode,
             theta_rad: pose.theta_rad,
             theta_over_alpha: pose.theta_over_alpha,
@@ -638,7 +639,7 @@ impl PbrRuntime {
                 };
                 out.push(Output::Alert(Alert {
                     pbr_id: self.id.clone(),
-                    station: at.station.to_string(),
+                    station: at.station.clone(),
                     level,
                     episode: self.episode,
                     mode: pose.mode,
@@ -693,7 +694,7 @@ impl PbrRuntime {
     }
 
     /// The rock's summary: the largest responses over its directions.
-    pub(crate) fn summary(&self, station: &str) -> PbrSummary {
+    pub(crate) fn summary(&self, station: &StationId) -> PbrSummary {
         let directions = match &self.dynamics {
             Dynamics::Planar(p) => p.summaries(),
             Dynamics::Rigid(r) => {
@@ -713,7 +714,7 @@ impl PbrRuntime {
         }
         PbrSummary {
             pbr_id: self.id.clone(),
-            station: station.to_string(),
+            station: station.clone(),
             max_theta_over_alpha,
             max_slide_m,
             overturned: self.any_nominal_overturned(),

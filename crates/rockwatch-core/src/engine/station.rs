@@ -11,6 +11,7 @@ use super::pbr::{BlockStep, PacketContext, PbrRuntime, SampleContext};
 use super::rest_group::{GroundSample as Sample, RestGroup};
 use super::stream::{Gap, Released, Sequencer, StreamConfig};
 use crate::ims::{RunningConfig, RunningIms};
+use crate::station_id::StationId;
 
 /// Longest intensity window (s): a station that never goes quiet restarts its running IMs
 /// after this long (bounding their memory, about 8 bytes per sample and component).
@@ -44,7 +45,7 @@ pub struct StationCounters {
 #[derive(Debug)]
 pub(crate) struct StationRuntime {
     pub(crate) config: StationConfig,
-    pub(crate) name: String,
+    pub(crate) name: StationId,
     sequencer: Sequencer,
     /// Running intensity measures of the east and north components (the published values
     /// are the larger horizontal's, but PGA; no vertical measure is published, so none is
@@ -66,7 +67,7 @@ pub(crate) struct StationRuntime {
 }
 
 /// Hands `out` a notice about `station`.
-fn notice(station: &str, kind: NoticeKind, message: String, out: &mut dyn OutputSink) {
+fn notice(station: &StationId, kind: NoticeKind, message: String, out: &mut dyn OutputSink) {
     out.push(Output::Notice(Notice {
         station: station.to_string(),
         kind,
@@ -88,7 +89,7 @@ impl StationRuntime {
         let pbrs = runtimes;
         Ok(StationRuntime {
             rest: RestGroup::new(pbrs.iter().map(PbrRuntime::rest_limit).collect()),
-            name: config.id.to_string(),
+            name: config.id.clone(),
             config,
             sequencer: Sequencer::new(stream),
             ims: None,

@@ -380,7 +380,7 @@ fn from_state_dir(dir: &Path, catalogue: Option<&Path>) -> anyhow::Result<Report
                     pbr_id: a.pbr_id.clone(),
                     ..RockRow::default()
                 });
-                rock.station.clone_from(&a.station);
+                rock.station = a.station.to_string();
                 if rock.episode != Some(a.episode) {
                     rock.episode = Some(a.episode);
                     rock.peak_theta_over_alpha = None;

@@ -25,7 +25,7 @@ use crate::ros2::{Ros2Publisher, ALERTS_TOPIC};
 use crate::status::{AlertLatency, RockStatus};
 use rockwatch_core::engine::{
     Alert, AlertLevel, HealthChange, HistoryEntry, JournalRecord, Notice, Output, OutputSink,
-    ResetEvent, StationHealth,
+    ResetEvent, StationHealth, StationId,
 };
 
 /// Where the runtime's outputs go: the journal, the publishers (through a callback), the
@@ -48,7 +48,7 @@ pub(super) struct Emitter {
     /// Blocks overturned and not reset since, with the station and episode of their fall:
     /// restored from the journal, then every `overturned` alert the engine raises (inline or
     /// on a worker) until an operator reset.
-    pub(super) overturned: HashMap<String, (String, u32)>,
+    pub(super) overturned: HashMap<String, (StationId, u32)>,
     /// Operator resets journaled and applied, to publish ([`NodeRuntime::take_resets`]).
     pub(super) resets: Vec<ResetEvent>,
     /// Each station's last alert and its latencies (for the status).
@@ -123,8 +123,9 @@ impl Emitter {
         }
     }
 
-    /// Reports one of the engine's notices as [`NoticeLog`] says.
-    fn notice(&mut self, notice: &Notice) {
+    /// Reports one of the engine's notices (or the runtime's own refusal of a malformed
+    /// station id) as [`NoticeLog`] says.
+    pub(super) fn notice(&mut self, notice: &Notice) {
         self.stats.notices += 1;
         match self.notice_log {
             NoticeLog::RateLimited => {
@@ -280,7 +281,9 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 match self.emit.last_alerts.get_mut(alert.station.as_str()) {
                     Some(last) => *last = latency,
                     None => {
-                        self.emit.last_alerts.insert(alert.station.clone(), latency);
+                        self.emit
+                            .last_alerts
+                            .insert(alert.station.to_string(), latency);
                     }
                 }
                 if self.emit.notice_log == NoticeLog::RateLimited {
@@ -310,7 +313,7 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             Output::Health(change) => log_health(&change, self.emit.stale_after_s),
             Output::HealthReport(report) => {
                 for h in report {
-                    self.emit.health_reports.insert(h.station.clone(), h);
+                    self.emit.health_reports.insert(h.station.to_string(), h);
                 }
             }
         }
@@ -327,7 +330,7 @@ fn log_alert(alert: &Alert, latency: &AlertLatency, journal_pending: bool) {
     let data_latency_ms = latency.data_to_arrival_s * 1e3;
     let latency_ms = latency.arrival_to_published_s * 1e3;
     let pbr_id = printable(&alert.pbr_id, PBR_ID_CHARS);
-    let station = printable(&alert.station, STATION_CHARS);
+    let station = printable(alert.station.as_str(), STATION_CHARS);
     tracing::warn!(
         target: "rockwatch::alert",
         level = alert.level.as_str(),
@@ -353,7 +356,7 @@ fn log_alert(alert: &Alert, latency: &AlertLatency, journal_pending: bool) {
 
 /// Logs a station going stale (warn) or recovering (info), target `rockwatch::health`.
 fn log_health(change: &HealthChange, stale_after_s: f64) {
-    let station = printable(&change.station, STATION_CHARS);
+    let station = printable(change.station.as_str(), STATION_CHARS);
     let silent_s = change.silent_ns as f64 * 1e-9;
     if change.monitored {
         tracing::info!(

@@ -251,7 +251,7 @@ mod tests {
         .unwrap();
         let alert = |pbr: &str, level| Alert {
             pbr_id: pbr.into(),
-            station: "XX.A.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.A.00").unwrap(),
             level,
             episode: 1,
             mode: rockwatch_core::dynamics::Mode::Rock,

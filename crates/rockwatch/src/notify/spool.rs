@@ -311,7 +311,7 @@ mod tests {
             episode,
             data_time: "1970-01-01T00:00:00.000000000Z".into(),
             data_time_ns: 0,
-            station: "XX.A.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.A.00").unwrap(),
             mode: Mode::Rock,
             theta_over_alpha: 0.1,
             slide_m: 0.0,

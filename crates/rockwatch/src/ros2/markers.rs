@@ -748,7 +748,7 @@ mod tests {
     fn state(id: &str, mode: Mode, theta_rad: f64) -> Publication {
         Publication::State(PbrState {
             pbr_id: id.into(),
-            station: "CI.RRS.00".into(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             mode,
             theta_rad,
             theta_over_alpha: 0.0,
@@ -824,7 +824,7 @@ mod tests {
         );
         scene.observe(&Publication::Reset(rockwatch_core::engine::ResetEvent {
             pbr_id: "b".into(),
-            station: "CI.RRS.00".into(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             episode: 1,
             time_ns: 0,
         }));
