@@ -55,7 +55,7 @@ impl Publisher for Internal {
             self.internal_us.push(*latency_ns as f64 / 1e3);
             self.published.push((
                 alert.station.to_string(),
-                alert.pbr_id.clone(),
+                alert.pbr_id.to_string(),
                 alert.data_time_ns,
                 self.node_offset_ns + alert.arrival_ns + latency_ns,
             ));
@@ -129,7 +129,7 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
                 input.drain(usize::MAX, &|_| true, &mut |received, _| {
                     let p: AccelPacket = received.expect("the bench sends valid station ids");
                     let alert = Alert {
-                        pbr_id: "echo".into(),
+                        pbr_id: rockwatch_core::engine::PbrId::parse("echo").unwrap(),
                         station: p.station,
                         level: AlertLevel::MotionOnset,
                         episode: 1,

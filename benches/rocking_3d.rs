@@ -120,7 +120,7 @@ fn bench_engine_at_rest(c: &mut Criterion) {
     let specs = |three_d: bool| -> Vec<PbrSpec> {
         (0..ROCKS)
             .map(|k| PbrSpec {
-                id: format!("rock-{k}"),
+                id: rockwatch_core::engine::PbrId::parse(&format!("rock-{k}")).expect("valid id"),
                 station: station.clone(),
                 azimuth: Azimuth::from_degrees(3.6 * k as f64).expect("azimuth"),
                 nominal: planar,

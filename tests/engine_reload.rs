@@ -73,11 +73,9 @@ fn a_reload_of_the_same_configuration_mid_record_changes_no_output() {
                 assert_eq!(
                     report,
                     ReloadReport {
-                        kept: vec![
-                            "rrs-slender".into(),
-                            "rrs-stocky".into(),
-                            "syl-slender".into()
-                        ],
+                        kept: ["rrs-slender", "rrs-stocky", "syl-slender"]
+                            .map(|id| rockwatch_core::engine::PbrId::parse(id).unwrap())
+                            .to_vec(),
                         ..ReloadReport::default()
                     }
                 );

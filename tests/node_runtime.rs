@@ -270,7 +270,7 @@ fn feed(
     let mut publish = |p: Publication| {
         if let Publication::Alert { alert, .. } = p {
             alerts.push((
-                alert.pbr_id,
+                alert.pbr_id.to_string(),
                 alert.episode,
                 alert.level.as_str().to_string(),
             ));

@@ -16,7 +16,7 @@ const S: i64 = 1_000_000_000;
 
 fn spec(id: &str, station: &str) -> PbrSpec {
     PbrSpec {
-        id: id.into(),
+        id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
         station: StationId::parse(station).unwrap(),
         azimuth: Azimuth::from_degrees(0.0).unwrap(),
         nominal: BlockParams::from_width_height(0.4, 2.0, 0.8, 0.6, None).unwrap(),

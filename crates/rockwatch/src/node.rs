@@ -51,7 +51,7 @@ use crate::status::{NodeStatus, RockStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
     fallen_blocks, journaled_history, AccelPacket, Alert, AlertLevel, Engine, HistoryEntry,
-    JournalRecord, MalformedStation, Output, OutputSink, PbrSpec, PbrSummary, ResetEvent,
+    JournalRecord, MalformedStation, Output, OutputSink, PbrId, PbrSpec, PbrSummary, ResetEvent,
     ShardedEngine, Source, SourceTally, StationHealth, StationId, Verdict,
 };
 
@@ -130,7 +130,7 @@ impl ResetOutcome {
 
 /// The blocks fallen according to the journal ([`fallen_blocks`]), each with the station and
 /// episode of its last `overturned` alert.
-fn fallen_with_their_fall(records: &[JournalRecord]) -> HashMap<String, (StationId, u32)> {
+fn fallen_with_their_fall(records: &[JournalRecord]) -> HashMap<PbrId, (StationId, u32)> {
     let fallen = fallen_blocks(records);
     let mut falls = HashMap::new();
     for record in records {
@@ -263,7 +263,7 @@ impl NodeOptions {
         Ok((
             catalogue,
             owned,
-            foreign.into_iter().map(|s| s.id).collect(),
+            foreign.into_iter().map(|s| s.id.to_string()).collect(),
         ))
     }
 
@@ -367,19 +367,23 @@ impl InputTotals {
 /// keeps the blocks it keeps), else standing (or fallen, if in `overturned`).
 fn rock_statuses(
     specs: &[PbrSpec],
-    overturned: &HashMap<String, (StationId, u32)>,
+    overturned: &HashMap<PbrId, (StationId, u32)>,
     mut known: BTreeMap<String, RockStatus>,
 ) -> BTreeMap<String, RockStatus> {
     specs
         .iter()
         .map(|spec| {
             let station = spec.station.to_string();
-            let rock = match known.remove(&spec.id) {
+            let rock = match known.remove(spec.id.as_str()) {
                 Some(rock) if rock.station == station => rock,
-                _ => RockStatus::new(spec.id.clone(), station, overturned.contains_key(&spec.id))
-                    .at(spec.place.lat_deg, spec.place.lon_deg),
+                _ => RockStatus::new(
+                    spec.id.to_string(),
+                    station,
+                    overturned.contains_key(&spec.id),
+                )
+                .at(spec.place.lat_deg, spec.place.lon_deg),
             };
-            (spec.id.clone(), rock)
+            (spec.id.to_string(), rock)
         })
         .collect()
 }
@@ -521,7 +525,7 @@ impl NodeRuntime {
             busy_ns: 0,
             data_s: 0.0,
             tally,
-            pbr_ids: specs.iter().map(|s| s.id.clone()).collect(),
+            pbr_ids: specs.iter().map(|s| s.id.to_string()).collect(),
             stations,
             imminent_theta_ratio: config.engine.alerts.imminent_theta_ratio,
             foreign_pbr_ids: HashSet::new(),
@@ -809,7 +813,7 @@ impl NodeRuntime {
         if let Some(reports) = &mut self.emit.reports {
             reports.reconfigure(&blocks, &traced, &config.alerts);
         }
-        self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
+        self.pbr_ids = blocks.into_iter().map(|s| s.id.to_string()).collect();
         self.foreign_pbr_ids = foreign_blocks;
         self.emit.stale_after_s = config.stale_after_s;
         if self.max_ahead_ns.is_some() {
@@ -875,16 +879,17 @@ impl NodeRuntime {
     /// to the engine (see [`NodeRuntime::operator_reset`] for the checked request). An error
     /// means the state directory failed and nothing was applied.
     pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
+        let id = PbrId::parse(pbr_id).with_context(|| format!("cannot reset {pbr_id:?}"))?;
         let time_ns = self.emit.epoch_utc_ns + self.emit.now_ns();
         if let Some(j) = &mut self.emit.journal {
             j.append_now(&JournalRecord::Reset {
-                pbr_id: pbr_id.to_string(),
+                pbr_id: id.clone(),
                 time_ns: Some(time_ns),
             })?;
         }
         if let Some((station, episode)) = self.emit.overturned.remove(pbr_id) {
             self.emit.resets.push(ResetEvent {
-                pbr_id: pbr_id.to_string(),
+                pbr_id: id,
                 station,
                 episode,
                 time_ns,

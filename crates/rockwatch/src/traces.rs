@@ -410,7 +410,7 @@ impl Traces {
     pub fn observe(&mut self, publication: &Publication) {
         match publication {
             Publication::State(s) => {
-                let rock = self.rock(&s.pbr_id);
+                let rock = self.rock(s.pbr_id.as_str());
                 rock.changed |= rock.trace.state(EpisodePoint {
                     data_time_ns: s.data_time_ns,
                     theta_over_alpha: s.theta_over_alpha,
@@ -419,7 +419,7 @@ impl Traces {
                 });
             }
             Publication::Alert { alert: a, .. } => {
-                let rock = self.rock(&a.pbr_id);
+                let rock = self.rock(a.pbr_id.as_str());
                 rock.trace.alert(
                     a.episode,
                     AlertMark {

@@ -39,6 +39,7 @@ pub mod stream;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::sync::Arc;
 
+pub use crate::pbr_id::PbrId;
 pub use config::{
     AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, Rock3dSpec,
     Rock3dSpecError, RockPlace, StationConfig,
@@ -86,13 +87,13 @@ pub enum EngineError {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ReloadReport {
     /// In both catalogues, the same block on the same station: state kept.
-    pub kept: Vec<String>,
+    pub kept: Vec<PbrId>,
     /// New ids: at rest.
-    pub added: Vec<String>,
+    pub added: Vec<PbrId>,
     /// Ids in both whose body, axis, members or station changed: at rest again.
-    pub replaced: Vec<String>,
+    pub replaced: Vec<PbrId>,
     /// Gone from the catalogue: dropped.
-    pub dropped: Vec<String>,
+    pub dropped: Vec<PbrId>,
 }
 
 /// The monitoring engine.
@@ -167,22 +168,22 @@ impl Engine {
         pbrs: &[PbrSpec],
     ) -> Result<ReloadReport, EngineError> {
         let mut fresh = Engine::new(config, stations, pbrs)?;
-        let old_ids: Vec<String> = self
+        let old_ids: Vec<PbrId> = self
             .stations
             .values()
-            .flat_map(|s| s.pbrs.iter().map(|p| p.id().to_string()))
+            .flat_map(|s| s.pbrs.iter().map(|p| p.id().clone()))
             .collect();
-        let mut previous: HashMap<String, pbr::PbrRuntime> = self
+        let mut previous: HashMap<PbrId, pbr::PbrRuntime> = self
             .stations
             .values_mut()
             .flat_map(StationRuntime::take_blocks)
-            .map(|p| (p.id().to_string(), p))
+            .map(|p| (p.id().clone(), p))
             .collect();
         let mut report = ReloadReport::default();
         for (id, station) in &mut fresh.stations {
             let kept = station.continue_from(self.stations.remove(id), &mut previous);
             for pbr in &mut station.pbrs {
-                let pid = pbr.id().to_string();
+                let pid = pbr.id().clone();
                 if kept.contains(&pid) {
                     report.kept.push(pid);
                 } else if old_ids.contains(&pid) {

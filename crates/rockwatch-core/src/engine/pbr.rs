@@ -14,13 +14,14 @@ use crate::azimuth::Azimuth;
 use crate::dynamics::{
     BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RestLimit, RigidBlock,
 };
+use crate::pbr_id::PbrId;
 use crate::rocking3d::report::PlanarView as Pose;
 use crate::station_id::StationId;
 
 /// A block's response summary (the last line of `rockwatch monitor`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PbrSummary {
-    pub pbr_id: String,
+    pub pbr_id: PbrId,
     pub station: StationId,
     pub max_theta_over_alpha: f64,
     pub max_slide_m: f64,
@@ -114,7 +115,7 @@ enum Dynamics {
 /// One catalogued rock in the engine (module doc).
 #[derive(Debug, Clone)]
 pub(crate) struct PbrRuntime {
-    pub(super) id: String,
+    pub(super) id: PbrId,
     /// Name and position, copied into each alert (boxed: read only when an alert is raised).
     place: Box<super::RockPlace>,
     dynamics: Dynamics,
@@ -309,14 +310,14 @@ impl PbrRuntime {
         let dynamics = match &spec.rock_3d {
             Some(rock) => Dynamics::Rigid(Box::new(RigidRock::new(rock).map_err(|error| {
                 super::ConfigError::Rock3d {
-                    pbr: spec.id.clone(),
+                    pbr: spec.id.to_string(),
                     error,
                 }
             })?)),
             None => {
                 let member_error = |azimuth: Azimuth| {
                     move |error| super::ConfigError::Member {
-                        pbr: spec.id.clone(),
+                        pbr: spec.id.to_string(),
                         direction_deg: azimuth.degrees(),
                         error,
                     }
@@ -431,7 +432,7 @@ impl PbrRuntime {
             }
     }
 
-    pub(crate) fn id(&self) -> &str {
+    pub(crate) fn id(&self) -> &PbrId {
         &self.id
     }
 
@@ -507,7 +508,9 @@ impl PbrRuntime {
 
     /// Heap bytes of the rock's blocks (id, name and place, directions, members).
     pub(super) fn heap_bytes(&self) -> usize {
-        self.id.capacity()
+        // The id's text behind its two reference counts (shared with its outputs).
+        2 * std::mem::size_of::<usize>()
+            + self.id.as_str().len()
             + std::mem::size_of::<super::RockPlace>()
             + self.place.name.capacity()
             + match &self.dynamics {

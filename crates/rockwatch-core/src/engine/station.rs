@@ -11,6 +11,7 @@ use super::pbr::{BlockStep, PacketContext, PbrRuntime, SampleContext};
 use super::rest_group::{GroundSample as Sample, RestGroup};
 use super::stream::{Gap, Released, Sequencer, StreamConfig};
 use crate::ims::{RunningConfig, RunningIms};
+use crate::pbr_id::PbrId;
 use crate::station_id::StationId;
 
 /// Longest intensity window (s): a station that never goes quiet restarts its running IMs
@@ -249,7 +250,7 @@ impl StationRuntime {
 
     /// Restores the blocks' alerts and episodes from the journal `records`; the blocks in
     /// `fallen` ([`super::output::fallen_blocks`] of the same records) are restored fallen.
-    pub(crate) fn restore(&mut self, records: &[JournalRecord], fallen: &HashSet<String>) {
+    pub(crate) fn restore(&mut self, records: &[JournalRecord], fallen: &HashSet<PbrId>) {
         self.leave_rest_group();
         for pbr in &mut self.pbrs {
             let (mut last_episode, mut ended) = (0, 0);
@@ -299,8 +300,8 @@ impl StationRuntime {
     pub(crate) fn continue_from(
         &mut self,
         old: Option<StationRuntime>,
-        previous: &mut std::collections::HashMap<String, PbrRuntime>,
-    ) -> Vec<String> {
+        previous: &mut std::collections::HashMap<PbrId, PbrRuntime>,
+    ) -> Vec<PbrId> {
         let mut kept = Vec::new();
         for pbr in &mut self.pbrs {
             if let Some(prev) = previous.remove(&pbr.id) {

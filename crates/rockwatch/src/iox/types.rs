@@ -339,7 +339,7 @@ impl PbrAlertIox {
             direction_deg: alert.direction_deg,
         };
         write_padded(alert.station.as_str(), &mut out.station);
-        if write_padded(&alert.pbr_id, &mut out.pbr_id) {
+        if write_padded(alert.pbr_id.as_str(), &mut out.pbr_id) {
             out.flags |= ALERT_FLAG_ID_TRUNCATED;
         }
         out
@@ -368,7 +368,7 @@ impl PbrAlertIox {
             direction_deg: 0.0,
         };
         write_padded(reset.station.as_str(), &mut out.station);
-        if write_padded(&reset.pbr_id, &mut out.pbr_id) {
+        if write_padded(reset.pbr_id.as_str(), &mut out.pbr_id) {
             out.flags |= ALERT_FLAG_ID_TRUNCATED;
         }
         out

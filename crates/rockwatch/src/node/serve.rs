@@ -41,7 +41,7 @@ use crate::ros2::{
 };
 use crate::sd_notify::SystemdNotifier;
 use crate::web::WebServer;
-use rockwatch_core::engine::{AccelPacket, PbrSummary, Source};
+use rockwatch_core::engine::{AccelPacket, PbrId, PbrSummary, Source};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
 /// dead-node check are looked at least this often.
@@ -205,7 +205,7 @@ impl Reactor {
             let own: Vec<&rockwatch_core::catalogue::Pbr> = catalogue
                 .pbrs()
                 .iter()
-                .filter(|p| owned_ids.contains(p.id()))
+                .filter(|p| owned_ids.contains(p.id().as_str()))
                 .collect();
             let stations = config
                 .owned_stations()
@@ -603,10 +603,11 @@ fn apply_reload(runtime: &mut NodeRuntime, ros2: &mut Ros2Node, supervision: &mu
                 );
             }
             let report = &outcome.blocks;
-            let list = |ids: &[String]| {
+            let list = |ids: &[PbrId]| {
                 if ids.is_empty() {
                     String::new()
                 } else {
+                    let ids: Vec<&str> = ids.iter().map(PbrId::as_str).collect();
                     format!(" ({})", ids.join(", "))
                 }
             };

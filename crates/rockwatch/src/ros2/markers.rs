@@ -274,7 +274,7 @@ impl Scene {
                 } else {
                     RockLook::Rocking
                 };
-                self.update(&s.pbr_id, |r| {
+                self.update(s.pbr_id.as_str(), |r| {
                     // A fallen rock stays fallen (and lying) until a reset.
                     if r.look == RockLook::Fallen && look != RockLook::Fallen {
                         return;
@@ -290,7 +290,7 @@ impl Scene {
                 })
             }
             Publication::Alert { alert, .. } if alert.level == AlertLevel::Overturned => self
-                .update(&alert.pbr_id, |r| {
+                .update(alert.pbr_id.as_str(), |r| {
                     if r.look != RockLook::Fallen
                         && r.theta_rad.abs() < 1e-9
                         && alert.direction_deg.is_finite()
@@ -300,7 +300,7 @@ impl Scene {
                     }
                     r.look = RockLook::Fallen;
                 }),
-            Publication::Reset(reset) => self.update(&reset.pbr_id, |r| {
+            Publication::Reset(reset) => self.update(reset.pbr_id.as_str(), |r| {
                 r.look = RockLook::Standing;
                 r.theta_rad = 0.0;
                 r.slide_m = 0.0;
@@ -747,7 +747,7 @@ mod tests {
 
     fn state(id: &str, mode: Mode, theta_rad: f64) -> Publication {
         Publication::State(PbrState {
-            pbr_id: id.into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
             station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             mode,
             theta_rad,
@@ -823,7 +823,7 @@ mod tests {
             RockLook::Fallen.color()
         );
         scene.observe(&Publication::Reset(rockwatch_core::engine::ResetEvent {
-            pbr_id: "b".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("b").unwrap(),
             station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             episode: 1,
             time_ns: 0,

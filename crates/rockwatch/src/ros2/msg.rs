@@ -289,8 +289,8 @@ impl From<&engine::StationIntensity> for StationIntensity {
 impl From<&engine::PbrState> for PbrState {
     fn from(s: &engine::PbrState) -> PbrState {
         PbrState {
-            header: Header::new(s.data_time_ns, &super::names::rock_frame(&s.pbr_id)),
-            pbr_id: s.pbr_id.clone(),
+            header: Header::new(s.data_time_ns, &super::names::rock_frame(s.pbr_id.as_str())),
+            pbr_id: s.pbr_id.to_string(),
             station: s.station.to_string(),
             mode: mode_code(s.mode),
             theta: s.theta_rad,
@@ -310,7 +310,7 @@ impl From<&engine::ResetEvent> for PbrAlert {
     fn from(r: &engine::ResetEvent) -> PbrAlert {
         PbrAlert {
             header: Header::new(r.time_ns, r.station.as_str()),
-            pbr_id: r.pbr_id.clone(),
+            pbr_id: r.pbr_id.to_string(),
             station: r.station.to_string(),
             level: crate::wire_codes::LEVEL_RESET,
             mode: mode_code(rockwatch_core::dynamics::Mode::Rest),
@@ -336,7 +336,7 @@ impl From<&engine::Alert> for PbrAlert {
     fn from(a: &engine::Alert) -> PbrAlert {
         PbrAlert {
             header: Header::new(a.data_time_ns, a.station.as_str()),
-            pbr_id: a.pbr_id.clone(),
+            pbr_id: a.pbr_id.to_string(),
             station: a.station.to_string(),
             level: level_code(a.level),
             mode: mode_code(a.mode),
