@@ -854,12 +854,9 @@ mod tests {
     #[test]
     fn prometheus_text_has_help_type_and_labelled_samples() {
         let mut b = StatusBuilder::default();
-        let station = b.station(
-            health("XX.\"Q\".00"),
-            6_000_000_000,
-            1_000_000_000_000,
-            None,
-        );
+        // A station id is a checked `StationId` (it cannot hold a quote); a rock's station
+        // text in its status can, and is escaped below.
+        let station = b.station(health("XX.Q.00"), 6_000_000_000, 1_000_000_000_000, None);
         let status = NodeStatus {
             stamp_ns: 0,
             stations: vec![station],
@@ -884,7 +881,7 @@ mod tests {
         let text = status.prometheus();
         assert!(text.contains("# TYPE rockwatch_station_packets_total counter\n"));
         assert!(
-            text.contains("rockwatch_station_packets_total{station=\"XX.\\\"Q\\\".00\"} 10\n"),
+            text.contains("rockwatch_station_packets_total{station=\"XX.Q.00\"} 10\n"),
             "{text}"
         );
         assert!(text.contains("rockwatch_engine_realtime_factor 12.5\n"));
@@ -894,7 +891,7 @@ mod tests {
         );
         let items = status.items();
         assert_eq!(items.len(), 4);
-        assert_eq!(items[3].hardware_id, "XX.\"Q\".00");
+        assert_eq!(items[3].hardware_id, "XX.Q.00");
     }
 }
 
