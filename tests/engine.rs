@@ -1066,7 +1066,7 @@ fn a_packet_whose_unit_is_not_its_stations_is_refused_and_said() {
     let own = |station: &str| {
         engine
             .station_counters()
-            .find(|(s, _, _)| s.to_string() == station)
+            .find(|(s, _, _)| s.as_str() == station)
             .map(|(_, own, _)| own)
             .unwrap()
     };
