@@ -29,7 +29,8 @@ use rockwatch_core::dynamics::{
     BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock,
 };
 use rockwatch_core::engine::{
-    AccelPacket, Engine, EngineConfig, Output, PbrSpec, ShardedEngine, StationConfig, StationId,
+    AccelPacket, Engine, EngineConfig, Output, PbrId, PbrSpec, ShardedEngine, StationConfig,
+    StationId,
 };
 
 const RATE_HZ: f64 = 100.0;
@@ -67,7 +68,7 @@ fn pbrs(case: Case) -> Vec<PbrSpec> {
                 let width = 0.8 + 0.05 * k;
                 let height = 4.0 + 0.1 * k;
                 PbrSpec {
-                    id: format!("{}-{b}", station(s)),
+                    id: PbrId::parse(&format!("{}-{b}", station(s))).expect("valid id"),
                     station: StationId::parse(&station(s)).expect("valid id"),
                     azimuth: Azimuth::from_degrees(360.0 * b as f64 / n as f64)
                         .expect("finite azimuth"),
@@ -94,7 +95,7 @@ fn round(case: Case, r: usize) -> Vec<AccelPacket> {
                 (amp * (2.0 * std::f64::consts::PI * f * t + phase).sin()) as f32
             };
             AccelPacket {
-                station: station(s),
+                station: StationId::parse(&station(s)).expect("valid id"),
                 start_time_ns: (r * PACKET) as i64 * 10_000_000,
                 sample_rate_hz: RATE_HZ,
                 sequence: r as u64,
@@ -372,7 +373,7 @@ fn region_specs(rocks: usize) -> Vec<PbrSpec> {
             let mut directions = directions.into_iter();
             let first = directions.next().expect("24 directions");
             PbrSpec {
-                id: format!("rock-{r:04}"),
+                id: PbrId::parse(&format!("rock-{r:04}")).expect("valid id"),
                 station: StationId::parse(&station(2 * r)).expect("valid id"),
                 azimuth: first.azimuth,
                 nominal: first.nominal,

@@ -63,7 +63,10 @@ fn alerts(records: &[JournalRecord]) -> Vec<AlertJson> {
 }
 
 fn keys(alerts: &[AlertJson]) -> BTreeSet<Key> {
-    alerts.iter().map(AlertJson::key).collect()
+    alerts
+        .iter()
+        .map(|a| (a.pbr_id.to_string(), a.episode, a.level))
+        .collect()
 }
 
 fn webhook(url: &str) -> NotifyConfig {

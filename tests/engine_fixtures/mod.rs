@@ -30,7 +30,7 @@ pub fn rinaldi_f32() -> Record {
 /// Block `id` on `station`, rocking in the vertical plane of azimuth `azimuth_deg`.
 pub fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpec {
     PbrSpec {
-        id: id.into(),
+        id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
         station: StationId::parse(station).unwrap(),
         azimuth: Azimuth::from_degrees(azimuth_deg).unwrap(),
         nominal: p,

@@ -551,7 +551,7 @@ mod tests {
             c.ros2.imu,
             vec![crate::ros2::ImuInput {
                 topic: "/imu/data".into(),
-                station: "XB.IMU.00".into(),
+                station: rockwatch_core::engine::StationId::parse("XB.IMU.00").unwrap(),
                 sample_rate_hz: 100.0,
                 remove_gravity: true,
                 qos: crate::ros2::InputQos::SensorData,

@@ -299,7 +299,7 @@ impl Scene {
                 } else {
                     RockLook::Rocking
                 };
-                self.update(&s.pbr_id, |r| {
+                self.update(s.pbr_id.as_str(), |r| {
                     // A fallen rock stays fallen (and lying) until a reset.
                     if r.look == RockLook::Fallen && look != RockLook::Fallen {
                         return;
@@ -315,7 +315,7 @@ impl Scene {
                 })
             }
             Publication::Alert { alert, .. } if alert.level == AlertLevel::Overturned => self
-                .update(&alert.pbr_id, |r| {
+                .update(alert.pbr_id.as_str(), |r| {
                     if r.look != RockLook::Fallen
                         && r.theta_rad.abs() < 1e-9
                         && alert.direction_deg.is_finite()
@@ -325,7 +325,7 @@ impl Scene {
                     }
                     r.look = RockLook::Fallen;
                 }),
-            Publication::Reset(reset) => self.update(&reset.pbr_id, |r| {
+            Publication::Reset(reset) => self.update(reset.pbr_id.as_str(), |r| {
                 r.look = RockLook::Standing;
                 r.theta_rad = 0.0;
                 r.slide_m = 0.0;
@@ -797,8 +797,8 @@ mod tests {
 
     fn state(id: &str, mode: Mode, theta_rad: f64) -> Publication {
         Publication::State(PbrState {
-            pbr_id: id.into(),
-            station: "CI.RRS.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             mode,
             theta_rad,
             theta_over_alpha: 0.0,
@@ -873,8 +873,8 @@ mod tests {
             RockLook::Fallen.color()
         );
         scene.observe(&Publication::Reset(rockwatch_core::engine::ResetEvent {
-            pbr_id: "b".into(),
-            station: "CI.RRS.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("b").unwrap(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             episode: 1,
             time_ns: 0,
         }));

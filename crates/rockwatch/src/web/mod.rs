@@ -435,7 +435,7 @@ mod tests {
         // A station's trace: the newest bins of its ring, as the snapshot holds them.
         let mut traces = crate::traces::Traces::new(&[("XX.STA.00".into(), None)]);
         traces.push_packet(&rockwatch_core::engine::AccelPacket {
-            station: "XX.STA.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.STA.00").unwrap(),
             start_time_ns: 1_000_000_000_000,
             sample_rate_hz: 100.0,
             sequence: 0,
