@@ -191,7 +191,7 @@ fn latency(config: &Ros2Config, plan: &NetworkPlan, catalogue: &Path) {
 /// 10 quiet samples at 100 Hz of station `s`, packet `j`.
 fn quiet(s: usize, j: usize) -> AccelPacket {
     AccelPacket {
-        station: station(s),
+        station: rockwatch_core::engine::StationId::parse(&station(s)).expect("valid id"),
         start_time_ns: j as i64 * 100_000_000,
         sample_rate_hz: 100.0,
         sequence: j as u64,

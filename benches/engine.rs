@@ -25,9 +25,12 @@ use std::time::Instant;
 
 use rockwatch_core::azimuth::Azimuth;
 use rockwatch_core::catalogue::DirectionBlocks;
-use rockwatch_core::dynamics::{BlockParams, Mode, RigidBlock};
+use rockwatch_core::dynamics::{
+    BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock,
+};
 use rockwatch_core::engine::{
-    AccelPacket, Engine, EngineConfig, Output, PbrSpec, ShardedEngine, StationConfig, StationId,
+    AccelPacket, Engine, EngineConfig, Output, PbrId, PbrSpec, ShardedEngine, StationConfig,
+    StationId,
 };
 
 const RATE_HZ: f64 = 100.0;
@@ -65,7 +68,7 @@ fn pbrs(case: Case) -> Vec<PbrSpec> {
                 let width = 0.8 + 0.05 * k;
                 let height = 4.0 + 0.1 * k;
                 PbrSpec {
-                    id: format!("{}-{b}", station(s)),
+                    id: PbrId::parse(&format!("{}-{b}", station(s))).expect("valid id"),
                     station: StationId::parse(&station(s)).expect("valid id"),
                     azimuth: Azimuth::from_degrees(360.0 * b as f64 / n as f64)
                         .expect("finite azimuth"),
@@ -92,7 +95,7 @@ fn round(case: Case, r: usize) -> Vec<AccelPacket> {
                 (amp * (2.0 * std::f64::consts::PI * f * t + phase).sin()) as f32
             };
             AccelPacket {
-                station: station(s),
+                station: StationId::parse(&station(s)).expect("valid id"),
                 start_time_ns: (r * PACKET) as i64 * 10_000_000,
                 sample_rate_hz: RATE_HZ,
                 sequence: r as u64,
@@ -328,40 +331,49 @@ fn at_rest_case() {
     }
 }
 
+/// Toppling directions of a region rock, 15° apart.
+const REGION_DIRECTIONS: usize = 24;
+/// Ensemble members of a region rock's direction.
+const REGION_MEMBERS: usize = 100;
+
+/// Block `m` (None: the nominal one) of rock `r` in direction `d` of the region case. The
+/// nominal rock: α ≈ 0.16–0.25 rad as in the other cases; its width seen from direction d
+/// varies by ±15 % (an elongated rock); members ±10 % in height and ±8 % in width, μs
+/// 0.6–0.9 (a Latin-hypercube-like stratification of member m).
+fn region_block(r: usize, d: usize, m: Option<usize>) -> BlockParams {
+    let k = (r % 10) as f64;
+    let az = (d as f64 * 15.0).to_radians();
+    let mut width = (0.8 + 0.05 * k) * (1.0 + 0.15 * (2.0 * az).cos());
+    let mut height = 4.0 + 0.1 * k;
+    let mut mu_s = 0.75;
+    if let Some(m) = m {
+        let u = |stride: usize| {
+            ((m * stride) % REGION_MEMBERS) as f64 / (REGION_MEMBERS - 1) as f64 - 0.5
+        };
+        height *= 1.0 + 0.2 * u(1);
+        width *= 1.0 + 0.16 * u(37);
+        mu_s += 0.3 * u(61);
+    }
+    BlockParams::from_width_height(width, height, mu_s, 0.8 * mu_s, None).expect("valid block")
+}
+
 /// Rocks of the region case: rock `r` on station `2r` (see the module doc).
 fn region_specs(rocks: usize) -> Vec<PbrSpec> {
-    const DIRECTIONS: usize = 24;
-    const MEMBERS: usize = 100;
-    let block = |r: usize, d: usize, m: Option<usize>| {
-        // The nominal rock: α ≈ 0.16–0.25 rad as in the other cases; its width seen from
-        // direction d varies by ±15 % (an elongated rock); members ±10 % in height and
-        // ±8 % in width, μs 0.6–0.9 (a Latin-hypercube-like stratification of member m).
-        let k = (r % 10) as f64;
-        let az = (d as f64 * 15.0).to_radians();
-        let mut width = (0.8 + 0.05 * k) * (1.0 + 0.15 * (2.0 * az).cos());
-        let mut height = 4.0 + 0.1 * k;
-        let mut mu_s = 0.75;
-        if let Some(m) = m {
-            let u = |stride: usize| ((m * stride) % MEMBERS) as f64 / (MEMBERS - 1) as f64 - 0.5;
-            height *= 1.0 + 0.2 * u(1);
-            width *= 1.0 + 0.16 * u(37);
-            mu_s += 0.3 * u(61);
-        }
-        BlockParams::from_width_height(width, height, mu_s, 0.8 * mu_s, None).expect("valid block")
-    };
     (0..rocks)
         .map(|r| {
-            let directions: Vec<DirectionBlocks> = (0..DIRECTIONS)
+            let directions: Vec<DirectionBlocks> = (0..REGION_DIRECTIONS)
                 .map(|d| DirectionBlocks {
                     azimuth: Azimuth::from_degrees(d as f64 * 15.0).expect("finite azimuth"),
-                    nominal: block(r, d, None),
-                    members: (0..MEMBERS).map(|m| block(r, d, Some(m))).collect(),
+                    nominal: region_block(r, d, None),
+                    members: (0..REGION_MEMBERS)
+                        .map(|m| region_block(r, d, Some(m)))
+                        .collect(),
                 })
                 .collect();
             let mut directions = directions.into_iter();
             let first = directions.next().expect("24 directions");
             PbrSpec {
-                id: format!("rock-{r:04}"),
+                id: PbrId::parse(&format!("rock-{r:04}")).expect("valid id"),
                 station: StationId::parse(&station(2 * r)).expect("valid id"),
                 azimuth: first.azimuth,
                 nominal: first.nominal,
@@ -422,6 +434,79 @@ fn region_case() {
     );
 }
 
+/// The cost of a moving member alone: the 100 members of rock 0 in 4 of its directions as
+/// bare `RigidBlock`s under the region case's shaking (station 0's 0.3 g record projected on
+/// each direction, f32 samples as in the packets), 10 s at 100 Hz on this thread. Prints the
+/// thread's CPU time per member-sample in motion (a member not at rest at the sample's start;
+/// one that fell counts on, at almost no cost), the integrator's steps per such sample and a
+/// hash of every event and final state (equal hashes: the same results bit for bit).
+fn member_step_case() {
+    use std::hash::Hasher;
+    let amp = 0.3 * 9.80665;
+    let sample = |i: usize, f: f64| {
+        let t = i as f64 / RATE_HZ;
+        f64::from((amp * (2.0 * std::f64::consts::PI * f * t).sin()) as f32)
+    };
+    let n = SECONDS * RATE_HZ as usize;
+    let mut hash = std::collections::hash_map::DefaultHasher::new();
+    let (mut cpu_s, mut moving_samples, mut steps, mut rejected) = (0.0, 0u64, 0u64, 0u64);
+    for d in [0, 5, 11, 17] {
+        let az = (d as f64 * 15.0).to_radians();
+        let input: Vec<GroundAccel> = (0..=n)
+            .map(|i| GroundAccel {
+                horizontal_mps2: sample(i, 1.5) * az.sin() + sample(i, 1.1) * az.cos(),
+                vertical_mps2: 0.3 * sample(i, 2.3),
+            })
+            .collect();
+        for m in 0..REGION_MEMBERS {
+            let mut block = RigidBlock::new(region_block(0, d, Some(m)), BlockOptions::default());
+            let (cpu0, _) = thread_cpu_and_wait_s();
+            for w in input.windows(2) {
+                if block.mode() != Mode::Rest {
+                    moving_samples += 1;
+                }
+                block
+                    .advance(1.0 / RATE_HZ, w[0], w[1], |e| hash_event(&mut hash, &e))
+                    .expect("valid input");
+            }
+            cpu_s += thread_cpu_and_wait_s().0 - cpu0;
+            let (a, r) = block.step_counts();
+            steps += a;
+            rejected += r;
+            for v in [block.theta_rad(), block.theta_dot(), block.slide_m()] {
+                hash.write_u64(v.to_bits());
+            }
+        }
+    }
+    let per = moving_samples.max(1) as f64;
+    println!(
+        "member step: 400 region members (rock 0, 4 directions), {SECONDS} s of its 0.3 g shaking: {moving_samples} member-samples in motion, {:.0} ns of CPU per member-sample in motion (hashing the events included), {:.3} accepted + {:.3} rejected steps per such sample, results hash {:016x}",
+        cpu_s / per * 1e9,
+        steps as f64 / per,
+        rejected as f64 / per,
+        hash.finish()
+    );
+}
+
+/// Feeds an event's kind and its numbers, bit for bit, to `hash`.
+fn hash_event(hash: &mut impl std::hash::Hasher, event: &BlockEvent) {
+    let numbers: &[f64] = &match *event {
+        BlockEvent::ModeChange { t_s, from, to } => [t_s, from as u8 as f64, to as u8 as f64, 0.0],
+        BlockEvent::Impact {
+            t_s,
+            theta_dot_before,
+            theta_dot_after,
+            slip_dot_after,
+            ..
+        } => [t_s, theta_dot_before, theta_dot_after, slip_dot_after],
+        BlockEvent::Peak { t_s, theta_rad } => [t_s, theta_rad, 1.0, 0.0],
+        BlockEvent::AlphaCrossing { t_s, upward } => [t_s, f64::from(u8::from(upward)), 2.0, 0.0],
+    };
+    for v in numbers {
+        hash.write_u64(v.to_bits());
+    }
+}
+
 fn main() {
     // `cargo bench --bench engine -- capacity` runs only the cases whose name contains an
     // argument (flags such as `--bench` are ignored).
@@ -429,11 +514,12 @@ fn main() {
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
-    let cases: [(&str, fn()); 4] = [
+    let cases: [(&str, fn()); 5] = [
         ("existing", existing_case),
         ("capacity", capacity_case),
         ("at_rest", at_rest_case),
         ("region", region_case),
+        ("member_step", member_step_case),
     ];
     for (name, case) in cases {
         if filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str())) {

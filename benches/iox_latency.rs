@@ -54,8 +54,8 @@ impl Publisher for Internal {
         {
             self.internal_us.push(*latency_ns as f64 / 1e3);
             self.published.push((
-                alert.station.clone(),
-                alert.pbr_id.clone(),
+                alert.station.to_string(),
+                alert.pbr_id.to_string(),
                 alert.data_time_ns,
                 self.node_offset_ns + alert.arrival_ns + latency_ns,
             ));
@@ -126,9 +126,10 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
             while !stop.load(Ordering::Relaxed) {
                 poll.poll(&mut events, Some(Duration::from_millis(50)))
                     .unwrap();
-                input.drain(usize::MAX, &|_| true, &mut |p: AccelPacket, _| {
+                input.drain(usize::MAX, &|_| true, &mut |received, _| {
+                    let p: AccelPacket = received.expect("the bench sends valid station ids");
                     let alert = Alert {
-                        pbr_id: "echo".into(),
+                        pbr_id: rockwatch_core::engine::PbrId::parse("echo").unwrap(),
                         station: p.station,
                         level: AlertLevel::MotionOnset,
                         episode: 1,
@@ -169,7 +170,8 @@ fn transport_floor(config: &IoxConfig, packets: usize) -> Vec<f64> {
         std::thread::sleep(next.saturating_duration_since(Instant::now()));
         next += PACE;
         let packet = AccelPacket {
-            station: station(i % ALERT_STATIONS),
+            station: rockwatch_core::engine::StationId::parse(&station(i % ALERT_STATIONS))
+                .expect("valid id"),
             start_time_ns: i as i64,
             sample_rate_hz: 100.0,
             sequence: (i / ALERT_STATIONS) as u64,
@@ -433,7 +435,7 @@ fn main() {
     let received = move || probe.iox().map_or(0, |s| s.received);
     // 10 s of quiet 100 Hz data in 100 ms packets from every station.
     let quiet = |s: usize, j: usize| AccelPacket {
-        station: station(s),
+        station: rockwatch_core::engine::StationId::parse(&station(s)).expect("valid id"),
         start_time_ns: j as i64 * 100_000_000,
         sample_rate_hz: 100.0,
         sequence: j as u64,

@@ -101,7 +101,7 @@ fn main() {
         .zip(north.chunks(per_packet))
         .enumerate()
         .map(|(i, (e, n))| AccelPacket {
-            station: "CI.RRS.00".into(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             start_time_ns: (i * per_packet) as i64 * (record.dt_s * 1e9).round() as i64,
             sample_rate_hz: 1.0 / record.dt_s,
             sequence: i as u64,

@@ -120,7 +120,7 @@ fn bench_engine_at_rest(c: &mut Criterion) {
     let specs = |three_d: bool| -> Vec<PbrSpec> {
         (0..ROCKS)
             .map(|k| PbrSpec {
-                id: format!("rock-{k}"),
+                id: rockwatch_core::engine::PbrId::parse(&format!("rock-{k}")).expect("valid id"),
                 station: station.clone(),
                 azimuth: Azimuth::from_degrees(3.6 * k as f64).expect("azimuth"),
                 nominal: planar,
@@ -146,7 +146,7 @@ fn bench_engine_at_rest(c: &mut Criterion) {
                 .collect()
         };
         AccelPacket {
-            station: "XX.Q.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.Q.00").unwrap(),
             start_time_ns: 1_700_000_000_000_000_000 + i as i64 * 1_000_000_000,
             sample_rate_hz: 100.0,
             sequence: i as u64,

@@ -499,14 +499,19 @@ fn run(fault: Fault, restart: bool) {
     let scenario = format!("{fault:?}{}", if restart { " + restart" } else { "" });
     let mut running;
     if restart {
-        // The ring up to a little after the fault; once records past it are committed,
-        // SIGKILL; the rest of the data; acquire again.
+        // The ring up to a little after the fault; once records past it are committed and the
+        // fault is in acquire's log, SIGKILL; the rest of the data; acquire again. (The log is
+        // written from a queue by a thread of its own: a line still queued when SIGKILL comes
+        // is lost, so the commit alone does not mean the line was written.)
         server.push(&records[AT..AT + 12]);
         running = rig.acquire("iceoryx2");
         let want = latest_starts(&records[..AT + 9]);
-        rig.wait("acquire did not commit past the fault", &|rig| {
+        let (fault_lines, _) = expected_lines(fault);
+        rig.wait("acquire did not commit past the fault and log it", &|rig| {
             let got = rig.committed();
+            let logs = rig.acquire_logs();
             want.iter().all(|(k, t)| got.get(k).is_some_and(|g| g >= t))
+                && fault_lines.iter().all(|line| logs.contains(line))
         });
         running.kill();
         server.push(&records[AT + 12..]);

@@ -506,8 +506,14 @@ fn example_catalogue_loads_and_its_csv_twin_is_equal() {
 
     let stations: Vec<&str> = toml.stations().iter().map(|s| s.as_str()).collect();
     assert_eq!(stations, ["CI.RRS.00", "CI.SYL.00"]);
-    let rrs: Vec<&str> = toml.pbrs_for_station("CI.RRS.00").map(Pbr::id).collect();
-    let syl: Vec<&str> = toml.pbrs_for_station("CI.SYL.00").map(Pbr::id).collect();
+    let rrs: Vec<&str> = toml
+        .pbrs_for_station("CI.RRS.00")
+        .map(|p| p.id().as_str())
+        .collect();
+    let syl: Vec<&str> = toml
+        .pbrs_for_station("CI.SYL.00")
+        .map(|p| p.id().as_str())
+        .collect();
     assert_eq!(rrs.len() + syl.len(), toml.len());
     assert!(rrs.contains(&"rrs-slender-pillar") && syl.contains(&"syl-stocky-block"));
     assert_eq!(toml.pbrs_for_station("CI.XXX.00").count(), 0);

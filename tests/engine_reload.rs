@@ -22,7 +22,7 @@ fn packets(station: &str, record: &Record) -> Vec<AccelPacket> {
     east.chunks(LEN)
         .enumerate()
         .map(|(i, e)| AccelPacket {
-            station: station.into(),
+            station: rockwatch_core::engine::StationId::parse(station).unwrap(),
             start_time_ns: T0_NS + (i * LEN) as i64 * (record.dt_s * 1e9).round() as i64,
             sample_rate_hz: 1.0 / record.dt_s,
             sequence: i as u64,
@@ -72,11 +72,9 @@ fn a_reload_of_the_same_configuration_mid_record_changes_no_output() {
                 assert_eq!(
                     report,
                     ReloadReport {
-                        kept: vec![
-                            "rrs-slender".into(),
-                            "rrs-stocky".into(),
-                            "syl-slender".into()
-                        ],
+                        kept: ["rrs-slender", "rrs-stocky", "syl-slender"]
+                            .map(|id| rockwatch_core::engine::PbrId::parse(id).unwrap())
+                            .to_vec(),
                         ..ReloadReport::default()
                     }
                 );

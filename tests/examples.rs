@@ -107,7 +107,7 @@ fn journaled_alerts(state_dir: &Path) -> BTreeSet<(String, String)> {
     records
         .iter()
         .filter_map(|r| match r {
-            JournalRecord::Alert(a) => Some((a.pbr_id.clone(), a.level.as_str().to_string())),
+            JournalRecord::Alert(a) => Some((a.pbr_id.to_string(), a.level.as_str().to_string())),
             _ => None,
         })
         .collect()

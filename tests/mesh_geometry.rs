@@ -795,6 +795,30 @@ fn error_of(text: &str, format: MeshFormat, name: &str) -> String {
 }
 
 #[test]
+fn a_text_mesh_that_is_not_utf8_is_refused_at_the_line_of_the_bad_byte() {
+    for (format, name, head) in [
+        (MeshFormat::Obj, "latin1.obj", "v 0 0 0\nv 1 0 0\n"),
+        (
+            MeshFormat::Stl,
+            "latin1.stl",
+            "solid rock\n  facet normal 0 0 1\n",
+        ),
+    ] {
+        // "# caf\xe9" on line 3: Latin-1, not UTF-8.
+        let mut bytes = head.as_bytes().to_vec();
+        bytes.extend_from_slice(b"# caf\xe9\nv 0 1 0\n");
+        let e = match TriMesh::parse(&bytes, format, name) {
+            Ok(_) => panic!("{name} accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.contains(&format!("{name}:3:")) && e.contains("not UTF-8 text"),
+            "{e}"
+        );
+    }
+}
+
+#[test]
 fn malformed_open_misoriented_and_degenerate_meshes_are_refused_by_name_and_line() {
     let tetra = |faces: &str| format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n{faces}");
     let good = "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";

@@ -406,8 +406,8 @@ fn a_crash_during_journal_compaction_loses_nothing() {
     let uninterrupted = alert_ids(&lines(&monitor_rinaldi(None, &[])));
     let alert = |episode: u32, level| {
         JournalRecord::Alert(Alert {
-            pbr_id: "old-rock".into(),
-            station: "CI.OLD.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("old-rock").unwrap(),
+            station: rockwatch_core::engine::StationId::parse("CI.OLD.00").unwrap(),
             level,
             episode,
             mode: Mode::Rock,
@@ -435,14 +435,14 @@ fn a_crash_during_journal_compaction_loses_nothing() {
             for level in [AlertLevel::MotionOnset, AlertLevel::Overturned] {
                 j.append_unsynced(&alert(episode, level)).unwrap();
                 j.append_unsynced(&JournalRecord::Published {
-                    pbr_id: "old-rock".into(),
+                    pbr_id: rockwatch_core::engine::PbrId::parse("old-rock").unwrap(),
                     episode,
                     level,
                 })
                 .unwrap();
             }
             j.append_unsynced(&JournalRecord::Reset {
-                pbr_id: "old-rock".into(),
+                pbr_id: rockwatch_core::engine::PbrId::parse("old-rock").unwrap(),
                 time_ns: None,
             })
             .unwrap();
@@ -766,13 +766,13 @@ fn alerts_filter_by_time_block_and_level_and_every_record_has_its_documented_key
     {
         let (mut j, _, _) = Journal::open(dir.path()).unwrap();
         j.append(&JournalRecord::Published {
-            pbr_id: "rrs-slender-pillar".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("rrs-slender-pillar").unwrap(),
             episode: 1,
             level: AlertLevel::Overturned,
         })
         .unwrap();
         j.append(&JournalRecord::Reset {
-            pbr_id: "rrs-sliding-slab".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("rrs-sliding-slab").unwrap(),
             time_ns: None,
         })
         .unwrap();

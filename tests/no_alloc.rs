@@ -97,7 +97,7 @@ fn a_quiet_station_with_resting_blocks_does_not_allocate() {
     let station = StationId::parse("XX.Q.00").unwrap();
     let pbrs: Vec<PbrSpec> = (0..20)
         .map(|k| PbrSpec {
-            id: format!("q-{k}"),
+            id: rockwatch_core::engine::PbrId::parse(&format!("q-{k}")).unwrap(),
             station: station.clone(),
             azimuth: Azimuth::from_degrees(18.0 * k as f64).unwrap(),
             nominal: BlockParams::from_width_height(0.5 + 0.05 * k as f64, 2.0, 0.7, 0.5, None)
@@ -146,7 +146,7 @@ fn a_quiet_station_with_resting_blocks_does_not_allocate() {
         })
         .collect();
     let packet = |i: usize| AccelPacket {
-        station: "XX.Q.00".into(),
+        station: rockwatch_core::engine::StationId::parse("XX.Q.00").unwrap(),
         start_time_ns: i as i64 * 100_000_000,
         sample_rate_hz: 100.0,
         sequence: i as u64,

@@ -270,7 +270,7 @@ fn feed(
     let mut publish = |p: Publication| {
         if let Publication::Alert { alert, .. } = p {
             alerts.push((
-                alert.pbr_id,
+                alert.pbr_id.to_string(),
                 alert.episode,
                 alert.level.as_str().to_string(),
             ));
@@ -437,6 +437,68 @@ fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
     p.start_time_ns = now_ns + 300_000_000_000_000_000;
     node.submit(p, &mut publish);
     assert_eq!(node.stats().future_packets, 0);
+}
+
+/// Issue 19 §1: a station id is parsed once, at each transport's edge, by one function
+/// (`engine::station_at_edge`), and the samples are checked once, by the engine. The same
+/// packet with a malformed id, as iceoryx2 and as ROS 2 carry it, is refused the same by
+/// both conversions, and the node counts and says both refusals the same; the same valid
+/// packet over both is the same packet (so the engine judges its values the same).
+#[test]
+fn a_malformed_station_id_is_refused_the_same_over_iceoryx2_and_ros2() {
+    use rockwatch::iox::{packet_from_wire, AccelHeader, AccelSample, WireError};
+    use rockwatch::node::NoticeLog;
+    use rockwatch::ros2::msg;
+    use rockwatch_core::engine::AccelPacket;
+
+    let good = rinaldi_packets().remove(0);
+    let samples: Vec<AccelSample> = (0..good.len())
+        .map(|i| AccelSample {
+            east: good.east[i],
+            north: good.north[i],
+            up: good.up[i],
+        })
+        .collect();
+    let over_iox = |header: &AccelHeader| packet_from_wire(header, &samples);
+    let over_ros2 = |m: &msg::AccelPacket| AccelPacket::try_from(m);
+    assert_eq!(
+        over_iox(&AccelHeader::from_packet(&good)).unwrap(),
+        over_ros2(&msg::AccelPacket::from(&good)).unwrap()
+    );
+    assert_eq!(over_ros2(&msg::AccelPacket::from(&good)).unwrap(), good);
+
+    let malformed = "C-I.RRS.00";
+    let mut header = AccelHeader::from_packet(&good);
+    header.station = [0; 16];
+    header.station[..malformed.len()].copy_from_slice(malformed.as_bytes());
+    let refused_iox = match over_iox(&header) {
+        Err(WireError::MalformedStation(refused)) => refused,
+        other => panic!("iceoryx2 took {malformed:?} as {other:?}"),
+    };
+    let mut m = msg::AccelPacket::from(&good);
+    m.header.frame_id = malformed.into();
+    let refused_ros2 = over_ros2(&m).unwrap_err();
+    assert_eq!(refused_iox, refused_ros2);
+    assert_eq!(refused_iox.received, malformed);
+
+    let options = NodeOptions {
+        catalogue: Some(PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/catalogue.toml"
+        ))),
+        notices: NoticeLog::Counted { lines: 0 },
+        ..NodeOptions::default()
+    };
+    let mut node = NodeRuntime::start(&options).unwrap();
+    node.refuse_malformed(&refused_iox, None);
+    node.refuse_malformed(&refused_ros2, None);
+    let stopped = node.stop(&mut |_: Publication| {});
+    let totals = stopped.input_totals();
+    assert_eq!((totals.malformed_station_packets, totals.packets), (2, 0));
+    assert_eq!(
+        stopped.notice_counts,
+        std::collections::BTreeMap::from([((malformed.to_string(), "rejected"), 2)])
+    );
 }
 
 /// Set in the full-disk test re-executed in its own mount namespace.

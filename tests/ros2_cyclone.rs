@@ -73,7 +73,13 @@ fn cyclone_dds_subscriber_receives_the_slender_pillar_overturned_and_a_late_one_
             );
         }
         for a in &got {
-            assert_eq!(a["frame_id"], "CI.RRS.00", "{a}");
+            // The rock's frame, as its PbrState; the station is in `station`.
+            assert_eq!(
+                a["frame_id"],
+                format!("pbr/{}", a["pbr_id"].as_str().unwrap_or("")),
+                "{a}"
+            );
+            assert_eq!(a["station"], "CI.RRS.00", "{a}");
             // A fresh node: every block in its first episode (PbrAlert.episode).
             assert_eq!(a["episode"], 1, "{a}");
         }

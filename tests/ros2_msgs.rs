@@ -327,8 +327,8 @@ fn iceoryx2_alerts_carry_the_ros2_level_and_mode_codes() {
     for level in AlertLevel::ALL {
         for mode in modes {
             let alert = Alert {
-                pbr_id: "slender-pillar".into(),
-                station: "CI.RRS.00".into(),
+                pbr_id: rockwatch_core::engine::PbrId::parse("slender-pillar").unwrap(),
+                station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
                 level,
                 episode: 1,
                 mode,

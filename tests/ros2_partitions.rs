@@ -81,7 +81,7 @@ fn packets() -> Vec<AccelPacket> {
         for k in 0..STATIONS {
             let scale = 0.3 + 0.05 * k as f32;
             let mut q = p.clone();
-            q.station = station(k);
+            q.station = rockwatch_core::engine::StationId::parse(&station(k)).unwrap();
             for v in q.east.iter_mut().chain(&mut q.north).chain(&mut q.up) {
                 *v *= scale;
             }
@@ -170,7 +170,7 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
         .map(|i| {
             packets
                 .iter()
-                .filter(|p| map.partition_of(&p.station) == i)
+                .filter(|p| map.partition_of(p.station.as_str()) == i)
                 .count() as u64
         })
         .collect();

@@ -182,7 +182,8 @@ fn rclpy_peer_with_the_generated_types_gets_overturned_for_the_slender_block_onl
     assert_eq!(a["level"], wire::LEVEL_OVERTURNED, "{a}");
     assert_eq!(a["mode"], wire::MODE_OVERTURNED, "{a}");
     assert_eq!(a["station"], STATION, "{a}");
-    assert_eq!(a["frame_id"], STATION, "{a}");
+    // The rock's frame, as its PbrState (REP-105: map → pbr/<id> on /tf_static).
+    assert_eq!(a["frame_id"], format!("pbr/{SLENDER}"), "{a}");
     // Fallen: |θ| ≥ α.
     assert!(a["theta_over_alpha"].as_f64().unwrap() >= 1.0, "{a}");
     // 0 < station PGA ≤ the record's PGA: each horizontal component is a projection of the
@@ -239,7 +240,7 @@ fn rclpy_peer_with_the_generated_types_gets_overturned_for_the_slender_block_onl
         assert_eq!(got.len(), 1, "{j:?}\n{all}");
         let a = got[0];
         assert_eq!(a["station"], j.station.as_str(), "{a} vs {j:?}");
-        assert_eq!(a["frame_id"], j.station.as_str(), "{a} vs {j:?}");
+        assert_eq!(a["frame_id"], format!("pbr/{}", j.pbr_id), "{a} vs {j:?}");
         assert_eq!(a["mode"], mode_code(j.mode), "{a} vs {j:?}");
         assert_eq!(a["stamp_ns"], j.data_time_ns, "{a} vs {j:?}");
         for (field, want) in [

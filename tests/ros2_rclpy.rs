@@ -528,6 +528,21 @@ fn rclpy_and_cyclone_peers_see_the_rocks_markers_posed_by_their_state_and_their_
         states.len()
     );
     assert!(live.len() >= 2, "{stdout}");
+    // The station's cylinder coloured by its health, as on the dashboard: grey (#999: NO DATA
+    // YET, as STALE) in the start picture, before any packet; not grey in the late picture,
+    // fed well within engine.stale_after_s (60 s) and after a status period (1 s).
+    let grey = |m: &serde_json::Value| {
+        floats(&m["color"])
+            .iter()
+            .zip([0.6, 0.6, 0.6, 1.0])
+            .all(|(c, g)| (c - g).abs() < 1e-3)
+    };
+    let first_station = live[0]["markers"]
+        .as_array()
+        .and_then(|a| a.iter().find(|m| m["ns"] == "station"))
+        .unwrap_or_else(|| panic!("no station in the start picture: {}", live[0]));
+    assert!(grey(first_station), "{first_station}");
+    assert!(!grey(&station), "{station}");
     assert!(
         (live.len() as f64) <= 2.0 + (live_s + 4.0) * 5.0,
         "{} arrays in {live_s} s",

@@ -274,8 +274,8 @@ fn write_fallen_journal(state: &Path) {
     let (mut journal, _, _) = Journal::open(state).unwrap();
     journal
         .append(&JournalRecord::Alert(Alert {
-            pbr_id: SLENDER.into(),
-            station: "CI.RRS.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse(SLENDER).unwrap(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             level: AlertLevel::Overturned,
             episode: 1,
             mode: Mode::Overturned,

@@ -56,14 +56,14 @@ fn journal(state: &Path) -> (Vec<(String, u64)>, Vec<String>) {
     for r in records {
         match r {
             JournalRecord::Alert(a) => alerts.push((
-                a.pbr_id,
+                a.pbr_id.to_string(),
                 match a.level {
                     AlertLevel::MotionOnset => 1,
                     AlertLevel::OverturnImminent => 2,
                     AlertLevel::Overturned => 3,
                 },
             )),
-            JournalRecord::Reset { pbr_id, .. } => resets.push(pbr_id),
+            JournalRecord::Reset { pbr_id, .. } => resets.push(pbr_id.to_string()),
             _ => {}
         }
     }
@@ -536,7 +536,7 @@ fn alert_keys(state: &Path) -> Vec<(String, u64, u32)> {
     records
         .into_iter()
         .filter_map(|r| match r {
-            JournalRecord::Alert(a) => Some((a.pbr_id, a.level as u64, a.episode)),
+            JournalRecord::Alert(a) => Some((a.pbr_id.to_string(), a.level as u64, a.episode)),
             _ => None,
         })
         .collect()

@@ -16,7 +16,7 @@ const S: i64 = 1_000_000_000;
 
 fn spec(id: &str, station: &str) -> PbrSpec {
     PbrSpec {
-        id: id.into(),
+        id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
         station: StationId::parse(station).unwrap(),
         azimuth: Azimuth::from_degrees(0.0).unwrap(),
         nominal: BlockParams::from_width_height(0.4, 2.0, 0.8, 0.6, None).unwrap(),
@@ -30,7 +30,7 @@ fn spec(id: &str, station: &str) -> PbrSpec {
 /// One second of quiet data (100 Hz) of `station`, packet `k`.
 fn packet(station: &str, k: i64) -> AccelPacket {
     AccelPacket {
-        station: station.into(),
+        station: rockwatch_core::engine::StationId::parse(station).unwrap(),
         start_time_ns: T0_NS + k * S,
         sample_rate_hz: 100.0,
         sequence: k as u64,
@@ -91,7 +91,7 @@ fn a_silent_station_goes_stale_once_and_recovers_on_its_next_packet() {
     assert_eq!(
         c[0],
         HealthChange {
-            station: "XX.A.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.A.00").unwrap(),
             monitored: false,
             silent_ns: 10 * S + 1,
             blocks: 2,

@@ -51,11 +51,13 @@ fn tail(text: &str, n: usize) -> &str {
 
 const WEB: &str = "http://127.0.0.1:8080";
 
+/// The node's configuration of these tests. `stale_after_s = 5`: long enough that the page is
+/// loaded (a browser's start on a loaded 2-core machine) before the stations turn stale.
 fn node_config(dir: &std::path::Path, extra: &str) {
     std::fs::write(
         dir.join("node.toml"),
         format!(
-            "catalogue = \"{}\"\nstate_dir = \"state\"\n[engine]\nstale_after_s = 2.0\n\
+            "catalogue = \"{}\"\nstate_dir = \"state\"\n[engine]\nstale_after_s = 5.0\n\
              [ros2]\ndiscovery_range = \"LOCALHOST\"\n[status]\ndiagnostics_period_s = 0.2\n{extra}",
             repo().join("config/catalogue.toml").display()
         ),
@@ -145,7 +147,7 @@ fn the_dashboard_shows_rocks_alerts_and_stale_stations_and_survives_a_stalled_cl
          {page}
          {web_metrics}
          curl -sf --max-time 5 http://127.0.0.1:9464/metrics > '{d}/metrics.txt'
-         sleep 3
+         sleep 6
          {stale}
          kill $SSE $STALLED 2>/dev/null || true
          kill -TERM $NODE; wait $NODE; echo NODE_RC=$?
@@ -577,6 +579,60 @@ impl Browser {
         let png = self.call("GET", "/screenshot", None);
         std::fs::write(path, base64_decode(png.as_str().unwrap_or(""))).unwrap();
     }
+
+    /// Starts chromedriver on port 9515 (loopback) and a headless Chromium session; fails
+    /// if chromedriver does not answer within 60 s of `up`.
+    fn start(up: std::time::Instant) -> (std::process::Child, Browser) {
+        let driver = std::process::Command::new("chromedriver")
+            .args(["--port=9515", "--allowed-ips=127.0.0.1"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("chromedriver");
+        let driver_base = "http://127.0.0.1:9515";
+        while ureq::get(&format!("{driver_base}/status")).call().is_err() {
+            assert!(up.elapsed().as_secs() < 60, "chromedriver did not start");
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        let session = Browser {
+            base: driver_base.into(),
+        }
+        .call(
+            "POST",
+            "/session",
+            Some(serde_json::json!({"capabilities": {"alwaysMatch": {
+                "browserName": "chrome",
+                "goog:chromeOptions": {"args": [
+                    "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                    "--window-size=1200,1500"
+                ]}
+            }}})),
+        );
+        let id = session["sessionId"]
+            .as_str()
+            .unwrap_or_else(|| panic!("no session: {session}"))
+            .to_string();
+        let browser = Browser {
+            base: format!("{driver_base}/session/{id}"),
+        };
+        (driver, browser)
+    }
+}
+
+/// Whether chromium and chromedriver are installed (else the browser tests say so and pass,
+/// or fail under CI: `peer_available`).
+fn have_browser() -> bool {
+    let have = |bin: &str| {
+        std::process::Command::new("sh")
+            .args(["-c", &format!("command -v {bin}")])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    peer_available(
+        have("chromium") && have("chromedriver"),
+        "chromium and chromedriver",
+        "apt-get install chromium chromium-driver",
+    )
 }
 
 /// The page in a real browser (headless Chromium driven over WebDriver by chromedriver, both
@@ -587,17 +643,7 @@ impl Browser {
 /// screenshot of each state goes to `$CARGO_TARGET_TMPDIR/web_dashboard/`.
 #[test]
 fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
-    let have = |bin: &str| {
-        std::process::Command::new("sh")
-            .args(["-c", &format!("command -v {bin}")])
-            .output()
-            .is_ok_and(|o| o.status.success())
-    };
-    if !peer_available(
-        have("chromium") && have("chromedriver"),
-        "chromium and chromedriver",
-        "apt-get install chromium chromium-driver",
-    ) {
+    if !have_browser() {
         return;
     }
     if !reexec_in_netns(
@@ -616,53 +662,24 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
     );
     let shots = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("web_dashboard");
     std::fs::create_dir_all(&shots).unwrap();
+    // The browser first: the page must load before the stations go stale (2 s after the
+    // node's start), which a loaded machine's Chromium start-up alone can exceed.
+    let up = std::time::Instant::now();
+    let (mut driver, browser) = Browser::start(up);
     let node = LoggedChild::spawn(
         std::process::Command::new(rockwatch_bin!())
             .arg("node")
             .arg("--config")
             .arg(p.join("node.toml")),
     );
-    let up = std::time::Instant::now();
     while ureq::get(&format!("{WEB}/api/status")).call().is_err() {
         assert!(
-            up.elapsed().as_secs() < 30,
+            up.elapsed().as_secs() < 90,
             "no status\n{}",
             node.stderr_so_far()
         );
         std::thread::sleep(std::time::Duration::from_millis(100));
     }
-    let mut driver = std::process::Command::new("chromedriver")
-        .args(["--port=9515", "--allowed-ips=127.0.0.1"])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("chromedriver");
-    let driver_base = "http://127.0.0.1:9515";
-    while ureq::get(&format!("{driver_base}/status")).call().is_err() {
-        assert!(up.elapsed().as_secs() < 60, "chromedriver did not start");
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
-    let session = Browser {
-        base: driver_base.into(),
-    }
-    .call(
-        "POST",
-        "/session",
-        Some(serde_json::json!({"capabilities": {"alwaysMatch": {
-            "browserName": "chrome",
-            "goog:chromeOptions": {"args": [
-                "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                "--window-size=1200,1500"
-            ]}
-        }}})),
-    );
-    let id = session["sessionId"]
-        .as_str()
-        .unwrap_or_else(|| panic!("no session: {session}"))
-        .to_string();
-    let browser = Browser {
-        base: format!("{driver_base}/session/{id}"),
-    };
     let second = std::time::Duration::from_secs(1);
     browser.call("POST", "/url", Some(serde_json::json!({ "url": WEB })));
 
@@ -775,7 +792,7 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
     );
     browser.screenshot(&shots.join("3-fallen.png"));
 
-    // No data for stale_after_s (2 s): both stations STALE, in the stale colour (#bbb).
+    // No data for stale_after_s (5 s): both stations STALE, in the stale colour (#bbb).
     let stale = "return ['CI.RRS.00', 'CI.SYL.00'].every(id => { \
                  const s = document.getElementById('station-' + id); \
                  return s !== null && s.dataset.health === 'STALE' && \
@@ -802,6 +819,315 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
     let (status, stderr) = node.stop(std::time::Duration::from_secs(10));
     assert!(status.success(), "{stderr}");
     eprintln!("screenshots in {}", shots.display());
+}
+
+/// A small valid PNG (16 × 16, RGB, one stored deflate block): a pale square with a darker
+/// border, so that the screenshot shows the tile grid. Built here (CRC-32, Adler-32) to need no
+/// image crate.
+fn tile_png() -> Vec<u8> {
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = 0xffff_ffffu32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    0xedb8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+        out.extend((data.len() as u32).to_be_bytes());
+        let start = out.len();
+        out.extend(kind);
+        out.extend(data);
+        let crc = crc32(&out[start..]);
+        out.extend(crc.to_be_bytes());
+    }
+    const N: usize = 16;
+    let mut raw = Vec::new();
+    for y in 0..N {
+        raw.push(0); // filter: none
+        for x in 0..N {
+            let edge = x == 0 || y == 0;
+            raw.extend(if edge {
+                [150, 160, 175]
+            } else {
+                [228, 234, 240]
+            });
+        }
+    }
+    let (mut a, mut b) = (1u32, 0u32);
+    for &v in &raw {
+        a = (a + u32::from(v)) % 65521;
+        b = (b + a) % 65521;
+    }
+    let mut z = vec![0x78, 0x01, 0x01];
+    z.extend((raw.len() as u16).to_le_bytes());
+    z.extend((!(raw.len() as u16)).to_le_bytes());
+    z.extend(&raw);
+    z.extend(((b << 16) | a).to_be_bytes());
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut ihdr = Vec::new();
+    ihdr.extend((N as u32).to_be_bytes());
+    ihdr.extend((N as u32).to_be_bytes());
+    ihdr.extend([8, 2, 0, 0, 0]); // 8 bits, RGB, deflate, no filter, no interlace
+    chunk(&mut png, b"IHDR", &ihdr);
+    chunk(&mut png, b"IDAT", &z);
+    chunk(&mut png, b"IEND", &[]);
+    png
+}
+
+/// A tile server on loopback: answers any path with [`tile_png`], except tiles whose column
+/// plus row is odd (404: a tile that fails), and records every path requested.
+fn tile_server() -> (u16, std::sync::Arc<std::sync::Mutex<Vec<String>>>) {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let paths = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let recorded = std::sync::Arc::clone(&paths);
+    let png = tile_png();
+    // One thread per connection: a browser may open a connection it sends nothing on.
+    std::thread::spawn(move || {
+        for stream in listener.incoming().flatten() {
+            let (recorded, png) = (std::sync::Arc::clone(&recorded), png.clone());
+            std::thread::spawn(move || serve_tile(stream, &recorded, &png));
+        }
+    });
+    (port, paths)
+}
+
+/// Answers one request of [`tile_server`].
+fn serve_tile(stream: std::net::TcpStream, recorded: &std::sync::Mutex<Vec<String>>, png: &[u8]) {
+    use std::io::{BufRead, Write};
+    let mut reader = std::io::BufReader::new(stream);
+    let mut request = String::new();
+    if reader.read_line(&mut request).is_err() || request.is_empty() {
+        return;
+    }
+    let mut line = String::new();
+    while reader.read_line(&mut line).is_ok_and(|n| n > 2) {
+        line.clear();
+    }
+    let path = request.split_whitespace().nth(1).unwrap_or("").to_string();
+    let odd = path
+        .trim_end_matches(".png")
+        .rsplit('/')
+        .take(2)
+        .map(|v| v.parse::<u64>().unwrap_or(0))
+        .sum::<u64>()
+        % 2
+        == 1;
+    recorded.lock().unwrap().push(path);
+    let mut stream = reader.into_inner();
+    let _ = if odd {
+        stream
+            .write_all(b"HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\nConnection: close\r\n\r\n")
+    } else {
+        write!(
+            stream,
+            "HTTP/1.1 200 OK\r\nContent-Type: image/png\r\nContent-Length: {}\r\n\
+             Connection: close\r\n\r\n",
+            png.len()
+        )
+        .and_then(|()| stream.write_all(png))
+    };
+}
+
+/// Web Mercator (EPSG:3857) world pixel coordinates at zoom `z` (256-px tiles, the slippy-map
+/// formulas: x = (λ + 180°)/360° · 256 · 2^z, y = (1 − ln(tan φ + sec φ)/π)/2 · 256 · 2^z).
+fn slippy_px(lat_deg: f64, lon_deg: f64, z: u8) -> (f64, f64) {
+    let n = 256.0 * f64::from(1u32 << z);
+    let phi = lat_deg.to_radians();
+    (
+        (lon_deg + 180.0) / 360.0 * n,
+        (1.0 - (phi.tan() + 1.0 / phi.cos()).ln() / std::f64::consts::PI) / 2.0 * n,
+    )
+}
+
+/// With `[web] tiles` (a tile server on loopback started by the test) the map draws the
+/// slippy-map tiles of its view under the markers: the page requests exactly the tiles the
+/// test computes from the slippy-map formulas for the catalogue's rocks and the placed
+/// station (zoom: the largest ≤ 18 at which their extent fits the 640 × 360 map less 40 px
+/// each side; centred on the extent, whole pixels); a rock's marker sits at its Web Mercator
+/// position within its tile (±1.5 px); the tiles that fail (404) leave the markers drawn and
+/// are counted under the map beside the attribution; the page's CSP allows images from the
+/// tile server's origin only. Screenshot `5-tiles.png`.
+#[test]
+fn the_map_draws_slippy_map_tiles_under_the_markers_at_their_web_mercator_positions() {
+    if !have_browser() {
+        return;
+    }
+    if !reexec_in_netns(
+        "the_map_draws_slippy_map_tiles_under_the_markers_at_their_web_mercator_positions",
+        120,
+    ) {
+        return;
+    }
+    let (port, requested) = tile_server();
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let station = (34.2811, -118.4787);
+    node_config(
+        p,
+        &format!(
+            "[web]\nlisten = \"127.0.0.1:8080\"\n\
+             tiles = \"http://127.0.0.1:{port}/tiles/{{z}}/{{x}}/{{y}}.png\"\n\
+             tiles_attribution = \"test tiles\"\n\
+             [[station]]\nid = \"CI.RRS.00\"\nlat = {}\nlon = {}\n",
+            station.0, station.1
+        ),
+    );
+    // The points of the map, from the catalogue read here (every rock has lat/lon) and the
+    // station placed above (CI.SYL.00 has no position).
+    let catalogue: toml::Value =
+        toml::from_str(&std::fs::read_to_string(repo().join("config/catalogue.toml")).unwrap())
+            .unwrap();
+    let rocks: Vec<(String, f64, f64)> = catalogue["pbr"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            let f = |k: &str| r[k].as_float().unwrap();
+            (r["id"].as_str().unwrap().to_string(), f("lat"), f("lon"))
+        })
+        .collect();
+    assert_eq!(rocks.len(), ROCKS.len());
+    let points: Vec<(f64, f64)> = rocks.iter().map(|r| (r.1, r.2)).chain([station]).collect();
+    // The view: the largest zoom at which the extent fits 560 × 280 px.
+    let extent = |z: u8| {
+        let px: Vec<(f64, f64)> = points.iter().map(|&(a, o)| slippy_px(a, o, z)).collect();
+        let (x0, x1) = px
+            .iter()
+            .fold((f64::MAX, f64::MIN), |m, q| (m.0.min(q.0), m.1.max(q.0)));
+        let (y0, y1) = px
+            .iter()
+            .fold((f64::MAX, f64::MIN), |m, q| (m.0.min(q.1), m.1.max(q.1)));
+        (x0, x1, y0, y1)
+    };
+    let z = (0..=18u8)
+        .rev()
+        .find(|&z| {
+            let (x0, x1, y0, y1) = extent(z);
+            x1 - x0 <= 560.0 && y1 - y0 <= 280.0
+        })
+        .unwrap();
+    let (x0, x1, y0, y1) = extent(z);
+    let (ox, oy) = (
+        ((x0 + x1) / 2.0 - 320.0).round() as i64,
+        ((y0 + y1) / 2.0 - 180.0).round() as i64,
+    );
+    let mut expected = std::collections::BTreeSet::new();
+    for ty in oy.div_euclid(256)..=(oy + 359).div_euclid(256) {
+        for tx in ox.div_euclid(256)..=(ox + 639).div_euclid(256) {
+            expected.insert(format!("/tiles/{z}/{tx}/{ty}.png"));
+        }
+    }
+    let failing = expected
+        .iter()
+        .filter(|t| {
+            let v: Vec<u64> = t
+                .trim_end_matches(".png")
+                .rsplit('/')
+                .take(2)
+                .map(|v| v.parse().unwrap())
+                .collect();
+            (v[0] + v[1]) % 2 == 1
+        })
+        .count();
+    assert!(
+        (2..=12).contains(&expected.len()) && failing >= 1,
+        "zoom {z}: {expected:?}"
+    );
+
+    let node = LoggedChild::spawn(
+        std::process::Command::new(rockwatch())
+            .arg("node")
+            .arg("--config")
+            .arg(p.join("node.toml")),
+    );
+    let up = std::time::Instant::now();
+    let page = loop {
+        if let Ok(reply) = ureq::get(WEB).call() {
+            break reply;
+        }
+        assert!(
+            up.elapsed().as_secs() < 30,
+            "no page\n{}",
+            node.stderr_so_far()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    let csp = page
+        .headers()
+        .get("content-security-policy")
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("")
+        .to_string();
+    assert!(
+        csp.ends_with(&format!("; img-src 'self' http://127.0.0.1:{port}")),
+        "{csp}"
+    );
+    let (mut driver, browser) = Browser::start(up);
+    let second = std::time::Duration::from_secs(1);
+    browser.call("POST", "/url", Some(serde_json::json!({ "url": WEB })));
+    // Every rock on the map (markers drawn whatever the tiles did), the failed tiles counted.
+    let drawn = format!(
+        "return {:?}.every(id => document.getElementById('map-rock-' + id) !== null) && \
+         document.getElementById('map-attribution').dataset.failed === '{failing}'",
+        ROCKS
+    );
+    let shown = browser.wait_for(&drawn, 10 * second);
+    let got: std::collections::BTreeSet<String> =
+        requested.lock().unwrap().iter().cloned().collect();
+    assert!(
+        shown.is_some(),
+        "{}\nrequested {got:?}",
+        browser.eval("return document.getElementById('map').outerHTML + document.getElementById('map-attribution').outerHTML")
+    );
+    // A moment for any request beyond the expected ones, then: exactly the view's tiles.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let got: std::collections::BTreeSet<String> =
+        requested.lock().unwrap().iter().cloned().collect();
+    assert_eq!(got, expected, "zoom {z}, view origin {ox}, {oy}");
+    let note = browser.eval("return document.getElementById('map-attribution').textContent");
+    assert!(
+        note.as_str()
+            .is_some_and(|n| n.starts_with("map tiles: test tiles")),
+        "{note}"
+    );
+    // Each rock's marker at its Web Mercator position within its tile (as rendered).
+    for (id, lat, lon) in &rocks {
+        let (x, y) = slippy_px(*lat, *lon, z);
+        let (tx, ty) = ((x / 256.0).floor() as i64, (y / 256.0).floor() as i64);
+        let at = browser.eval(&format!(
+            "const c = document.getElementById('map-rock-{id}').getBoundingClientRect(); \
+             const t = document.getElementById('map-tile-{z}-{tx}-{ty}').getBoundingClientRect(); \
+             return [c.x + c.width / 2 - t.x, c.y + c.height / 2 - t.y]"
+        ));
+        let at: Vec<f64> = at
+            .as_array()
+            .unwrap_or_else(|| panic!("{id}: {at}"))
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let want = [x - tx as f64 * 256.0, y - ty as f64 * 256.0];
+        assert!(
+            (at[0] - want[0]).abs() <= 1.5 && (at[1] - want[1]).abs() <= 1.5,
+            "{id}: at {at:?} in tile {z}/{tx}/{ty}, want {want:?}"
+        );
+    }
+    let shots = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("web_dashboard");
+    std::fs::create_dir_all(&shots).unwrap();
+    browser.screenshot(&shots.join("5-tiles.png"));
+    browser.call("DELETE", "", None);
+    let _ = driver.kill();
+    let _ = driver.wait();
+    let (status, stderr) = node.stop(std::time::Duration::from_secs(10));
+    assert!(status.success(), "{stderr}");
+    eprintln!("screenshot in {}", shots.display());
 }
 
 /// `rockwatch status --node` against a running, token-protected node (issue 22 §2): exit 0

@@ -60,7 +60,8 @@ pub fn station_packets(template: &[AccelPacket], stations: usize) -> Vec<Vec<Acc
             template
                 .iter()
                 .map(|p| AccelPacket {
-                    station: station(s),
+                    station: rockwatch_core::engine::StationId::parse(&station(s))
+                        .expect("valid id"),
                     ..p.clone()
                 })
                 .collect()

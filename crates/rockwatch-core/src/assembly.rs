@@ -212,8 +212,9 @@ impl Assembler {
         out: &mut dyn FnMut(AccelPacket),
     ) -> Result<(), RecordIssue> {
         self.counters.records += 1;
+        // The station's `NET.STA.LOC`, formed once per record.
         let key = format!("{}.{}.{}", record.net, record.sta, record.loc);
-        let mut result = self.place(record, now_ns);
+        let mut result = self.place(record, &key, now_ns);
         if matches!(result, Err(RecordIssue::FarAhead { .. })) {
             self.counters.far_ahead_records += 1;
             // Every component (as many records in a row) has moved on: an outage longer than
@@ -241,10 +242,10 @@ impl Assembler {
                 // The records refused on the way are placed after all, in arrival order.
                 if let Some((_current, before)) = earlier.split_last() {
                     for r in before {
-                        let _ = self.place(r, now_ns);
+                        let _ = self.place(r, &key, now_ns);
                     }
                 }
-                result = self.place(record, now_ns);
+                result = self.place(record, &key, now_ns);
             }
         }
         if let Err(issue) = &result {
@@ -286,24 +287,24 @@ impl Assembler {
         self.stations.get(station).map(|s| s.time_ns(s.emitted))
     }
 
-    fn place(&mut self, record: &Channel, now_ns: i64) -> Result<(), RecordIssue> {
+    /// Places `record` of station `key` (its `NET.STA.LOC`).
+    fn place(&mut self, record: &Channel, key: &str, now_ns: i64) -> Result<(), RecordIssue> {
         let id = record.id();
-        let key = format!("{}.{}.{}", record.net, record.sta, record.loc);
         let band: String = record.cha.chars().take(2).collect();
         let Some(first) = record.segments.first() else {
             return Ok(());
         };
         let t_ns = i128::from(first.start_time_ns);
-        if !self.stations.contains_key(&key) {
-            let station = self.start_station(&key, &band, record, first.start_time_ns)?;
-            self.stations.insert(key.clone(), station);
+        if !self.stations.contains_key(key) {
+            let station = self.start_station(key, &band, record, first.start_time_ns)?;
+            self.stations.insert(key.to_owned(), station);
         }
-        let Some(station) = self.stations.get_mut(&key) else {
+        let Some(station) = self.stations.get_mut(key) else {
             return Ok(());
         };
         if station.band != band {
             return Err(RecordIssue::OtherBand {
-                station: key,
+                station: key.to_owned(),
                 assembled: station.band.clone(),
                 channel: id,
             });
@@ -316,7 +317,7 @@ impl Assembler {
         // A new epoch (gain or axis changed): look up again and rebuild the rotation.
         let (from, to) = station.components[slot].valid;
         if from.is_some_and(|f| t_ns < f) || to.is_some_and(|e| t_ns >= e) {
-            let inventory = self.inventory.get(&key).unwrap_or(&self.empty);
+            let inventory = self.inventory.get(key).unwrap_or(&self.empty);
             let (calibration, valid) = lookup(
                 inventory,
                 &id,
@@ -683,7 +684,7 @@ fn emit(
         c.buffer.drain(..k);
     }
     let packet = AccelPacket {
-        station: station.id.to_string(),
+        station: station.id.clone(),
         start_time_ns: station.time_ns(station.emitted),
         sample_rate_hz: station.rate_hz,
         sequence: station.sequence,

@@ -23,6 +23,7 @@ pub mod lhs;
 pub mod mesh;
 pub mod ode;
 pub mod partition;
+pub mod pbr_id;
 pub mod pulse;
 pub mod record;
 pub mod rocking3d;

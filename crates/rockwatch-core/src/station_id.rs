@@ -1,17 +1,69 @@
 //! SEED station identifiers, shared by the catalogue, the engine and the transports.
 
+use std::borrow::Borrow;
+use std::cmp::Ordering;
 use std::fmt;
+use std::hash::{Hash, Hasher};
+use std::sync::Arc;
 
 /// A SEED station identifier `NET.STA.LOC` (validated: network 1–2, station 1–5, location 0–2
 /// characters, upper-case ASCII letters and digits).
-#[derive(
-    Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
-)]
+///
+/// Parsed once where it enters (a transport's edge, a configuration or catalogue file) and
+/// carried typed from there: a clone shares the text (O(1), no allocation). Compared, ordered
+/// and hashed as its text, so a map keyed by `StationId` is looked up with a `&str` too.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "String", into = "String")]
 pub struct StationId {
-    code: String,
-    network_len: usize,
-    station_len: usize,
+    code: Arc<str>,
+    /// Lengths of the network and station codes (≤ 2 and ≤ 5 bytes).
+    network_len: u8,
+    station_len: u8,
+}
+
+impl PartialEq for StationId {
+    fn eq(&self, other: &Self) -> bool {
+        self.code == other.code
+    }
+}
+
+impl Eq for StationId {}
+
+impl PartialOrd for StationId {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for StationId {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.code.cmp(&other.code)
+    }
+}
+
+/// As its text (consistent with [`Borrow<str>`]).
+impl Hash for StationId {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        self.as_str().hash(state);
+    }
+}
+
+impl Borrow<str> for StationId {
+    fn borrow(&self) -> &str {
+        &self.code
+    }
+}
+
+impl PartialEq<str> for StationId {
+    fn eq(&self, other: &str) -> bool {
+        &*self.code == other
+    }
+}
+
+impl PartialEq<&str> for StationId {
+    fn eq(&self, other: &&str) -> bool {
+        &*self.code == *other
+    }
 }
 
 /// Why a text is not a station identifier (the message does not name the field).
@@ -38,8 +90,10 @@ pub enum StationIdError {
 impl StationId {
     /// Parses `NET.STA.LOC`; the error says what is wrong (without the field name).
     pub fn parse(text: &str) -> Result<StationId, StationIdError> {
-        let parts: Vec<&str> = text.split('.').collect();
-        let [net, sta, loc] = parts[..] else {
+        let mut parts = text.split('.');
+        let (Some(net), Some(sta), Some(loc), None) =
+            (parts.next(), parts.next(), parts.next(), parts.next())
+        else {
             return Err(StationIdError::NotThreeCodes {
                 text: text.to_owned(),
             });
@@ -63,9 +117,10 @@ impl StationId {
             }
         }
         Ok(StationId {
-            code: text.to_owned(),
-            network_len: net.len(),
-            station_len: sta.len(),
+            code: Arc::from(text),
+            // At most 2 and 5 (checked above).
+            network_len: net.len() as u8,
+            station_len: sta.len() as u8,
         })
     }
 
@@ -78,20 +133,20 @@ impl StationId {
     /// The network code (1–2 characters).
     #[must_use]
     pub fn network(&self) -> &str {
-        &self.code[..self.network_len]
+        &self.code[..usize::from(self.network_len)]
     }
 
     /// The station code (1–5 characters).
     #[must_use]
     pub fn station(&self) -> &str {
-        let start = self.network_len + 1;
-        &self.code[start..start + self.station_len]
+        let start = usize::from(self.network_len) + 1;
+        &self.code[start..start + usize::from(self.station_len)]
     }
 
     /// The location code (0–2 characters).
     #[must_use]
     pub fn location(&self) -> &str {
-        &self.code[self.network_len + self.station_len + 2..]
+        &self.code[usize::from(self.network_len) + usize::from(self.station_len) + 2..]
     }
 }
 
@@ -110,7 +165,7 @@ impl TryFrom<String> for StationId {
 
 impl From<StationId> for String {
     fn from(value: StationId) -> Self {
-        value.code
+        value.code.to_string()
     }
 }
 
@@ -137,6 +192,19 @@ mod tests {
             (id.network(), id.station(), id.location()),
             ("CI", "RRS", "00")
         );
+    }
+
+    #[test]
+    fn a_clone_shares_the_text_and_compares_as_it() {
+        let id = StationId::parse("CI.RRS.00").unwrap();
+        let copy = id.clone();
+        assert!(
+            std::ptr::eq(id.as_str(), copy.as_str()),
+            "a clone copied the text"
+        );
+        assert_eq!(id, "CI.RRS.00");
+        let map = std::collections::HashMap::from([(id, 1)]);
+        assert_eq!(map.get("CI.RRS.00"), Some(&1));
     }
 
     #[test]

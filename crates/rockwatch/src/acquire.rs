@@ -900,7 +900,7 @@ fn send_all<'s>(
             if counters.send_errors == 0 {
                 tracing::warn!(
                     "acquire: cannot publish a packet of {}: {e:#} (further failures counted)",
-                    printable(&packet.station, STATION_CHARS)
+                    printable(packet.station.as_str(), STATION_CHARS)
                 );
             }
             counters.send_errors += 1;
@@ -914,13 +914,15 @@ impl RecordSink for PacketPublisher<'_> {
         let mut send = send_all(&mut *self.sink, &mut self.counters);
         let result = self.assembler.push(record, now, &mut send);
         drop(send);
+        // The record's station and channel ids, formed once.
         let station = format!("{}.{}.{}", record.net, record.sta, record.loc);
+        let channel = record.id();
         if let Err(issue) = result {
             if let Some(figures) = self.station_figures(&station) {
                 figures.refused.count(&issue);
             }
             self.log.log(
-                &record.id(),
+                &channel,
                 "refused",
                 &format!(
                     "acquire: station {}: {issue} (record dropped; counted, logged at most once a minute)",
@@ -930,7 +932,7 @@ impl RecordSink for PacketPublisher<'_> {
             return Taken::Refused;
         }
         // Clipping is counted on records taken (impossible values were refused above).
-        let full_scale = self.clipping.full_scale(&record.id());
+        let full_scale = self.clipping.full_scale(&channel);
         let clipped = record
             .segments
             .iter()
@@ -947,7 +949,7 @@ impl RecordSink for PacketPublisher<'_> {
             self.counters.clipped_samples += clipped as u64;
             self.counters.clipped_records += 1;
             self.log.log(
-                &record.id(),
+                &channel,
                 "clipped",
                 &format!(
                     "acquire: {clipped} samples at or beyond the full scale ±{full_scale} counts (used; the shaking was larger; counted, logged at most once a minute)"

@@ -41,13 +41,14 @@
 //! `latency_us` to its alert lines, and keys may be added later.
 
 use rockwatch_core::dynamics::Mode;
-use rockwatch_core::engine::{Alert, AlertLevel, JournalRecord};
+use rockwatch_core::engine::{Alert, AlertKey, AlertLevel, JournalRecord, PbrId, StationId};
 use rockwatch_core::record::mseed::format_time_ns;
 
 /// An alert in the shared schema (see the module documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct AlertJson {
-    pub pbr_id: String,
+    /// The rock's catalogue id (a JSON string).
+    pub pbr_id: PbrId,
     pub level: AlertLevel,
     /// Episode of the block (1 for the first).
     pub episode: u32,
@@ -55,8 +56,8 @@ pub struct AlertJson {
     pub data_time: String,
     /// The same time as ns since the Unix epoch.
     pub data_time_ns: i64,
-    /// SEED `NET.STA.LOC` of the station the block follows.
-    pub station: String,
+    /// SEED `NET.STA.LOC` of the station the block follows (a JSON string).
+    pub station: StationId,
     pub mode: Mode,
     /// θ/α, signed (dimensionless).
     pub theta_over_alpha: f64,
@@ -85,7 +86,7 @@ pub struct AlertJson {
 impl AlertJson {
     /// The identity under which receivers de-duplicate: (block, episode, level).
     #[must_use]
-    pub fn key(&self) -> (String, u32, AlertLevel) {
+    pub fn key(&self) -> AlertKey {
         (self.pbr_id.clone(), self.episode, self.level)
     }
 }
@@ -120,7 +121,7 @@ pub enum RecordJson {
     Alert(AlertJson),
     /// A block's episode ended.
     EpisodeEnd {
-        pbr_id: String,
+        pbr_id: PbrId,
         episode: u32,
         /// ISO 8601 UTC data time of the sample at which it ended (absent from records
         /// journaled before rockwatch kept it).
@@ -132,7 +133,7 @@ pub enum RecordJson {
     },
     /// An operator reset a fallen block.
     Reset {
-        pbr_id: String,
+        pbr_id: PbrId,
         /// ISO 8601 UTC wall-clock time of the reset (the node's clock, or the `reset
         /// --state-dir` command's); absent from records journaled before rockwatch kept it.
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -144,7 +145,7 @@ pub enum RecordJson {
     /// The alert (pbr_id, episode, level) was handed to the publishers (the node's marker for
     /// at-least-once publication across crashes).
     Published {
-        pbr_id: String,
+        pbr_id: PbrId,
         episode: u32,
         level: AlertLevel,
     },
@@ -195,8 +196,8 @@ mod tests {
 
     fn alert() -> Alert {
         Alert {
-            pbr_id: "rrs-slender-pillar".into(),
-            station: "CI.RRS.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("rrs-slender-pillar").unwrap(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             level: AlertLevel::OverturnImminent,
             episode: 2,
             mode: Mode::SlideRock,
@@ -258,7 +259,7 @@ mod tests {
     #[test]
     fn the_other_journal_records_are_tagged_by_type() {
         let end = RecordJson::from(&JournalRecord::EpisodeEnd {
-            pbr_id: "a".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("a").unwrap(),
             episode: 3,
             data_time_ns: Some(758_809_855_500_000_000),
         });
@@ -269,7 +270,7 @@ mod tests {
                 "data_time_ns": 758_809_855_500_000_000_i64})
         );
         let reset = RecordJson::from(&JournalRecord::Reset {
-            pbr_id: "b".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("b").unwrap(),
             time_ns: Some(0),
         });
         assert_eq!(
@@ -279,7 +280,7 @@ mod tests {
         );
         // Records journaled before the times were kept: the keys are absent.
         let old = RecordJson::from(&JournalRecord::Reset {
-            pbr_id: "b".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("b").unwrap(),
             time_ns: None,
         });
         assert_eq!(

@@ -14,7 +14,9 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::number_text::short_number;
-use crate::plot::{both_formats, draw_band, fit_title, log_ticks, DrawResult, PlotError};
+use crate::plot::{
+    both_formats, draw_band, draw_legend, fit_title, log_ticks, DrawResult, PlotError,
+};
 use rockwatch_core::fragility::percentile_interval;
 use rockwatch_core::hazard::{rate_density, ExposureAge, HazardCurve, Lognormal, OverturnRate};
 
@@ -103,23 +105,6 @@ pub fn write_hazard_plots(dir: &Path, f: &HazardFigures) -> Result<Vec<PathBuf>,
 }
 
 /// The legend box of every panel.
-fn legend<'a, DB: DrawingBackend + 'a, X: Ranged, Y: Ranged>(
-    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
-    position: SeriesLabelPosition,
-) -> DrawResult
-where
-    DB::ErrorType: 'static,
-{
-    chart
-        .configure_series_labels()
-        .position(position)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()?;
-    Ok(())
-}
-
 fn draw_curves<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, f: &HazardFigures) -> DrawResult
 where
     DB::ErrorType: 'static,
@@ -216,7 +201,7 @@ where
                 .map(|(&x, &r)| Circle::new((x * s, r), 2, colour.filled())),
         )?;
     }
-    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    draw_legend(&mut chart, Some(SeriesLabelPosition::UpperRight), 13)?;
     // Fragility panel.
     let mut chart = ChartBuilder::on(&bottom)
         .margin(12)
@@ -266,7 +251,7 @@ where
             short_number(f.fragility.beta)
         ))
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], FRAGILITY.stroke_width(2)));
-    legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+    draw_legend(&mut chart, Some(SeriesLabelPosition::UpperLeft), 13)?;
     root.present()?;
     Ok(())
 }
@@ -379,7 +364,7 @@ where
                 )
             }),
     )?;
-    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    draw_legend(&mut chart, Some(SeriesLabelPosition::UpperRight), 13)?;
     root.present()?;
     Ok(())
 }
@@ -487,7 +472,7 @@ where
         )?
         .label("E_T[exp(−λT)] at each age, its 95 % interval")
         .legend(|(x, y)| Circle::new((x + 10, y), 4, MARK.filled()));
-    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    draw_legend(&mut chart, Some(SeriesLabelPosition::UpperRight), 13)?;
     root.present()?;
     Ok(())
 }

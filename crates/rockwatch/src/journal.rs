@@ -891,7 +891,7 @@ mod tests {
 
     fn reset(id: &str) -> JournalRecord {
         JournalRecord::Reset {
-            pbr_id: id.into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
             time_ns: None,
         }
     }
@@ -957,7 +957,7 @@ mod tests {
         assert!(recs.is_empty());
         j.append(&reset("a")).unwrap();
         j.append(&JournalRecord::EpisodeEnd {
-            pbr_id: "b".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("b").unwrap(),
             episode: 2,
             data_time_ns: None,
         })
@@ -969,7 +969,7 @@ mod tests {
             vec![
                 reset("a"),
                 JournalRecord::EpisodeEnd {
-                    pbr_id: "b".into(),
+                    pbr_id: rockwatch_core::engine::PbrId::parse("b").unwrap(),
                     episode: 2,
                     data_time_ns: None,
                 }
@@ -1068,8 +1068,8 @@ mod tests {
 
     fn alert(id: &str, episode: u32, level: rockwatch_core::engine::AlertLevel) -> JournalRecord {
         JournalRecord::Alert(rockwatch_core::engine::Alert {
-            pbr_id: id.into(),
-            station: "CI.RRS.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             level,
             episode,
             mode: rockwatch_core::dynamics::Mode::Rock,
@@ -1112,7 +1112,7 @@ mod tests {
                 r.push(q.clone());
                 r.push(published(&q));
                 r.push(JournalRecord::EpisodeEnd {
-                    pbr_id: "q".into(),
+                    pbr_id: rockwatch_core::engine::PbrId::parse("q").unwrap(),
                     episode: e / 2,
                     data_time_ns: None,
                 });
@@ -1125,7 +1125,10 @@ mod tests {
 
     fn derived(records: &[JournalRecord]) -> impl PartialEq + std::fmt::Debug {
         use rockwatch_core::engine::{fallen_blocks, journaled_alerts};
-        let mut fallen: Vec<String> = fallen_blocks(records).into_iter().collect();
+        let mut fallen: Vec<String> = fallen_blocks(records)
+            .into_iter()
+            .map(String::from)
+            .collect();
         fallen.sort();
         (fallen, journaled_alerts(records, HISTORY_ALERTS))
     }

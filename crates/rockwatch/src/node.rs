@@ -51,8 +51,8 @@ use crate::status::{NodeStatus, RockStatus, StatusBuilder};
 use rockwatch_core::catalogue::Catalogue;
 use rockwatch_core::engine::{
     fallen_blocks, journaled_history, AccelPacket, Alert, AlertLevel, Engine, HistoryEntry,
-    JournalRecord, Output, OutputSink, PbrSpec, PbrSummary, ResetEvent, ShardedEngine, Source,
-    SourceTally, StationHealth, Verdict,
+    JournalRecord, MalformedStation, Output, OutputSink, PbrId, PbrSpec, PbrSummary, ResetEvent,
+    ShardedEngine, Source, SourceTally, StationHealth, StationId, Verdict,
 };
 
 /// Longest time a live packet waits in the engine's reorder window for missing data.
@@ -130,7 +130,7 @@ impl ResetOutcome {
 
 /// The blocks fallen according to the journal ([`fallen_blocks`]), each with the station and
 /// episode of its last `overturned` alert.
-fn fallen_with_their_fall(records: &[JournalRecord]) -> HashMap<String, (String, u32)> {
+fn fallen_with_their_fall(records: &[JournalRecord]) -> HashMap<PbrId, (StationId, u32)> {
     let fallen = fallen_blocks(records);
     let mut falls = HashMap::new();
     for record in records {
@@ -263,7 +263,7 @@ impl NodeOptions {
         Ok((
             catalogue,
             owned,
-            foreign.into_iter().map(|s| s.id).collect(),
+            foreign.into_iter().map(|s| s.id.to_string()).collect(),
         ))
     }
 
@@ -316,6 +316,9 @@ pub struct NodeStats {
     /// Packets rejected for a time stamp too far ahead of their arrival
     /// ([`NodeOptions::reject_future`]); not handed to the engine.
     pub future_packets: u64,
+    /// Packets refused at their transport's edge for a station id that is not
+    /// `NET.STA.LOC` ([`NodeRuntime::refuse_malformed`]); not handed to the engine.
+    pub malformed_station_packets: u64,
 }
 
 /// What the engine made of its input, summed over every shard (the node's closing summary).
@@ -326,7 +329,8 @@ pub struct InputTotals {
     /// Packets rejected by validation: empty, mismatched component lengths, non-finite
     /// samples, sample rate or start time out of range, too many samples.
     pub rejected_packets: u64,
-    /// Packets whose station id is not `NET.STA.LOC`.
+    /// Packets whose station id is not `NET.STA.LOC`, refused at their transport's edge
+    /// ([`NodeStats::malformed_station_packets`]; not counted in `packets`).
     pub malformed_station_packets: u64,
     /// Packets from stations neither configured nor in the catalogue.
     pub unknown_station_packets: u64,
@@ -348,7 +352,6 @@ impl InputTotals {
     fn add(&mut self, engine: &Engine) {
         let c = engine.counters();
         self.packets += c.packets;
-        self.malformed_station_packets += c.malformed_station_packets;
         self.unknown_station_packets += c.unknown_station_packets;
         for (_, station, stream) in engine.station_counters() {
             self.rejected_packets += station.rejected_packets;
@@ -364,19 +367,23 @@ impl InputTotals {
 /// keeps the blocks it keeps), else standing (or fallen, if in `overturned`).
 fn rock_statuses(
     specs: &[PbrSpec],
-    overturned: &HashMap<String, (String, u32)>,
+    overturned: &HashMap<PbrId, (StationId, u32)>,
     mut known: BTreeMap<String, RockStatus>,
 ) -> BTreeMap<String, RockStatus> {
     specs
         .iter()
         .map(|spec| {
             let station = spec.station.to_string();
-            let rock = match known.remove(&spec.id) {
+            let rock = match known.remove(spec.id.as_str()) {
                 Some(rock) if rock.station == station => rock,
-                _ => RockStatus::new(spec.id.clone(), station, overturned.contains_key(&spec.id))
-                    .at(spec.place.lat_deg, spec.place.lon_deg),
+                _ => RockStatus::new(
+                    spec.id.to_string(),
+                    station,
+                    overturned.contains_key(&spec.id),
+                )
+                .at(spec.place.lat_deg, spec.place.lon_deg),
             };
-            (spec.id.clone(), rock)
+            (spec.id.to_string(), rock)
         })
         .collect()
 }
@@ -518,7 +525,7 @@ impl NodeRuntime {
             busy_ns: 0,
             data_s: 0.0,
             tally,
-            pbr_ids: specs.iter().map(|s| s.id.clone()).collect(),
+            pbr_ids: specs.iter().map(|s| s.id.to_string()).collect(),
             stations,
             imminent_theta_ratio: config.engine.alerts.imminent_theta_ratio,
             foreign_pbr_ids: HashSet::new(),
@@ -732,7 +739,7 @@ impl NodeRuntime {
         }
         self.emit.stats.future_packets += 1;
         self.emit.log.log(
-            &packet.station,
+            packet.station.as_str(),
             "future",
             &format!(
                 "packet {} rejected: its data end {ahead_s:.3} s ahead of the node's clock \
@@ -743,6 +750,19 @@ impl NodeRuntime {
             ),
         );
         true
+    }
+
+    /// Refuses a packet whose station id, as a transport received it, is not `NET.STA.LOC`
+    /// (`rockwatch_core::engine::station_at_edge`, the one check of every transport's edge):
+    /// counted ([`NodeStats::malformed_station_packets`]), said as the engine's notices are
+    /// (kind `rejected`, under the id as received: [`MalformedStation::notice`]), and
+    /// counted as refused for its `source`, whichever transport it came by.
+    pub fn refuse_malformed(&mut self, refused: &MalformedStation, source: Option<Source>) {
+        self.emit.stats.malformed_station_packets += 1;
+        if let Some(source) = source {
+            self.tally.count(source, Verdict::Refused);
+        }
+        self.emit.notice(&refused.notice());
     }
 
     /// Applies a settings change, effective for the next packet.
@@ -793,7 +813,7 @@ impl NodeRuntime {
         if let Some(reports) = &mut self.emit.reports {
             reports.reconfigure(&blocks, &traced, &config.alerts);
         }
-        self.pbr_ids = blocks.into_iter().map(|s| s.id).collect();
+        self.pbr_ids = blocks.into_iter().map(|s| s.id.to_string()).collect();
         self.foreign_pbr_ids = foreign_blocks;
         self.emit.stale_after_s = config.stale_after_s;
         if self.max_ahead_ns.is_some() {
@@ -859,16 +879,17 @@ impl NodeRuntime {
     /// to the engine (see [`NodeRuntime::operator_reset`] for the checked request). An error
     /// means the state directory failed and nothing was applied.
     pub fn reset_pbr(&mut self, pbr_id: &str) -> anyhow::Result<()> {
+        let id = PbrId::parse(pbr_id).with_context(|| format!("cannot reset {pbr_id:?}"))?;
         let time_ns = self.emit.epoch_utc_ns + self.emit.now_ns();
         if let Some(j) = &mut self.emit.journal {
             j.append_now(&JournalRecord::Reset {
-                pbr_id: pbr_id.to_string(),
+                pbr_id: id.clone(),
                 time_ns: Some(time_ns),
             })?;
         }
         if let Some((station, episode)) = self.emit.overturned.remove(pbr_id) {
             self.emit.resets.push(ResetEvent {
-                pbr_id: pbr_id.to_string(),
+                pbr_id: id,
                 station,
                 episode,
                 time_ns,
@@ -955,7 +976,7 @@ impl NodeRuntime {
                 let place = self
                     .stations
                     .iter()
-                    .find(|s| s.id.as_str() == h.station)
+                    .find(|s| s.id == h.station)
                     .map(|s| (s.lat, s.lon));
                 let mut station = self.status.station(h, now, epoch_utc_ns, last_alert);
                 if let Some((lat, lon)) = place {
@@ -1093,6 +1114,7 @@ impl Stopped {
     pub fn input_totals(&self) -> InputTotals {
         let mut totals = InputTotals {
             future_packets: self.stats.future_packets,
+            malformed_station_packets: self.stats.malformed_station_packets,
             ..InputTotals::default()
         };
         for e in &self.engines {

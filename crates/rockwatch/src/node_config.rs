@@ -214,6 +214,9 @@ pub enum NodeConfigProblem {
     /// A `[web]` or `[metrics]` value is invalid (e.g. a non-loopback listen without a token).
     #[error("{0}")]
     Listener(String),
+    /// `[web] tiles` or `tiles_attribution` is invalid.
+    #[error("{0}")]
+    Tiles(crate::web::tiles::TilesConfigError),
 }
 
 /// Why a partition setting (`partition`, `partitions`, `[partition_assign]`) is invalid, for
@@ -267,6 +270,10 @@ impl NodeConfig {
             .partitioning()
             .map_err(|e| error(NodeConfigProblem::Partition(e)))?;
         config.web.resolve(base);
+        config
+            .web
+            .tiles()
+            .map_err(|e| error(NodeConfigProblem::Tiles(e)))?;
         config
             .web
             .validate()
@@ -389,6 +396,30 @@ mod tests {
         // The token file is relative to the configuration file (missing here: refused).
         let e = load("[web]\nlisten = \"0.0.0.0:8080\"\ntoken_file = \"t\"\n").unwrap_err();
         assert!(e.contains("[web] token_file") && e.contains("/t\""), "{e}");
+    }
+
+    #[test]
+    fn a_bad_web_tiles_template_is_refused_at_load_naming_the_key() {
+        let e =
+            load("[web]\nlisten = \"127.0.0.1:8080\"\ntiles = \"https://h/{z}/{x}/{y}/{s}.png\"\n")
+                .unwrap_err();
+        assert!(
+            e.contains(
+                "node.toml: [web] tiles = \"https://h/{z}/{x}/{y}/{s}.png\": unknown placeholder"
+            ),
+            "{e}"
+        );
+        let c = load(
+            "[web]\nlisten = \"127.0.0.1:8080\"\ntiles = \"https://tile.openstreetmap.org/{z}/{x}/{y}.png\"\n\
+             tiles_attribution = \"© OpenStreetMap contributors\"\n",
+        )
+        .unwrap();
+        let tiles = c.web.tiles().unwrap().unwrap();
+        assert_eq!(tiles.template.origin(), "https://tile.openstreetmap.org");
+        assert_eq!(
+            tiles.attribution.as_deref(),
+            Some("© OpenStreetMap contributors")
+        );
     }
 
     #[test]
@@ -520,7 +551,7 @@ mod tests {
             c.ros2.imu,
             vec![crate::ros2::ImuInput {
                 topic: "/imu/data".into(),
-                station: "XB.IMU.00".into(),
+                station: rockwatch_core::engine::StationId::parse("XB.IMU.00").unwrap(),
                 sample_rate_hz: 100.0,
                 remove_gravity: true,
                 qos: crate::ros2::InputQos::SensorData,

@@ -243,6 +243,31 @@ where
     Ok(())
 }
 
+/// The one legend style: the series' labels in a white, black-bordered box at `position`
+/// (plotters' default, the upper middle, when `None`) in `font_px` sans-serif.
+pub fn draw_legend<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    position: Option<SeriesLabelPosition>,
+    font_px: u32,
+) -> DrawResult
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    X: Ranged,
+    Y: Ranged,
+{
+    let mut labels = chart.configure_series_labels();
+    if let Some(position) = position {
+        labels.position(position);
+    }
+    labels
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", font_px))
+        .draw()?;
+    Ok(())
+}
+
 /// The one tick policy of a logarithmic axis from `lo` to `hi` (> 0): the values 1, 2 and 5
 /// × 10ᵏ within the range, or 1 to 9 × 10ᵏ when those are fewer than four; over a range too
 /// narrow for four of those (less than about a factor of 2), four or more evenly spaced round
@@ -532,12 +557,7 @@ impl History<'_> {
                 }
             }
             if labelled {
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 12))
-                    .draw()?;
+                draw_legend(&mut chart, None, 12)?;
             }
         }
         // Legend of the mode colours, under the title.

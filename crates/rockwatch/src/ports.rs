@@ -1,6 +1,7 @@
-//! The ports between the node and its transports: what a transport publishes
-//! ([`Publication`] through a [`Publisher`]), what it sends when replaying ([`PacketSink`]), and
-//! how another thread hands the node's event loop a settings change ([`ControlSender`]).
+//! The ports between the node and its transports: what a transport takes in ([`Received`]),
+//! what it publishes ([`Publication`] through a [`Publisher`]), what it sends when replaying
+//! ([`PacketSink`]), and how another thread hands the node's event loop a settings change
+//! ([`ControlSender`]).
 //!
 //! Architecture invariant: this module depends only on the engine's types (`rockwatch_core`)
 //! and the transport-free status report (`status`); the transports (`ros2`, `iox`) and the
@@ -9,8 +10,14 @@
 use std::sync::mpsc;
 
 use rockwatch_core::engine::{
-    AccelPacket, Alert, AlertConfig, PbrState, ResetEvent, StationIntensity,
+    AccelPacket, Alert, AlertConfig, MalformedStation, PbrState, ResetEvent, StationIntensity,
 };
+
+/// What an input transport (iceoryx2, ROS 2) hands the node for each packet it took: the
+/// packet, its station id parsed at the edge by `engine::station_at_edge`; or the refusal of
+/// a malformed id, which the node counts and says the same way whichever transport it came
+/// by (`NodeRuntime::refuse_malformed`).
+pub type Received = Result<AccelPacket, MalformedStation>;
 
 /// Appended to the `message` of a ROS 2 `PbrAlert` published with `journal_pending` (the
 /// message type has no flag field; changing it would break interoperability).

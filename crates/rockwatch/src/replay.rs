@@ -416,7 +416,7 @@ impl Traces {
             .map(|(sequence, first)| {
                 let range = first..(first + per_packet).min(total);
                 AccelPacket {
-                    station: station.to_string(),
+                    station: station.clone(),
                     start_time_ns: self.start_ns
                         + (first as f64 * 1e9 / self.rate_hz).round() as i64,
                     sample_rate_hz: self.rate_hz,
@@ -595,7 +595,7 @@ mod replay_tests {
     fn now_shift_puts_the_first_sample_now_at_real_time_and_the_end_now_when_faster() {
         let packets: Vec<AccelPacket> = (0..10)
             .map(|i| AccelPacket {
-                station: "XX.T.00".into(),
+                station: StationId::parse("XX.T.00").unwrap(),
                 start_time_ns: 5_000_000_000 + i * 100_000_000,
                 sample_rate_hz: 100.0,
                 sequence: i as u64,

@@ -287,7 +287,11 @@ impl ReportFeed {
         self.traces.observe(publication);
         if let Publication::Alert { alert, .. } = publication {
             if alert.level == AlertLevel::Overturned {
-                self.report(&alert.pbr_id, ReportReason::Overturned, alert.data_time_ns);
+                self.report(
+                    alert.pbr_id.as_str(),
+                    ReportReason::Overturned,
+                    alert.data_time_ns,
+                );
             }
         }
     }
@@ -412,7 +416,7 @@ fn rock_params(specs: &[PbrSpec]) -> HashMap<String, RockParams> {
         .iter()
         .map(|s| {
             (
-                s.id.clone(),
+                s.id.to_string(),
                 RockParams {
                     name: s.place.name.clone(),
                     station: s.station.to_string(),

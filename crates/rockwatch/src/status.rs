@@ -398,7 +398,7 @@ impl NodeStatus {
             }
             items.push(Item {
                 name: format!("station {}", h.station),
-                hardware_id: h.station.clone(),
+                hardware_id: h.station.to_string(),
                 level: s.level,
                 message: s.message.clone(),
                 values,
@@ -487,7 +487,12 @@ impl NodeStatus {
             self.stations
                 .iter()
                 .filter_map(|s| {
-                    f(s).map(|v| (format!("{{station=\"{}\"}}", label(&s.health.station)), v))
+                    f(s).map(|v| {
+                        (
+                            format!("{{station=\"{}\"}}", label(s.health.station.as_str())),
+                            v,
+                        )
+                    })
                 })
                 .collect()
         };
@@ -675,7 +680,7 @@ impl StatusBuilder {
         ];
         let before = self
             .previous
-            .insert(health.station.clone(), counts)
+            .insert(health.station.to_string(), counts)
             .unwrap_or([0; 5]);
         let new = |i: usize| counts[i].saturating_sub(before[i]);
         let data_latency_s = match (health.last_arrival_ns, health.last_sample_ns) {
@@ -752,7 +757,7 @@ mod tests {
 
     fn health(station: &str) -> StationHealth {
         StationHealth {
-            station: station.into(),
+            station: rockwatch_core::engine::StationId::parse(station).unwrap(),
             monitored: true,
             blocks: 2,
             last_arrival_ns: Some(5_000_000_000),
@@ -849,12 +854,9 @@ mod tests {
     #[test]
     fn prometheus_text_has_help_type_and_labelled_samples() {
         let mut b = StatusBuilder::default();
-        let station = b.station(
-            health("XX.\"Q\".00"),
-            6_000_000_000,
-            1_000_000_000_000,
-            None,
-        );
+        // A station id is a checked `StationId` (it cannot hold a quote); a rock's station
+        // text in its status can, and is escaped below.
+        let station = b.station(health("XX.Q.00"), 6_000_000_000, 1_000_000_000_000, None);
         let status = NodeStatus {
             stamp_ns: 0,
             stations: vec![station],
@@ -879,7 +881,7 @@ mod tests {
         let text = status.prometheus();
         assert!(text.contains("# TYPE rockwatch_station_packets_total counter\n"));
         assert!(
-            text.contains("rockwatch_station_packets_total{station=\"XX.\\\"Q\\\".00\"} 10\n"),
+            text.contains("rockwatch_station_packets_total{station=\"XX.Q.00\"} 10\n"),
             "{text}"
         );
         assert!(text.contains("rockwatch_engine_realtime_factor 12.5\n"));
@@ -889,7 +891,7 @@ mod tests {
         );
         let items = status.items();
         assert_eq!(items.len(), 4);
-        assert_eq!(items[3].hardware_id, "XX.\"Q\".00");
+        assert_eq!(items[3].hardware_id, "XX.Q.00");
     }
 }
 

@@ -410,7 +410,7 @@ impl Traces {
     pub fn observe(&mut self, publication: &Publication) {
         match publication {
             Publication::State(s) => {
-                let rock = self.rock(&s.pbr_id);
+                let rock = self.rock(s.pbr_id.as_str());
                 rock.changed |= rock.trace.state(EpisodePoint {
                     data_time_ns: s.data_time_ns,
                     theta_over_alpha: s.theta_over_alpha,
@@ -419,7 +419,7 @@ impl Traces {
                 });
             }
             Publication::Alert { alert: a, .. } => {
-                let rock = self.rock(&a.pbr_id);
+                let rock = self.rock(a.pbr_id.as_str());
                 rock.trace.alert(
                     a.episode,
                     AlertMark {
@@ -440,7 +440,7 @@ impl Traces {
             Publication::Intensity(i) => {
                 if self.stations.contains_key(i.station.as_str()) {
                     self.intensities
-                        .insert(i.station.clone(), Arc::new(i.clone()));
+                        .insert(i.station.to_string(), Arc::new(i.clone()));
                 }
             }
             Publication::Reset(_) => {}
@@ -524,7 +524,7 @@ mod tests {
     fn packet(start_s: f64, rate: f64, east: Vec<f32>) -> AccelPacket {
         let n = east.len();
         AccelPacket {
-            station: "XX.STA.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.STA.00").unwrap(),
             start_time_ns: (start_s * 1e9) as i64,
             sample_rate_hz: rate,
             sequence: 0,

@@ -150,7 +150,7 @@ impl Pbr {
             self.restitution.map(|_| restitution),
         )
         .map_err(|reason| EnsembleError {
-            id: self.id.clone(),
+            id: self.id.to_string(),
             member,
             reason,
         })
@@ -201,7 +201,7 @@ impl Pbr {
                     self.restitution.map(|_| restitution),
                 )
                 .map_err(|reason| EnsembleError {
-                    id: self.id.clone(),
+                    id: self.id.to_string(),
                     member,
                     reason,
                 })?;

@@ -8,11 +8,12 @@ use super::geometry::{Geometry, MeshRock, RockModel};
 use super::StationId;
 use crate::azimuth::Azimuth;
 use crate::dynamics::BlockParams;
+use crate::pbr_id::PbrId;
 
 /// One validated catalogue entry: a PBR or other freestanding object modelled as a rigid block.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pbr {
-    pub(super) id: String,
+    pub(super) id: PbrId,
     pub(super) name: String,
     pub(super) lat_deg: f64,
     pub(super) lon_deg: f64,
@@ -33,7 +34,7 @@ pub struct Pbr {
 impl Pbr {
     /// The unique identifier.
     #[must_use]
-    pub fn id(&self) -> &str {
+    pub fn id(&self) -> &PbrId {
         &self.id
     }
 

@@ -21,6 +21,7 @@ use crate::azimuth::Azimuth;
 use crate::mesh::contact::{
     azimuth_steps, parse_azimuths, RockGeometry, UpAxis, DEFAULT_CONTACT_TOLERANCE_M,
 };
+use crate::pbr_id::PbrId;
 use crate::rocking3d::body::NOMINAL_DENSITY_KG_M3;
 use crate::rocking3d::RockBody;
 
@@ -180,16 +181,13 @@ pub(super) fn validate(
             problems.push(missing(field));
         }
     }
-    let id = raw.id.clone().unwrap_or_default();
-    if raw.id.as_deref() == Some("") {
-        problems.push(("id".to_owned(), "id must not be empty".to_owned()));
-    }
-    if id.chars().any(|c| c.is_whitespace() || c.is_control()) {
-        problems.push((
-            "id".to_owned(),
-            format!("id {id:?} must not contain whitespace or control characters"),
-        ));
-    }
+    // The id's one check (a missing id is said above).
+    let pbr_id = raw.id.as_deref().and_then(|text| {
+        check(
+            &mut problems,
+            PbrId::parse(text).map_err(|e| ("id".to_owned(), e.to_string())),
+        )
+    });
     for (field, text) in [("name", &raw.name), ("source", &raw.source)] {
         if text.as_deref().is_some_and(|t| t.trim().is_empty()) {
             let why = if field == "source" {
@@ -300,7 +298,7 @@ pub(super) fn validate(
         }
     }
     let seed = match raw.seed.map(|s| s.0) {
-        None => Some(default_seed(&id)),
+        None => Some(default_seed(raw.id.as_deref().unwrap_or_default())),
         Some(s) => check(
             &mut problems,
             u64::try_from(s).map_err(|_| {
@@ -318,6 +316,7 @@ pub(super) fn validate(
         ));
     }
     let (
+        Some(id),
         Some(name),
         Some(lat),
         Some(lon),
@@ -332,6 +331,7 @@ pub(super) fn validate(
         Some(seed),
         true,
     ) = (
+        pbr_id,
         raw.name.clone(),
         raw.lat,
         raw.lon,

@@ -445,18 +445,46 @@ impl ModeSystem {
             Phase::Rest | Phase::Overturned | Phase::Flight => [1.0; 6],
         }
     }
+
+    /// Event function `index` alone: `self.events(t, y)[index]` bit for bit. In a pivot
+    /// mode the geometric events (impact σθ, overturn π/2 − σθ, α-crossing σθ − α, peak σθ̇)
+    /// depend on the state only, so they are computed without the mode's dynamics (a
+    /// `sin_cos` and the force balance per evaluation less while a root is located).
+    #[inline]
+    fn event(&self, index: usize, t: f64, y: &Vector4<f64>) -> f64 {
+        match (self.phase, index) {
+            (
+                Phase::Rock { sigma } | Phase::SlideRock { sigma, .. },
+                EV_IMPACT | EV_OVERTURN | EV_ALPHA | EV_PEAK,
+            ) => geometric_event(&self.params, sigma, y, index),
+            _ => self.events(t, y)[index],
+        }
+    }
+}
+
+/// The geometric event `index` (impact, overturn, α-crossing or peak) of a pivot mode on
+/// corner `sigma`: the one definition, used by [`pivot_events`] and [`ModeSystem::event`].
+#[inline]
+fn geometric_event(p: &BlockParams, sigma: f64, y: &Vector4<f64>, index: usize) -> f64 {
+    let st = sigma * y[0];
+    match index {
+        EV_IMPACT => st,
+        EV_OVERTURN => std::f64::consts::FRAC_PI_2 - st,
+        EV_ALPHA => st - p.side(sigma).alpha_rad,
+        _ => sigma * y[1],
+    }
 }
 
 #[inline]
 fn pivot_events(p: &BlockParams, sigma: f64, y: &Vector4<f64>, slip: f64, normal: f64) -> [f64; 6] {
-    let st = sigma * y[0];
+    let geometric = |index| geometric_event(p, sigma, y, index);
     [
-        st,
+        geometric(EV_IMPACT),
         slip,
         normal,
-        std::f64::consts::FRAC_PI_2 - st,
-        st - p.side(sigma).alpha_rad,
-        sigma * y[1],
+        geometric(EV_OVERTURN),
+        geometric(EV_ALPHA),
+        geometric(EV_PEAK),
     ]
 }
 
@@ -874,7 +902,7 @@ impl RigidBlock {
             let y1 = step.y1();
             let g_end = system.events(t1, &y1);
             let dense = &step;
-            let event_at = |i: usize| move |t: f64| system.events(t, &dense.eval(t))[i];
+            let event_at = |i: usize| move |t: f64| system.event(i, t, &dense.eval(t));
 
             // Earliest terminal event in (tau, t1].
             let mut terminal: Option<(f64, usize)> = None;

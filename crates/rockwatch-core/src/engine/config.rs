@@ -4,6 +4,7 @@ use super::packet::StationId;
 use super::stream::StreamConfig;
 use crate::azimuth::Azimuth;
 use crate::dynamics::BlockParams;
+use crate::pbr_id::PbrId;
 
 /// A configuration value out of its range; the message names the station or key.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -325,7 +326,7 @@ pub struct RockPlace {
 /// ensemble, its members.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PbrSpec {
-    pub id: String,
+    pub id: PbrId,
     /// Its name and position, carried into its alerts.
     pub place: RockPlace,
     pub station: StationId,
@@ -386,7 +387,7 @@ impl PbrSpec {
             (body, pbr.rigid_members(pbr.ensemble_size()))
         {
             return Ok(PbrSpec {
-                id: pbr.id().to_string(),
+                id: pbr.id().clone(),
                 place: RockPlace::of(pbr),
                 station: pbr.station().clone(),
                 azimuth: pbr.azimuth(),
@@ -416,7 +417,7 @@ impl PbrSpec {
             });
         };
         Ok(PbrSpec {
-            id: pbr.id().to_string(),
+            id: pbr.id().clone(),
             place: RockPlace::of(pbr),
             station: pbr.station().clone(),
             azimuth: first.azimuth,

@@ -12,6 +12,8 @@
 //! [`PbrState`](super::PbrState) of each of its blocks flagged `not_monitored` (true while
 //! stale, false on recovery): a rock bound to a dead station must not look quiet.
 
+use crate::station_id::StationId;
+
 /// What the engine keeps per station to judge its health (updated per accepted packet:
 /// no allocation).
 #[derive(Debug, Clone, Copy, Default)]
@@ -74,7 +76,7 @@ impl Liveness {
 /// A station went stale or recovered (one output per change).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct HealthChange {
-    pub station: String,
+    pub station: StationId,
     /// False: the station went stale (its blocks are not monitored); true: it recovered.
     pub monitored: bool,
     /// Going stale: time since its last accepted packet (or since the first check, if it
@@ -87,7 +89,7 @@ pub struct HealthChange {
 /// A snapshot of one station's health ([`Engine::health`](super::Engine::health)).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct StationHealth {
-    pub station: String,
+    pub station: StationId,
     /// Not stale.
     pub monitored: bool,
     /// Blocks bound to the station.

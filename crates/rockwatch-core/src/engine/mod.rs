@@ -39,6 +39,7 @@ pub mod stream;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::sync::Arc;
 
+pub use crate::pbr_id::PbrId;
 pub use config::{
     AlertConfig, ConfigError, EngineConfig, Orientation, PbrSpec, PlausibilityConfig, Rock3dSpec,
     Rock3dSpecError, RockPlace, StationConfig,
@@ -50,7 +51,9 @@ pub use output::{
     AlertLevel, HistoryEntry, JournalRecord, Notice, NoticeKind, Output, OutputSink, PbrState,
     ResetEvent, StationIntensity,
 };
-pub use packet::{AccelPacket, PacketError, SampleUnit, StationId};
+pub use packet::{
+    station_at_edge, AccelPacket, MalformedStation, PacketError, SampleUnit, StationId,
+};
 pub use pbr::{DirectionSummary, PbrSummary};
 pub use sharded::{EngineHandle, ShardedEngine};
 pub use source::{Source, SourceCounts, SourceTally, Verdict, MAX_SOURCES};
@@ -64,8 +67,6 @@ use station::StationRuntime;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct EngineCounters {
     pub packets: u64,
-    /// Packets whose station id is malformed (no station to charge them to).
-    pub malformed_station_packets: u64,
     /// Packets from stations neither configured nor in the catalogue.
     pub unknown_station_packets: u64,
 }
@@ -86,13 +87,13 @@ pub enum EngineError {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ReloadReport {
     /// In both catalogues, the same block on the same station: state kept.
-    pub kept: Vec<String>,
+    pub kept: Vec<PbrId>,
     /// New ids: at rest.
-    pub added: Vec<String>,
+    pub added: Vec<PbrId>,
     /// Ids in both whose body, axis, members or station changed: at rest again.
-    pub replaced: Vec<String>,
+    pub replaced: Vec<PbrId>,
     /// Gone from the catalogue: dropped.
-    pub dropped: Vec<String>,
+    pub dropped: Vec<PbrId>,
 }
 
 /// The monitoring engine.
@@ -100,9 +101,6 @@ pub struct ReloadReport {
 pub struct Engine {
     config: EngineConfig,
     stations: BTreeMap<StationId, StationRuntime>,
-    /// Each station's identifier under its text (a valid identifier has exactly one
-    /// spelling): packets are routed without parsing or allocating.
-    ids: HashMap<String, StationId>,
     counters: EngineCounters,
     journaled: HashSet<AlertKey>,
     scratch: Vec<stream::Released>,
@@ -148,10 +146,6 @@ impl Engine {
             .collect::<Result<BTreeMap<StationId, StationRuntime>, ConfigError>>()?;
         Ok(Engine {
             config,
-            ids: stations
-                .keys()
-                .map(|id| (id.as_str().to_string(), id.clone()))
-                .collect(),
             stations,
             counters: EngineCounters::default(),
             journaled: HashSet::new(),
@@ -174,22 +168,22 @@ impl Engine {
         pbrs: &[PbrSpec],
     ) -> Result<ReloadReport, EngineError> {
         let mut fresh = Engine::new(config, stations, pbrs)?;
-        let old_ids: Vec<String> = self
+        let old_ids: Vec<PbrId> = self
             .stations
             .values()
-            .flat_map(|s| s.pbrs.iter().map(|p| p.id().to_string()))
+            .flat_map(|s| s.pbrs.iter().map(|p| p.id().clone()))
             .collect();
-        let mut previous: HashMap<String, pbr::PbrRuntime> = self
+        let mut previous: HashMap<PbrId, pbr::PbrRuntime> = self
             .stations
             .values_mut()
             .flat_map(StationRuntime::take_blocks)
-            .map(|p| (p.id().to_string(), p))
+            .map(|p| (p.id().clone(), p))
             .collect();
         let mut report = ReloadReport::default();
         for (id, station) in &mut fresh.stations {
             let kept = station.continue_from(self.stations.remove(id), &mut previous);
             for pbr in &mut station.pbrs {
-                let pid = pbr.id().to_string();
+                let pid = pbr.id().clone();
                 if kept.contains(&pid) {
                     report.kept.push(pid);
                 } else if old_ids.contains(&pid) {
@@ -224,12 +218,12 @@ impl Engine {
     /// says so in a notice).
     #[must_use]
     pub fn monitors(&self, station: &str) -> bool {
-        self.ids.contains_key(station)
+        self.stations.contains_key(station)
     }
 
     /// The stations the engine monitors (see [`Engine::monitors`]).
     pub fn monitored_stations(&self) -> impl Iterator<Item = &str> {
-        self.ids.keys().map(String::as_str)
+        self.stations.keys().map(StationId::as_str)
     }
 
     /// The configuration in force.
@@ -297,27 +291,11 @@ impl Engine {
         out: &mut dyn OutputSink,
     ) -> Verdict {
         self.counters.packets += 1;
-        // A configured station is found by its text; anything else is parsed to tell a
-        // malformed identifier from an unknown station.
-        let station = match self.ids.get(packet.station.as_str()) {
-            Some(id) => self.stations.get_mut(id),
-            None => {
-                if let Err(error) = StationId::parse(&packet.station) {
-                    self.counters.malformed_station_packets += 1;
-                    out.push(Output::Notice(Notice {
-                        station: packet.station.clone(),
-                        kind: NoticeKind::Rejected,
-                        message: error.to_string(),
-                    }));
-                    return Verdict::Refused;
-                }
-                None
-            }
-        };
+        let station = self.stations.get_mut(&packet.station);
         let Some(station) = station else {
             self.counters.unknown_station_packets += 1;
             out.push(Output::Notice(Notice {
-                station: packet.station.clone(),
+                station: packet.station.to_string(),
                 kind: NoticeKind::UnknownStation,
                 message:
                     "packet from a station that is neither configured nor in the catalogue: ignored"

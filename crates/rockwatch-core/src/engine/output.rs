@@ -3,6 +3,8 @@
 use std::collections::{HashMap, HashSet};
 
 use crate::dynamics::Mode;
+use crate::pbr_id::PbrId;
+use crate::station_id::StationId;
 
 /// Where the engine puts its outputs, each as soon as it is produced (an alert mid-packet
 /// need not wait for the rest of the packet). A `Vec<Output>` just collects them.
@@ -55,8 +57,8 @@ impl AlertLevel {
 /// An alert, emitted once per block per episode and level.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Alert {
-    pub pbr_id: String,
-    pub station: String,
+    pub pbr_id: PbrId,
+    pub station: StationId,
     pub level: AlertLevel,
     /// Episode number of this block (1 for the first), part of the alert's identity.
     pub episode: u32,
@@ -101,8 +103,8 @@ impl Alert {
 /// A block's state, published on every mode change and at the state rate.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PbrState {
-    pub pbr_id: String,
-    pub station: String,
+    pub pbr_id: PbrId,
+    pub station: StationId,
     pub mode: Mode,
     pub theta_rad: f64,
     /// θ/α, signed (dimensionless): the rocking angle θ (> 0 clockwise about the +x pivot,
@@ -126,7 +128,7 @@ pub struct PbrState {
 /// A station's running intensity measures over the current event window.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct StationIntensity {
-    pub station: String,
+    pub station: StationId,
     pub data_time_ns: i64,
     /// PGA (m/s²): the peak of the horizontal vector |(a_E, a_N)| (orientation-independent;
     /// = RotD100); PGV, PGD, CAV, Arias: the larger of the two horizontal components (m/s, m,
@@ -148,7 +150,10 @@ pub struct StationIntensity {
 /// A noteworthy irregularity, for the shell to log (rate-limited) and count.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Notice {
-    /// Station id as received (may be malformed).
+    /// Station id as received: the text, not a [`StationId`], because a packet refused at
+    /// its transport's edge for a malformed id ([`MalformedStation`](super::MalformedStation))
+    /// has no `StationId` and its notice must still say what came (bound and escape it
+    /// before showing it).
     pub station: String,
     pub kind: NoticeKind,
     pub message: String,
@@ -205,7 +210,7 @@ pub enum Output {
     Notice(Notice),
     /// A block's episode ended (back at rest on a quiet station): journal it.
     EpisodeEnd {
-        pbr_id: String,
+        pbr_id: PbrId,
         episode: u32,
         /// Data time of the sample at which it ended (ns since the Unix epoch, UTC).
         data_time_ns: i64,
@@ -224,7 +229,7 @@ pub enum JournalRecord {
     Alert(Alert),
     /// The end of a block's episode.
     EpisodeEnd {
-        pbr_id: String,
+        pbr_id: PbrId,
         episode: u32,
         /// Data time of the sample at which it ended (ns since the Unix epoch, UTC); absent
         /// from records written before it was kept.
@@ -233,7 +238,7 @@ pub enum JournalRecord {
     },
     /// An operator reset a (fallen) block: it stands again, its episode is closed.
     Reset {
-        pbr_id: String,
+        pbr_id: PbrId,
         /// Wall-clock UTC time of the reset, as the process that journaled it read its clock
         /// (ns since the Unix epoch); absent from records written before it was kept.
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -243,7 +248,7 @@ pub enum JournalRecord {
     /// publishers. Written after them and not synced: if a crash loses it, the alert is
     /// published again at restart (at least once, never silently lost).
     Published {
-        pbr_id: String,
+        pbr_id: PbrId,
         episode: u32,
         level: AlertLevel,
     },
@@ -266,9 +271,9 @@ pub fn journaled_alerts(records: &[JournalRecord], depth: usize) -> Vec<(Alert, 
 /// `/pbr/alerts` ends in the truth (a late subscriber does not believe a reset block down).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ResetEvent {
-    pub pbr_id: String,
+    pub pbr_id: PbrId,
     /// The block's station, and the episode in which it fell (of its last alert).
-    pub station: String,
+    pub station: StationId,
     pub episode: u32,
     /// Wall-clock UTC time of the reset (ns since the Unix epoch; 0 if the journal did not
     /// keep it).
@@ -336,7 +341,7 @@ pub fn journaled_history(records: &[JournalRecord], depth: usize) -> Vec<History
 /// Ids of the blocks that are fallen according to the journal `records` (read in order): an
 /// `overturned` alert and no operator reset since. A restart restores them fallen.
 #[must_use]
-pub fn fallen_blocks(records: &[JournalRecord]) -> HashSet<String> {
+pub fn fallen_blocks(records: &[JournalRecord]) -> HashSet<PbrId> {
     let mut fallen = HashSet::new();
     for record in records {
         match record {
@@ -420,7 +425,7 @@ pub fn compact_journal(records: &[JournalRecord], history: usize) -> Vec<Journal
 }
 
 /// Identity of an alert: block, episode, level.
-pub type AlertKey = (String, u32, AlertLevel);
+pub type AlertKey = (PbrId, u32, AlertLevel);
 
 /// Which alert levels a block has raised in its current episode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -448,8 +453,8 @@ mod tests {
 
     fn alert(pbr_id: &str, level: AlertLevel) -> JournalRecord {
         JournalRecord::Alert(Alert {
-            pbr_id: pbr_id.into(),
-            station: "CI.RRS.00".into(),
+            pbr_id: PbrId::parse(pbr_id).unwrap(),
+            station: StationId::parse("CI.RRS.00").unwrap(),
             level,
             episode: 1,
             mode: Mode::Rock,
@@ -470,7 +475,7 @@ mod tests {
     #[test]
     fn a_block_is_fallen_from_its_overturned_alert_until_a_reset() {
         let reset = |id: &str| JournalRecord::Reset {
-            pbr_id: id.into(),
+            pbr_id: PbrId::parse(id).unwrap(),
             time_ns: None,
         };
         let records = [
@@ -481,7 +486,10 @@ mod tests {
             reset("b"),
             alert("b", AlertLevel::MotionOnset),
         ];
-        assert_eq!(fallen_blocks(&records), HashSet::from(["a".to_string()]));
+        assert_eq!(
+            fallen_blocks(&records),
+            HashSet::from([PbrId::parse("a").unwrap()])
+        );
         assert_eq!(
             fallen_blocks(&[alert("a", AlertLevel::Overturned), reset("a")]),
             HashSet::new()
@@ -491,7 +499,7 @@ mod tests {
     #[test]
     fn journaled_alerts_are_the_last_ones_with_their_published_markers() {
         let published = |id: &str, level| JournalRecord::Published {
-            pbr_id: id.into(),
+            pbr_id: PbrId::parse(id).unwrap(),
             episode: 1,
             level,
         };
@@ -504,7 +512,7 @@ mod tests {
         ];
         let got: Vec<(String, AlertLevel, bool)> = journaled_alerts(&records, 10)
             .into_iter()
-            .map(|(a, p)| (a.pbr_id, a.level, p))
+            .map(|(a, p)| (a.pbr_id.to_string(), a.level, p))
             .collect();
         assert_eq!(
             got,

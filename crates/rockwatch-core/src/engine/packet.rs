@@ -8,6 +8,7 @@ pub const SAMPLE_RATE_RANGE_HZ: (f64, f64) = (1.0, 10_000.0);
 /// time difference the engine forms far from i64 overflow.
 pub const START_TIME_RANGE_NS: (i64, i64) = (-2_208_988_800_000_000_000, 4_102_444_800_000_000_000);
 
+use super::output::{Notice, NoticeKind};
 pub use crate::station_id::StationId;
 use crate::station_id::StationIdError;
 
@@ -29,13 +30,16 @@ pub enum SampleUnit {
 
 /// Three-component acceleration from one station, as sent by a transport.
 ///
+/// `station` was parsed once, at the transport's edge, by [`station_at_edge`]: a packet whose
+/// id is not `NET.STA.LOC` never becomes an `AccelPacket`.
+///
 /// `east`, `north`, `up` are in `unit`: m/s², or counts for a station with a gain, at
 /// `t = start_time_ns + i / sample_rate_hz`; `up` may be empty. For stations whose horizontal
 /// channels are oriented 1/2, `east` carries channel 1 and `north` channel 2 (the station
 /// configuration rotates them).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AccelPacket {
-    pub station: String,
+    pub station: StationId,
     /// UTC time of the first sample (ns since the Unix epoch).
     pub start_time_ns: i64,
     pub sample_rate_hz: f64,
@@ -48,11 +52,43 @@ pub struct AccelPacket {
     pub unit: SampleUnit,
 }
 
+/// A packet refused at its transport's edge: its station id, as received, is not
+/// `NET.STA.LOC` ([`station_at_edge`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("malformed station id: {error}")]
+pub struct MalformedStation {
+    /// The id as received (any text: bound and escape it before showing it).
+    pub received: String,
+    pub error: StationIdError,
+}
+
+impl MalformedStation {
+    /// The notice of the refusal, the same whatever the transport: kind
+    /// [`NoticeKind::Rejected`], under the id as received.
+    #[must_use]
+    pub fn notice(&self) -> Notice {
+        Notice {
+            station: self.received.clone(),
+            kind: NoticeKind::Rejected,
+            message: self.error.to_string(),
+        }
+    }
+}
+
+/// The station id of a received packet, `received` as its transport carries it: the one
+/// check every transport makes at its edge (iceoryx2, ROS 2 `AccelPacket`), so that a
+/// malformed id is refused, counted and said the same way whichever way it came
+/// (the node: `NodeRuntime::refuse_malformed`). Allocates only the returned id or error.
+pub fn station_at_edge(received: &str) -> Result<StationId, MalformedStation> {
+    StationId::parse(received).map_err(|error| MalformedStation {
+        received: received.to_owned(),
+        error,
+    })
+}
+
 /// Why a packet was rejected as a whole.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PacketError {
-    #[error(transparent)]
-    Station(#[from] StationIdError),
     #[error("empty packet")]
     Empty,
     #[error("{got} samples exceed the limit of {MAX_SAMPLES_PER_PACKET}")]
@@ -87,15 +123,9 @@ impl AccelPacket {
         self.east.is_empty()
     }
 
-    /// Checks the packet's structure and values (not its place in the stream).
-    pub fn validate(&self) -> Result<StationId, PacketError> {
-        let station = StationId::parse(&self.station)?;
-        self.validate_samples()?;
-        Ok(station)
-    }
-
-    /// The checks of [`validate`](Self::validate) but the station identifier's (for a
-    /// caller that has already resolved it): lengths, sample rate, start time, finiteness.
+    /// Checks the packet's structure and values (not its place in the stream): lengths,
+    /// sample rate, start time, finiteness (its station id was checked at the transport's
+    /// edge, [`station_at_edge`]). The engine runs it once per packet, for every transport.
     /// Does not allocate.
     pub fn validate_samples(&self) -> Result<(), PacketError> {
         let n = self.east.len();
@@ -146,7 +176,7 @@ mod tests {
 
     fn packet(n: usize) -> AccelPacket {
         AccelPacket {
-            station: "CI.RRS.00".into(),
+            station: StationId::parse("CI.RRS.00").unwrap(),
             start_time_ns: 0,
             sample_rate_hz: 100.0,
             sequence: 0,
@@ -159,20 +189,20 @@ mod tests {
 
     #[test]
     fn each_malformation_is_named() {
-        assert_eq!(packet(0).validate(), Err(PacketError::Empty));
+        assert_eq!(packet(0).validate_samples(), Err(PacketError::Empty));
         let mut p = packet(3);
         p.up = vec![0.0; 2];
         assert!(matches!(
-            p.validate(),
+            p.validate_samples(),
             Err(PacketError::LengthMismatch { .. })
         ));
         let mut p = packet(3);
         p.sample_rate_hz = 1e9;
-        assert_eq!(p.validate(), Err(PacketError::SampleRate(1e9)));
+        assert_eq!(p.validate_samples(), Err(PacketError::SampleRate(1e9)));
         let mut p = packet(3);
         p.north[2] = f32::NAN;
         assert!(matches!(
-            p.validate(),
+            p.validate_samples(),
             Err(PacketError::NonFinite {
                 component: "north",
                 index: 2,
@@ -180,14 +210,30 @@ mod tests {
             })
         ));
         assert!(matches!(
-            packet(MAX_SAMPLES_PER_PACKET + 1).validate(),
+            packet(MAX_SAMPLES_PER_PACKET + 1).validate_samples(),
             Err(PacketError::TooLarge { .. })
         ));
         let mut p = packet(1);
         p.start_time_ns = i64::MAX - 1_000_000;
-        assert!(matches!(p.validate(), Err(PacketError::StartTime(_))));
-        let mut p = packet(1);
-        p.station = "nope".into();
-        assert!(matches!(p.validate(), Err(PacketError::Station(_))));
+        assert!(matches!(
+            p.validate_samples(),
+            Err(PacketError::StartTime(_))
+        ));
+    }
+
+    #[test]
+    fn a_malformed_station_id_is_refused_at_the_edge_with_its_notice() {
+        assert_eq!(
+            station_at_edge("CI.RRS.00").unwrap(),
+            StationId::parse("CI.RRS.00").unwrap()
+        );
+        let refused = station_at_edge("nope").unwrap_err();
+        assert_eq!(refused.received, "nope");
+        let notice = refused.notice();
+        assert_eq!(
+            (notice.station.as_str(), notice.kind),
+            ("nope", NoticeKind::Rejected)
+        );
+        assert!(notice.message.contains("NET.STA.LOC"), "{}", notice.message);
     }
 }

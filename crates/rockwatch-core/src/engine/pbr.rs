@@ -14,13 +14,15 @@ use crate::azimuth::Azimuth;
 use crate::dynamics::{
     BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RestLimit, RigidBlock,
 };
+use crate::pbr_id::PbrId;
 use crate::rocking3d::report::PlanarView as Pose;
+use crate::station_id::StationId;
 
 /// A block's response summary (the last line of `rockwatch monitor`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PbrSummary {
-    pub pbr_id: String,
-    pub station: String,
+    pub pbr_id: PbrId,
+    pub station: StationId,
     pub max_theta_over_alpha: f64,
     pub max_slide_m: f64,
     pub overturned: bool,
@@ -113,7 +115,7 @@ enum Dynamics {
 /// One catalogued rock in the engine (module doc).
 #[derive(Debug, Clone)]
 pub(crate) struct PbrRuntime {
-    pub(super) id: String,
+    pub(super) id: PbrId,
     /// Name and position, copied into each alert (boxed: read only when an alert is raised).
     place: Box<super::RockPlace>,
     dynamics: Dynamics,
@@ -138,7 +140,7 @@ pub(crate) struct PacketContext<'a> {
 
 /// One sample of a station, as its blocks see it.
 pub(super) struct SampleContext<'a> {
-    pub(super) station: &'a str,
+    pub(super) station: &'a StationId,
     /// Data time of the sample (ns).
     pub(super) t_ns: i64,
     /// The station's running PGA and PGV, larger horizontal component (m/s², m/s).
@@ -308,14 +310,14 @@ impl PbrRuntime {
         let dynamics = match &spec.rock_3d {
             Some(rock) => Dynamics::Rigid(Box::new(RigidRock::new(rock).map_err(|error| {
                 super::ConfigError::Rock3d {
-                    pbr: spec.id.clone(),
+                    pbr: spec.id.to_string(),
                     error,
                 }
             })?)),
             None => {
                 let member_error = |azimuth: Azimuth| {
                     move |error| super::ConfigError::Member {
-                        pbr: spec.id.clone(),
+                        pbr: spec.id.to_string(),
                         direction_deg: azimuth.degrees(),
                         error,
                     }
@@ -430,7 +432,7 @@ impl PbrRuntime {
             }
     }
 
-    pub(crate) fn id(&self) -> &str {
+    pub(crate) fn id(&self) -> &PbrId {
         &self.id
     }
 
@@ -506,7 +508,9 @@ impl PbrRuntime {
 
     /// Heap bytes of the rock's blocks (id, name and place, directions, members).
     pub(super) fn heap_bytes(&self) -> usize {
-        self.id.capacity()
+        // The id's text behind its two reference counts (shared with its outputs).
+        2 * std::mem::size_of::<usize>()
+            + self.id.as_str().len()
             + std::mem::size_of::<super::RockPlace>()
             + self.place.name.capacity()
             + match &self.dynamics {
@@ -532,21 +536,21 @@ impl PbrRuntime {
         }
     }
 
-    pub(super) fn state(&self, station: &str, data_time_ns: i64) -> PbrState {
+    pub(super) fn state(&self, station: &StationId, data_time_ns: i64) -> PbrState {
         self.state_monitored(station, data_time_ns, false)
     }
 
     /// The block's state, flagged `not_monitored` as given (a stale station's blocks).
     pub(super) fn state_monitored(
         &self,
-        station: &str,
+        station: &StationId,
         data_time_ns: i64,
         not_monitored: bool,
     ) -> PbrState {
         let pose = self.pose();
         PbrState {
             pbr_id: self.id.clone(),
-            station: station.to_string(),
+            station: station.clone(),
             mode: pose.mode,
             theta_rad: pose.theta_rad,
             theta_over_alpha: pose.theta_over_alpha,
@@ -638,7 +642,7 @@ impl PbrRuntime {
                 };
                 out.push(Output::Alert(Alert {
                     pbr_id: self.id.clone(),
-                    station: at.station.to_string(),
+                    station: at.station.clone(),
                     level,
                     episode: self.episode,
                     mode: pose.mode,
@@ -693,7 +697,7 @@ impl PbrRuntime {
     }
 
     /// The rock's summary: the largest responses over its directions.
-    pub(crate) fn summary(&self, station: &str) -> PbrSummary {
+    pub(crate) fn summary(&self, station: &StationId) -> PbrSummary {
         let directions = match &self.dynamics {
             Dynamics::Planar(p) => p.summaries(),
             Dynamics::Rigid(r) => {
@@ -713,7 +717,7 @@ impl PbrRuntime {
         }
         PbrSummary {
             pbr_id: self.id.clone(),
-            station: station.to_string(),
+            station: station.clone(),
             max_theta_over_alpha,
             max_slide_m,
             overturned: self.any_nominal_overturned(),

@@ -49,7 +49,7 @@ impl EngineHandle {
     /// As [`EngineHandle::submit`], for a packet of `source`: its verdict is counted in the
     /// engine's [`SourceTally`] ([`ShardedEngine::source_tally`]) once a worker has processed it.
     pub fn submit_from(&self, packet: AccelPacket, arrival_ns: i64, source: Option<Source>) {
-        let shard = shard_of(&packet.station, self.senders.len());
+        let shard = shard_of(packet.station.as_str(), self.senders.len());
         self.send(shard, Command::Packet(packet, arrival_ns, source));
     }
 

@@ -11,6 +11,8 @@ use super::pbr::{BlockStep, PacketContext, PbrRuntime, SampleContext};
 use super::rest_group::{GroundSample as Sample, RestGroup};
 use super::stream::{Gap, Released, Sequencer, StreamConfig};
 use crate::ims::{RunningConfig, RunningIms};
+use crate::pbr_id::PbrId;
+use crate::station_id::StationId;
 
 /// Longest intensity window (s): a station that never goes quiet restarts its running IMs
 /// after this long (bounding their memory, about 8 bytes per sample and component).
@@ -44,7 +46,7 @@ pub struct StationCounters {
 #[derive(Debug)]
 pub(crate) struct StationRuntime {
     pub(crate) config: StationConfig,
-    pub(crate) name: String,
+    pub(crate) name: StationId,
     sequencer: Sequencer,
     /// Running intensity measures of the east and north components (the published values
     /// are the larger horizontal's, but PGA; no vertical measure is published, so none is
@@ -66,7 +68,7 @@ pub(crate) struct StationRuntime {
 }
 
 /// Hands `out` a notice about `station`.
-fn notice(station: &str, kind: NoticeKind, message: String, out: &mut dyn OutputSink) {
+fn notice(station: &StationId, kind: NoticeKind, message: String, out: &mut dyn OutputSink) {
     out.push(Output::Notice(Notice {
         station: station.to_string(),
         kind,
@@ -88,7 +90,7 @@ impl StationRuntime {
         let pbrs = runtimes;
         Ok(StationRuntime {
             rest: RestGroup::new(pbrs.iter().map(PbrRuntime::rest_limit).collect()),
-            name: config.id.to_string(),
+            name: config.id.clone(),
             config,
             sequencer: Sequencer::new(stream),
             ims: None,
@@ -248,7 +250,7 @@ impl StationRuntime {
 
     /// Restores the blocks' alerts and episodes from the journal `records`; the blocks in
     /// `fallen` ([`super::output::fallen_blocks`] of the same records) are restored fallen.
-    pub(crate) fn restore(&mut self, records: &[JournalRecord], fallen: &HashSet<String>) {
+    pub(crate) fn restore(&mut self, records: &[JournalRecord], fallen: &HashSet<PbrId>) {
         self.leave_rest_group();
         for pbr in &mut self.pbrs {
             let (mut last_episode, mut ended) = (0, 0);
@@ -298,8 +300,8 @@ impl StationRuntime {
     pub(crate) fn continue_from(
         &mut self,
         old: Option<StationRuntime>,
-        previous: &mut std::collections::HashMap<String, PbrRuntime>,
-    ) -> Vec<String> {
+        previous: &mut std::collections::HashMap<PbrId, PbrRuntime>,
+    ) -> Vec<PbrId> {
         let mut kept = Vec::new();
         for pbr in &mut self.pbrs {
             if let Some(prev) = previous.remove(&pbr.id) {

@@ -474,7 +474,7 @@ mod tests {
     fn packet(k: i64, n: usize, sequence: u64) -> AccelPacket {
         let values: Vec<f32> = (0..n).map(|i| (k + i as i64) as f32).collect();
         AccelPacket {
-            station: "CI.RRS.00".into(),
+            station: crate::station_id::StationId::parse("CI.RRS.00").unwrap(),
             start_time_ns: 1_000_000_000 + k * 10_000_000,
             sample_rate_hz: RATE,
             sequence,

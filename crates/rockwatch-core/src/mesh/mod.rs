@@ -149,6 +149,19 @@ impl MeshBuilder {
         }
     }
 
+    /// `bytes` as text; else a syntax error at the line of the first byte that is not UTF-8,
+    /// `why` saying why the format must be text.
+    pub(crate) fn text<'a>(&self, bytes: &'a [u8], why: &str) -> Result<&'a str, MeshError> {
+        std::str::from_utf8(bytes).map_err(|e| {
+            let line = bytes[..e.valid_up_to()]
+                .iter()
+                .filter(|&&c| c == b'\n')
+                .count()
+                + 1;
+            self.syntax(Some(line), format!("not UTF-8 text ({why})"))
+        })
+    }
+
     pub(crate) fn too_large(&self, message: impl Into<String>) -> MeshError {
         MeshError::TooLarge {
             source_name: self.source.clone(),

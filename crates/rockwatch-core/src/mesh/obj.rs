@@ -10,14 +10,7 @@ const IGNORED: [&str; 9] = ["vt", "vn", "vp", "o", "g", "s", "usemtl", "mtllib",
 
 pub(super) fn parse(bytes: &[u8], source: &str) -> Result<TriMesh, MeshError> {
     let mut b = MeshBuilder::new(source);
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&c| c == b'\n')
-            .count()
-            + 1;
-        b.syntax(Some(line), "not UTF-8 text (an OBJ file is text)")
-    })?;
+    let text = b.text(bytes, "an OBJ file is text")?;
     let mut indices: Vec<usize> = Vec::new();
     let mut pending = String::new();
     for (number, raw) in text.lines().enumerate() {

@@ -78,14 +78,7 @@ fn with_triangle(e: MeshError, t: usize) -> MeshError {
 }
 
 fn parse_ascii(mut b: MeshBuilder, bytes: &[u8]) -> Result<TriMesh, MeshError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&c| c == b'\n')
-            .count()
-            + 1;
-        b.syntax(Some(line), "not UTF-8 text (ASCII STL)")
-    })?;
+    let text = b.text(bytes, "ASCII STL")?;
     // States: outside a facet, inside (counting vertices of its loop).
     let mut in_facet: Option<(usize, Vec<usize>)> = None;
     let mut solid_open = false;

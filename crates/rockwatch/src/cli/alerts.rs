@@ -98,7 +98,8 @@ impl RecordFilter {
     /// `--since`). A `published` marker is kept with its alert.
     fn apply<'a>(&self, records: &'a [JournalRecord]) -> (Vec<&'a JournalRecord>, usize) {
         let kept_alert = |a: &Alert| {
-            self.passes(&a.pbr_id, Some(a.data_time_ns)) && self.level.is_none_or(|l| a.level >= l)
+            self.passes(a.pbr_id.as_str(), Some(a.data_time_ns))
+                && self.level.is_none_or(|l| a.level >= l)
         };
         let alerts: HashSet<(&str, u32, AlertLevel)> = records
             .iter()
@@ -125,8 +126,8 @@ impl RecordFilter {
                     ..
                 }
                 | JournalRecord::Reset { pbr_id, time_ns } => {
-                    let kept = self.passes(pbr_id, *time_ns);
-                    if !kept && time_ns.is_none() && self.passes(pbr_id, Some(i64::MAX)) {
+                    let kept = self.passes(pbr_id.as_str(), *time_ns);
+                    if !kept && time_ns.is_none() && self.passes(pbr_id.as_str(), Some(i64::MAX)) {
                         timeless += 1;
                     }
                     kept
@@ -284,7 +285,7 @@ fn reset_offline(state_dir: &std::path::Path, pbr: &str) -> anyhow::Result<()> {
         );
     }
     journal.append(&JournalRecord::Reset {
-        pbr_id: pbr.to_string(),
+        pbr_id: rockwatch_core::engine::PbrId::parse(pbr)?,
         time_ns: Some(rockwatch::journal::utc_now_ns()),
     })?;
     outln!("block {pbr} reset in {}", state_dir.display());

@@ -65,7 +65,7 @@ impl Publisher for LatencyRecorder {
             self.0
                 .lock()
                 .map_err(|_| anyhow!("latency table poisoned"))?
-                .insert((alert.pbr_id.clone(), alert.level), *latency_ns);
+                .insert((alert.pbr_id.to_string(), alert.level), *latency_ns);
         }
         Ok(())
     }
@@ -387,7 +387,10 @@ fn print_blocks(outcome: &DemoOutcome) {
         "latency"
     );
     for s in &report.summaries {
-        let mine: Vec<&msg::PbrAlert> = received.iter().filter(|a| a.pbr_id == s.pbr_id).collect();
+        let mine: Vec<&msg::PbrAlert> = received
+            .iter()
+            .filter(|a| s.pbr_id == a.pbr_id.as_str())
+            .collect();
         let levels: Vec<&str> = mine
             .iter()
             .filter_map(|a| {
@@ -401,7 +404,7 @@ fn print_blocks(outcome: &DemoOutcome) {
         let latency = AlertLevel::ALL
             .iter()
             .rev()
-            .find_map(|l| latencies.get(&(s.pbr_id.clone(), *l)))
+            .find_map(|l| latencies.get(&(s.pbr_id.to_string(), *l)))
             .map_or("-".to_string(), |ns| format!("{:.3} ms", *ns as f64 * 1e-6));
         outln!(
             "{:<24} {:<10} {:>9.3} {:>8.4} m {:>10} {:>8.2}  {:<25} {:>10}",

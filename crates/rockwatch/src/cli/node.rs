@@ -261,10 +261,8 @@ pub fn run(args: NodeArgs) -> anyhow::Result<()> {
         input.grid_rewinds
     );
     if let Some(iox) = report.iox {
-        let rejected = iox.rejected_count_mismatch
-            + iox.rejected_station
-            + iox.rejected_structure
-            + iox.rejected_values;
+        // Refused at the wire (the rest is refused as on every transport: `engine input`).
+        let rejected = iox.rejected_count_mismatch + iox.rejected_station + iox.rejected_structure;
         tracing::info!(
             iox_received = iox.received,
             iox_submitted = iox.submitted,

@@ -376,11 +376,13 @@ fn from_state_dir(dir: &Path, catalogue: Option<&Path>) -> anyhow::Result<Report
     for record in &records {
         match record {
             JournalRecord::Alert(a) => {
-                let rock = rocks.entry(a.pbr_id.clone()).or_insert_with(|| RockRow {
-                    pbr_id: a.pbr_id.clone(),
-                    ..RockRow::default()
-                });
-                rock.station.clone_from(&a.station);
+                let rock = rocks
+                    .entry(a.pbr_id.to_string())
+                    .or_insert_with(|| RockRow {
+                        pbr_id: a.pbr_id.to_string(),
+                        ..RockRow::default()
+                    });
+                rock.station = a.station.to_string();
                 if rock.episode != Some(a.episode) {
                     rock.episode = Some(a.episode);
                     rock.peak_theta_over_alpha = None;
@@ -403,14 +405,14 @@ fn from_state_dir(dir: &Path, catalogue: Option<&Path>) -> anyhow::Result<Report
             JournalRecord::EpisodeEnd {
                 pbr_id, episode, ..
             } => {
-                if let Some(rock) = rocks.get_mut(pbr_id) {
+                if let Some(rock) = rocks.get_mut(pbr_id.as_str()) {
                     if rock.episode == Some(*episode) && rock.state == "episode_open" {
                         rock.state = "standing".into();
                     }
                 }
             }
             JournalRecord::Reset { pbr_id, .. } => {
-                if let Some(rock) = rocks.get_mut(pbr_id) {
+                if let Some(rock) = rocks.get_mut(pbr_id.as_str()) {
                     rock.state = "standing".into();
                 }
             }
@@ -420,7 +422,7 @@ fn from_state_dir(dir: &Path, catalogue: Option<&Path>) -> anyhow::Result<Report
     // The journal's own reading of who lies (the one policy), over the walk above.
     let fallen = fallen_blocks(&records);
     for rock in rocks.values_mut() {
-        if fallen.contains(&rock.pbr_id) {
+        if fallen.contains(rock.pbr_id.as_str()) {
             rock.state = "fallen".into();
         } else if rock.state == "fallen" {
             rock.state = "standing".into();

@@ -12,7 +12,8 @@ use plotters::prelude::*;
 use super::report::{im_slug, stripe_fractions};
 use crate::number_text::short_number;
 use crate::plot::{
-    both_formats, draw_band, draw_colour_bar, fit_title, log_ticks, DrawResult, PlotError,
+    both_formats, draw_band, draw_colour_bar, draw_legend, fit_title, log_ticks, DrawResult,
+    PlotError,
 };
 use crate::units::AccelUnits;
 use rockwatch_core::fragility::{
@@ -170,13 +171,7 @@ where
         })
         .legend(|(x, y)| Circle::new((x + 10, y), 4, POINTS.filled()));
     // Upper left: a fragility curve rises to the right, so that corner holds no data.
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .draw()?;
+    draw_legend(&mut chart, Some(SeriesLabelPosition::UpperLeft), 14)?;
     root.present()?;
     Ok(())
 }

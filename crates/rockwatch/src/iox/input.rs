@@ -15,7 +15,8 @@ use super::stats::{
 };
 use super::types::{AccelHeader, AccelSample, IntakeIox};
 use crate::intake::{Taken, WriterCounts};
-use rockwatch_core::engine::{AccelPacket, Source, SourceTally, Verdict};
+use crate::ports::Received;
+use rockwatch_core::engine::{Source, SourceTally, Verdict};
 
 /// The input side, subscribed to `pbr/accel`: a subscriber plus the listener of the event
 /// service of the same name. It has no thread: register it with a `mio::Poll` (it is a mio
@@ -98,15 +99,16 @@ impl IoxInput {
     }
 
     /// Takes the pending notifications, then up to `max` packets: each is checked (wire
-    /// layout, values; counted when rejected, with per-station sequence gaps), counted for its
-    /// publisher (of a station the node `monitors` or not), and handed to `submit` with its
-    /// publisher's slot. Returns true if `max` was reached (more may be waiting: call again
+    /// layout and station id; counted when rejected at the wire, with per-station sequence
+    /// gaps), counted for its publisher (of a station the node `monitors` or not), and handed
+    /// to `submit` with its publisher's slot (a malformed station id as its refusal, for the
+    /// node to count as on every transport). Returns true if `max` was reached (more may be waiting: call again
     /// without waiting for readiness, which is edge-triggered).
     pub fn drain(
         &mut self,
         max: usize,
         monitors: &dyn Fn(&str) -> bool,
-        submit: &mut impl FnMut(AccelPacket, Option<Source>),
+        submit: &mut impl FnMut(Received, Option<Source>),
     ) -> bool {
         self.counters.add(WAKEUPS, 1);
         // Consume the notifications first: a notifier sends again only once the listener has
@@ -123,14 +125,21 @@ impl IoxInput {
                             .accept(sample.user_header(), sample.payload(), &self.counters);
                     drop(sample); // return the shared-memory slot before the engine runs
                     self.taken += 1;
-                    let monitored = packet.as_ref().is_none_or(|p| monitors(&p.station));
+                    // A packet refused (at the wire, or for its malformed station id) is
+                    // refused, not ignored: its publisher is told.
+                    let monitored = match &packet {
+                        Some(Ok(p)) => monitors(p.station.as_str()),
+                        Some(Err(_)) | None => true,
+                    };
                     let Taken::New(slot) = self.writers.taken(writer, self.taken, monitored) else {
                         continue; // unreachable: the sequence number only grows
                     };
                     match packet {
-                        Some(packet) => {
-                            self.counters.add(SUBMITTED, 1);
-                            submit(packet, Some(slot));
+                        Some(received) => {
+                            if received.is_ok() {
+                                self.counters.add(SUBMITTED, 1);
+                            }
+                            submit(received, Some(slot));
                         }
                         // Refused at the wire: its publisher is told.
                         None => self.tally.count(slot, Verdict::Refused),

@@ -249,7 +249,7 @@ impl PacketSink for IoxPacketSink {
         if let Some(c) = &mut self.confirm {
             c.delivery.sent += 1;
             if c.stations.len() < NAMED_STATIONS {
-                c.stations.insert(packet.station.clone());
+                c.stations.insert(packet.station.to_string());
             }
         }
         Ok(())

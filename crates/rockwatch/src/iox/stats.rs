@@ -9,16 +9,16 @@ use std::sync::Arc;
 pub struct IoxInputStats {
     /// Samples taken from the subscriber.
     pub received: u64,
-    /// Packets handed to the engine.
+    /// Packets handed to the engine (which checks their values, as for every transport).
     pub submitted: u64,
     /// Rejected: header `sample_count` ≠ payload length.
     pub rejected_count_mismatch: u64,
-    /// Rejected: station bytes not NUL-padded UTF-8 or not a SEED id.
+    /// Rejected: station bytes not NUL-padded UTF-8. (A station field that is text but not
+    /// `NET.STA.LOC` is refused by the node as on every transport: `InputTotals`'
+    /// `malformed_station_packets`.)
     pub rejected_station: u64,
     /// Rejected: unknown flags, non-zero reserved field, or more samples than the engine takes.
     pub rejected_structure: u64,
-    /// Rejected: values (empty, NaN/∞, sample rate outside [1, 10000] Hz).
-    pub rejected_values: u64,
     /// Packets missing according to the per-station sequence numbers (overflow or sender loss).
     pub sequence_gaps: u64,
     /// Receive errors reported by iceoryx2.
@@ -32,7 +32,7 @@ pub struct IoxInputStats {
 
 /// The input's counters, indexed by the constants below (in the order of [`IoxInputStats`]).
 #[derive(Debug, Default)]
-pub(super) struct Counters([AtomicU64; 10]);
+pub(super) struct Counters([AtomicU64; 9]);
 
 impl Counters {
     pub(super) fn add(&self, index: usize, n: u64) {
@@ -46,11 +46,10 @@ impl Counters {
             rejected_count_mismatch: g(2),
             rejected_station: g(3),
             rejected_structure: g(4),
-            rejected_values: g(5),
-            sequence_gaps: g(6),
-            receive_errors: g(7),
-            dead_nodes_cleaned: g(8),
-            wakeups: g(9),
+            sequence_gaps: g(5),
+            receive_errors: g(6),
+            dead_nodes_cleaned: g(7),
+            wakeups: g(8),
         }
     }
 }
@@ -60,11 +59,10 @@ pub(super) const SUBMITTED: usize = 1;
 pub(super) const REJ_COUNT: usize = 2;
 pub(super) const REJ_STATION: usize = 3;
 pub(super) const REJ_STRUCTURE: usize = 4;
-pub(super) const REJ_VALUES: usize = 5;
-pub(super) const GAPS: usize = 6;
-pub(super) const RECV_ERRORS: usize = 7;
-pub(super) const DEAD_NODES: usize = 8;
-pub(super) const WAKEUPS: usize = 9;
+pub(super) const GAPS: usize = 5;
+pub(super) const RECV_ERRORS: usize = 6;
+pub(super) const DEAD_NODES: usize = 7;
+pub(super) const WAKEUPS: usize = 8;
 
 /// A thread-safe view of an [`IoxInput`](super::IoxInput)'s counters (for tests, benchmarks and logs).
 #[derive(Debug, Clone)]

@@ -9,7 +9,9 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
-use rockwatch_core::engine::{AccelPacket, Alert, AlertLevel, ResetEvent, SampleUnit};
+use rockwatch_core::engine::{
+    station_at_edge, AccelPacket, Alert, AlertLevel, MalformedStation, ResetEvent, SampleUnit,
+};
 
 /// The mode code of [`PbrAlertIox::mode`] (the table shared with ROS 2).
 pub use crate::wire_codes::mode_code;
@@ -230,7 +232,7 @@ impl AccelHeader {
     #[must_use]
     pub fn from_packet(packet: &AccelPacket) -> AccelHeader {
         let mut station = [0; STATION_BYTES];
-        write_padded(&packet.station, &mut station);
+        write_padded(packet.station.as_str(), &mut station);
         AccelHeader {
             station,
             sample_rate_hz: packet.sample_rate_hz,
@@ -258,6 +260,10 @@ pub enum WireError {
     CountMismatch { header: u64, payload: usize },
     #[error("station field: {0}")]
     Station(PaddedTextError),
+    /// The station field is text, but not `NET.STA.LOC`: the refusal every transport makes
+    /// ([`rockwatch_core::engine::station_at_edge`]), for the node to count and say.
+    #[error(transparent)]
+    MalformedStation(#[from] MalformedStation),
     #[error("unknown header flags {0:#x} or non-zero reserved field")]
     Flags(u32),
     #[error("{got} samples exceed the limit of {limit}")]
@@ -265,7 +271,9 @@ pub enum WireError {
 }
 
 /// Rebuilds the engine's packet from a received header and samples, checking the wire-level
-/// structure (count, station bytes, flags, size); value checks are `AccelPacket::validate`'s.
+/// structure (count, station bytes, flags, size) and parsing the station id once
+/// ([`station_at_edge`], as the ROS 2 input does); the values are the engine's to check
+/// (`AccelPacket::validate_samples`), the same for every transport.
 pub fn packet_from_wire(
     header: &AccelHeader,
     samples: &[AccelSample],
@@ -289,7 +297,7 @@ pub fn packet_from_wire(
     let station = read_padded(&header.station).map_err(WireError::Station)?;
     let has_up = header.flags & ACCEL_FLAG_HAS_UP != 0;
     Ok(AccelPacket {
-        station: station.to_string(),
+        station: station_at_edge(station)?,
         start_time_ns: header.start_time_ns,
         sample_rate_hz: header.sample_rate_hz,
         sequence: header.sequence,
@@ -330,8 +338,8 @@ impl PbrAlertIox {
             pbr_id: [0; PBR_ID_BYTES],
             direction_deg: alert.direction_deg,
         };
-        write_padded(&alert.station, &mut out.station);
-        if write_padded(&alert.pbr_id, &mut out.pbr_id) {
+        write_padded(alert.station.as_str(), &mut out.station);
+        if write_padded(alert.pbr_id.as_str(), &mut out.pbr_id) {
             out.flags |= ALERT_FLAG_ID_TRUNCATED;
         }
         out
@@ -359,8 +367,8 @@ impl PbrAlertIox {
             pbr_id: [0; PBR_ID_BYTES],
             direction_deg: 0.0,
         };
-        write_padded(&reset.station, &mut out.station);
-        if write_padded(&reset.pbr_id, &mut out.pbr_id) {
+        write_padded(reset.station.as_str(), &mut out.station);
+        if write_padded(reset.pbr_id.as_str(), &mut out.pbr_id) {
             out.flags |= ALERT_FLAG_ID_TRUNCATED;
         }
         out

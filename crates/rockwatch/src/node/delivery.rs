@@ -25,7 +25,7 @@ use crate::ros2::{Ros2Publisher, ALERTS_TOPIC};
 use crate::status::{AlertLatency, RockStatus};
 use rockwatch_core::engine::{
     Alert, AlertLevel, HealthChange, HistoryEntry, JournalRecord, Notice, Output, OutputSink,
-    ResetEvent, StationHealth,
+    PbrId, ResetEvent, StationHealth, StationId,
 };
 
 /// Where the runtime's outputs go: the journal, the publishers (through a callback), the
@@ -48,7 +48,7 @@ pub(super) struct Emitter {
     /// Blocks overturned and not reset since, with the station and episode of their fall:
     /// restored from the journal, then every `overturned` alert the engine raises (inline or
     /// on a worker) until an operator reset.
-    pub(super) overturned: HashMap<String, (String, u32)>,
+    pub(super) overturned: HashMap<PbrId, (StationId, u32)>,
     /// Operator resets journaled and applied, to publish ([`NodeRuntime::take_resets`]).
     pub(super) resets: Vec<ResetEvent>,
     /// Each station's last alert and its latencies (for the status).
@@ -123,8 +123,9 @@ impl Emitter {
         }
     }
 
-    /// Reports one of the engine's notices as [`NoticeLog`] says.
-    fn notice(&mut self, notice: &Notice) {
+    /// Reports one of the engine's notices (or the runtime's own refusal of a malformed
+    /// station id) as [`NoticeLog`] says.
+    pub(super) fn notice(&mut self, notice: &Notice) {
         self.stats.notices += 1;
         match self.notice_log {
             NoticeLog::RateLimited => {
@@ -170,7 +171,8 @@ impl Emitter {
                 "cannot journal that an alert was published ({reason}; {} in all): it will be published again at restart",
                 self.marker_errors
             );
-            self.log.log(&alert.pbr_id, "journal_failed", &message);
+            self.log
+                .log(alert.pbr_id.as_str(), "journal_failed", &message);
         }
     }
 
@@ -206,7 +208,7 @@ impl<P: FnMut(Publication)> EmitSink<'_, P> {
             match output {
                 Output::State(s) => {
                     emit.stats.states += 1;
-                    if let Some(rock) = emit.rocks.get_mut(&s.pbr_id) {
+                    if let Some(rock) = emit.rocks.get_mut(s.pbr_id.as_str()) {
                         rock.observe(s.mode, s.theta_over_alpha, Some(s.not_monitored));
                         rock.observe_direction(s.direction_deg, s.overturn_probability);
                     }
@@ -238,7 +240,7 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                     .overturned
                     .insert(a.pbr_id.clone(), (a.station.clone(), a.episode));
             }
-            if let Some(rock) = self.emit.rocks.get_mut(&a.pbr_id) {
+            if let Some(rock) = self.emit.rocks.get_mut(a.pbr_id.as_str()) {
                 rock.observe(a.mode, a.theta_over_alpha, None);
                 rock.observe_direction(a.direction_deg, a.overturn_probability);
             }
@@ -280,7 +282,9 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 match self.emit.last_alerts.get_mut(alert.station.as_str()) {
                     Some(last) => *last = latency,
                     None => {
-                        self.emit.last_alerts.insert(alert.station.clone(), latency);
+                        self.emit
+                            .last_alerts
+                            .insert(alert.station.to_string(), latency);
                     }
                 }
                 if self.emit.notice_log == NoticeLog::RateLimited {
@@ -302,7 +306,7 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
                 data_time_ns,
             } => {
                 if let Some(reports) = &mut self.emit.reports {
-                    reports.episode_end(&pbr_id, episode, data_time_ns);
+                    reports.episode_end(pbr_id.as_str(), episode, data_time_ns);
                 }
             }
             Output::State(_) | Output::Intensity(_) => self.emit.deferred.push(output),
@@ -310,7 +314,7 @@ impl<P: FnMut(Publication)> OutputSink for EmitSink<'_, P> {
             Output::Health(change) => log_health(&change, self.emit.stale_after_s),
             Output::HealthReport(report) => {
                 for h in report {
-                    self.emit.health_reports.insert(h.station.clone(), h);
+                    self.emit.health_reports.insert(h.station.to_string(), h);
                 }
             }
         }
@@ -326,8 +330,8 @@ fn log_alert(alert: &Alert, latency: &AlertLatency, journal_pending: bool) {
     let data_time = rockwatch_core::utc::format_utc_ns(i128::from(alert.data_time_ns));
     let data_latency_ms = latency.data_to_arrival_s * 1e3;
     let latency_ms = latency.arrival_to_published_s * 1e3;
-    let pbr_id = printable(&alert.pbr_id, PBR_ID_CHARS);
-    let station = printable(&alert.station, STATION_CHARS);
+    let pbr_id = printable(alert.pbr_id.as_str(), PBR_ID_CHARS);
+    let station = printable(alert.station.as_str(), STATION_CHARS);
     tracing::warn!(
         target: "rockwatch::alert",
         level = alert.level.as_str(),
@@ -353,7 +357,7 @@ fn log_alert(alert: &Alert, latency: &AlertLatency, journal_pending: bool) {
 
 /// Logs a station going stale (warn) or recovering (info), target `rockwatch::health`.
 fn log_health(change: &HealthChange, stale_after_s: f64) {
-    let station = printable(&change.station, STATION_CHARS);
+    let station = printable(change.station.as_str(), STATION_CHARS);
     let silent_s = change.silent_ns as f64 * 1e-9;
     if change.monitored {
         tracing::info!(

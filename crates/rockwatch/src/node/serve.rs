@@ -34,23 +34,18 @@ use super::{
 use crate::iox::{IoxAlertPublisher, IoxInput, IoxInputStats, IoxStatsHandle};
 use crate::logging::RateLimitedLog;
 use crate::logging::{take_rosout, RosoutRecord};
+use crate::ports::Received;
 use crate::ros2::msg::ResetPbrResponse;
-use crate::ros2::{IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, Scene};
+use crate::ros2::{
+    IntakeCounters, NetworkPlan, ParamValues, Ros2Node, Ros2Publisher, Ros2Tokens, Scene, Watchdog,
+};
 use crate::sd_notify::SystemdNotifier;
 use crate::web::WebServer;
-use rockwatch_core::engine::{AccelPacket, PbrSummary, Source};
+use rockwatch_core::engine::{AccelPacket, PbrId, PbrSummary, Source};
 
 /// Longest sleep of the event loop: the stop flag, the held-packet flush and the iceoryx2
 /// dead-node check are looked at least this often.
 pub const TICK: Duration = Duration::from_millis(50);
-
-/// How often the event loop checks that the ROS 2 participant's RustDDS threads still run
-/// (see [`Ros2Node::ended_thread`]; two reads of /proc per check).
-pub const LIVENESS_CHECK: Duration = Duration::from_millis(500);
-
-/// How long the node keeps trying to rebuild a dead ROS 2 participant (one attempt per
-/// [`LIVENESS_CHECK`]) before it gives up and exits with an error.
-pub const REBUILD_GIVE_UP: Duration = Duration::from_secs(30);
 
 /// Most packets processed per turn of the event loop (round robin over the sources).
 pub const DRAIN_BOUND: usize = 256;
@@ -80,6 +75,12 @@ const RESET: Token = Token(2);
 const PARAMS: Token = Token(3);
 /// ROS 2 input `i` is `Token(ROS2_FIRST + i)`.
 const ROS2_FIRST: usize = 4;
+/// The ROS 2 sources' tokens, for the [`Watchdog`]'s rebuilt participant.
+const ROS2_TOKENS: Ros2Tokens = Ros2Tokens {
+    inputs_first: ROS2_FIRST,
+    reset: RESET,
+    params: PARAMS,
+};
 
 /// What [`serve`] hands back at the end.
 #[derive(Debug, Clone)]
@@ -204,7 +205,7 @@ impl Reactor {
             let own: Vec<&rockwatch_core::catalogue::Pbr> = catalogue
                 .pbrs()
                 .iter()
-                .filter(|p| owned_ids.contains(p.id()))
+                .filter(|p| owned_ids.contains(p.id().as_str()))
                 .collect();
             let stations = config
                 .owned_stations()
@@ -464,11 +465,12 @@ impl Reactor {
             if last_status.elapsed() >= status_period {
                 last_status = Instant::now();
                 let status = runtime.status(TransportStatus {
-                    ros2_up: watchdog.down_since.is_none(),
-                    ros2_rebuilds: watchdog.rebuilds,
+                    ros2_up: watchdog.is_up(),
+                    ros2_rebuilds: watchdog.rebuilds(),
                     iceoryx2: iox_input.is_some(),
                 });
                 ros2.publish_status(&status);
+                out.ros2.observe_station_health(&status.stations);
                 if let Some(w) = &web {
                     w.update_status(status);
                     if let Some(traces) = runtime.traces_snapshot(w.wanted_stations()) {
@@ -496,7 +498,13 @@ impl Reactor {
                         &mut out,
                         &controls,
                     )?;
-                    if watchdog.rebuild(&thread, &mut ros2, &mut out, poll.registry())? {
+                    if watchdog.rebuild(
+                        &thread,
+                        &mut ros2,
+                        &mut out.ros2,
+                        poll.registry(),
+                        ROS2_TOKENS,
+                    )? {
                         inboxes.iter_mut().for_each(|i| i.due = true);
                         resets_due = true;
                         params_due = true;
@@ -504,7 +512,7 @@ impl Reactor {
                 }
             }
             // The loop has turned and the ROS 2 transport is up: tell systemd's watchdog.
-            if watchdog.down_since.is_none() {
+            if watchdog.is_up() {
                 if let Some(systemd) = &mut supervision.systemd {
                     systemd.ping_if_due();
                 }
@@ -549,7 +557,7 @@ impl Reactor {
             ros2_decode_errors: ros2.counters.decode_errors.load(Ordering::Relaxed),
             iox: iox_stats,
             stats: stopped.stats,
-            ros2_rebuilds: watchdog.rebuilds,
+            ros2_rebuilds: watchdog.rebuilds(),
             ros2_redelivered: ros2.counters.redelivered.load(Ordering::Relaxed),
         })
     }
@@ -596,10 +604,11 @@ fn apply_reload(runtime: &mut NodeRuntime, ros2: &mut Ros2Node, supervision: &mu
                 );
             }
             let report = &outcome.blocks;
-            let list = |ids: &[String]| {
+            let list = |ids: &[PbrId]| {
                 if ids.is_empty() {
                     String::new()
                 } else {
+                    let ids: Vec<&str> = ids.iter().map(PbrId::as_str).collect();
                     format!(" ({})", ids.join(", "))
                 }
             };
@@ -646,85 +655,6 @@ fn drain_inputs(
         }
         // Process what was taken; take nothing new.
         inboxes.iter_mut().for_each(|i| i.due = false);
-    }
-}
-
-/// Watches the ROS 2 participant and rebuilds it when its RustDDS threads have ended.
-struct Watchdog {
-    last_check: Instant,
-    /// Since when the participant is dead and could not be rebuilt.
-    down_since: Option<Instant>,
-    rebuilds: u64,
-}
-
-impl Watchdog {
-    fn new() -> Watchdog {
-        Watchdog {
-            last_check: Instant::now(),
-            down_since: None,
-            rebuilds: 0,
-        }
-    }
-
-    /// Whether [`LIVENESS_CHECK`] has passed since the last check (then a check is due now).
-    fn due(&mut self) -> bool {
-        if self.last_check.elapsed() < LIVENESS_CHECK {
-            return false;
-        }
-        self.last_check = Instant::now();
-        true
-    }
-
-    /// The participant's `thread` has ended: says so, and replaces the participant (its
-    /// subscriptions registered again with `registry`, its publishers in `out`). Returns
-    /// whether it was rebuilt; an error once it could not be for [`REBUILD_GIVE_UP`].
-    fn rebuild(
-        &mut self,
-        thread: &str,
-        ros2: &mut Ros2Node,
-        out: &mut Outlet<'_>,
-        registry: &mio::Registry,
-    ) -> anyhow::Result<bool> {
-        let since = *self.down_since.get_or_insert_with(Instant::now);
-        tracing::error!(
-            "ROS 2 transport dead: the DDS participant's thread {thread} has ended \
-             (RustDDS ends it on any poll error, e.g. EINTR after SIGSTOP/SIGCONT or a debugger \
-             attach); rebuilding the participant ({} rebuilds so far)",
-            self.rebuilds
-        );
-        let rebuilt = ros2.rebuild().and_then(|mut publisher| {
-            // The 3-D view carries over: its frames and markers go out on the new participant.
-            if let Some(scene) = out.ros2.take_scene() {
-                publisher.show(scene);
-            }
-            out.ros2 = publisher;
-            ros2.register(registry, ROS2_FIRST)
-                .context("cannot register the ROS 2 subscriptions with the event loop")?;
-            ros2.register_reset(registry, RESET)
-                .context("cannot register the ROS 2 reset service with the event loop")?;
-            ros2.register_parameters(registry, PARAMS)
-                .context("cannot register the ROS 2 parameter services with the event loop")
-        });
-        match rebuilt {
-            Ok(()) => {
-                self.rebuilds += 1;
-                self.down_since = None;
-                tracing::info!(
-                    "ROS 2 participant rebuilt after {:.1} s ({} rebuilds in all); the engine's state is kept",
-                    since.elapsed().as_secs_f64(),
-                    self.rebuilds
-                );
-                Ok(true)
-            }
-            Err(e) if since.elapsed() < REBUILD_GIVE_UP => {
-                tracing::error!("cannot rebuild the ROS 2 participant ({e:#}): trying again");
-                Ok(false)
-            }
-            Err(e) => Err(e.context(format!(
-                "the ROS 2 transport is dead and could not be rebuilt for {} s",
-                REBUILD_GIVE_UP.as_secs()
-            ))),
-        }
     }
 }
 
@@ -782,12 +712,17 @@ fn turn(
     loop {
         let mut any = false;
         for inbox in inboxes.iter_mut() {
-            if let Some((packet, arrival_ns, source)) = inbox.pop() {
+            if let Some((received, arrival_ns, source)) = inbox.pop() {
                 any = true;
                 processed += 1;
                 // A parameter change queued before this packet was taken applies to it.
                 apply_controls(controls, runtime);
-                runtime.submit_arrived(packet, arrival_ns, source, &mut |p| out.publish(p));
+                match received {
+                    Ok(packet) => {
+                        runtime.submit_arrived(packet, arrival_ns, source, &mut |p| out.publish(p));
+                    }
+                    Err(refused) => runtime.refuse_malformed(&refused, source),
+                }
             }
         }
         if !any || processed >= DRAIN_BOUND || Instant::now() >= deadline {
@@ -799,10 +734,10 @@ fn turn(
     Ok(())
 }
 
-/// Packets taken from one source and not yet processed, with their arrival stamps
-/// ([`NodeRuntime::now_ns`] when taken).
+/// Packets taken from one source (or their refusals, in their order) and not yet processed,
+/// with their arrival stamps ([`NodeRuntime::now_ns`] when taken).
 struct Inbox {
-    queue: VecDeque<(AccelPacket, i64, Option<Source>)>,
+    queue: VecDeque<(Received, i64, Option<Source>)>,
     /// Samples (per component) of the packets in `queue`.
     samples: usize,
     /// Ready (or stopped at the bound last turn): take from the source on this turn.
@@ -818,14 +753,14 @@ impl Inbox {
         }
     }
 
-    fn push(&mut self, packet: AccelPacket, arrival_ns: i64, source: Option<Source>) {
-        self.samples += packet.len();
-        self.queue.push_back((packet, arrival_ns, source));
+    fn push(&mut self, received: Received, arrival_ns: i64, source: Option<Source>) {
+        self.samples += received.as_ref().map_or(0, AccelPacket::len);
+        self.queue.push_back((received, arrival_ns, source));
     }
 
-    fn pop(&mut self) -> Option<(AccelPacket, i64, Option<Source>)> {
+    fn pop(&mut self) -> Option<(Received, i64, Option<Source>)> {
         let taken = self.queue.pop_front()?;
-        self.samples -= taken.0.len();
+        self.samples -= taken.0.as_ref().map_or(0, AccelPacket::len);
         Some(taken)
     }
 
@@ -868,7 +803,7 @@ mod tests {
 
     fn packet(samples: usize) -> AccelPacket {
         AccelPacket {
-            station: "XX.BIG.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.BIG.00").unwrap(),
             start_time_ns: 0,
             sample_rate_hz: 100.0,
             sequence: 0,
@@ -887,16 +822,16 @@ mod tests {
         let n = INBOX_SAMPLES.div_ceil(big);
         for i in 0..n {
             assert!(!inbox.full(), "full after {i} packets");
-            inbox.push(packet(big), 0, None);
+            inbox.push(Ok(packet(big)), 0, None);
         }
         assert!(inbox.full() && inbox.queue.len() < INBOX_BOUND);
         // Taking a packet out frees its samples.
-        inbox.pop().unwrap();
+        inbox.pop().unwrap().0.unwrap();
         assert_eq!(inbox.samples, (n - 1) * big);
         assert!(!inbox.full());
         // Small packets: the packet bound.
         let mut inbox = Inbox::new();
-        (0..INBOX_BOUND).for_each(|_| inbox.push(packet(10), 0, None));
+        (0..INBOX_BOUND).for_each(|_| inbox.push(Ok(packet(10)), 0, None));
         assert!(inbox.full() && inbox.samples < INBOX_SAMPLES);
     }
 }

@@ -162,7 +162,10 @@ impl NotifyConfig {
         self.levels
             .as_ref()
             .is_none_or(|l| l.contains(&alert.level))
-            && self.pbrs.as_ref().is_none_or(|p| p.contains(&alert.pbr_id))
+            && self
+                .pbrs
+                .as_ref()
+                .is_none_or(|p| p.iter().any(|id| alert.pbr_id == id.as_str()))
     }
 
     /// The receiver for people: `webhook URL` or `exec PROGRAM` (printable, bounded).
@@ -250,8 +253,8 @@ mod tests {
         )
         .unwrap();
         let alert = |pbr: &str, level| Alert {
-            pbr_id: pbr.into(),
-            station: "XX.A.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse(pbr).unwrap(),
+            station: rockwatch_core::engine::StationId::parse("XX.A.00").unwrap(),
             level,
             episode: 1,
             mode: rockwatch_core::dynamics::Mode::Rock,

@@ -17,7 +17,7 @@ use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 
-use rockwatch_core::engine::{AlertKey, AlertLevel};
+use rockwatch_core::engine::{AlertKey, AlertLevel, PbrId};
 
 use crate::alert_json::AlertJson;
 use crate::journal::{decode, encode};
@@ -33,7 +33,7 @@ enum SpoolRecord {
         alert: AlertJson,
     },
     Ack {
-        pbr_id: String,
+        pbr_id: PbrId,
         episode: u32,
         level: AlertLevel,
     },
@@ -306,12 +306,12 @@ mod tests {
 
     fn alert(pbr: &str, episode: u32) -> AlertJson {
         AlertJson {
-            pbr_id: pbr.into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse(pbr).unwrap(),
             level: AlertLevel::MotionOnset,
             episode,
             data_time: "1970-01-01T00:00:00.000000000Z".into(),
             data_time_ns: 0,
-            station: "XX.A.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.A.00").unwrap(),
             mode: Mode::Rock,
             theta_over_alpha: 0.1,
             slide_m: 0.0,

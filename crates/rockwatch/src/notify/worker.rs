@@ -120,7 +120,7 @@ pub(crate) fn run(
         let body = payload(alert, shared.reports_dir.as_deref());
         let what = format!(
             "alert {} {} episode {}",
-            printable(&key.0, PBR_ID_CHARS),
+            printable(key.0.as_str(), PBR_ID_CHARS),
             key.2.as_str(),
             key.1
         );
@@ -190,7 +190,7 @@ pub(crate) fn payload(
     {
         let png = dir.join(format!(
             "{}.png",
-            crate::reports::report_stem(alert.data_time_ns, &alert.pbr_id)
+            crate::reports::report_stem(alert.data_time_ns, alert.pbr_id.as_str())
         ));
         object.insert("report".into(), png.display().to_string().into());
     }

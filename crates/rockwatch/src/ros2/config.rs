@@ -63,8 +63,9 @@ pub enum InputQos {
 pub struct ImuInput {
     /// Topic name, e.g. `/imu/data`.
     pub topic: String,
-    /// Station SEED id `NET.STA.LOC` the samples belong to.
-    pub station: String,
+    /// Station SEED id `NET.STA.LOC` the samples belong to (checked when the configuration
+    /// is read).
+    pub station: rockwatch_core::engine::StationId,
     /// Nominal sample rate (Hz) of the topic.
     pub sample_rate_hz: f64,
     /// Subtract standard gravity from z (m/s²; default true: an Imu at rest reads +g up).

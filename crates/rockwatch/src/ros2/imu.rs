@@ -51,7 +51,7 @@ mod tests {
     fn imu_sample_maps_xyz_to_east_north_up_without_gravity() {
         let imu = ImuInput {
             topic: "/imu".into(),
-            station: "XX.IMU.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.IMU.00").unwrap(),
             sample_rate_hz: 200.0,
             remove_gravity: true,
             qos: InputQos::SensorData,

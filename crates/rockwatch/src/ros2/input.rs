@@ -17,6 +17,7 @@ use super::names::accel_topic;
 use super::qos::input_qos;
 use super::session::Ros2Session;
 use crate::intake::{Taken, WriterCounts};
+use crate::ports::Received;
 use rockwatch_core::engine::{AccelPacket, Source};
 use rockwatch_core::partition::Partition;
 
@@ -130,27 +131,32 @@ impl Inputs {
         Ok(())
     }
 
-    /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`
-    /// with its writer's slot (`/pbr/accel`), counting them (and the undecodable ones, and per
-    /// writer those of a station that `monitors` denies) in `log`. Returns true if `max` was
-    /// reached.
+    /// Takes up to `max` messages of input `input` and hands each, as a packet (or the
+    /// refusal of its malformed station id), to `submit` with its writer's slot
+    /// (`/pbr/accel`), counting them (and the undecodable ones, and per writer those of a
+    /// station that `monitors` denies) in `log`. Returns true if `max` was reached.
     pub(super) fn drain(
         &mut self,
         input: usize,
         max: usize,
         log: &mut IntakeLog,
         monitors: &dyn Fn(&str) -> bool,
-        submit: &mut impl FnMut(AccelPacket, Option<Source>),
+        submit: &mut impl FnMut(Received, Option<Source>),
     ) -> bool {
         for _ in 0..max {
             if input == 0 {
                 match self.accel.take() {
                     Ok(Some((m, info))) => {
-                        let packet = AccelPacket::from(&m);
+                        let packet = AccelPacket::try_from(&m);
+                        // A malformed id is refused (told to its sender), not ignored.
+                        let monitored = match &packet {
+                            Ok(p) => monitors(p.station.as_str()),
+                            Err(_) => true,
+                        };
                         match log.writers.taken(
                             info.publisher_gid().to_bytes16(),
                             info.sequence_number(),
-                            monitors(&packet.station),
+                            monitored,
                         ) {
                             Taken::Redelivered => {
                                 log.counters.redelivered.fetch_add(1, Ordering::Relaxed);
@@ -173,7 +179,7 @@ impl Inputs {
                         log.packet();
                         let packet = imu_packet(imu, &m, *sequence);
                         *sequence += 1;
-                        submit(packet, None);
+                        submit(Ok(packet), None);
                     }
                     Ok(None) => return false,
                     Err(e) => log.undecodable(&imu.topic, &format!("{e:?}")),

@@ -17,12 +17,15 @@
 //!   posed by its current state: tilted by θ about its pivot and slid along its direction
 //!   (`rockwatch_core::geodesy::RockingPose`: θ > 0 tips it towards the direction's azimuth),
 //!   coloured by state ([`RockLook`]); a TEXT_VIEW_FACING label with its id (ns `pbr_label`);
-//!   per station with coordinates (`[[station]] lat`, `lon`) a cylinder (ns `station`) and
-//!   its id (ns `station_label`). Marker ids are the rocks' (stations') index in id order.
+//!   per station with coordinates (`[[station]] lat`, `lon`) a cylinder (ns `station`)
+//!   coloured by its health as the dashboard colours it ([`station_color`]: OK blue, WARN
+//!   yellow, ERROR red, STALE and NO DATA YET grey) and its id (ns `station_label`). Marker
+//!   ids are the rocks' (stations') index in id order.
 //! - **When.** Both at start, transient local (a late RViz gets them); the markers again when
 //!   a rock's state changes (a state or alert that changes its colour, θ or slide), at most
 //!   once per [`MARKER_PERIOD`] (wall clock): the latest state then, never one array per
-//!   sample. Stamps: the markers carry the data time of the latest state taken in (0 before
+//!   sample; and when a station's health changes (judged once per status period,
+//!   [`Scene::observe_station_health`]). Stamps: the markers carry the data time of the latest state taken in (0 before
 //!   any), the transforms the wall-clock time of their publication.
 //!
 //! Limits: the scene is built at start; a reload (SIGHUP) that adds, moves or removes rocks
@@ -44,6 +47,7 @@ use super::viz_msg::{
     MARKER_TRIANGLE_LIST,
 };
 use crate::ports::Publication;
+use crate::status::{Level, StationStatus};
 
 /// Shortest time between two marker arrays (wall clock): at most 5 per second.
 pub const MARKER_PERIOD: Duration = Duration::from_millis(200);
@@ -115,6 +119,26 @@ struct SceneRock {
 struct SceneStation {
     id: String,
     enu: [f64; 3],
+    /// Its health at the last status ([`Level::NoDataYet`] before the first).
+    health: Level,
+}
+
+/// A station marker's colour by health: the dashboard's (`web/page.html`, `#map polygon`):
+/// OK #3070d0 blue, WARN #e0b000 yellow, ERROR #d02020 red, STALE and NO DATA YET #999 grey.
+#[must_use]
+pub fn station_color(health: Level) -> ColorRgba {
+    let rgb = |hex: u32| ColorRgba {
+        r: ((hex >> 16) & 0xff) as f32 / 255.0,
+        g: ((hex >> 8) & 0xff) as f32 / 255.0,
+        b: (hex & 0xff) as f32 / 255.0,
+        a: 1.0,
+    };
+    match health {
+        Level::Ok => rgb(0x3070d0),
+        Level::Warn => rgb(0xe0b000),
+        Level::Error => rgb(0xd02020),
+        Level::Stale | Level::NoDataYet => rgb(0x999999),
+    }
 }
 
 /// The rocks and stations of the view, their current looks, and whether the markers changed
@@ -185,6 +209,7 @@ impl Scene {
                 Some(SceneStation {
                     id: s.id.to_string(),
                     enu: frame.enu(&p),
+                    health: Level::NoDataYet,
                 })
             })
             .collect();
@@ -274,7 +299,7 @@ impl Scene {
                 } else {
                     RockLook::Rocking
                 };
-                self.update(&s.pbr_id, |r| {
+                self.update(s.pbr_id.as_str(), |r| {
                     // A fallen rock stays fallen (and lying) until a reset.
                     if r.look == RockLook::Fallen && look != RockLook::Fallen {
                         return;
@@ -290,7 +315,7 @@ impl Scene {
                 })
             }
             Publication::Alert { alert, .. } if alert.level == AlertLevel::Overturned => self
-                .update(&alert.pbr_id, |r| {
+                .update(alert.pbr_id.as_str(), |r| {
                     if r.look != RockLook::Fallen
                         && r.theta_rad.abs() < 1e-9
                         && alert.direction_deg.is_finite()
@@ -300,13 +325,32 @@ impl Scene {
                     }
                     r.look = RockLook::Fallen;
                 }),
-            Publication::Reset(reset) => self.update(&reset.pbr_id, |r| {
+            Publication::Reset(reset) => self.update(reset.pbr_id.as_str(), |r| {
                 r.look = RockLook::Standing;
                 r.theta_rad = 0.0;
                 r.slide_m = 0.0;
             }),
             _ => false,
         };
+        self.dirty |= changed;
+        changed
+    }
+
+    /// Takes in the stations' health of a status (id, level; one per status period): a station whose
+    /// level changed is drawn in its new colour ([`station_color`]). Returns whether the view
+    /// changed. No allocation (the view's stations are sorted by id).
+    pub fn observe_station_health<'a>(
+        &mut self,
+        stations: impl IntoIterator<Item = (&'a str, Level)>,
+    ) -> bool {
+        let mut changed = false;
+        for (id, level) in stations {
+            if let Ok(i) = self.stations.binary_search_by(|s| s.id.as_str().cmp(id)) {
+                let station = &mut self.stations[i];
+                changed |= station.health != level;
+                station.health = level;
+            }
+        }
         self.dirty |= changed;
         changed
     }
@@ -418,12 +462,7 @@ impl Scene {
                     y: 0.6,
                     z: 1.0,
                 },
-                ColorRgba {
-                    r: 0.20,
-                    g: 0.40,
-                    b: 0.90,
-                    a: 1.0,
-                },
+                station_color(station.health),
             ));
             let mut label = Marker::new(
                 header.clone(),
@@ -694,6 +733,17 @@ impl MarkerPublisher {
         }
     }
 
+    /// Takes in the stations' health of a status (see [`Scene::observe_station_health`]).
+    pub(super) fn observe_station_health(&mut self, stations: &[StationStatus]) {
+        if let Some(scene) = &mut self.scene {
+            scene.observe_station_health(
+                stations
+                    .iter()
+                    .map(|s| (s.health.station.as_str(), s.level)),
+            );
+        }
+    }
+
     /// Publishes the markers if they changed and [`MARKER_PERIOD`] has passed since the last
     /// array. Cheap otherwise: call it on every turn of the event loop.
     pub(super) fn tick(&mut self) {
@@ -747,8 +797,8 @@ mod tests {
 
     fn state(id: &str, mode: Mode, theta_rad: f64) -> Publication {
         Publication::State(PbrState {
-            pbr_id: id.into(),
-            station: "CI.RRS.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             mode,
             theta_rad,
             theta_over_alpha: 0.0,
@@ -823,8 +873,8 @@ mod tests {
             RockLook::Fallen.color()
         );
         scene.observe(&Publication::Reset(rockwatch_core::engine::ResetEvent {
-            pbr_id: "b".into(),
-            station: "CI.RRS.00".into(),
+            pbr_id: rockwatch_core::engine::PbrId::parse("b").unwrap(),
+            station: rockwatch_core::engine::StationId::parse("CI.RRS.00").unwrap(),
             episode: 1,
             time_ns: 0,
         }));
@@ -833,6 +883,69 @@ mod tests {
         assert_eq!(body(&m, "pbr", 1).pose.orientation, Quaternion::IDENTITY);
         // An unknown rock changes nothing.
         assert!(!scene.observe(&state("zz", Mode::Rock, 0.1)));
+    }
+
+    #[test]
+    fn station_cylinders_take_the_dashboard_s_health_colours_and_change_with_health() {
+        let cat = catalogue();
+        let pbrs: Vec<&Pbr> = cat.pbrs().iter().collect();
+        let placed = |id: &str, lon: Option<f64>| StationConfig {
+            lat: Some(34.28),
+            lon,
+            ..StationConfig::default_for(rockwatch_core::engine::StationId::parse(id).unwrap())
+        };
+        let stations = [
+            placed("CI.RRS.00", Some(-118.479)),
+            placed("CI.SYL.00", Some(-118.478)),
+            placed("CI.UNP.00", None),
+        ];
+        let mut scene = Scene::new(&pbrs, &stations, Some([34.28, -118.48, 0.0])).unwrap();
+        // The page's colours (web/page.html: #map polygon.OK, .WARN, .ERROR, .STALE).
+        let hex = |c: ColorRgba| {
+            [c.r, c.g, c.b]
+                .map(|v| format!("{:02x}", (v * 255.0).round() as u8))
+                .concat()
+        };
+        let page = include_str!("../web/page.html");
+        for (level, css) in [
+            (Level::Ok, "#map polygon.OK { fill: #3070d0; }"),
+            (Level::Warn, "#map polygon.WARN { fill: #e0b000; }"),
+            (Level::Error, "#map polygon.ERROR { fill: #d02020; }"),
+        ] {
+            assert!(page.contains(css), "{css}");
+            assert!(css.contains(&hex(station_color(level))), "{level:?}");
+        }
+        assert!(page.contains("#map polygon.STALE, #map polygon.NO\\ DATA\\ YET { fill: #999; }"));
+        assert_eq!(hex(station_color(Level::Stale)), "999999");
+        // At start, before any status: no data yet (grey); the unplaced station is not drawn.
+        let colour = |array: &MarkerArray, id: i32| body(array, "station", id).color;
+        let first = scene.take_markers();
+        assert_eq!(colour(&first, 0), station_color(Level::NoDataYet));
+        assert_eq!(colour(&first, 1), station_color(Level::NoDataYet));
+        assert!(!first.markers.iter().any(|m| m.ns == "station" && m.id == 2));
+        // A status: RRS OK, SYL still no data: the view changes, RRS blue.
+        assert!(scene.observe_station_health([
+            ("CI.RRS.00", Level::Ok),
+            ("CI.SYL.00", Level::NoDataYet),
+            ("CI.UNP.00", Level::Ok),
+        ]));
+        assert!(scene.dirty());
+        let m = scene.take_markers();
+        assert_eq!(colour(&m, 0), station_color(Level::Ok));
+        assert_eq!(colour(&m, 1), station_color(Level::NoDataYet));
+        // The same health again: nothing to send.
+        assert!(!scene.observe_station_health([("CI.RRS.00", Level::Ok)]));
+        assert!(!scene.dirty());
+        // RRS late (WARN), then STALE; SYL stale after its grace: each change redraws.
+        assert!(scene.observe_station_health([("CI.RRS.00", Level::Warn)]));
+        assert_eq!(colour(&scene.take_markers(), 0), station_color(Level::Warn));
+        assert!(scene
+            .observe_station_health([("CI.RRS.00", Level::Stale), ("CI.SYL.00", Level::Stale)]));
+        let m = scene.take_markers();
+        assert_eq!(colour(&m, 0), station_color(Level::Stale));
+        assert_ne!(colour(&m, 0), station_color(Level::Ok));
+        // A station not in the view changes nothing.
+        assert!(!scene.observe_station_health([("XX.NONE.00", Level::Error)]));
     }
 
     #[test]

@@ -20,6 +20,7 @@
 //! - `session.rs`: a participant with one ROS 2 node ([`Ros2Session`]);
 //! - `/pbr/intake` carries the intake reports of `crate::intake` (`pbr_msgs/IntakeReport`);
 //! - `liveness.rs`: whether a participant's RustDDS threads still run ([`DdsThreads`]);
+//! - `watchdog.rs`: the node's [`Watchdog`], which rebuilds a participant whose threads ended;
 //! - `node.rs`: the node's ROS 2 side ([`Ros2Node`]), made of `parameters.rs` (descriptors and
 //!   the parameter services), `input.rs` (with `imu.rs`), `publish.rs` and `reset.rs` (both
 //!   services on `held_server.rs`);
@@ -48,6 +49,7 @@ mod rpc_wire;
 mod security;
 mod session;
 pub mod viz_msg;
+mod watchdog;
 
 pub use alert_listener::Ros2AlertListener;
 pub use config::{DiscoveryRange, ImuInput, InputQos, Ros2Config};
@@ -81,3 +83,4 @@ pub use security::{
     SecurityPlan, ENCLAVE_FILES, NODE_ENCLAVE, OPERATOR_ENCLAVE, READER_ENCLAVE, STATION_ENCLAVE,
 };
 pub use session::Ros2Session;
+pub use watchdog::{Ros2Tokens, Watchdog, LIVENESS_CHECK, REBUILD_GIVE_UP};

@@ -124,9 +124,12 @@ pub struct PbrState {
 /// `pbr_msgs/PbrAlert`: an alert about one block.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PbrAlert {
-    /// stamp = data time of the triggering sample; frame_id = station.
+    /// stamp = data time of the triggering sample (a reset's: its wall-clock time);
+    /// frame_id = the rock's frame `pbr/<pbr_id>` ([`rock_frame`](super::names::rock_frame),
+    /// as the rock's `PbrState`; its station is in `station`).
     pub header: Header,
     pub pbr_id: String,
+    /// The station driving the block (SEED id `NET.STA.LOC`).
     pub station: String,
     /// One of the `LEVEL_*` constants ([`level_code`]).
     pub level: u8,
@@ -232,12 +235,15 @@ impl ros2_client::Message for PbrAlert {}
 impl ros2_client::Message for ResetPbrRequest {}
 impl ros2_client::Message for ResetPbrResponse {}
 
-impl From<&AccelPacket> for engine::AccelPacket {
-    /// The engine's packet: station = frame_id, start = stamp (UTC ns). Nothing is
-    /// validated here: the engine validates and counts bad packets.
-    fn from(m: &AccelPacket) -> engine::AccelPacket {
-        engine::AccelPacket {
-            station: m.header.frame_id.clone(),
+impl TryFrom<&AccelPacket> for engine::AccelPacket {
+    type Error = engine::MalformedStation;
+
+    /// The engine's packet: station = frame_id, parsed here once
+    /// ([`engine::station_at_edge`], as the iceoryx2 input does), start = stamp (UTC ns). The
+    /// samples are not validated here: the engine validates and counts bad packets.
+    fn try_from(m: &AccelPacket) -> Result<engine::AccelPacket, engine::MalformedStation> {
+        Ok(engine::AccelPacket {
+            station: engine::station_at_edge(&m.header.frame_id)?,
             start_time_ns: m.header.stamp.to_nanos(),
             sample_rate_hz: m.sample_rate,
             sequence: m.sequence,
@@ -245,14 +251,14 @@ impl From<&AccelPacket> for engine::AccelPacket {
             north: m.north.clone(),
             up: m.up.clone(),
             unit: crate::wire_codes::unit_of_code(m.unit),
-        }
+        })
     }
 }
 
 impl From<&engine::AccelPacket> for AccelPacket {
     fn from(p: &engine::AccelPacket) -> AccelPacket {
         AccelPacket {
-            header: Header::new(p.start_time_ns, &p.station),
+            header: Header::new(p.start_time_ns, p.station.as_str()),
             sample_rate: p.sample_rate_hz,
             sequence: p.sequence,
             east: p.east.clone(),
@@ -266,7 +272,7 @@ impl From<&engine::AccelPacket> for AccelPacket {
 impl From<&engine::StationIntensity> for StationIntensity {
     fn from(i: &engine::StationIntensity) -> StationIntensity {
         StationIntensity {
-            header: Header::new(i.data_time_ns, &i.station),
+            header: Header::new(i.data_time_ns, i.station.as_str()),
             pga: i.pga_mps2,
             pgv: i.pgv_mps,
             pgd: i.pgd_m,
@@ -286,9 +292,9 @@ impl From<&engine::StationIntensity> for StationIntensity {
 impl From<&engine::PbrState> for PbrState {
     fn from(s: &engine::PbrState) -> PbrState {
         PbrState {
-            header: Header::new(s.data_time_ns, &super::names::rock_frame(&s.pbr_id)),
-            pbr_id: s.pbr_id.clone(),
-            station: s.station.clone(),
+            header: Header::new(s.data_time_ns, &super::names::rock_frame(s.pbr_id.as_str())),
+            pbr_id: s.pbr_id.to_string(),
+            station: s.station.to_string(),
             mode: mode_code(s.mode),
             theta: s.theta_rad,
             theta_over_alpha: s.theta_over_alpha,
@@ -306,9 +312,9 @@ impl From<&engine::ResetEvent> for PbrAlert {
     /// reset's wall-clock time.
     fn from(r: &engine::ResetEvent) -> PbrAlert {
         PbrAlert {
-            header: Header::new(r.time_ns, &r.station),
-            pbr_id: r.pbr_id.clone(),
-            station: r.station.clone(),
+            header: Header::new(r.time_ns, &super::names::rock_frame(r.pbr_id.as_str())),
+            pbr_id: r.pbr_id.to_string(),
+            station: r.station.to_string(),
             level: crate::wire_codes::LEVEL_RESET,
             mode: mode_code(rockwatch_core::dynamics::Mode::Rest),
             theta_over_alpha: 0.0,
@@ -332,9 +338,9 @@ impl From<&engine::ResetEvent> for PbrAlert {
 impl From<&engine::Alert> for PbrAlert {
     fn from(a: &engine::Alert) -> PbrAlert {
         PbrAlert {
-            header: Header::new(a.data_time_ns, &a.station),
-            pbr_id: a.pbr_id.clone(),
-            station: a.station.clone(),
+            header: Header::new(a.data_time_ns, &super::names::rock_frame(a.pbr_id.as_str())),
+            pbr_id: a.pbr_id.to_string(),
+            station: a.station.to_string(),
             level: level_code(a.level),
             mode: mode_code(a.mode),
             theta_over_alpha: a.theta_over_alpha,

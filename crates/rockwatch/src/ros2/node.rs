@@ -19,8 +19,8 @@ use super::qos::intake_qos;
 use super::reset::ResetServer;
 use super::session::Ros2Session;
 use crate::intake::WriterCounts;
-use crate::ports::ControlSender;
-use rockwatch_core::engine::{AccelPacket, EngineConfig, Source, SourceTally};
+use crate::ports::{ControlSender, Received};
+use rockwatch_core::engine::{EngineConfig, Source, SourceTally};
 use rockwatch_core::partition::Partition;
 
 /// The node's ROS 2 side: parameters, the input subscriptions, the reset service and (returned
@@ -285,8 +285,9 @@ impl Ros2Node {
         self.inputs.register(registry, first)
     }
 
-    /// Takes up to `max` messages of input `input` and hands each, as a packet, to `submit`
-    /// (an Imu message is a one-sample packet of its station). Undecodable messages are
+    /// Takes up to `max` messages of input `input` and hands each, as a packet (or the
+    /// refusal of its malformed station id), to `submit` (an Imu message is a one-sample
+    /// packet of its station). Undecodable messages are
     /// counted and logged (at most one line per 10 s); a `/pbr/accel` packet of a station
     /// the engine does not `monitor` is counted as ignored in its writer's intake report.
     /// Returns true if `max` was reached (more may be waiting: bounded so that a flood on one
@@ -296,7 +297,7 @@ impl Ros2Node {
         input: usize,
         max: usize,
         monitors: &dyn Fn(&str) -> bool,
-        submit: &mut impl FnMut(AccelPacket, Option<Source>),
+        submit: &mut impl FnMut(Received, Option<Source>),
     ) -> bool {
         self.inputs
             .drain(input, max, &mut self.log, monitors, submit)

@@ -592,7 +592,7 @@ impl PacketSink for Ros2PacketSink {
 
     fn send(&mut self, packet: &AccelPacket) -> anyhow::Result<()> {
         self.keep_alive()?;
-        let lane = self.lane_of(&packet.station);
+        let lane = self.lane_of(packet.station.as_str());
         self.read_reports();
         let window = self.lanes[lane].delivery.window(CREDIT_WINDOW);
         if !self.wait_for_intake(lane, window - 1)? {
@@ -600,8 +600,8 @@ impl PacketSink for Ros2PacketSink {
         }
         let m = msg::AccelPacket::from(packet);
         let l = &mut self.lanes[lane];
-        if l.stations.len() < NAMED_STATIONS && !l.stations.contains(&packet.station) {
-            l.stations.insert(packet.station.clone());
+        if l.stations.len() < NAMED_STATIONS && !l.stations.contains(packet.station.as_str()) {
+            l.stations.insert(packet.station.to_string());
         }
         if l.recent.len() == CREDIT_WINDOW as usize {
             l.recent.pop_front();

@@ -49,6 +49,12 @@ impl Ros2Publisher {
         self.view.take_scene()
     }
 
+    /// Takes in the stations' health of a status: the 3-D view's station markers take its
+    /// colours (sent by the next [`Ros2Publisher::tick`] that is due).
+    pub fn observe_station_health(&mut self, stations: &[crate::status::StationStatus]) {
+        self.view.observe_station_health(stations);
+    }
+
     /// Publishes the markers if the view changed and their rate allows
     /// ([`MARKER_PERIOD`](super::MARKER_PERIOD)); cheap otherwise: call it every turn.
     pub fn tick(&mut self) {

@@ -14,7 +14,7 @@ use plotters::prelude::*;
 
 use super::report::display_name;
 use crate::number_text::short_number;
-use crate::plot::{both_formats, fit_title, log_ticks, DrawResult, PlotError};
+use crate::plot::{both_formats, draw_legend, fit_title, log_ticks, DrawResult, PlotError};
 use crate::units::AccelUnits;
 use rockwatch_core::study::fragility::Z_95;
 use rockwatch_core::study::{BlockAnalysis, Category, StudyAnalysis, StudyConfig, StudyData};
@@ -370,13 +370,7 @@ where
         )?
         .label("observed fraction (binned)")
         .legend(|(x, y)| Circle::new((x + 10, y), 4, RGBColor(213, 94, 0).filled()));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .draw()?;
+    draw_legend(&mut chart, Some(SeriesLabelPosition::UpperLeft), 14)?;
     root.present()?;
     Ok(())
 }

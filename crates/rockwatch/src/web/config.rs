@@ -5,6 +5,8 @@
 //! [web]
 //! listen = "127.0.0.1:8080"        # off when absent; loopback unless token_file is set
 //! token_file = "/etc/rockwatch/web.token"   # a bearer token, required off loopback
+//! tiles = "https://tile.openstreetmap.org/{z}/{x}/{y}.png"   # optional map background
+//! tiles_attribution = "© OpenStreetMap contributors"
 //! ```
 //!
 //! A `listen` address that is not loopback (every address it resolves to must be in
@@ -16,6 +18,8 @@
 
 use std::net::{SocketAddr, ToSocketAddrs};
 use std::path::{Path, PathBuf};
+
+use super::tiles::{MapTiles, TilesConfigError};
 
 /// Longest token file read (bytes).
 pub const MAX_TOKEN_BYTES: u64 = 4096;
@@ -34,6 +38,14 @@ pub struct WebConfig {
     /// configuration file). Required when `listen` is not a loopback address.
     #[serde(default)]
     pub token_file: Option<PathBuf>,
+    /// A slippy-map tile URL template for the map's background (`{z}`, `{x}`, `{y}`; http or
+    /// https), fetched by the operator's browser; none (no tiles, the page fully offline) by
+    /// default. Checked by [`WebConfig::tiles`].
+    #[serde(default)]
+    pub tiles: Option<String>,
+    /// The tiles' attribution, shown under the map (e.g. `© OpenStreetMap contributors`).
+    #[serde(default)]
+    pub tiles_attribution: Option<String>,
 }
 
 impl WebConfig {
@@ -42,10 +54,11 @@ impl WebConfig {
         self.token_file = self.token_file.take().map(|f| base.join(f));
     }
 
-    /// Checks the section: `listen` parses as `host:port`, and an address that is not
-    /// loopback has a `token_file` (which must hold a token of at least [`MIN_TOKEN_BYTES`]).
-    /// The error names the key.
+    /// Checks the section: the tile keys ([`WebConfig::tiles`]); `listen` parses as
+    /// `host:port`, and an address that is not loopback has a `token_file` (which must hold a
+    /// token of at least [`MIN_TOKEN_BYTES`]). The error names the key.
     pub fn validate(&self) -> Result<(), String> {
+        self.tiles().map_err(|e| e.to_string())?;
         self.token().map(|_| ())
     }
 
@@ -53,6 +66,15 @@ impl WebConfig {
     /// [`WebConfig::validate`].
     pub fn token(&self) -> Result<Option<String>, String> {
         listener_token("[web]", self.listen.as_deref(), self.token_file.as_deref())
+    }
+
+    /// The map's tiles, if `tiles` is set, after the checks of [`MapTiles::from_config`].
+    pub fn tiles(&self) -> Result<Option<MapTiles>, TilesConfigError> {
+        MapTiles::from_config(
+            self.listen.is_some(),
+            self.tiles.as_deref(),
+            self.tiles_attribution.as_deref(),
+        )
     }
 }
 
@@ -168,6 +190,7 @@ mod tests {
         WebConfig {
             listen: Some(listen.into()),
             token_file,
+            ..WebConfig::default()
         }
     }
 

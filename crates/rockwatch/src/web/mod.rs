@@ -7,7 +7,9 @@
 //!   (`rockwatch-web`); the node's mio event loop stays as it is.
 //! - [`api`]: `/api/status`, `/api/alerts?since=<ns>`, `/api/rocks/{id}`, `/api/events`
 //!   (Server-Sent Events), `/metrics`.
-//! - [`page`]: `/`, one self-contained HTML page (no external assets).
+//! - [`page`]: `/`, one self-contained HTML page (no external assets; with `[web] tiles`, the
+//!   map's background tiles come from the template's origin, fetched by the browser).
+//! - [`tiles`]: the `[web] tiles` template and its checks.
 //!
 //! The event loop never waits for the web side: it hands each status snapshot over a
 //! `tokio::sync::watch` (a store of the latest, never blocks) and each alert and reset
@@ -20,6 +22,7 @@ pub mod api;
 pub mod config;
 pub mod page;
 pub mod server;
+pub mod tiles;
 
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
@@ -79,7 +82,8 @@ impl WebServer {
         let mut listeners = Vec::new();
         if let Some(listen) = &web.listen {
             let token = web.token().map_err(anyhow::Error::msg)?;
-            let router = guarded(dashboard_router(Arc::clone(&shared)), token);
+            let page = page::Page::new(web.tiles()?.as_ref());
+            let router = guarded(dashboard_router(Arc::clone(&shared), page), token);
             listeners.push(Listener::bind("[web] listen", listen, router)?);
         }
         if let Some(listen) = metrics_listen {
@@ -203,9 +207,11 @@ impl Publisher for AlertFeed {
 }
 
 /// Everything the dashboard serves.
-fn dashboard_router(shared: Arc<api::Shared>) -> Router {
-    Router::new()
+fn dashboard_router(shared: Arc<api::Shared>, page: page::Page) -> Router {
+    let page = Router::new()
         .route("/", get(page::index))
+        .with_state(Arc::new(page));
+    Router::new()
         .route("/api/status", get(api::get_status))
         .route("/api/alerts", get(api::get_alerts))
         .route("/api/rocks/{id}", get(api::get_rock))
@@ -214,6 +220,7 @@ fn dashboard_router(shared: Arc<api::Shared>) -> Router {
         .route("/metrics", get(api::get_metrics))
         .fallback(page::not_found)
         .with_state(shared)
+        .merge(page)
 }
 
 /// `/metrics` alone (`[metrics] listen`).
@@ -317,7 +324,7 @@ mod tests {
         let server = WebServer::start(
             &WebConfig {
                 listen: Some("127.0.0.1:0".into()),
-                token_file: None,
+                ..WebConfig::default()
             },
             &MetricsConfig::default(),
         )
@@ -359,7 +366,12 @@ mod tests {
             slowest < Duration::from_millis(50),
             "update_status took {slowest:?}"
         );
-        // The reading client was served meanwhile.
+        // The reading client is served: what was queued for it arrives (polled, not read at
+        // once: on a loaded machine its thread may not have run yet).
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while received.load(Ordering::Relaxed) <= 200_000 && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let received = received.load(Ordering::Relaxed);
         assert!(
             received > 200_000,
@@ -375,7 +387,7 @@ mod tests {
         let server = WebServer::start(
             &WebConfig {
                 listen: Some("127.0.0.1:0".into()),
-                token_file: None,
+                ..WebConfig::default()
             },
             &MetricsConfig {
                 listen: Some("127.0.0.1:0".into()),
@@ -423,7 +435,7 @@ mod tests {
         // A station's trace: the newest bins of its ring, as the snapshot holds them.
         let mut traces = crate::traces::Traces::new(&[("XX.STA.00".into(), None)]);
         traces.push_packet(&rockwatch_core::engine::AccelPacket {
-            station: "XX.STA.00".into(),
+            station: rockwatch_core::engine::StationId::parse("XX.STA.00").unwrap(),
             start_time_ns: 1_000_000_000_000,
             sample_rate_hz: 100.0,
             sequence: 0,
