@@ -451,7 +451,7 @@ fn a_malformed_station_id_is_refused_the_same_over_iceoryx2_and_ros2() {
     use rockwatch::ros2::msg;
     use rockwatch_core::engine::AccelPacket;
 
-    let good = rinaldi_packets().remove(0);
+    let good = rinaldi_packets(10.0).remove(0);
     let samples: Vec<AccelSample> = (0..good.len())
         .map(|i| AccelSample {
             east: good.east[i],

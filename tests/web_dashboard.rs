@@ -1043,7 +1043,7 @@ fn the_map_draws_slippy_map_tiles_under_the_markers_at_their_web_mercator_positi
     );
 
     let node = LoggedChild::spawn(
-        std::process::Command::new(rockwatch())
+        std::process::Command::new(rockwatch_bin!())
             .arg("node")
             .arg("--config")
             .arg(p.join("node.toml")),

@@ -76,7 +76,7 @@ pub const T0_NS: i64 = 1_700_000_000_000_000_000;
 #[must_use]
 pub fn spec(id: &str, station: &str, azimuth_deg: f64, p: BlockParams) -> PbrSpec {
     PbrSpec {
-        id: id.into(),
+        id: rockwatch_core::engine::PbrId::parse(id).unwrap(),
         station: StationId::parse(station).expect("a test station id"),
         azimuth: Azimuth::from_degrees(azimuth_deg).expect("a test azimuth"),
         nominal: p,
