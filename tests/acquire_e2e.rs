@@ -25,17 +25,16 @@
 //! ObsPy-written inventory tests/data/stationxml/obspy_XX.STN_k2.xml; blocks slender enough
 //! for its ~0.05 m/s² to rock them, at several thresholds so alerts fall through the record.
 
+use rockwatch_test_harness::netns::reexec_in_netns;
+
 mod acquire_util;
-mod ros2_util;
-mod seedlink_server;
 
 use std::time::Duration;
 
 use acquire_util::{latest_starts, Rig};
 use rockwatch_core::record::mseed::record_stream_id;
-use ros2_util::reexec_in_netns;
-use seedlink_server::hostile::Hostile;
-use seedlink_server::{records_in_time_order, Server};
+use rockwatch_test_harness::seedlink_server::hostile::Hostile;
+use rockwatch_test_harness::seedlink_server::{records_in_time_order, Server};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Scenario {

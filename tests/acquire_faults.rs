@@ -42,9 +42,11 @@
 //! delivered or saved. Tests run one at a time (each in its own network namespace), so the
 //! scenarios do not compete for the 2 cores.
 
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::reexec_in_netns;
+use rockwatch_test_harness::peers::peer_available;
+
 mod acquire_util;
-mod ros2_util;
-mod seedlink_server;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -65,12 +67,11 @@ use rockwatch_core::record::mseed::{parse_mseed, Channel};
 use rockwatch_core::utc::format_utc_ns;
 
 use acquire_util::{latest_starts, Rig};
-use ros2_util::reexec_in_netns;
-use seedlink_server::hostile::{
+use rockwatch_test_harness::seedlink_server::hostile::{
     at_other_rate, in_year, with_corrupt_steim, with_location, with_nan, with_sample_count,
     with_values, Conn, Hostile,
 };
-use seedlink_server::records_in_time_order;
+use rockwatch_test_harness::seedlink_server::records_in_time_order;
 
 /// At most [`AT_ONCE`] scenarios at a time (the outer test processes wait here for their
 /// namespace's run). Each scenario is its own process in its own network namespace, with
@@ -291,7 +292,7 @@ impl DiagnosticsPeer {
             .stderr(std::process::Stdio::null())
             .status()
             .is_ok_and(|s| s.success());
-        if !ros2_util::peer_available(
+        if !peer_available(
             ok,
             "python3 with ros-rclpy[fastrtps] and ros-diagnostic-msgs",
             "see .ci/run",
@@ -301,7 +302,7 @@ impl DiagnosticsPeer {
         let dir = tempfile::tempdir().unwrap();
         let (out, err) = (dir.path().join("peer.out"), dir.path().join("peer.err"));
         let child = Command::new("python3")
-            .arg(ros2_util::repo().join("tests/data/ros2/rclpy_status.py"))
+            .arg(repo().join("tests/data/ros2/rclpy_status.py"))
             .args(["--seconds", "200", "--diagnostics-only"])
             .stdout(std::fs::File::create(&out).unwrap())
             .stderr(std::fs::File::create(&err).unwrap())
@@ -932,7 +933,7 @@ fn acquire_in_process(
     protocol: ProtocolChoice,
     want: BTreeSet<(String, i64)>,
 ) -> InProcessRun {
-    let xml = ros2_util::repo().join("tests/data/stationxml/obspy_XX.STN_k2.xml");
+    let xml = repo().join("tests/data/stationxml/obspy_XX.STN_k2.xml");
     let mut out = Nowhere;
     let mut publisher = PacketPublisher::new(
         Inventory::read(&xml).unwrap(),

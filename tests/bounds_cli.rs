@@ -6,10 +6,11 @@
 //! Each command runs under a deadline ([`DEADLINE`]): a regression that hangs or allocates
 //! its way through fails the test instead of hanging CI.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use rockwatch_test_harness::process::Ran;
+use rockwatch_test_harness::rockwatch_bin;
 
 /// Longest a refused command may take. The refusals are immediate (reading a 2000-sample
 /// record); 30 s leaves room for a loaded CI machine while a hang (the bugs took hours or
@@ -23,72 +24,20 @@ const RINALDI: &str = concat!(
 const NODE_TOML: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml");
 const CATALOGUE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml");
 
-struct Run {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-}
-
-/// Runs rockwatch with `args`; kills it and fails the test past [`DEADLINE`]. Memory is capped
-/// at 2 GB (`prlimit`-free: through the shell's `ulimit -v`), so a runaway allocation aborts
-/// instead of swapping the machine.
-fn rockwatch(args: &[&str]) -> Run {
-    let mut child = Command::new("sh")
-        // No DDS traffic beyond this host should a refusal regress into starting the node.
+/// Runs rockwatch with `args` under this file's bounds: killed, and the test failed, past
+/// [`DEADLINE`]; memory capped at 2 GB, so a runaway allocation aborts instead of swapping the
+/// machine; no DDS traffic beyond this host should a refusal regress into starting the node.
+fn bounded(args: &[&str]) -> Ran {
+    rockwatch_bin!()
+        .run(args)
         .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-        .arg("-c")
-        .arg("ulimit -v 2000000; exec \"$0\" \"$@\"")
-        .arg(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("runs");
-    // Both pipes are read as they come: a full pipe would block the child, which would then
-    // look like unbounded work.
-    let read = |pipe: Option<Box<dyn Read + Send>>| {
-        std::thread::spawn(move || {
-            let mut text = String::new();
-            if let Some(mut pipe) = pipe {
-                let _ = pipe.read_to_string(&mut text);
-            }
-            text
-        })
-    };
-    let stdout = read(
-        child
-            .stdout
-            .take()
-            .map(|p| Box::new(p) as Box<dyn Read + Send>),
-    );
-    let stderr = read(
-        child
-            .stderr
-            .take()
-            .map(|p| Box::new(p) as Box<dyn Read + Send>),
-    );
-    let start = Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("waits") {
-            break status;
-        }
-        if start.elapsed() > DEADLINE {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("rockwatch {args:?} still running after {DEADLINE:?}: unbounded work");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let (stdout, stderr) = (stdout.join().unwrap(), stderr.join().unwrap());
-    Run {
-        code: status.code(),
-        stdout,
-        stderr,
-    }
+        .deadline(DEADLINE)
+        .memory_limit_kib(2_000_000)
+        .text()
 }
 
 /// The command failed with exit 1 and one line `rockwatch: error: …` containing `needle`.
-fn refused(run: &Run, needle: &str) {
+fn refused(run: &Ran, needle: &str) {
     assert_eq!(
         run.code,
         Some(1),
@@ -132,14 +81,14 @@ fn simulate_refuses_a_nanosecond_sampling_interval() {
     let record = rinaldi_with_dt(dir.path(), "1e-9");
     let mut args = vec!["simulate", "--record", record.to_str().unwrap()];
     args.extend(block_args());
-    refused(&rockwatch(&args), "sampling interval 1e-9 s is outside");
+    refused(&bounded(&args), "sampling interval 1e-9 s is outside");
 }
 
 #[test]
 fn simulate_refuses_a_billion_seconds_of_free_vibration() {
     let mut args = vec!["simulate", "--record", RINALDI, "--t-extra", "1e9"];
     args.extend(block_args());
-    refused(&rockwatch(&args), "integration steps");
+    refused(&bounded(&args), "integration steps");
 }
 
 #[test]
@@ -154,11 +103,11 @@ fn simulate_refuses_accelerations_of_1e306() {
     std::fs::write(&csv, text).unwrap();
     let mut args = vec!["simulate", "--record", csv.to_str().unwrap()];
     args.extend(block_args());
-    refused(&rockwatch(&args), "beyond ±980.665 m/s² (100 g)");
+    refused(&bounded(&args), "beyond ±980.665 m/s² (100 g)");
     // Scaling a plausible record beyond the bound is refused too.
     let mut args = vec!["simulate", "--record", RINALDI, "--scale", "1e300"];
     args.extend(block_args());
-    refused(&rockwatch(&args), "scaled by 1e300");
+    refused(&bounded(&args), "scaled by 1e300");
 }
 
 #[test]
@@ -166,7 +115,7 @@ fn ims_refuses_a_nanosecond_sampling_interval() {
     let dir = tempfile::tempdir().unwrap();
     let record = rinaldi_with_dt(dir.path(), "1e-9");
     refused(
-        &rockwatch(&["ims", "--record", record.to_str().unwrap()]),
+        &bounded(&["ims", "--record", record.to_str().unwrap()]),
         "sampling interval",
     );
 }
@@ -192,7 +141,7 @@ fn monitor_refuses_a_nanosecond_sampling_interval() {
     let dir = tempfile::tempdir().unwrap();
     let record = rinaldi_with_dt(dir.path(), "1e-9");
     refused(
-        &rockwatch(&monitor_args(record.to_str().unwrap(), &[])),
+        &bounded(&monitor_args(record.to_str().unwrap(), &[])),
         "sampling interval",
     );
 }
@@ -200,23 +149,23 @@ fn monitor_refuses_a_nanosecond_sampling_interval() {
 #[test]
 fn monitor_refuses_zero_packets_and_negative_or_huge_tails() {
     refused(
-        &rockwatch(&monitor_args(RINALDI, &["--packet-ms", "0"])),
+        &bounded(&monitor_args(RINALDI, &["--packet-ms", "0"])),
         "--packet-ms must be 1 to 60000",
     );
     refused(
-        &rockwatch(&monitor_args(RINALDI, &["--tail", "-1"])),
+        &bounded(&monitor_args(RINALDI, &["--tail", "-1"])),
         "--tail must be 0",
     );
     // A day of tail at 100 Hz is 8.6 M samples: allowed; at 10 kHz it would not be.
     let dir = tempfile::tempdir().unwrap();
     let fast = rinaldi_with_dt(dir.path(), "1e-4");
     refused(
-        &rockwatch(&monitor_args(fast.to_str().unwrap(), &["--tail", "86400"])),
+        &bounded(&monitor_args(fast.to_str().unwrap(), &["--tail", "86400"])),
         "more than 10000000",
     );
     // Packets longer than a packet may hold (100 000 samples): 60 s at 10 kHz.
     refused(
-        &rockwatch(&monitor_args(
+        &bounded(&monitor_args(
             fast.to_str().unwrap(),
             &["--packet-ms", "60000"],
         )),
@@ -237,7 +186,7 @@ fn monitor_fails_when_every_packet_was_rejected() {
         ),
     )
     .unwrap();
-    let run = rockwatch(&[
+    let run = bounded(&[
         "monitor",
         "--config",
         config.to_str().unwrap(),
@@ -279,13 +228,13 @@ fn replay_refuses_zero_packets_and_negative_tails() {
         ("--packet-ms", "0", "--packet-ms must be 1 to 60000"),
         ("--tail", "-1", "--tail must be 0"),
     ] {
-        refused(&rockwatch(&replay_args(NODE_TOML, &[flag, value])), needle);
+        refused(&bounded(&replay_args(NODE_TOML, &[flag, value])), needle);
     }
 }
 
 #[test]
 fn node_refuses_absurd_shard_counts() {
-    let run = rockwatch(&[
+    let run = bounded(&[
         "node",
         "--catalogue",
         CATALOGUE,
@@ -304,7 +253,7 @@ fn a_catalogue_is_refused_as_the_iceoryx2_configuration() {
         format!("catalogue = {CATALOGUE:?}\n[iceoryx2]\nconfig_file = {CATALOGUE:?}\n"),
     )
     .unwrap();
-    let run = rockwatch(&replay_args(config.to_str().unwrap(), &[]));
+    let run = bounded(&replay_args(config.to_str().unwrap(), &[]));
     refused(&run, "not an iceoryx2 configuration: top-level key");
 }
 
@@ -321,7 +270,7 @@ fn a_second_process_on_a_state_directory_is_refused() {
     let state_arg = state.to_str().unwrap();
     // Refused before its DDS participant exists (issue 24 item 8: it was refused only after
     // creating it): RustDDS logs the participant's construction at trace level.
-    let run = rockwatch(&[
+    let run = bounded(&[
         "node",
         "--catalogue",
         CATALOGUE,
@@ -332,7 +281,7 @@ fn a_second_process_on_a_state_directory_is_refused() {
     ]);
     refused(&run, "in use by another rockwatch process");
     assert!(!run.stderr.contains("DomainParticipant"), "{}", run.stderr);
-    let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
+    let run = bounded(&monitor_args(RINALDI, &["--state-dir", state_arg]));
     refused(&run, "one node per state directory");
     // Released (as when the first node ends, however it ends): the directory is usable.
     drop(lock);
@@ -340,15 +289,15 @@ fn a_second_process_on_a_state_directory_is_refused() {
     // item 8: deleting `state/lock` let a second node in).
     let (held, _, _) = rockwatch::journal::Journal::open(&state).unwrap();
     std::fs::remove_file(state.join(rockwatch::journal::LOCK_FILE)).unwrap();
-    let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
+    let run = bounded(&monitor_args(RINALDI, &["--state-dir", state_arg]));
     refused(&run, "one node per state directory");
     drop(held);
     // Released, the directory still holds a node's journal: `monitor` never writes it (issue
     // 20 item 1), while a directory of its own is accepted.
-    let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", state_arg]));
+    let run = bounded(&monitor_args(RINALDI, &["--state-dir", state_arg]));
     refused(&run, "holds or held a node's state");
     let own = dir.path().join("rehearsal");
-    let run = rockwatch(&monitor_args(
+    let run = bounded(&monitor_args(
         RINALDI,
         &["--state-dir", own.to_str().unwrap()],
     ));
@@ -362,9 +311,9 @@ fn a_node_refuses_a_state_directory_monitor_wrote() {
     let dir = tempfile::tempdir().unwrap();
     let rehearsal = dir.path().join("rehearsal");
     let rehearsal_arg = rehearsal.to_str().unwrap();
-    let run = rockwatch(&monitor_args(RINALDI, &["--state-dir", rehearsal_arg]));
+    let run = bounded(&monitor_args(RINALDI, &["--state-dir", rehearsal_arg]));
     assert_eq!(run.code, Some(0), "{}", run.stderr);
-    let run = rockwatch(&[
+    let run = bounded(&[
         "node",
         "--catalogue",
         CATALOGUE,

@@ -1,6 +1,7 @@
 //! The PBR catalogue: file formats, validation messages, nominal blocks, Latin-hypercube
 //! ensembles, the horizontal projection, and the example catalogue `config/catalogue.toml`.
 
+use rockwatch_test_harness::fixtures::rinaldi;
 use std::path::{Path, PathBuf};
 
 use rockwatch_core::azimuth::Azimuth;
@@ -552,13 +553,6 @@ fn example_catalogue_roles_hold_by_their_parameters() {
     assert!(column.mu_k > column.plus.tan_alpha && column.mu_s > column.plus.tan_alpha);
     let ensemble = cat.get("rrs-pinnacle-ensemble").unwrap();
     assert!(ensemble.ensemble_size() > 1);
-}
-
-fn rinaldi() -> Record {
-    let mut r = Record::read(&repo("tests/data/records/Rinaldi228.AT2")).unwrap();
-    r.attach_vertical(&repo("tests/data/records/RinaldiUP.AT2"))
-        .unwrap();
-    r
 }
 
 fn sylmar() -> Record {

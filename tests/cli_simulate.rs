@@ -1,5 +1,7 @@
 //! `rockwatch simulate` block geometry given as B, H or as R, α.
 
+use rockwatch_test_harness::process::Ran;
+use rockwatch_test_harness::rockwatch_bin;
 use std::process::Command;
 
 fn simulate_json(block: &[&str]) -> serde_json::Value {
@@ -144,19 +146,6 @@ fn plot_is_png_for_png_svg_for_svg_and_other_names_are_refused() {
     assert!(stderr.contains(".svg or .png"), "{stderr}");
 }
 
-/// Runs `rockwatch ARGS` and returns (success, stdout, stderr).
-fn rockwatch(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn simulate_and_fragility_share_one_rock_plan_mu_k_defaulting_to_mu_s() {
     let record = concat!(
@@ -168,7 +157,12 @@ fn simulate_and_fragility_share_one_rock_plan_mu_k_defaulting_to_mu_s() {
         let mut args = vec!["simulate", "--record", record];
         args.extend_from_slice(friction);
         args.extend_from_slice(&block);
-        let (ok, stdout, stderr) = rockwatch(&args);
+        let Ran {
+            success: ok,
+            stdout,
+            stderr,
+            ..
+        } = rockwatch_bin!().run(&args).text();
         assert!(ok, "{friction:?}: {stderr}");
         serde_json::from_str(&stdout).unwrap()
     };
@@ -196,14 +190,24 @@ fn simulate_and_fragility_share_one_rock_plan_mu_k_defaulting_to_mu_s() {
                 out,
             ]);
         }
-        let (ok, _, stderr) = rockwatch(&args);
+        let Ran {
+            success: ok,
+            stderr,
+            ..
+        } = rockwatch_bin!().run(&args).text();
         assert!(
             !ok && stderr.contains("give the friction: --mu-s"),
             "{command}: {stderr}"
         );
         assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
     }
-    let (ok, _, stderr) = rockwatch(&["simulate", "--record", record, "--mu-s", "0.9"]);
+    let Ran {
+        success: ok,
+        stderr,
+        ..
+    } = rockwatch_bin!()
+        .run(&["simulate", "--record", record, "--mu-s", "0.9"])
+        .text();
     assert!(!ok && stderr.contains("give the geometry"), "{stderr}");
     assert!(stderr.contains("--mesh"), "{stderr}");
 }
@@ -328,23 +332,29 @@ fn a_long_title_is_wrapped_within_the_figure_not_cut() {
     )
     .unwrap();
     let svg_path = dir.path().join("long.svg");
-    let (ok, _, stderr) = rockwatch(&[
-        "simulate",
-        "--record",
-        long.to_str().unwrap(),
-        "--width",
-        "0.5806125494392025",
-        "--height",
-        "2.5",
-        "--mu-s",
-        "1.5",
-        "--mu-k",
-        "1.0",
-        "--scale",
-        "0.5",
-        "--plot",
-        svg_path.to_str().unwrap(),
-    ]);
+    let Ran {
+        success: ok,
+        stderr,
+        ..
+    } = rockwatch_bin!()
+        .run(&[
+            "simulate",
+            "--record",
+            long.to_str().unwrap(),
+            "--width",
+            "0.5806125494392025",
+            "--height",
+            "2.5",
+            "--mu-s",
+            "1.5",
+            "--mu-k",
+            "1.0",
+            "--scale",
+            "0.5",
+            "--plot",
+            svg_path.to_str().unwrap(),
+        ])
+        .text();
     assert!(ok, "{stderr}");
     let svg = std::fs::read_to_string(&svg_path).unwrap();
     let width: f64 = svg

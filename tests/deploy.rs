@@ -16,8 +16,10 @@
 //!
 //! `systemd-analyze` and colcon missing: skipped locally, a failure under CI=true.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::peers::peer_available;
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -47,7 +49,7 @@ fn units_for_test(dir: &Path) -> Vec<PathBuf> {
             &path,
             text.replace(
                 "/usr/local/bin/rockwatch",
-                &rockwatch().display().to_string(),
+                &rockwatch_bin!().display().to_string(),
             ),
         )
         .unwrap();
@@ -290,7 +292,7 @@ fn the_ament_package_installs_binary_and_launch_file_and_the_node_takes_launch_r
         .arg("--install-base")
         .arg(d.join("install"))
         .arg("--cmake-args")
-        .arg(format!("-DROCKWATCH_BINARY={}", rockwatch().display()))
+        .arg(format!("-DROCKWATCH_BINARY={}", rockwatch_bin!().display()))
         .output()
         .unwrap();
     let (stdout, stderr) = text(&out);
@@ -380,7 +382,7 @@ fn the_launch_file_passes_only_the_parameters_the_user_set() {
         return;
     }
     let config = write_node_config(d, &repo().join("config/catalogue.toml"));
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let py = repo().join("tests/data/ros2/rclpy_params.py");
     let run = |options: &serde_json::Value, label: &str| {
         let cmd = launch_ros_command(options, d, &config)

@@ -27,14 +27,14 @@
 //! true). Run time: ≈ 15 s (2 cores, other builds running), most of it the two `fragility`
 //! examples and the nodes started and stopped.
 
-mod ros2_util;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
-
-use ros2_util::{repo, rockwatch, run_in_netns, text};
 
 /// One command of a fenced code block.
 #[derive(Debug, Clone)]
@@ -202,7 +202,7 @@ fn help_flags(
     cache
         .entry(sub.to_string())
         .or_insert_with(|| {
-            let out = Command::new(rockwatch())
+            let out = Command::new(rockwatch_bin!())
                 .args([sub, "--help"])
                 .output()
                 .unwrap();
@@ -603,7 +603,7 @@ fn quote(word: &str) -> String {
 
 /// `args` as one shell command line running the binary under test.
 fn shell_line(args: &[String]) -> String {
-    std::iter::once(quote(&rockwatch().display().to_string()))
+    std::iter::once(quote(&rockwatch_bin!().display().to_string()))
         .chain(args.iter().map(|w| quote(w)))
         .collect::<Vec<_>>()
         .join(" ")
@@ -616,7 +616,7 @@ fn shell_line(args: &[String]) -> String {
 fn run_here(dir: &Path, args: &[String]) -> (bool, String) {
     let out = Command::new("timeout")
         .args(["-k", "5", "60", "unshare", "-n", "--"])
-        .arg(rockwatch())
+        .arg(rockwatch_bin!())
         .args(args)
         .current_dir(dir)
         .env_remove("ROS_DOMAIN_ID")

@@ -1,5 +1,7 @@
 //! The monitoring engine against the offline simulator, and under bad data.
 
+use rockwatch_test_harness::fixtures::{rinaldi_f32, slender, spec, stocky, T0_NS};
+
 use std::path::Path;
 
 use rockwatch_core::azimuth::Azimuth;
@@ -10,9 +12,6 @@ use rockwatch_core::engine::{
 };
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions};
-
-mod engine_fixtures;
-use engine_fixtures::{rinaldi_f32, slender, spec, stocky, T0_NS};
 
 /// Cuts `east` into packets of `len` samples at 1/dt Hz for `station`.
 fn packets(station: &str, east: &[f64], north: &[f64], dt: f64, len: usize) -> Vec<AccelPacket> {

@@ -7,12 +7,11 @@
 //! - a changed block starts at rest, a removed one is dropped, and a bad configuration changes
 //!   nothing.
 
+use rockwatch_test_harness::fixtures::{rinaldi_f32, slender, spec, stocky, T0_NS};
+
 use rockwatch_core::engine::{AccelPacket, Engine, EngineConfig, Output, PbrSpec, ReloadReport};
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions};
-
-mod engine_fixtures;
-use engine_fixtures::{rinaldi_f32, slender, spec, stocky, T0_NS};
 
 /// Samples per packet.
 const LEN: usize = 100;

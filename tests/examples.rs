@@ -9,7 +9,11 @@
 //! The examples are built by this test (`cargo build --example`, a no-op when they are
 //! fresh) into the same target directory and profile as the test itself.
 
-mod ros2_util;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text, VETH_TX};
+use rockwatch_test_harness::node_output::json_lines;
+use rockwatch_test_harness::process::NodeProcess;
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -19,7 +23,6 @@ use std::time::{Duration, Instant};
 
 use rockwatch::journal::read_journal;
 use rockwatch_core::engine::JournalRecord;
-use ros2_util::*;
 
 /// The examples this file runs.
 const EXAMPLES: [&str; 2] = ["iox-station-publisher", "ros2-alert-subscriber"];
@@ -140,7 +143,7 @@ fn iox_station_publisher_feeds_the_node_which_journals_the_rinaldi_alerts() {
             "-c",
             "ip link set lo up && exec \"$0\" node --config \"$1\" --state-dir \"$2\"",
         ])
-        .arg(rockwatch())
+        .arg(rockwatch_bin!())
         .arg(&config)
         .arg(&state_dir)
         .stdout(Stdio::null())
@@ -254,7 +257,7 @@ fn ros2_alert_subscriber_prints_the_alerts_of_a_replay_live_late_and_on_its_doma
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
     let (d, bin, sub) = (
         dir.path().display(),
-        rockwatch().display().to_string(),
+        rockwatch_bin!().display().to_string(),
         subscriber.display(),
     );
     let records = repo().join("tests/data/records");

@@ -12,12 +12,10 @@
 //!    trajectory against that formulation integrated by a classical Runge–Kutta;
 //! 6. mirror symmetry of whole responses on a bundled record, and the CLI's general-body form.
 
-mod common;
-
+use rockwatch_test_harness::fixtures::rinaldi;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{accel_scale, newton_euler_body, Body, Pivot, G_MPS2};
 use proptest::prelude::*;
 use rockwatch_core::dynamics::equations::{rocking, slide_rocking};
 use rockwatch_core::dynamics::impact::impact;
@@ -26,6 +24,9 @@ use rockwatch_core::dynamics::{
 };
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions};
+use rockwatch_test_harness::physics_reference::{
+    accel_scale, newton_euler_body, Body, Pivot, G_MPS2,
+};
 
 fn data(path: &str) -> PathBuf {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data")).join(path)
@@ -547,10 +548,7 @@ fn rocking_trajectory_matches_newton_euler_integrated_by_runge_kutta() {
 
 #[test]
 fn mirrored_body_under_mirrored_record_gives_the_mirrored_response() {
-    let mut record = Record::read(&data("records/Rinaldi228.AT2")).unwrap();
-    record
-        .attach_vertical(&data("records/RinaldiUP.AT2"))
-        .unwrap();
+    let mut record = rinaldi();
     let options = SimulationOptions {
         t_extra_s: 5.0,
         ..SimulationOptions::default()

@@ -3,8 +3,8 @@
 //! a meshed block simulated like the same block given by its planar-body flags, and the trace
 //! CSV against the record and the summary.
 
+use rockwatch_test_harness::rockwatch_bin;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 const RINALDI: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -15,15 +15,8 @@ const RINALDI_UP: &str = concat!(
     "/../../tests/data/records/RinaldiUP.AT2"
 );
 
-fn rockwatch(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 fn ok_json(args: &[&str]) -> serde_json::Value {
-    let out = rockwatch(args);
+    let out = rockwatch_bin!().output(args);
     assert!(
         out.status.success(),
         "{args:?}: {}",
@@ -115,7 +108,7 @@ fn geometry_json_of_a_box_matches_its_closed_forms() {
         "the default is the resting facet alone"
     );
     // Text output names the units.
-    let out = rockwatch(&["geometry", "--mesh", mesh.to_str().unwrap()]);
+    let out = rockwatch_bin!().output(&["geometry", "--mesh", mesh.to_str().unwrap()]);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("volume") && text.contains("m³") && text.contains("rho(m)"));
@@ -182,7 +175,7 @@ fn geometry_shows_how_the_pivots_move_with_the_contact_tolerance() {
         );
     }
     // The text says it too, and marks the tolerance in force.
-    let out = rockwatch(&["geometry", "--mesh", mesh.to_str().unwrap()]);
+    let out = rockwatch_bin!().output(&["geometry", "--mesh", mesh.to_str().unwrap()]);
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("contact tolerance sensitivity"), "{text}");
     let row_5mm = text
@@ -204,7 +197,7 @@ fn geometry_draws_the_alpha_rose_and_a_section() {
     let mesh = box_obj(dir.path(), a, b, c);
     let rose = dir.path().join("rose.svg");
     let section = dir.path().join("section.png");
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "geometry",
         "--mesh",
         mesh.to_str().unwrap(),
@@ -233,7 +226,7 @@ fn geometry_draws_the_alpha_rose_and_a_section() {
     assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
     // Towards 90° (east) the section names b± = a/2 in its title (SVG text).
     let section_svg = dir.path().join("section.svg");
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "geometry",
         "--mesh",
         mesh.to_str().unwrap(),
@@ -250,7 +243,7 @@ fn geometry_draws_the_alpha_rose_and_a_section() {
     );
     // A plot name that says neither format is refused in one line.
     let bad = dir.path().join("rose.jpg");
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "geometry",
         "--mesh",
         mesh.to_str().unwrap(),
@@ -276,7 +269,7 @@ fn an_open_scan_is_refused_unless_capped_and_capping_says_so() {
         .replace("f 1 4 3 2\n", "");
     let open = dir.path().join("open.obj");
     std::fs::write(&open, text).unwrap();
-    let out = rockwatch(&["geometry", "--mesh", open.to_str().unwrap()]);
+    let out = rockwatch_bin!().output(&["geometry", "--mesh", open.to_str().unwrap()]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -304,7 +297,7 @@ fn an_open_scan_is_refused_unless_capped_and_capping_says_so() {
     assert_eq!(capped["directions"], reference["directions"]);
     assert_eq!(reference["cap"], serde_json::Value::Null);
     // The text and stderr say it.
-    let out = rockwatch(&["geometry", "--mesh", open.to_str().unwrap(), "--cap"]);
+    let out = rockwatch_bin!().output(&["geometry", "--mesh", open.to_str().unwrap(), "--cap"]);
     assert!(out.status.success());
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -344,7 +337,7 @@ fn bad_meshes_and_flags_fail_with_one_line() {
     for (args, expected) in cases {
         let mut all = vec!["geometry"];
         all.extend(args.iter());
-        let out = rockwatch(&all);
+        let out = rockwatch_bin!().output(&all);
         assert_eq!(out.status.code(), Some(1), "{all:?}");
         let stderr = String::from_utf8(out.stderr).unwrap();
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
@@ -376,7 +369,7 @@ fn simulate_mesh_azimuth_is_the_planar_body_of_that_direction() {
         let (x, y) = (f(&m["max_abs_theta"]), f(&r["max_abs_theta"]));
         assert!((x - y).abs() <= 1e-9 * y.max(1e-3), "az {az}: {x} vs {y}");
     }
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "simulate",
         "--record",
         RINALDI,
@@ -488,7 +481,7 @@ fn monitor_integrates_a_meshed_rock_in_each_direction_and_names_it() {
          heading_deg = 0.0\nmu_s = 0.8\nmu_k = 0.6\nsource = \"test\"\n",
     )
     .unwrap();
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "monitor",
         "--catalogue",
         catalogue.to_str().unwrap(),
@@ -579,7 +572,7 @@ fn simulate_model_3d_of_a_box_matches_the_planar_block_and_reports_its_pose() {
     );
     assert_eq!(three["final_rotation"].as_array().unwrap().len(), 4);
     // Text output, and a second horizontal component with the vertical one.
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "simulate",
         "--mesh",
         mesh,
@@ -613,7 +606,7 @@ fn simulate_model_3d_of_a_box_matches_the_planar_block_and_reports_its_pose() {
         "{text}"
     );
     // --model 3d needs a mesh.
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "simulate", "--width", "0.4", "--height", "2", "--model", "3d", "--record", RINALDI,
         "--mu-s", "0.8",
     ]);
@@ -697,7 +690,7 @@ fn simulate_model_3d_writes_its_trace_and_plot() {
     let png = std::fs::read(&plot).unwrap();
     assert!(png.starts_with(b"\x89PNG"), "not a PNG");
     // --rtol is not a setting of the 3-D model.
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "simulate",
         "--mesh",
         mesh.to_str().unwrap(),

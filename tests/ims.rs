@@ -8,6 +8,7 @@ use rockwatch_core::ims::{
     STUDY_RANGES,
 };
 use rockwatch_core::record::{Record, STANDARD_GRAVITY_MPS2};
+use rockwatch_test_harness::rockwatch_bin;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -480,13 +481,6 @@ fn running_live_set_equals_offline_spectrum_on_coarse_grid() {
 // ---------------------------------------------------------------------------------------
 // CLI.
 
-fn rockwatch(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 const JSON_KEYS: [&str; 24] = [
     "pga", "pgv", "pgd", "cav", "arias", "t5", "t75", "t95", "d5_75", "d5_95", "a_rms", "ic",
     "sma", "eda", "tp", "pgv_pga", "epv", "sa", "asi", "si", "vsi", "dt", "npts", "vertical",
@@ -497,7 +491,7 @@ fn ims_json_has_every_documented_key() {
     let dir = records_dir();
     let horizontal = dir.join("Rinaldi228.AT2");
     let vertical = dir.join("RinaldiUP.AT2");
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "ims",
         "--record",
         horizontal.to_str().unwrap(),
@@ -563,7 +557,7 @@ fn ims_json_has_every_documented_key() {
 #[test]
 fn ims_custom_periods_become_sa_keys() {
     let record = records_dir().join("RSN1059_NORTHR_PTH090.AT2");
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "ims",
         "--record",
         record.to_str().unwrap(),
@@ -588,7 +582,7 @@ fn ims_custom_periods_become_sa_keys() {
 #[test]
 fn ims_text_table_names_units() {
     let record = records_dir().join("RSN15_KERN_TAF021.AT2");
-    let out = rockwatch(&["ims", "--record", record.to_str().unwrap()]);
+    let out = rockwatch_bin!().output(&["ims", "--record", record.to_str().unwrap()]);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     for needle in [
@@ -611,14 +605,14 @@ fn ims_bad_input_fails_with_one_line_naming_the_file() {
     std::fs::write(&bad, "a\nb\nc\nNPTS= 3, DT= 0.01 SEC\n 0.1 oops 0.3\n").unwrap();
     let missing = dir.path().join("missing.AT2");
     for path in [&bad, &missing] {
-        let out = rockwatch(&["ims", "--record", path.to_str().unwrap()]);
+        let out = rockwatch_bin!().output(&["ims", "--record", path.to_str().unwrap()]);
         assert!(!out.status.success());
         let stderr = String::from_utf8(out.stderr).unwrap();
         assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
         assert!(stderr.contains(path.to_str().unwrap()), "{stderr}");
     }
     let good = records_dir().join("Rinaldi228.AT2");
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "ims",
         "--record",
         good.to_str().unwrap(),

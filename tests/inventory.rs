@@ -3,12 +3,12 @@
 //! ObsPy's own reading of the same files (an independent parser), plus hand-checked values
 //! from the documents' text.
 
+use rockwatch_test_harness::peers;
+
 use std::path::{Path, PathBuf};
 
 use rockwatch_core::inventory::{Inventory, LookupError, Unusable};
 use rockwatch_core::utc::parse_utc_ns;
-
-mod obspy_peer;
 
 fn data(name: &str) -> PathBuf {
     Path::new(concat!(
@@ -231,7 +231,7 @@ else:
 "#;
 
 fn obspy(args: &[&str]) -> Option<Vec<serde_json::Value>> {
-    obspy_peer::run_obspy(OBSPY_SCRIPT, args).map(|out| serde_json::from_slice(&out).unwrap())
+    peers::run_obspy(OBSPY_SCRIPT, args).map(|out| serde_json::from_slice(&out).unwrap())
 }
 
 /// Our epochs equal ObsPy's, field by field (numbers exactly: both parse the same decimal

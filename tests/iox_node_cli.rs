@@ -2,14 +2,16 @@
 //! through the binary. The node runs in its own network namespace (its ROS 2 side opens DDS);
 //! iceoryx2 uses shared memory, which the namespace does not separate.
 
-mod ros2_util;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::node_output::count_before;
+use rockwatch_test_harness::process::{stop_node, LoggedChild};
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::path::PathBuf;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
 use rockwatch::iox::{IoxAlertSubscriber, IoxConfig};
-use ros2_util::{replay_rinaldi_iox, repo, spawn_node_in_netns, stop_node};
 
 #[test]
 fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
@@ -30,7 +32,7 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
         ),
     )
     .unwrap();
-    let mut node = spawn_node_in_netns(&config);
+    let mut node = rockwatch_bin!().spawn_node_in_netns(&config);
 
     // Subscribe to the node's alerts (retry until the node has created the service).
     let sub_config = IoxConfig {
@@ -50,7 +52,7 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
             }
         }
     };
-    let replay = replay_rinaldi_iox(&config);
+    let replay = rockwatch_bin!().replay_rinaldi_iox(&config);
     let mut received = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(15);
     while Instant::now() < deadline
@@ -91,7 +93,7 @@ fn replay_over_iceoryx2_reaches_the_node_and_its_alerts_come_back() {
 
 /// A node with iceoryx2 input on services of its own (`extra`: more TOML for its
 /// configuration), and its configuration file.
-fn iox_node(dir: &std::path::Path, tag: &str, extra: &str) -> (ros2_util::LoggedChild, PathBuf) {
+fn iox_node(dir: &std::path::Path, tag: &str, extra: &str) -> (LoggedChild, PathBuf) {
     let id = std::process::id();
     let config = dir.join("node.toml");
     std::fs::write(
@@ -103,7 +105,7 @@ fn iox_node(dir: &std::path::Path, tag: &str, extra: &str) -> (ros2_util::Logged
         ),
     )
     .unwrap();
-    let node = spawn_node_in_netns(&config);
+    let node = rockwatch_bin!().spawn_node_in_netns(&config);
     (node, config)
 }
 
@@ -111,7 +113,7 @@ fn iox_node(dir: &std::path::Path, tag: &str, extra: &str) -> (ros2_util::Logged
 /// input exists (the replay waits for a subscriber).
 fn replay_iox(config: &std::path::Path, args: &[&str]) -> std::process::Output {
     let data = repo().join("tests/data/records");
-    Command::new(ros2_util::rockwatch())
+    Command::new(rockwatch_bin!())
         .args(["replay", "--config"])
         .arg(config)
         .arg("--record")
@@ -192,7 +194,7 @@ fn an_iceoryx2_replay_whose_packets_the_node_refuses_exits_1() {
         .unwrap_or_else(|| panic!("{replay_err}"));
     assert!(refused > 0 && refused < 250, "{replay_err}");
     assert_eq!(
-        ros2_util::count_before(&stderr, "rejected as invalid"),
+        count_before(&stderr, "rejected as invalid"),
         refused,
         "the node's count of implausible packets is what the replay was told\n{stderr}"
     );

@@ -4,10 +4,9 @@
 //! each test runs in a private network namespace (loopback only).
 //! Without Python/iceoryx2 the tests are skipped locally and FAIL when CI=true.
 
-mod ros2_util;
-mod support;
-use ros2_util::reexec_in_netns;
-use support::rinaldi_packets;
+mod shell_harness;
+use rockwatch_test_harness::netns::reexec_in_netns;
+use shell_harness::rinaldi_packets;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -234,7 +233,7 @@ fn python_publisher_to_node_to_python_subscriber_overturns_the_slender_pillar() 
     let config = test_config("python");
     let dir = tempfile::tempdir().unwrap();
     let packets_file = dir.path().join("packets.json");
-    let packets = rinaldi_packets();
+    let packets = rinaldi_packets(10.0);
     write_packets(&packets_file, &packets);
     let stop_file = dir.path().join("stop");
     let subscriber = python_subscriber(&config, &stop_file);
@@ -281,7 +280,7 @@ fn killed_publisher_leaves_the_node_serving_the_next_one() {
     }
     let config = test_config("kill");
     let dir = tempfile::tempdir().unwrap();
-    let packets = rinaldi_packets();
+    let packets = rinaldi_packets(10.0);
     let split = 40;
     let (first, second) = (
         dir.path().join("first.json"),

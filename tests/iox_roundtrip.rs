@@ -3,10 +3,9 @@
 //! alert publisher on one event loop) → a Rust subscriber, with the Rinaldi record. The node
 //! also joins ROS 2, so those tests run in a private network namespace (loopback only).
 
-mod ros2_util;
-mod support;
-use ros2_util::reexec_in_netns;
-use support::rinaldi_packets;
+mod shell_harness;
+use rockwatch_test_harness::netns::reexec_in_netns;
+use shell_harness::rinaldi_packets;
 
 use std::mem::{align_of, offset_of, size_of};
 use std::path::PathBuf;
@@ -178,7 +177,7 @@ fn rinaldi_over_iceoryx2_overturns_the_slender_pillar(shards: usize) {
     };
     ready.wait();
 
-    let packets = rinaldi_packets();
+    let packets = rinaldi_packets(10.0);
     let n = packets.len() as u64;
     // The node runs on this thread; the sender stops it once everything was sent (what the
     // engine still holds comes out at shutdown).

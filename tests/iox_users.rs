@@ -12,7 +12,10 @@
 //! Each test uses its own iceoryx2 prefix and root directory (derived from
 //! config/iceoryx2.toml), and removes its segments at the end.
 
-mod ros2_util;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::peers::peer_available;
+use rockwatch_test_harness::process::{stop_node, LoggedChild};
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
@@ -21,7 +24,6 @@ use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
 use rockwatch::iox::{AccelHeader, AccelSample, IoxAlertSubscriber, IoxConfig};
-use ros2_util::{repo, spawn_node_in_netns, stop_node, LoggedChild};
 
 /// Set in the copy of this binary run as the other user: what it does (see [`attacker`]).
 const ROLE_ENV: &str = "ROCKWATCH_IOX_OTHER_USER";
@@ -133,7 +135,7 @@ impl OtherUser {
             .arg("--version")
             .output()
             .is_ok_and(|o| o.status.success());
-        if !ros2_util::peer_available(
+        if !peer_available(
             root && setpriv,
             "root and setpriv (to act as a second user)",
             "run the tests as root; setpriv is in util-linux, installed by .ci/run",
@@ -284,7 +286,7 @@ impl Deployment {
     /// SIGTERM stops it cleanly) and its services exist (its alerts service can be opened;
     /// alone this may hold before the node runs, the previous node's service still seen).
     fn start_node(&self) -> Node {
-        let mut node = spawn_node_in_netns(&self.node_file);
+        let mut node = rockwatch_bin!().spawn_node_in_netns(&self.node_file);
         let deadline = Instant::now() + Duration::from_secs(20);
         loop {
             let started = node.stderr_so_far().contains("on DDS domain");
@@ -314,7 +316,7 @@ impl Deployment {
 
     /// `rockwatch node` that must refuse to start: its exit status and stderr.
     fn refused_node(&self) -> (std::process::ExitStatus, String) {
-        let mut node = spawn_node_in_netns(&self.node_file);
+        let mut node = rockwatch_bin!().spawn_node_in_netns(&self.node_file);
         let deadline = Instant::now() + Duration::from_secs(20);
         while node.child.try_wait().unwrap().is_none() {
             if Instant::now() > deadline {

@@ -4,12 +4,14 @@
 //! theirs) while it lives, and they come back after; the filter applies to both; `/rosout`
 //! gets rockwatch's records at or above its level only.
 
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::rockwatch_bin;
+
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 
 use rockwatch::logging::{self, LogFormat, LogOptions, MuteLibraries};
-
-mod ros2_util;
 
 /// A writer into a shared buffer.
 #[derive(Clone, Default)]
@@ -174,11 +176,10 @@ fn log_flags_and_variables_through_the_binary() {
 /// are still there, at debug (kept, not deleted).
 #[test]
 fn expected_library_noise_of_a_loopback_only_node_is_kept_at_debug_and_explained_once() {
-    use ros2_util::*;
     let dir = tempfile::tempdir().unwrap();
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let rec = repo().join("tests/data/records");
     let rec = rec.display();
     let run = |filter: &str, label: &str| {

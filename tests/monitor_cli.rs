@@ -1,16 +1,8 @@
 //! `rockwatch monitor`, `alerts`, `reset` and `status --state-dir` end to end through the binary.
 
+use rockwatch_test_harness::rockwatch_bin;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn rockwatch(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_rockwatch"));
-    cmd.args(args);
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    cmd.output().expect("runs")
-}
+use std::process::Output;
 
 fn monitor_rinaldi(state_dir: Option<&Path>, env: &[(&str, &str)]) -> Output {
     let mut args = vec![
@@ -39,7 +31,7 @@ fn monitor_rinaldi(state_dir: Option<&Path>, env: &[(&str, &str)]) -> Output {
         dir = d.to_str().unwrap().to_string();
         args.extend(["--state-dir", &dir]);
     }
-    rockwatch(&args, env)
+    rockwatch_bin!().run(&args).envs(env).output()
 }
 
 fn lines(out: &Output) -> Vec<serde_json::Value> {
@@ -117,16 +109,13 @@ fn state_dir_keeps_history_and_a_second_run_adds_no_duplicates() {
         alert_ids(&lines(&second)).is_empty(),
         "replaying the same record re-alerted"
     );
-    let history = rockwatch(
-        &[
-            "alerts",
-            "--state-dir",
-            dir.path().to_str().unwrap(),
-            "--format",
-            "json",
-        ],
-        &[],
-    );
+    let history = rockwatch_bin!().output(&[
+        "alerts",
+        "--state-dir",
+        dir.path().to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
     assert!(history.status.success());
     let records: Vec<serde_json::Value> = serde_json::from_slice(&history.stdout).unwrap();
     assert_eq!(
@@ -148,16 +137,13 @@ fn crash_between_journal_and_report_loses_and_duplicates_nothing() {
         let restarted = monitor_rinaldi(Some(dir.path()), &[]);
         assert!(restarted.status.success());
         // The history in the state directory equals the uninterrupted run's alerts.
-        let history = rockwatch(
-            &[
-                "alerts",
-                "--state-dir",
-                dir.path().to_str().unwrap(),
-                "--format",
-                "json",
-            ],
-            &[],
-        );
+        let history = rockwatch_bin!().output(&[
+            "alerts",
+            "--state-dir",
+            dir.path().to_str().unwrap(),
+            "--format",
+            "json",
+        ]);
         let records: Vec<serde_json::Value> = serde_json::from_slice(&history.stdout).unwrap();
         let mut journaled: Vec<String> = records
             .iter()
@@ -176,10 +162,8 @@ fn reset_lets_a_fallen_block_fall_again_in_a_new_episode() {
     let dir = tempfile::tempdir().unwrap();
     assert!(monitor_rinaldi(Some(dir.path()), &[]).status.success());
     let d = dir.path().to_str().unwrap();
-    let reset = rockwatch(
-        &["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"],
-        &[],
-    );
+    let reset =
+        rockwatch_bin!().output(&["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"]);
     assert!(
         reset.status.success(),
         "{}",
@@ -197,7 +181,7 @@ fn reset_lets_a_fallen_block_fall_again_in_a_new_episode() {
         })
         .collect();
     assert_eq!(pillar.last(), Some(&(2, "overturned".to_string())));
-    let unknown = rockwatch(&["reset", "--state-dir", d, "--pbr", "no-such-rock"], &[]);
+    let unknown = rockwatch_bin!().output(&["reset", "--state-dir", d, "--pbr", "no-such-rock"]);
     assert!(!unknown.status.success());
 }
 
@@ -218,13 +202,11 @@ fn alerts_and_monitor_share_one_alert_schema_with_iso_times() {
         let o = v.as_object_mut().unwrap();
         assert!(o.remove("t_s").is_some() && o.remove("latency_us").is_some());
     }
-    assert!(rockwatch(
-        &["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"],
-        &[]
-    )
-    .status
-    .success());
-    let json = rockwatch(&["alerts", "--state-dir", d, "--format", "json"], &[]);
+    assert!(rockwatch_bin!()
+        .output(&["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"])
+        .status
+        .success());
+    let json = rockwatch_bin!().output(&["alerts", "--state-dir", d, "--format", "json"]);
     assert!(json.status.success());
     let records: Vec<serde_json::Value> = serde_json::from_slice(&json.stdout).unwrap();
     let journaled: Vec<_> = records
@@ -271,7 +253,7 @@ fn alerts_and_monitor_share_one_alert_schema_with_iso_times() {
         .iter()
         .all(|r| ["alert", "episode_end", "reset"].contains(&r["type"].as_str().unwrap())));
     // Text: the same ISO times, no raw nanoseconds.
-    let text = rockwatch(&["alerts", "--state-dir", d], &[]);
+    let text = rockwatch_bin!().output(&["alerts", "--state-dir", d]);
     assert!(text.status.success());
     let text = String::from_utf8(text.stdout).unwrap();
     assert!(
@@ -333,7 +315,7 @@ fn bad_invocations_fail_with_one_line() {
         ],
     ];
     for args in cases {
-        let out = rockwatch(args, &[]);
+        let out = rockwatch_bin!().output(args);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{args:?}");
         assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
@@ -360,7 +342,7 @@ fn mseed_in_counts_with_station_gain_matches_the_file_in_mps2() {
     )
     .unwrap();
     let summary = |args: &[&str]| {
-        let out = rockwatch(args, &[]);
+        let out = rockwatch_bin!().output(args);
         assert!(
             out.status.success(),
             "{}",
@@ -525,18 +507,15 @@ fn a_device_given_as_a_file_is_refused_not_read_until_memory_runs_out() {
     // Issue 24 item 8: `--mseed /dev/urandom` read until memory ran out. Input files are read
     // up to a bound (rockwatch_core::bounded_read), here a never-ending device.
     let catalogue = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml");
-    let out = rockwatch(
-        &[
-            "monitor",
-            "--catalogue",
-            catalogue,
-            "--station",
-            "CI.RRS.00",
-            "--mseed",
-            "/dev/zero",
-        ],
-        &[],
-    );
+    let out = rockwatch_bin!().output(&[
+        "monitor",
+        "--catalogue",
+        catalogue,
+        "--station",
+        "CI.RRS.00",
+        "--mseed",
+        "/dev/zero",
+    ]);
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -544,18 +523,15 @@ fn a_device_given_as_a_file_is_refused_not_read_until_memory_runs_out() {
         "{stderr}"
     );
     // A configuration too.
-    let out = rockwatch(
-        &[
-            "monitor",
-            "--config",
-            "/dev/zero",
-            "--station",
-            "CI.RRS.00",
-            "--mseed",
-            "/dev/null",
-        ],
-        &[],
-    );
+    let out = rockwatch_bin!().output(&[
+        "monitor",
+        "--config",
+        "/dev/zero",
+        "--station",
+        "CI.RRS.00",
+        "--mseed",
+        "/dev/null",
+    ]);
     assert!(!out.status.success());
     assert!(
         String::from_utf8_lossy(&out.stderr).contains("the most read of such a file"),
@@ -599,7 +575,7 @@ fn monitor_never_writes_a_nodes_state_directory() {
             "jsonl",
         ];
         args.extend(extra);
-        rockwatch(&args, &[])
+        rockwatch_bin!().output(&args)
     };
     // The configuration's state_dir: untouched, and the user is told why.
     let out = monitor(&[]);
@@ -690,21 +666,18 @@ fn a_catalogue_with_several_problems_lists_them_all_in_one_run() {
         entry("a", "34.28", "") + &entry("b", "134.28", "source = \"x\"\nseed = -1"),
     )
     .unwrap();
-    let out = rockwatch(
-        &[
-            "monitor",
-            "--catalogue",
-            catalogue.to_str().unwrap(),
-            "--record",
-            concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../tests/data/records/Rinaldi228.AT2"
-            ),
-            "--station",
-            "CI.RRS.00",
-        ],
-        &[],
-    );
+    let out = rockwatch_bin!().output(&[
+        "monitor",
+        "--catalogue",
+        catalogue.to_str().unwrap(),
+        "--record",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/records/Rinaldi228.AT2"
+        ),
+        "--station",
+        "CI.RRS.00",
+    ]);
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     let lines: Vec<&str> = stderr.lines().collect();
@@ -783,12 +756,10 @@ fn alerts_filter_by_time_block_and_level_and_every_record_has_its_documented_key
     .to_vec();
     args.push(d.to_owned());
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    assert!(rockwatch(&args, &[]).status.success());
+    assert!(rockwatch_bin!().output(&args).status.success());
     let before_ns = rockwatch::journal::utc_now_ns();
-    let reset = rockwatch(
-        &["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"],
-        &[],
-    );
+    let reset =
+        rockwatch_bin!().output(&["reset", "--state-dir", d, "--pbr", "rrs-slender-pillar"]);
     assert!(reset.status.success());
     let after_ns = rockwatch::journal::utc_now_ns();
     // A node's publication marker, and a reset journaled before resets had a time.
@@ -809,7 +780,7 @@ fn alerts_filter_by_time_block_and_level_and_every_record_has_its_documented_key
     let json = |extra: &[&str]| -> (Vec<serde_json::Value>, String) {
         let mut args = vec!["alerts", "--state-dir", d, "--format", "json"];
         args.extend(extra);
-        let out = rockwatch(&args, &[]);
+        let out = rockwatch_bin!().output(&args);
         let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
         assert!(out.status.success(), "{stderr}");
         (serde_json::from_slice(&out.stdout).unwrap(), stderr)
@@ -850,7 +821,12 @@ fn alerts_filter_by_time_block_and_level_and_every_record_has_its_documented_key
     assert!((before_ns..=after_ns).contains(&t), "{reset}");
     assert!(reset["time"].as_str().unwrap().ends_with('Z'));
     // The text shows it on the reset row; the timeless one shows `-`.
-    let text = String::from_utf8(rockwatch(&["alerts", "--state-dir", d], &[]).stdout).unwrap();
+    let text = String::from_utf8(
+        rockwatch_bin!()
+            .output(&["alerts", "--state-dir", d])
+            .stdout,
+    )
+    .unwrap();
     let row = |pbr: &str| {
         text.lines()
             .find(|l| l.starts_with(pbr) && l.contains("reset by operator"))
@@ -924,7 +900,7 @@ fn alerts_filter_by_time_block_and_level_and_every_record_has_its_documented_key
         "{stderr}"
     );
     // A time that is not one: one line, exit 1.
-    let bad = rockwatch(&["alerts", "--state-dir", d, "--since", "yesterday"], &[]);
+    let bad = rockwatch_bin!().output(&["alerts", "--state-dir", d, "--since", "yesterday"]);
     assert!(!bad.status.success());
     assert_eq!(String::from_utf8_lossy(&bad.stderr).lines().count(), 1);
 }
@@ -943,7 +919,7 @@ fn status_of_a_state_dir_exits_1_while_a_rock_lies_and_0_after_its_reset() {
     let status = |extra: &[&str]| {
         let mut args = vec!["status", "--state-dir", s, "--format", "json"];
         args.extend(extra);
-        let out = rockwatch(&args, &[]);
+        let out = rockwatch_bin!().output(&args);
         let v: serde_json::Value = serde_json::from_slice(&out.stdout)
             .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stderr)));
         (out.status.code(), v)
@@ -971,7 +947,7 @@ fn status_of_a_state_dir_exits_1_while_a_rock_lies_and_0_after_its_reset() {
     );
     assert_eq!(pillar["station_health"], "unknown", "{pillar}");
     // The text table says why.
-    let text = rockwatch(&["status", "--state-dir", s], &[]);
+    let text = rockwatch_bin!().output(&["status", "--state-dir", s]);
     assert_eq!(text.status.code(), Some(1));
     let table = String::from_utf8_lossy(&text.stdout);
     assert!(
@@ -979,10 +955,8 @@ fn status_of_a_state_dir_exits_1_while_a_rock_lies_and_0_after_its_reset() {
         "{table}"
     );
 
-    let reset = rockwatch(
-        &["reset", "--state-dir", s, "--pbr", "rrs-slender-pillar"],
-        &[],
-    );
+    let reset =
+        rockwatch_bin!().output(&["reset", "--state-dir", s, "--pbr", "rrs-slender-pillar"]);
     assert!(reset.status.success());
     let catalogue = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/catalogue.toml");
     let (code, v) = status(&["--catalogue", catalogue]);
@@ -998,11 +972,11 @@ fn status_of_a_state_dir_exits_1_while_a_rock_lies_and_0_after_its_reset() {
     assert!(tombstone["peak_theta_over_alpha"].is_null(), "{tombstone}");
 
     let missing = dir.path().join("nowhere");
-    let out = rockwatch(&["status", "--state-dir", missing.to_str().unwrap()], &[]);
+    let out = rockwatch_bin!().output(&["status", "--state-dir", missing.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no such directory"));
     // A usage error is 2 as well (1 is the alarm).
-    assert_eq!(rockwatch(&["status"], &[]).status.code(), Some(2));
+    assert_eq!(rockwatch_bin!().output(&["status"]).status.code(), Some(2));
 }
 
 /// The samples of an AT2 file (in g), read here independently of the crate's reader.
@@ -1129,20 +1103,17 @@ fn a_fall_writes_an_event_report_that_rockwatch_report_draws_again() {
     // Drawn again: the PNG rewritten, the JSON unchanged and printed as the file holds it.
     std::fs::remove_file(json_path.with_extension("png")).unwrap();
     let state_dir = dir.path().to_str().unwrap();
-    let again = rockwatch(
-        &[
-            "report",
-            "--state-dir",
-            state_dir,
-            "--pbr",
-            "rrs-slender-pillar",
-            "--episode",
-            "1",
-            "--format",
-            "json",
-        ],
-        &[],
-    );
+    let again = rockwatch_bin!().output(&[
+        "report",
+        "--state-dir",
+        state_dir,
+        "--pbr",
+        "rrs-slender-pillar",
+        "--episode",
+        "1",
+        "--format",
+        "json",
+    ]);
     assert!(
         again.status.success(),
         "{}",
@@ -1158,37 +1129,31 @@ fn a_fall_writes_an_event_report_that_rockwatch_report_draws_again() {
     // episodes: each gets its report (the fallen pillar only its fall's).
     let longer = tempfile::tempdir().unwrap();
     let rec = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/records/");
-    let out = rockwatch(
-        &[
-            "monitor",
-            "--config",
-            concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml"),
-            "--record",
-            &format!("{rec}Rinaldi228.AT2"),
-            "--vertical",
-            &format!("{rec}RinaldiUP.AT2"),
-            "--azimuth",
-            "228",
-            "--station",
-            "CI.RRS.00",
-            "--tail",
-            "60",
-            "--state-dir",
-            longer.path().to_str().unwrap(),
-        ],
-        &[],
-    );
+    let out = rockwatch_bin!().output(&[
+        "monitor",
+        "--config",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml"),
+        "--record",
+        &format!("{rec}Rinaldi228.AT2"),
+        "--vertical",
+        &format!("{rec}RinaldiUP.AT2"),
+        "--azimuth",
+        "228",
+        "--station",
+        "CI.RRS.00",
+        "--tail",
+        "60",
+        "--state-dir",
+        longer.path().to_str().unwrap(),
+    ]);
     assert!(out.status.success());
-    let history = rockwatch(
-        &[
-            "alerts",
-            "--state-dir",
-            longer.path().to_str().unwrap(),
-            "--format",
-            "json",
-        ],
-        &[],
-    );
+    let history = rockwatch_bin!().output(&[
+        "alerts",
+        "--state-dir",
+        longer.path().to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
     let ends: Vec<serde_json::Value> =
         serde_json::from_slice::<Vec<serde_json::Value>>(&history.stdout)
             .unwrap()
@@ -1198,18 +1163,15 @@ fn a_fall_writes_an_event_report_that_rockwatch_report_draws_again() {
     assert!(!ends.is_empty());
     for end in &ends {
         let pbr = end["pbr_id"].as_str().unwrap();
-        let shown = rockwatch(
-            &[
-                "report",
-                "--state-dir",
-                longer.path().to_str().unwrap(),
-                "--pbr",
-                pbr,
-                "--format",
-                "json",
-            ],
-            &[],
-        );
+        let shown = rockwatch_bin!().output(&[
+            "report",
+            "--state-dir",
+            longer.path().to_str().unwrap(),
+            "--pbr",
+            pbr,
+            "--format",
+            "json",
+        ]);
         assert!(shown.status.success(), "{pbr}");
         let r: serde_json::Value = serde_json::from_slice(&shown.stdout).unwrap();
         assert_eq!(
@@ -1223,10 +1185,8 @@ fn a_fall_writes_an_event_report_that_rockwatch_report_draws_again() {
         ["--pbr", "rrs-slender-pillar", "--episode", "2"],
         ["--pbr", "no-such-rock", "--format", "text"],
     ] {
-        let out = rockwatch(
-            &[&["report", "--state-dir", state_dir][..], &args[..]].concat(),
-            &[],
-        );
+        let out = rockwatch_bin!()
+            .output(&[&["report", "--state-dir", state_dir][..], &args[..]].concat());
         assert!(!out.status.success());
         assert!(String::from_utf8_lossy(&out.stderr).contains("no report of rock"));
     }

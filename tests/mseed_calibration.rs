@@ -4,25 +4,19 @@
 //! (written by ObsPy, see generate/inventories.py), and calibrated + rotated like ObsPy's
 //! `remove_sensitivity` + `rotate("->ZNE", inventory=…)` for tilted, non-orthogonal axes.
 
+use rockwatch_test_harness::peers;
+use rockwatch_test_harness::rockwatch_bin;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use rockwatch::node_config::NodeConfig;
 use rockwatch::replay::{MseedCalibration, Traces};
 use rockwatch_core::engine::StationId;
 use rockwatch_core::inventory::Inventory;
 
-mod obspy_peer;
-
 fn data(rel: &str) -> PathBuf {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data")).join(rel)
-}
-
-fn rockwatch(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .expect("runs")
 }
 
 /// A catalogue with one very slender block (B/H = 0.005) on XX.STN., so the K2 record's
@@ -53,7 +47,7 @@ fn monitor(catalogue: &Path, mseed: &str, extra: &[&str]) -> Output {
         "jsonl",
     ];
     args.extend(extra);
-    rockwatch(&args)
+    rockwatch_bin!().output(&args)
 }
 
 /// JSON lines without the wall-clock field `latency_us`.
@@ -91,7 +85,7 @@ fn integer_counts_without_a_gain_are_a_one_line_error_naming_the_channel() {
     );
     // Nothing was reported (formerly: a false overturn with PGA 29766 m/s²).
     assert!(out.stdout.is_empty());
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "ims",
         "--record",
         data("mseed/knet_AKT013_HNE_counts.mseed").to_str().unwrap(),
@@ -182,7 +176,7 @@ fn assert_json_close(a: &serde_json::Value, b: &serde_json::Value, rel: f64) {
 #[test]
 fn ims_of_counts_with_stationxml_equal_those_of_the_m_s2_file() {
     let ims = |args: &[&str]| {
-        let out = rockwatch(&[&["ims", "--format", "json"], args].concat());
+        let out = rockwatch_bin!().output(&[&["ims", "--format", "json"], args].concat());
         assert!(
             out.status.success(),
             "{}",
@@ -243,7 +237,7 @@ fn calibration_and_rotation_agree_with_obspy_to_1e_6() {
     let dir = tempfile::tempdir().unwrap();
     let xml = dir.path().join("tilted.xml");
     let counts = data("mseed/k2_STNA_HN123_counts.mseed");
-    let Some(stdout) = obspy_peer::run_obspy(
+    let Some(stdout) = peers::run_obspy(
         OBSPY_ROTATE,
         &[xml.to_str().unwrap(), counts.to_str().unwrap()],
     ) else {
@@ -383,7 +377,7 @@ fn mseed_input_prefers_the_accelerometer_and_channels_chooses() {
             "jsonl",
         ];
         args.extend_from_slice(extra);
-        rockwatch(&args)
+        rockwatch_bin!().output(&args)
     };
     let summary = |o: &Output| -> serde_json::Value {
         let text = String::from_utf8_lossy(&o.stdout).into_owned();
@@ -451,7 +445,7 @@ fn velocity_channels_are_refused_or_differentiated_with_the_flag() {
             "json",
         ];
         args.extend_from_slice(extra);
-        rockwatch(&args)
+        rockwatch_bin!().output(&args)
     };
     let refused = ims(&[]);
     let err = String::from_utf8_lossy(&refused.stderr);
@@ -483,7 +477,7 @@ fn velocity_channels_are_refused_or_differentiated_with_the_flag() {
          azimuth_deg = 90.0\nwidth_m = 1.0\nheight_m = 2.0\nmu_s = 0.7\nmu_k = 0.55\nsource = \"t\"\n",
     )
     .unwrap();
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "monitor",
         "--catalogue",
         catalogue.to_str().unwrap(),
@@ -519,7 +513,7 @@ fn replay_of_a_station_the_node_does_not_know_is_refused_before_sending() {
     // config/node.toml's catalogue binds blocks to CI.RRS.00 and others, not XX.STN.: the
     // node would count all the packets as unknown_station and ignore them.
     let node_toml = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/node.toml");
-    let out = rockwatch(&[
+    let out = rockwatch_bin!().output(&[
         "replay",
         "--mseed",
         data("mseed/k2_STNA_HN123_counts.mseed").to_str().unwrap(),

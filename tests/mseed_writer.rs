@@ -8,8 +8,9 @@ use rockwatch_core::record::mseed::{
     SampleKind, Samples, WriteOptions, NS_PER_S,
 };
 use rockwatch_core::record::Record;
+use rockwatch_test_harness::rockwatch_bin;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 // ---------------------------------------------------------------------------------------
 // An independent MiniSEED 2 header parser (SEED 2.4 manual, chapter 8: fixed section of
@@ -969,13 +970,6 @@ fn assert_same_samples(got: &[f64], expected: &[f64], context: &str) {
     }
 }
 
-fn rockwatch(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .expect("the rockwatch binary runs")
-}
-
 fn pulses_json(out: &Path, extra: &[&str]) -> serde_json::Value {
     let mut args = vec![
         "pulses",
@@ -994,7 +988,7 @@ fn pulses_json(out: &Path, extra: &[&str]) -> serde_json::Value {
         args.extend_from_slice(&["--count", "3"]);
     }
     args.extend_from_slice(extra);
-    let output = rockwatch(&args);
+    let output = rockwatch_bin!().output(&args);
     assert!(
         output.status.success(),
         "stderr: {}",
@@ -1071,7 +1065,7 @@ fn ims_reads_a_pulses_mseed_file_like_its_csv_twin() {
         &[&extra[..], &["--file-format", "mseed"]].concat(),
     ));
     let ims = |file: &Path| -> serde_json::Value {
-        let output = rockwatch(&[
+        let output = rockwatch_bin!().output(&[
             "ims",
             "--record",
             file.to_str().unwrap(),
@@ -1122,7 +1116,7 @@ fn pulses_mseed_band_code_follows_the_rate_and_bad_rates_fail_early() {
     assert_eq!(file.channels[0].id(), "XX.P0001..BNX");
 
     let out = dir.path().join("bad");
-    let output = rockwatch(&[
+    let output = rockwatch_bin!().output(&[
         "pulses",
         "--mw",
         "7",

@@ -9,8 +9,12 @@
 //!   while CI.SYL.00, never heard from, still is;
 //! - the same record sent again is counted per station as duplicate and late packets.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::node_output::{
+    labelled_value, parse_prometheus, station_value, Sample,
+};
+use rockwatch_test_harness::rockwatch_bin;
 
 const ROCKS: [&str; 7] = [
     "rrs-slender-pillar",
@@ -35,7 +39,7 @@ fn metrics_report_rocks_duplicates_and_stations_with_no_data_yet() {
         ),
     )
     .unwrap();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let rec = repo().join("tests/data/records");
     let rec = rec.display();
     let replay = format!(

@@ -1,7 +1,7 @@
 //! The live node's runtime without transports: packets in, publications out, journal kept.
 
-mod support;
-use support::rinaldi_packets;
+mod shell_harness;
+use shell_harness::rinaldi_packets;
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -26,7 +26,7 @@ fn reference_alert_keys() -> Vec<rockwatch_core::engine::AlertKey> {
         .collect();
     let mut engine = Engine::new(EngineConfig::default(), vec![], &specs).unwrap();
     let mut out = Vec::new();
-    for p in rinaldi_packets() {
+    for p in rinaldi_packets(10.0) {
         engine.process(p, 0, &mut out);
     }
     engine.flush(0, &mut out);
@@ -61,7 +61,7 @@ fn runtime_publishes_the_engines_alerts(shards: usize) {
     assert_eq!(node.shards(), shards);
     let mut published = Vec::new();
     let mut publish = |p: Publication| published.push(p);
-    for packet in rinaldi_packets() {
+    for packet in rinaldi_packets(10.0) {
         node.submit(packet, &mut publish);
         node.poll(&mut publish);
     }
@@ -136,7 +136,7 @@ fn inline_runtime_publishes_an_alert_during_submit_after_journaling_it() {
     assert_eq!(options.shards, 1, "one shard (inline) is the default");
     let mut node = NodeRuntime::start(&options).unwrap();
     let mut alerts = 0;
-    for packet in rinaldi_packets() {
+    for packet in rinaldi_packets(10.0) {
         let mut during = Vec::new();
         node.submit(packet, &mut |p| {
             if let Publication::Alert { alert, .. } = &p {
@@ -171,7 +171,7 @@ fn a_restarted_inline_runtime_never_publishes_a_journaled_alert_again() {
         state_dir: Some(dir.path().to_path_buf()),
         ..NodeOptions::default()
     };
-    let packets = rinaldi_packets();
+    let packets = rinaldi_packets(10.0);
     let count_alerts = |node: &mut NodeRuntime, packets: &[rockwatch_core::engine::AccelPacket]| {
         let mut n = 0;
         for p in packets {
@@ -203,7 +203,7 @@ fn a_packet_held_for_missing_data_is_released_when_the_station_falls_silent() {
             ..NodeOptions::default()
         };
         // Loaded before the start: the node's held-packet timer runs from its start.
-        let packets = rinaldi_packets();
+        let packets = rinaldi_packets(10.0);
         let mut node = NodeRuntime::start(&options).unwrap();
         // Packet 0, then packet 12 (1.1 s lost), then silence: packet 12 waits in the reorder
         // window until the node's timer releases it. (States and intensities are published
@@ -245,7 +245,7 @@ fn a_packet_held_for_missing_data_is_released_when_the_station_falls_silent() {
 /// The Rinaldi packets again, as the same station's stream continuing `after_s` seconds after
 /// the end of the first pass (later times, later sequence numbers).
 fn rinaldi_again(after_s: f64) -> Vec<rockwatch_core::engine::AccelPacket> {
-    let first = rinaldi_packets();
+    let first = rinaldi_packets(10.0);
     let last = first.last().unwrap();
     let end_ns = last.start_time_ns + (last.len() as f64 * 1e9 / last.sample_rate_hz) as i64;
     let shift_ns = end_ns - first[0].start_time_ns + (after_s * 1e9) as i64;
@@ -328,7 +328,7 @@ fn operator_reset_stands_the_block_again(shards: usize) {
     assert_eq!(resets_in_journal(), 0);
 
     // First pass: the slender block overturns in episode 1 (as the plain engine says).
-    let first = feed(&mut node, &rinaldi_packets());
+    let first = feed(&mut node, &rinaldi_packets(10.0));
     let expected: Vec<_> = reference_alert_keys()
         .into_iter()
         .filter(|k| k.0 == SLENDER)
@@ -410,7 +410,7 @@ fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap()
         .as_nanos() as i64;
-    let mut packets = rinaldi_packets();
+    let mut packets = rinaldi_packets(10.0);
     packets.truncate(3);
     // 10 samples of 100 ms each: the packet's data end 0.1 s after its start.
     let stamp = |p: &mut rockwatch_core::engine::AccelPacket, start: i64| p.start_time_ns = start;
@@ -433,7 +433,7 @@ fn packets_stamped_ahead_of_their_arrival_are_rejected_and_counted() {
         ..options
     };
     let mut node = NodeRuntime::start(&offline).unwrap();
-    let mut p = rinaldi_packets().remove(0);
+    let mut p = rinaldi_packets(10.0).remove(0);
     p.start_time_ns = now_ns + 300_000_000_000_000_000;
     node.submit(p, &mut publish);
     assert_eq!(node.stats().future_packets, 0);
@@ -451,7 +451,7 @@ fn a_malformed_station_id_is_refused_the_same_over_iceoryx2_and_ros2() {
     use rockwatch::ros2::msg;
     use rockwatch_core::engine::AccelPacket;
 
-    let good = rinaldi_packets().remove(0);
+    let good = rinaldi_packets(10.0).remove(0);
     let samples: Vec<AccelSample> = (0..good.len())
         .map(|i| AccelSample {
             east: good.east[i],
@@ -584,7 +584,7 @@ fn a_full_disk_degrades_the_node_and_the_journal_catches_up_when_space_returns()
             alerts.push((alert.key(), journal_pending));
         }
     };
-    for packet in rinaldi_packets() {
+    for packet in rinaldi_packets(10.0) {
         node.submit(packet, &mut publish);
     }
     let stats = node.stats();
@@ -702,7 +702,7 @@ fn a_node_starts_on_a_full_disk_degraded_and_journals_once_there_is_room() {
             alerts.push((alert.key(), journal_pending));
         }
     };
-    for packet in rinaldi_packets() {
+    for packet in rinaldi_packets(10.0) {
         node.submit(packet, &mut publish);
     }
     let mut keys: Vec<_> = alerts.iter().map(|(k, _)| k.clone()).collect();

@@ -12,8 +12,10 @@
 //!   drops it. Each reload logs the settings it changed, old → new.
 //! - JSON logs: the stop counters and a reload's changed settings are structured fields.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{reexec_in_netns, run_in_netns, text};
+use rockwatch_test_harness::process::NodeProcess;
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::os::unix::net::UnixDatagram;
 use std::path::Path;
@@ -46,7 +48,7 @@ fn node_toml(dir: &Path, ratio: f64) {
 /// now — always after the `original` data, so a block that stood then sees new data).
 fn replay(config: &Path, station: &str, restamp: &str) {
     let data = repo().join("tests/data/records");
-    let out = Command::new(rockwatch())
+    let out = Command::new(rockwatch_bin!())
         .args(["replay", "--config"])
         .arg(config)
         .arg("--record")
@@ -87,7 +89,7 @@ fn wait_for(node: &NodeProcess, what: &str, cond: impl Fn(&str) -> bool) -> Stri
 
 /// (pbr, level, |θ/α|) of every journaled alert.
 fn alerts(state: &Path) -> Vec<(String, String, f64)> {
-    let out = Command::new(rockwatch())
+    let out = Command::new(rockwatch_bin!())
         .args(["alerts", "--format", "json", "--state-dir"])
         .arg(state)
         .output()
@@ -122,7 +124,7 @@ fn sighup_reloads_catalogue_and_thresholds_keeping_the_blocks_state() {
     node_toml(d, 0.8);
     let config = d.join("node.toml");
     let state = d.join("state");
-    let mut node = NodeProcess::start(&config, &state, d.join("node.err"));
+    let mut node = rockwatch_bin!().start_node(&config, &state, d.join("node.err"));
 
     // 1. The first block overturns.
     replay(&config, "XB.ONE.00", "original");
@@ -253,7 +255,7 @@ fn json_logs_carry_the_stop_counters_and_each_setting_a_reload_changed_as_fields
             "[engine]\nstale_after_s = 30.0\n[engine.alerts]",
         );
     std::fs::write(d.join("reloaded.toml"), reloaded).unwrap();
-    let (bin, dd) = (rockwatch().display().to_string(), d.display());
+    let (bin, dd) = (rockwatch_bin!().display().to_string(), d.display());
     let rec = repo().join("tests/data/records");
     let rec = rec.display();
     let script = format!(
@@ -354,7 +356,7 @@ fn sd_notify_ready_then_watchdog_pings_from_the_event_loop_which_stop_while_it_s
     socket
         .set_read_timeout(Some(Duration::from_millis(100)))
         .unwrap();
-    let mut node = Command::new(rockwatch())
+    let mut node = Command::new(rockwatch_bin!())
         .args(["node", "--config"])
         .arg(d.join("node.toml"))
         .env("NOTIFY_SOCKET", &socket_path)

@@ -3,8 +3,11 @@
 //! `std::net::TcpListener`) that is down for a while, and `exec` commands; then the same
 //! through the binary (`rockwatch node` fed by `rockwatch replay --transport iceoryx2`).
 
-mod ros2_util;
-mod support;
+mod shell_harness;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::process::stop_node;
+use rockwatch_test_harness::rockwatch_bin;
+use shell_harness::rinaldi_packets;
 
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader, Read, Write};
@@ -20,7 +23,6 @@ use rockwatch::node::{NodeOptions, NodeRuntime};
 use rockwatch::notify::{Notifier, NotifyConfig, NotifyKind};
 use rockwatch::ports::Publisher;
 use rockwatch_core::engine::{AlertLevel, JournalRecord};
-use support::rinaldi_packets;
 
 type Key = (String, u32, AlertLevel);
 
@@ -45,7 +47,7 @@ fn run_rinaldi(state: &Path, mut notifier: Option<&mut Notifier>) -> Vec<Journal
             n.publish(&p).unwrap();
         }
     };
-    for packet in rinaldi_packets() {
+    for packet in rinaldi_packets(10.0) {
         runtime.submit(packet, &mut publish);
     }
     runtime.stop(&mut publish);
@@ -467,19 +469,19 @@ fn rockwatch_node_delivers_its_alerts_to_an_exec_receiver() {
              [[notify]]\nkind = \"exec\"\ncommand = [\"sh\", \"-c\", \"cat >> \\\"$0\\\"\", \"{}\"]\n",
             catalogue().display(),
             state.display(),
-            ros2_util::repo().join("config/iceoryx2.toml").display(),
+            repo().join("config/iceoryx2.toml").display(),
             out.display()
         ),
     )
     .unwrap();
-    let node = ros2_util::spawn_node_in_netns(&config);
-    let replay = ros2_util::replay_rinaldi_iox(&config);
+    let node = rockwatch_bin!().spawn_node_in_netns(&config);
+    let replay = rockwatch_bin!().replay_rinaldi_iox(&config);
     let journal_alerts = || alerts(&read_journal(&state).unwrap().0);
     let delivered = wait_until(Duration::from_secs(20), || {
         let j = journal_alerts();
         !j.is_empty() && received_lines(&out).len() >= j.len()
     });
-    let (status, stderr) = ros2_util::stop_node(node);
+    let (status, stderr) = stop_node(node);
     assert!(
         replay.status.success(),
         "replay: {}",

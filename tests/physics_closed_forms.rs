@@ -2,19 +2,19 @@
 //!
 //! Every reference value is computed here, independently of the engine: energy quadratures
 //! (Gauss–Legendre after removing the singularity), Brent roots, Newmark's piecewise closed
-//! forms and an absolute-frame Newton–Euler solve (tests/common). The engine is driven only
+//! forms and an absolute-frame Newton–Euler solve (`rockwatch_test_harness::physics_reference`). The engine is driven only
 //! through its public real-time API (`RigidBlock::advance`, events and accessors).
 //!
 //! Sign conventions (spec §1): θ > 0 rotates about the right corner; a block pushed by a
 //! positive ground acceleration lags behind, so it rocks about the left corner
 //! (σ = −sgn ẍg) and slips to the left relative to the ground (s = −sgn ẍg).
 
-mod common;
-
-use common::{brent, drive, first_root, horizontal, integrate, newton_euler, Pivot, G_MPS2};
 use rockwatch_core::dynamics::equations::critical_friction_for_step;
 use rockwatch_core::dynamics::{
     BlockEvent, BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock,
+};
+use rockwatch_test_harness::physics_reference::{
+    self, brent, drive, first_root, horizontal, integrate, newton_euler, Pivot, G_MPS2,
 };
 
 /// Ramp length (s) used to feed a "step" of ground acceleration to the engine, whose input is
@@ -286,7 +286,7 @@ fn newmark_rectangular_pulse_slide_matches_closed_form() {
         let u_max = a.abs() * (a.abs() - mu_g) * t_d * t_d / (2.0 * mu_g);
         let t_stop = t_d * a.abs() / mu_g;
         let mut block = RigidBlock::new(params, BlockOptions::default());
-        let knots = common::rectangular_pulse(a, t_d, STEP_RAMP_S, t_stop + 1.0);
+        let knots = physics_reference::rectangular_pulse(a, t_d, STEP_RAMP_S, t_stop + 1.0);
         let events = drive(&mut block, &knots, 0.01);
         let changes = mode_changes(&events);
         assert_eq!(changes.first().map(|c| c.2), Some(Mode::Slide));
@@ -689,7 +689,7 @@ fn minimum_rectangular_pulse_to_overturn_matches_exact_energy_threshold() {
             let mut block = RigidBlock::new(params, BlockOptions::default());
             let events = drive(
                 &mut block,
-                &common::rectangular_pulse(a, t_d, STEP_RAMP_S, t_d + 15.0),
+                &physics_reference::rectangular_pulse(a, t_d, STEP_RAMP_S, t_d + 15.0),
                 0.05,
             );
             let first_peak_or_state = peaks(&events).first().copied().unwrap_or(block.theta_rad());

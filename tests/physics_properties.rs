@@ -9,18 +9,16 @@
 //!   Newmark sliding-block reference for the piecewise-linear record, and the CLI's handling of
 //!   bad input.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{accel_scale, newton_euler, Pivot, G_MPS2};
 use proptest::prelude::*;
 use rockwatch_core::dynamics::equations::{rocking, slide_rocking, sliding};
 use rockwatch_core::dynamics::impact::impact;
 use rockwatch_core::dynamics::{BlockParams, GroundAccel, ImpactKind, Mode};
 use rockwatch_core::record::Record;
 use rockwatch_core::simulate::{simulate, SimulationOptions, Status};
+use rockwatch_test_harness::physics_reference::{self, accel_scale, newton_euler, Pivot, G_MPS2};
 
 fn sign() -> impl Strategy<Value = f64> {
     prop_oneof![Just(1.0), Just(-1.0)]
@@ -412,7 +410,7 @@ fn newmark_piecewise_linear(ax: &[f64], ay: &[f64], dt: f64, mu_s: f64, mu_k: f6
                             stop = Some(if s * vel(lo) <= 0.0 {
                                 lo
                             } else {
-                                common::brent(|x| s * vel(x), lo, x1, 1e-16)
+                                physics_reference::brent(|x| s * vel(x), lo, x1, 1e-16)
                             });
                             break;
                         }

@@ -2,20 +2,13 @@
 //! printed summary and the pulse model.
 
 use rockwatch_core::record::Record;
+use rockwatch_test_harness::rockwatch_bin;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn rockwatch(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .expect("the rockwatch binary runs")
-}
 
 fn run_json(out: &Path, extra: &[&str]) -> serde_json::Value {
     let mut args = vec!["pulses", "--out", out.to_str().unwrap(), "--format", "json"];
     args.extend_from_slice(extra);
-    let output = rockwatch(&args);
+    let output = rockwatch_bin!().output(&args);
     assert!(
         output.status.success(),
         "stderr: {}",
@@ -167,7 +160,7 @@ fn pulses_same_seed_same_files_different_seed_different() {
 #[test]
 fn pulses_text_output_is_a_table() {
     let dir = tempfile::tempdir().unwrap();
-    let output = rockwatch(&[
+    let output = rockwatch_bin!().output(&[
         "pulses",
         "--mw",
         "7",
@@ -201,7 +194,7 @@ fn pulses_bad_arguments_fail_with_a_message() {
     ] {
         let mut full = vec!["pulses", "--out", out];
         full.extend(args.iter());
-        let output = rockwatch(&full);
+        let output = rockwatch_bin!().output(&full);
         assert!(!output.status.success(), "{args:?} should fail");
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(stderr.contains(needle), "{args:?}: {stderr}");

@@ -9,7 +9,7 @@
 //! (f) bit-identical summaries on repeated runs and on another thread.
 //! Meshes are generated here (as in tests/mesh_geometry.rs).
 
-use std::path::{Path, PathBuf};
+use rockwatch_test_harness::fixtures::rinaldi_horizontal;
 
 use nalgebra::{UnitQuaternion, Vector3};
 use rockwatch_core::dynamics::BlockParams;
@@ -22,10 +22,6 @@ use rockwatch_core::rocking3d::{
 };
 use rockwatch_core::simulate::{simulate, SimulationOptions};
 use rockwatch_core::STANDARD_GRAVITY_MPS2 as G;
-
-fn repo(path: &str) -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join(path)
-}
 
 /// A vertical prism: the convex polygon `base` (east, north; counter-clockwise seen from
 /// above) extruded from z = 0 to z = `height`.
@@ -145,7 +141,7 @@ fn a_box_under_one_sine_pulses_along_a_face_normal_matches_the_2d_engine() {
 
 #[test]
 fn a_box_under_rinaldi228_along_a_face_normal_matches_the_2d_engine() {
-    let rinaldi = Record::read(&repo("tests/data/records/Rinaldi228.AT2")).expect("Rinaldi228");
+    let rinaldi = rinaldi_horizontal();
     for scale in [0.3, 1.0] {
         let mut r = rinaldi.clone();
         r.scale(scale);

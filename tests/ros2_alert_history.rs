@@ -6,8 +6,11 @@
 //! another restart the late subscriber gets the same history again, and no alert was
 //! journaled twice. In a private network namespace, loopback only.
 
-mod ros2_util;
-use ros2_util::*;
+mod shell_harness;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::reexec_in_netns;
+use rockwatch_test_harness::rockwatch_bin;
+use shell_harness::{collect, rinaldi_packets};
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -28,7 +31,7 @@ fn plan() -> NetworkPlan {
 }
 
 fn start_node(config: &Path, state: &Path, err: &Path, fault: bool) -> Child {
-    let mut cmd = Command::new(rockwatch());
+    let mut cmd = Command::new(rockwatch_bin!());
     cmd.args(["node", "--config"])
         .arg(config)
         .arg("--state-dir")

@@ -2,8 +2,11 @@
 //! PbrAlert type parsed from msg/pbr_msgs/msg/), in a private network namespace. Also: a subscriber that
 //! joins after the alerts gets them (transient local), and SIGTERM ends the node with 0.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::node_output::json_lines;
+use rockwatch_test_harness::peers::have_cyclonedds;
+use rockwatch_test_harness::rockwatch_bin;
 
 /// The JSON alerts a subscriber printed (lines after `PREFIX`).
 fn alerts(stdout: &str, prefix: &str) -> Vec<serde_json::Value> {
@@ -24,7 +27,7 @@ fn cyclone_dds_subscriber_receives_the_slender_pillar_overturned_and_a_late_one_
     let dir = tempfile::tempdir().unwrap();
     write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let py = repo().join("tests/data/ros2/cyclone_alerts.py");
     let py = py.display();
     let msg = repo().join("msg/pbr_msgs/msg");
@@ -98,7 +101,7 @@ fn an_rmw_cyclonedds_client_is_answered_by_the_reset_and_parameter_services() {
     let dir = tempfile::tempdir().unwrap();
     write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let py = repo().join("tests/data/ros2/cyclone_service.py");
     let py = py.display();
     let srv = repo().join("msg/pbr_msgs/srv");

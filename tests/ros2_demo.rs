@@ -2,12 +2,13 @@
 //! slender pillar overturned and the stocky boulder standing, and sends nothing on the other
 //! interface (while an unrestricted participant does: the control).
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{run_in_netns, text, VETH_TX};
+use rockwatch_test_harness::rockwatch_bin;
 
 #[test]
 fn demo_runs_on_loopback_only_and_reports_the_slender_pillar_overturned() {
-    let bin = rockwatch();
+    let bin = rockwatch_bin!();
     let out = run_in_netns(
         &format!("{VETH_TX}; '{}' demo --speed 20; {VETH_TX}", bin.display()),
         120,
@@ -75,7 +76,7 @@ fn demo_runs_on_loopback_only_and_reports_the_slender_pillar_overturned() {
         .unwrap_or_else(|| panic!("no command on the Next line\n{stdout}"));
     let words: Vec<&str> = next.split_whitespace().collect();
     assert_eq!(words[..2], ["rockwatch", "monitor"], "{next}");
-    let run = std::process::Command::new(rockwatch())
+    let run = std::process::Command::new(rockwatch_bin!())
         .args(&words[1..])
         .current_dir(repo())
         .output()
@@ -95,7 +96,7 @@ fn demo_runs_on_loopback_only_and_reports_the_slender_pillar_overturned() {
 fn an_unrestricted_participant_does_use_the_other_interface() {
     // Control for the test above: with SUBNET discovery, DDS announces itself by multicast
     // on every interface, so the veth counter moves (the counter is a valid witness).
-    let bin = rockwatch();
+    let bin = rockwatch_bin!();
     let out = run_in_netns(
         &format!(
             "{VETH_TX}; '{}' replay --synthetic --mw 6.5 --r-km 5 --station XX.CTL.00 --transport ros2 --wait-s 2 || true; {VETH_TX}",

@@ -22,8 +22,11 @@
 //! Without rclpy, diagnostic_msgs or the pbr_msgs build the test is skipped locally and FAILS
 //! under CI=true.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::node_output::{parse_prometheus, station_value};
+use rockwatch_test_harness::peers::{pbr_msgs_install, peer_available, source_pbr_msgs};
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::collections::BTreeSet;
 
@@ -71,7 +74,7 @@ fn node_logs_json_reports_station_health_on_diagnostics_rosout_state_and_metrics
         ),
     )
     .unwrap();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let py = repo().join("tests/data/ros2/rclpy_status.py");
     let rec = repo().join("tests/data/records");
     let rec = rec.display();

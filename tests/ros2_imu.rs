@@ -27,8 +27,12 @@
 //!
 //! Without python3 + cyclonedds the tests are skipped locally and FAIL under CI=true.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::rinaldi;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{reexec_in_netns, text};
+use rockwatch_test_harness::node_output::count_before;
+use rockwatch_test_harness::peers::{have_cyclonedds, peer_available};
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -159,7 +163,7 @@ fn field(lines: &[serde_json::Value], key: &str) -> serde_json::Value {
 
 /// The journal's alerts (`rockwatch alerts --format json`).
 fn journal_alerts(state_dir: &Path) -> Vec<serde_json::Value> {
-    let out = Command::new(rockwatch())
+    let out = Command::new(rockwatch_bin!())
         .args(["alerts", "--format", "json", "--state-dir"])
         .arg(state_dir)
         .output()
@@ -185,9 +189,7 @@ struct Received {
 }
 
 fn received() -> Received {
-    let dir = repo().join("tests/data/records");
-    let mut record = Record::read(&dir.join("Rinaldi228.AT2")).unwrap();
-    record.attach_vertical(&dir.join("RinaldiUP.AT2")).unwrap();
+    let record = rinaldi();
     let (sin, cos) = RECORD_AZIMUTH_DEG.to_radians().sin_cos();
     let vertical = record.vertical_mps2.as_ref().unwrap();
     Received {
@@ -315,7 +317,7 @@ fn imu_record_from_cyclone_overturns_the_slender_block_and_not_the_stocky_one() 
         Some("reliable"),
     );
     let state = dir.path().join("state");
-    let mut node = NodeProcess::start(&config, &state, dir.path().join("node.err"));
+    let mut node = rockwatch_bin!().start_node(&config, &state, dir.path().join("node.err"));
     let rec = repo().join("tests/data/records");
     let (at2, up) = (rec.join("Rinaldi228.AT2"), rec.join("RinaldiUP.AT2"));
     let peer = run_peer(
@@ -434,7 +436,7 @@ fn imu_messages_with_a_wrong_layout_are_counted_undecodable_and_the_node_carries
     const GOOD: u64 = 50;
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), &[&SLENDER], 100.0, Some("reliable"));
-    let mut node = NodeProcess::start(
+    let mut node = rockwatch_bin!().start_node(
         &config,
         &dir.path().join("state"),
         dir.path().join("node.err"),
@@ -499,7 +501,7 @@ fn a_best_effort_imu_driver_is_matched_by_the_default_qos() {
     const COUNT: u64 = 200;
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), &[&SLENDER], 100.0, None);
-    let mut node = NodeProcess::start(
+    let mut node = rockwatch_bin!().start_node(
         &config,
         &dir.path().join("state"),
         dir.path().join("node.err"),

@@ -3,8 +3,10 @@
 //! naming how many were not processed. Flat out (`--speed max --loop 40`), paced at
 //! ≈ 10 000 packets/s, and with the node paused mid-stream. In a private network namespace.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::node_output::count_before;
+use rockwatch_test_harness::rockwatch_bin;
 
 /// Runs a node and one replay with `replay_args` (`pause`: stop the node for 1 s, 1 s into
 /// the replay); returns (replay exit code, packets the replay sent (from its summary, or
@@ -12,7 +14,7 @@ use ros2_util::*;
 fn replay_to_node(replay_args: &str, pause: bool) -> (i32, u64, u64, String, String) {
     let dir = tempfile::tempdir().unwrap();
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let pause = if pause {
         "sleep 1; kill -STOP $NODE; sleep 1; kill -CONT $NODE;"
@@ -120,7 +122,7 @@ fn a_replay_whose_node_paused_mid_stream_is_whole_or_names_the_shortfall() {
 fn a_replay_of_a_station_the_node_does_not_monitor_exits_1_naming_it() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let replay = |station: &str, out: &str| {
         format!(
@@ -191,7 +193,7 @@ fn a_node_whose_stderr_nobody_reads_keeps_monitoring() {
     let script = format!(
         "python3 '{py}' '{bin}' '{c}' '{rec}' '{d}/node.err' '{d}/replay.err'",
         py = repo().join("tests/data/ros2/blocked_stderr.py").display(),
-        bin = rockwatch().display(),
+        bin = rockwatch_bin!().display(),
         c = config.display(),
         rec = repo().join("tests/data/records/Rinaldi228.AT2").display(),
     );
@@ -208,7 +210,7 @@ fn a_node_whose_stderr_nobody_reads_keeps_monitoring() {
     // It wrote several times what the pipe holds: with a blocking stderr it would have
     // stalled at the first 4 KiB, before the replay's first packet.
     assert!(node_err.len() > 3 * 4096, "{}: {node_err}", node_err.len());
-    let alerts = alert_history(&state);
+    let alerts = rockwatch_bin!().alert_history(&state);
     assert!(
         alerts.contains(&(
             "rrs-slender-pillar".to_string(),
@@ -234,7 +236,7 @@ fn a_replay_to_two_nodes_fails_naming_the_one_that_went_away() {
         write_node_config(&a, &catalogue),
         write_node_config(&b, &catalogue),
     );
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let script = format!(
         "'{bin}' node --config '{ca}' 2> '{d}/a.err' & A=$!; echo A=$A
@@ -294,7 +296,7 @@ fn a_replay_whose_packets_the_node_refuses_exits_1() {
         ),
     )
     .unwrap();
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let script = format!(
         "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
@@ -336,7 +338,7 @@ fn a_replay_whose_packets_the_node_refuses_exits_1() {
 fn a_long_replay_flat_out_stays_within_a_fixed_memory() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let script = format!(
         "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
@@ -394,7 +396,7 @@ fn a_long_replay_flat_out_stays_within_a_fixed_memory() {
 fn a_replay_whose_node_is_paused_longer_than_its_wait_fails_with_one_clean_line() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let script = format!(
         "'{bin}' node --config '{c}' 2> '{d}/node.err' & NODE=$!
@@ -434,7 +436,7 @@ fn a_replay_whose_node_is_paused_longer_than_its_wait_fails_with_one_clean_line(
 fn a_replay_of_data_the_station_has_already_exits_1_naming_the_drops() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let replay = |n: u8| {
         format!(

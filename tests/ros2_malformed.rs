@@ -5,8 +5,12 @@
 //! counts each kind in its closing summary, and still raises OVERTURNED for the slender
 //! pillar when the Rinaldi record is replayed afterwards.
 
-mod ros2_util;
-use ros2_util::*;
+mod shell_harness;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::reexec_in_netns;
+use rockwatch_test_harness::node_output::count_before;
+use rockwatch_test_harness::rockwatch_bin;
+use shell_harness::rinaldi_packets;
 
 use std::time::{Duration, Instant};
 
@@ -76,7 +80,7 @@ fn node_survives_counts_and_rejects_hostile_input_then_still_raises_overturned()
     }
     let dir = tempfile::tempdir().unwrap();
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
-    let mut node = NodeProcess::start(
+    let mut node = rockwatch_bin!().start_node(
         &config,
         &dir.path().join("state"),
         dir.path().join("node.err"),

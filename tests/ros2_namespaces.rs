@@ -12,8 +12,11 @@
 //! Also: `--ros-args` errors end the node at once with one line naming the problem (an unknown
 //! argument; a parameter out of its descriptor's range).
 
-mod ros2_util;
-use ros2_util::*;
+mod shell_harness;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{reexec_in_netns, text};
+use rockwatch_test_harness::rockwatch_bin;
+use shell_harness::collect;
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -26,7 +29,7 @@ fn plan() -> NetworkPlan {
 }
 
 fn start_node(config: &Path, state: &Path, err: &Path, ros_args: &[&str]) -> Child {
-    Command::new(rockwatch())
+    Command::new(rockwatch_bin!())
         .args(["node", "--config"])
         .arg(config)
         .arg("--state-dir")
@@ -42,7 +45,7 @@ fn start_node(config: &Path, state: &Path, err: &Path, ros_args: &[&str]) -> Chi
 /// `rockwatch replay` of the Rinaldi record as CI.RRS.00 at max speed, with `ros_args`.
 fn replay(config: &Path, ros_args: &[&str]) -> std::process::Output {
     let data = repo().join("tests/data/records");
-    Command::new(rockwatch())
+    Command::new(rockwatch_bin!())
         .args(["replay", "--config"])
         .arg(config)
         .arg("--record")
@@ -73,7 +76,8 @@ fn replay(config: &Path, ros_args: &[&str]) -> std::process::Output {
 fn wait_overturned(state: &Path, pbr: &str) -> bool {
     let deadline = Instant::now() + Duration::from_secs(20);
     while Instant::now() < deadline {
-        if alert_history(state)
+        if rockwatch_bin!()
+            .alert_history(state)
             .iter()
             .any(|(id, _, level)| id == pbr && level == "overturned")
         {
@@ -127,10 +131,10 @@ fn two_sites_in_two_namespaces_stay_apart() {
     assert!(got_b.is_empty(), "site B heard site A's alerts: {got_b:?}");
     assert!(got_root.is_empty(), "/pbr/alerts carried: {got_root:?}");
     assert!(
-        alert_history(&state_b).is_empty(),
+        rockwatch_bin!().alert_history(&state_b).is_empty(),
         "site B's node took site A's packets"
     );
-    let journal_a = alert_history(&state_a);
+    let journal_a = rockwatch_bin!().alert_history(&state_a);
 
     // 2. A root-namespace replay remapped onto site B's topics: site B's node only.
     let out = replay(
@@ -154,13 +158,13 @@ fn two_sites_in_two_namespaces_stay_apart() {
     );
     assert!(collect(&mut listen_a, Duration::from_millis(500)).is_empty());
     assert_eq!(
-        alert_history(&state_a),
+        rockwatch_bin!().alert_history(&state_a),
         journal_a,
         "site A took site B's packets"
     );
 
     // 3. The reset service in /site_a: site A's block stands again, site B's stays fallen.
-    let reset = Command::new(rockwatch())
+    let reset = Command::new(rockwatch_bin!())
         .args(["reset", "--node", "--pbr", "rrs-slender-pillar", "--config"])
         .arg(&config)
         .args(["--wait-s", "20", "--ros-args", "-r", "__ns:=/site_a"])
@@ -169,7 +173,7 @@ fn two_sites_in_two_namespaces_stay_apart() {
     let (stdout, stderr) = text(&reset);
     assert!(reset.status.success(), "{stdout}\n{stderr}");
     // A reset client in the root namespace finds no service (no /pbr/reset).
-    let lost = Command::new(rockwatch())
+    let lost = Command::new(rockwatch_bin!())
         .args(["reset", "--node", "--pbr", "rrs-slender-pillar", "--config"])
         .arg(&config)
         .args(["--wait-s", "3"])
@@ -225,7 +229,7 @@ fn ros_args_errors_stop_the_node_with_one_line() {
         // No DDS is opened: the arguments are refused first (no network namespace needed).
         let out = Command::new("timeout")
             .arg("20")
-            .arg(rockwatch())
+            .arg(rockwatch_bin!())
             .args(["node", "--config"])
             .arg(&config)
             .arg("--ros-args")
@@ -238,7 +242,7 @@ fn ros_args_errors_stop_the_node_with_one_line() {
         assert!(stderr.contains(expected), "{args:?}: {stderr}");
     }
     // --ros-args on a command that does not join the ROS 2 graph.
-    let out = Command::new(rockwatch())
+    let out = Command::new(rockwatch_bin!())
         .args(["alerts", "--ros-args", "-r", "__ns:=/x"])
         .output()
         .unwrap();

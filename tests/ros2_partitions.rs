@@ -5,8 +5,13 @@
 //! from the start, loses nothing and journals nothing twice. In a private network namespace,
 //! loopback only.
 
-mod ros2_util;
-use ros2_util::*;
+mod shell_harness;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{reexec_in_netns, text};
+use rockwatch_test_harness::node_output::count_before;
+use rockwatch_test_harness::process::NodeProcess;
+use rockwatch_test_harness::rockwatch_bin;
+use shell_harness::rinaldi_packets;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -88,7 +93,8 @@ fn packets() -> Vec<AccelPacket> {
 
 /// (pbr_id, level, episode, data time ns) of every alert journaled in `state`.
 fn alerts(state: &Path) -> Vec<(String, String, u64, i64)> {
-    journaled_alerts(state)
+    rockwatch_bin!()
+        .journaled_alerts(state)
         .iter()
         .map(|a| {
             (
@@ -174,7 +180,8 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
     // One node with every station.
     let single_config = write_config(dir.path(), "single", &catalogue, None);
     let single_state = dir.path().join("single");
-    let node = NodeProcess::start(&single_config, &single_state, dir.path().join("single.err"));
+    let node =
+        rockwatch_bin!().start_node(&single_config, &single_state, dir.path().join("single.err"));
     let mut s = sink(None, &[&node]);
     replay_all(&packets, &mut s);
     drop(s);
@@ -210,7 +217,7 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
         .collect();
     let nodes: Vec<NodeProcess> = (0..PARTITIONS as usize)
         .map(|i| {
-            NodeProcess::start(
+            rockwatch_bin!().start_node(
                 &configs[i],
                 &states[i],
                 dir.path().join(format!("p{i}.err")),
@@ -236,7 +243,7 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
         assert!(Instant::now() < wait, "{fallen} never journaled");
         std::thread::sleep(Duration::from_millis(20));
     }
-    let out = std::process::Command::new(rockwatch())
+    let out = std::process::Command::new(rockwatch_bin!())
         .args(["reset", "--node", "--wait-s", "30", "--pbr", &fallen])
         .args(["--ros-args", "-r", &format!("__ns:={NAMESPACE}")])
         .output()
@@ -253,7 +260,7 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
     // processed — and said: the replay exits 1 naming that node and its partition's topic
     // (issue 20 item 3).
     let records = repo().join("tests/data/records");
-    let out = std::process::Command::new(rockwatch())
+    let out = std::process::Command::new(rockwatch_bin!())
         .args(["replay", "--config"])
         .arg(&configs[2])
         .arg("--record")
@@ -349,7 +356,7 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
         .collect();
     let mut nodes: Vec<NodeProcess> = (0..PARTITIONS as usize)
         .map(|i| {
-            NodeProcess::start(
+            rockwatch_bin!().start_node(
                 &configs[i],
                 &states[i],
                 dir.path().join(format!("k{i}.err")),
@@ -403,7 +410,7 @@ fn three_partitioned_nodes_give_the_alerts_of_one_node_and_a_killed_one_loses_no
         before.len(),
         expected_victim.len()
     );
-    nodes[victim] = NodeProcess::start(
+    nodes[victim] = rockwatch_bin!().start_node(
         &configs[victim],
         &states[victim],
         dir.path().join("k-restarted.err"),

@@ -6,14 +6,16 @@
 //! uninterrupted one: every packet counted, the same alerts. Also: SIGINT stops the node
 //! cleanly (signals are taken on one thread). In a private network namespace, loopback only.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::node_output::count_before;
+use rockwatch_test_harness::rockwatch_bin;
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
 fn alert_history_set(state: &Path) -> BTreeSet<(String, u64, String)> {
-    alert_history(state).into_iter().collect()
+    rockwatch_bin!().alert_history(state).into_iter().collect()
 }
 
 /// Runs a node on `dir`/state and a replay of the Rinaldi record at `speed`; meanwhile
@@ -21,7 +23,7 @@ fn alert_history_set(state: &Path) -> BTreeSet<(String, u64, String)> {
 /// `stop_signal`. Returns (stdout, replay stderr, node stderr).
 fn run(dir: &Path, speed: &str, pauses: &str, stop_signal: &str) -> (String, String, String) {
     let config = write_node_config(dir, &repo().join("config/catalogue.toml"));
-    let (d, bin) = (dir.display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let script = format!(
         "'{bin}' node --config '{c}' --state-dir '{d}/state' 2> '{d}/node.err' & NODE=$!

@@ -10,8 +10,13 @@
 //! generated types equal the Rust structs'. Without the build the test is skipped locally and
 //! FAILS under CI=true.
 
-mod ros2_util;
-use ros2_util::*;
+mod shell_harness;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text, VETH_TX};
+use rockwatch_test_harness::node_output::json_lines;
+use rockwatch_test_harness::peers::{pbr_msgs_install, source_pbr_msgs};
+use rockwatch_test_harness::rockwatch_bin;
+use shell_harness::rinaldi_packets;
 
 use rockwatch::alert_json::{AlertJson, RecordJson};
 use rockwatch::ros2::msg::{self as wire, level_code, mode_code};
@@ -76,7 +81,7 @@ fn rclpy_peer_with_the_generated_types_gets_overturned_for_the_slender_block_onl
     write_node_config(dir.path(), &catalogue);
     let n_packets = write_packets(&dir.path().join("packets.json"));
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let py = repo().join("tests/data/ros2/rclpy_pbr_msgs.py");
     let script = format!(
         "{VETH_TX}

@@ -13,8 +13,11 @@
 //! `/parameter_events`, through the node's one writer of it, volatile as rcl's.
 //! Without rclpy the test is skipped locally and FAILS under CI=true.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text, VETH_TX};
+use rockwatch_test_harness::node_output::json_lines;
+use rockwatch_test_harness::peers::{have_cyclonedds, peer_available};
+use rockwatch_test_harness::rockwatch_bin;
 
 /// The PyPI package of the peer (rclpy 9.1.2 = ROS 2 Kilted, with rmw_fastrtps_cpp).
 const RCLPY_VERSION: &str = "9.1.2";
@@ -78,7 +81,7 @@ fn rclpy_peer_sees_rockwatch_in_its_namespace_and_its_parameters_have_descriptor
     )
     .unwrap();
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let py = repo().join("tests/data/ros2/rclpy_params.py");
     let py = py.display();
     let rec = repo().join("tests/data/records");
@@ -323,7 +326,7 @@ fn rclpy_and_cyclone_peers_see_the_rocks_markers_posed_by_their_state_and_their_
     )
     .unwrap();
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let markers_py = repo().join("tests/data/ros2/rclpy_markers.py");
     let markers_py = markers_py.display();
     let frames_py = repo().join("tests/data/ros2/cyclone_frames.py");

@@ -1,9 +1,11 @@
 //! `rockwatch replay --transport ros2` delivers every packet: at `--speed max` the whole record
 //! leaves in milliseconds, and the replay must not exit before the node has it (DDS discovery
 //! is two-sided, and the node's DDS reader drops the unread samples of a writer that has left).
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::{run_in_netns, text};
+use rockwatch_test_harness::node_output::count_before;
+use rockwatch_test_harness::rockwatch_bin;
 
-mod ros2_util;
-use ros2_util::*;
 use std::path::PathBuf;
 
 /// A node configured with the stations `XX.R0.00`, `XX.R1.00`, … (`stations` of them), and
@@ -28,7 +30,7 @@ fn replays_at_max_speed_deliver_every_packet_to_the_node() {
     const REPLAYS: u64 = 6;
     let dir = tempfile::tempdir().unwrap();
     let config = node_config_with_stations(dir.path(), REPLAYS, "");
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     // Each replay is a new process (a new DDS participant and writer), sent flat out.
     let replay = format!(
@@ -67,7 +69,7 @@ fn replays_at_max_speed_deliver_every_packet_to_the_node() {
 fn a_replay_whose_node_stops_midway_exits_non_zero() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_node_config(dir.path(), &repo().join("config/catalogue.toml"));
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     // 25 s of data at 5× real time: the node is stopped (SIGTERM) about 1 s in.
     let script = format!(
@@ -106,7 +108,7 @@ fn ten_concurrent_replays_flat_out_lose_nothing() {
     const REPLAYS: u64 = 10;
     let dir = tempfile::tempdir().unwrap();
     let config = node_config_with_stations(dir.path(), REPLAYS, "input_depth = 100\n");
-    let (d, bin) = (dir.path().display(), rockwatch().display().to_string());
+    let (d, bin) = (dir.path().display(), rockwatch_bin!().display().to_string());
     let rec = repo().join("tests/data/records/Rinaldi228.AT2");
     let replay = |i: u64| {
         format!(

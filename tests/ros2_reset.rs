@@ -10,8 +10,14 @@
 //!   calls `/pbr/reset` on the node (skipped locally without the colcon build, FAILS under
 //!   CI=true).
 
-mod ros2_util;
-use ros2_util::*;
+mod shell_harness;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{reexec_in_netns, run_in_netns, text};
+use rockwatch_test_harness::node_output::json_lines;
+use rockwatch_test_harness::peers::{pbr_msgs_install, source_pbr_msgs};
+use rockwatch_test_harness::process::NodeProcess;
+use rockwatch_test_harness::rockwatch_bin;
+use shell_harness::{collect, rinaldi_packets};
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -48,7 +54,7 @@ fn write_config(dir: &Path) -> std::path::PathBuf {
 
 /// Every journal record (`rockwatch alerts --format json`).
 fn journal(state: &Path) -> Vec<RecordJson> {
-    let out = std::process::Command::new(rockwatch())
+    let out = std::process::Command::new(rockwatch_bin!())
         .args(["alerts", "--format", "json", "--state-dir"])
         .arg(state)
         .output()
@@ -130,7 +136,7 @@ fn rinaldi_pass(pass: u64) -> Vec<AccelPacket> {
 
 /// `rockwatch reset --node --pbr ID`: (success, stdout, stderr).
 fn reset_cli(pbr: &str) -> (bool, String, String) {
-    let out = std::process::Command::new(rockwatch())
+    let out = std::process::Command::new(rockwatch_bin!())
         .args(["reset", "--node", "--wait-s", "30", "--pbr", pbr])
         .output()
         .unwrap();
@@ -156,7 +162,7 @@ fn reset_through_the_node_s_service_lets_a_fallen_block_overturn_again_in_a_new_
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path());
     let state = dir.path().join("state");
-    let node = NodeProcess::start(&config, &state, dir.path().join("a.err"));
+    let node = rockwatch_bin!().start_node(&config, &state, dir.path().join("a.err"));
 
     // Pass 1: the slender block overturns (episode 1); the slab slides and stands again.
     let sink = replay_to(&node, &rinaldi_pass(0));
@@ -255,7 +261,7 @@ fn reset_through_the_node_s_service_lets_a_fallen_block_overturn_again_in_a_new_
     );
 
     // A restarted node keeps the block reset: there is nothing to reset.
-    let node = NodeProcess::start(&config, &state, dir.path().join("b.err"));
+    let node = rockwatch_bin!().start_node(&config, &state, dir.path().join("b.err"));
     let (ok, stdout, stderr) = reset_cli(SLENDER);
     assert!(ok, "{stdout}\n{stderr}\n{}", node.stderr());
     assert!(stdout.contains("nothing to reset"), "{stdout}");
@@ -298,7 +304,7 @@ fn rclpy_client_with_the_generated_service_type_resets_a_fallen_block() {
     let state = dir.path().join("state");
     write_fallen_journal(&state);
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let py = repo().join("tests/data/ros2/rclpy_reset.py");
     let script = format!(
         "'{bin}' node --config '{d}/node.toml' --state-dir '{d}/state' 2> '{d}/node.err' & NODE=$!
@@ -397,7 +403,7 @@ fn a_reset_is_published_with_the_alerts_and_ends_the_block_s_history_after_a_res
             .collect()
     };
 
-    let mut node = NodeProcess::start(&config, &state, dir.path().join("a.err"));
+    let mut node = rockwatch_bin!().start_node(&config, &state, dir.path().join("a.err"));
     // A subscriber there before the reset gets the history, then the reset, live.
     let mut listener = rockwatch::ros2::Ros2AlertListener::open(&plan, "/").unwrap();
     let history = collect(&mut listener, Duration::from_secs(3));
@@ -421,7 +427,7 @@ fn a_reset_is_published_with_the_alerts_and_ends_the_block_s_history_after_a_res
     assert!(status.is_some_and(|s| s.success()), "{}", node.stderr());
 
     // Restarted: a late subscriber's history ends in the reset.
-    let node = NodeProcess::start(&config, &state, dir.path().join("b.err"));
+    let node = rockwatch_bin!().start_node(&config, &state, dir.path().join("b.err"));
     let mut late = rockwatch::ros2::Ros2AlertListener::open(&plan, "/").unwrap();
     let history = collect(&mut late, Duration::from_secs(4));
     assert_eq!(

@@ -3,8 +3,12 @@
 //! that of an uninterrupted run — same (block, episode, level) set, no alert twice. In a
 //! private network namespace, loopback only.
 
-mod ros2_util;
-use ros2_util::*;
+mod shell_harness;
+use rockwatch_test_harness::fixtures::{repo, write_node_config};
+use rockwatch_test_harness::netns::reexec_in_netns;
+use rockwatch_test_harness::process::NodeProcess;
+use rockwatch_test_harness::rockwatch_bin;
+use shell_harness::rinaldi_packets;
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -93,7 +97,7 @@ fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run
 
     // Uninterrupted run.
     let state_a = dir.path().join("uninterrupted");
-    let node = NodeProcess::start(&config, &state_a, dir.path().join("a.err"));
+    let node = rockwatch_bin!().start_node(&config, &state_a, dir.path().join("a.err"));
     let mut sink = sink_for_node(&node);
     replay(&packets, &mut sink, Speed::Max, Restamp::Now, 1).unwrap();
     assert!(
@@ -106,7 +110,7 @@ fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run
         "the uninterrupted node must have taken every packet\n{stderr_a}"
     );
     drop(sink);
-    let uninterrupted = alert_history(&state_a);
+    let uninterrupted = rockwatch_bin!().alert_history(&state_a);
     let expected: BTreeSet<_> = uninterrupted.iter().cloned().collect();
     assert_eq!(expected.len(), uninterrupted.len(), "{uninterrupted:?}");
     assert!(
@@ -117,7 +121,7 @@ fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run
     // Interrupted run: paced replay (5 × real time), kill -9 once KILL_AFTER_ALERTS alerts
     // are in the journal (of the 7 of a full run): alerts both before and after the kill.
     let state_b = dir.path().join("interrupted");
-    let mut node = NodeProcess::start(&config, &state_b, dir.path().join("b1.err"));
+    let mut node = rockwatch_bin!().start_node(&config, &state_b, dir.path().join("b1.err"));
     let stop = Arc::new(AtomicBool::new(false));
     let replayer = {
         let mut sink = Stoppable {
@@ -142,7 +146,10 @@ fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run
     assert!(killed.is_some(), "kill -9 did not end the node");
     stop.store(true, Ordering::Relaxed);
     replayer.join().unwrap();
-    let before_restart: BTreeSet<_> = alert_history(&state_b).into_iter().collect();
+    let before_restart: BTreeSet<_> = rockwatch_bin!()
+        .alert_history(&state_b)
+        .into_iter()
+        .collect();
     assert!(
         !before_restart.is_empty() && before_restart.len() < expected.len(),
         "the kill must land between the first and the last alert: {before_restart:?}"
@@ -150,7 +157,7 @@ fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run
     assert!(before_restart.is_subset(&expected), "{before_restart:?}");
 
     // Restart on the same state directory; the record again from the start.
-    let node = NodeProcess::start(&config, &state_b, dir.path().join("b2.err"));
+    let node = rockwatch_bin!().start_node(&config, &state_b, dir.path().join("b2.err"));
     let mut sink = sink_for_node(&node);
     replay(&packets, &mut sink, Speed::Max, Restamp::Now, 1).unwrap();
     assert!(
@@ -158,7 +165,7 @@ fn kill_9_mid_replay_and_restart_gives_the_alert_history_of_an_uninterrupted_run
         "not acknowledged"
     );
     let stderr_b = finish(node, &state_b);
-    let restarted = alert_history(&state_b);
+    let restarted = rockwatch_bin!().alert_history(&state_b);
     let got: BTreeSet<_> = restarted.iter().cloned().collect();
     assert_eq!(
         got.len(),

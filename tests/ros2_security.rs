@@ -9,13 +9,17 @@
 //! with the station identity is processed in full. An operator identity can reset; a station
 //! identity cannot.
 
-mod ros2_util;
-mod seedlink_server;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{reexec_in_netns, run_in_netns, text};
+use rockwatch_test_harness::node_output::count_before;
+use rockwatch_test_harness::peers::{have_cyclonedds, peer_available};
+use rockwatch_test_harness::process::LoggedChild;
+use rockwatch_test_harness::rockwatch_bin;
+use rockwatch_test_harness::seedlink_server;
+
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-use ros2_util::*;
 
 fn keystore(dir: &Path) -> String {
     let ks = dir.join("keystore");
@@ -84,7 +88,7 @@ struct Paths {
 
 fn paths() -> Paths {
     Paths {
-        bin: rockwatch().display().to_string(),
+        bin: rockwatch_bin!().display().to_string(),
         py: repo()
             .join("tests/data/ros2/cyclone_forge.py")
             .display()
@@ -184,7 +188,7 @@ fn the_security_warning_names_the_resolved_topics_of_a_node_in_a_namespace() {
     let dir = tempfile::tempdir().unwrap();
     node_toml(dir.path(), "SUBNET");
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let script = format!(
         "'{bin}' node --config '{d}/node.toml' --ros-args -r __ns:=/site_a \
              -r pbr/alerts:=/all_sites/alerts 2> '{d}/node.err' & NODE=$!
@@ -385,7 +389,7 @@ fn security_that_cannot_be_set_up_is_refused_under_enforce_and_said_under_permis
     let ks = keystore(dir.path());
     node_toml(dir.path(), "LOCALHOST");
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     // An enclave the keystore does not have; a keystore that does not exist.
     let script = format!(
         "export ROS_SECURITY_KEYSTORE='{ks}' ROS_SECURITY_ENABLE=true
@@ -473,7 +477,7 @@ fn a_participant_that_cannot_be_rebuilt_ends_the_node_with_exit_1() {
     let ks = keystore(dir.path());
     node_toml(dir.path(), "LOCALHOST");
     let d = dir.path().display();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let script = format!(
         "export ROS_SECURITY_KEYSTORE='{ks}'
          {SECURE} '{bin}' node --config '{d}/node.toml' --state-dir '{d}/state' 2> '{d}/node.err' & NODE=$!
@@ -563,7 +567,7 @@ fn an_acquire_with_the_station_identity_is_served() {
     let catalogue = needles(dir.path());
     let xml = repo().join("tests/data/stationxml/obspy_XX.STN_k2.xml");
     let reference = dir.path().join("monitor-state");
-    let out = Command::new(rockwatch())
+    let out = Command::new(rockwatch_bin!())
         .args(["monitor", "--catalogue"])
         .arg(&catalogue)
         .arg("--mseed")
@@ -616,13 +620,13 @@ fn an_acquire_with_the_station_identity_is_served() {
     )
     .unwrap();
     let node = secured(
-        Command::new(rockwatch())
+        Command::new(rockwatch_bin!())
             .args(["node", "--config"])
             .arg(&node_config),
         &ks,
     );
     let acquire = secured(
-        Command::new(rockwatch())
+        Command::new(rockwatch_bin!())
             .args(["acquire", "--to", "ros2", "--config"])
             .arg(&acquire_config)
             .arg("--state-dir")
@@ -686,7 +690,7 @@ fn the_keystore_grants_the_pbr_names_under_the_nodes_namespace() {
         )
         .unwrap();
     }
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let script = format!(
         "export ROS_SECURITY_KEYSTORE='{ks}'
          {SECURE} '{bin}' node --config '{d}/site_b.toml' --state-dir '{d}/b' 2> '{d}/b.err' \

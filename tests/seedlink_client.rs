@@ -12,8 +12,7 @@
 //! nothing (the v4 test selects whole stations, `XX.STN..*`, which sends no SELECT); commands
 //! end with CR LF; it refuses `DATA ALL start` (the client falls back to `DATA`, everything).
 
-mod ros2_util;
-mod seedlink_server;
+use rockwatch_test_harness::netns::reexec_in_netns;
 
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
@@ -27,9 +26,8 @@ use rockwatch::seedlink::{
     EachRecord, LinkCounters, ProtocolChoice, SeedLinkClient, SeedLinkConfig,
 };
 use rockwatch_core::record::mseed::{read_mseed, Channel};
-use ros2_util::reexec_in_netns;
-use seedlink_server::hostile::Hostile;
-use seedlink_server::{records_in_time_order, Server, K2};
+use rockwatch_test_harness::seedlink_server::hostile::Hostile;
+use rockwatch_test_harness::seedlink_server::{records_in_time_order, Server, K2};
 
 type Received = Arc<Mutex<Vec<(String, i64, Vec<f64>)>>>;
 

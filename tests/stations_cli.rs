@@ -1,14 +1,7 @@
 //! `rockwatch stations` through the binary, on real StationXML documents
 //! (tests/data/stationxml, see its README).
 
-use std::process::{Command, Output};
-
-fn rockwatch(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .expect("runs")
-}
+use rockwatch_test_harness::rockwatch_bin;
 
 const AND3: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -20,7 +13,7 @@ const MN: &str = concat!(
 );
 
 fn json(args: &[&str]) -> serde_json::Value {
-    let out = rockwatch(args);
+    let out = rockwatch_bin!().output(args);
     assert!(
         out.status.success(),
         "{}",
@@ -94,7 +87,12 @@ fn json_has_exactly_the_documented_keys_and_the_documents_values() {
     // ... and usable once differentiation is asked for; the accelerometer either way.
     assert_eq!(hhz["usable_with_differentiation"], true);
     assert_eq!(hne["usable_with_differentiation"], true);
-    let text = String::from_utf8(rockwatch(&["stations", "--stationxml", AND3]).stdout).unwrap();
+    let text = String::from_utf8(
+        rockwatch_bin!()
+            .output(&["stations", "--stationxml", AND3])
+            .stdout,
+    )
+    .unwrap();
     let line = text
         .lines()
         .find(|l| l.starts_with("IX.AND3.02.HHZ"))
@@ -134,7 +132,7 @@ fn at_keeps_only_the_epochs_in_force() {
         .unwrap();
     assert_eq!(hle["sensitivity"], 534331.0);
     // Text output: one line per epoch and a count.
-    let out = rockwatch(&["stations", "--stationxml", MN, "--at", "2009-06-01"]);
+    let out = rockwatch_bin!().output(&["stations", "--stationxml", MN, "--at", "2009-06-01"]);
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
         text.trim_end()
@@ -163,7 +161,7 @@ fn bad_input_is_a_one_line_error() {
             "not well-formed XML",
         ),
     ] {
-        let out = rockwatch(&args);
+        let out = rockwatch_bin!().output(&args);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{stderr}");
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
@@ -220,7 +218,7 @@ fn channels_sampled_too_slowly_for_rocking_are_unusable_with_the_minimum() {
     let hhe = find("MN.AQU..HHE", 100.0);
     assert_eq!(hhe["usable_with_differentiation"], true, "{hhe}");
     // The table says it on the channel's line.
-    let out = rockwatch(&["stations", "--stationxml", MIKB]);
+    let out = rockwatch_bin!().output(&["stations", "--stationxml", MIKB]);
     let text = String::from_utf8(out.stdout).unwrap();
     let line = text
         .lines()

@@ -3,9 +3,9 @@
 //! fragility fit against known parameters, and small end-to-end studies through the library
 //! and the CLI (files, ranges, reproducibility).
 
+use rockwatch_test_harness::rockwatch_bin;
 use std::f64::consts::PI;
 use std::path::Path;
-use std::process::{Command, Output};
 
 use rockwatch::study::report;
 use rockwatch_core::fragility::fit::FitError;
@@ -547,13 +547,6 @@ fn files_in(dir: &Path) -> Vec<String> {
     names
 }
 
-fn rockwatch(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .expect("the rockwatch binary runs")
-}
-
 const SMALL: [&str; 8] = [
     "--pulses-per-pair",
     "3",
@@ -571,7 +564,7 @@ fn cli_study_writes_parseable_files_and_json_summary() {
     let out = dir.path().to_str().unwrap();
     let mut args = vec!["study", "--out", out, "--format", "json"];
     args.extend_from_slice(&SMALL);
-    let output = rockwatch(&args);
+    let output = rockwatch_bin!().output(&args);
     assert!(
         output.status.success(),
         "stderr: {}",
@@ -688,7 +681,7 @@ fn cli_study_is_bit_for_bit_reproducible_for_a_seed() {
             threads,
         ];
         args.extend_from_slice(&SMALL);
-        let output = rockwatch(&args);
+        let output = rockwatch_bin!().output(&args);
         assert!(output.status.success());
         (
             std::fs::read(dir.join("results.csv")).unwrap(),
@@ -720,7 +713,7 @@ fn cli_study_rejects_bad_options_with_a_message() {
     ] {
         let mut args = vec!["study", "--out", out, "--no-plots"];
         args.extend(extra.iter());
-        let output = rockwatch(&args);
+        let output = rockwatch_bin!().output(&args);
         assert!(!output.status.success(), "{extra:?} accepted");
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(stderr.contains(needle), "{extra:?}: {stderr}");

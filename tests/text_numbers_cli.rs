@@ -2,26 +2,13 @@
 //! `b+ = 0.4458421458288538 m`). The text of `simulate`, `geometry`, `hazard` and `fragility`
 //! has 4 significant digits (`rockwatch::number_text::short_number`), their JSON every digit.
 
+use rockwatch_test_harness::rockwatch_bin;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use rockwatch::number_text::short_number;
 
 fn repo(path: &str) -> PathBuf {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join(path)
-}
-
-fn rockwatch(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_rockwatch"))
-        .args(args)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
 }
 
 /// The decimal numbers of `text` (a fraction or an exponent; integers such as counts are not
@@ -122,13 +109,17 @@ fn simulate_prints_four_significant_digits_and_json_keeps_them_all() {
         "--mu-k",
         "0.55",
     ];
-    let text = rockwatch(&args);
+    let text = rockwatch_bin!().run(&args).success_stdout();
     // The body of a mesh direction: b± are computed (0.2333… m), not typed.
     assert!(text.contains("b+ = 0.2333 m"), "{text}");
     // (The mode changes are an aligned table of times.)
     assert_short("simulate", &text, |l| !l.starts_with("  "));
-    let json: serde_json::Value =
-        serde_json::from_str(&rockwatch(&[&args[..], &["--format", "json"]].concat())).unwrap();
+    let json: serde_json::Value = serde_json::from_str(
+        &rockwatch_bin!()
+            .run(&[&args[..], &["--format", "json"]].concat())
+            .success_stdout(),
+    )
+    .unwrap();
     let theta = json["max_abs_theta"].as_f64().unwrap();
     assert!(
         text.contains(&format!("max |θ|     {} rad", short_number(theta))),
@@ -140,32 +131,36 @@ fn simulate_prints_four_significant_digits_and_json_keeps_them_all() {
     );
 
     // The 3-D model's summary too.
-    let text = rockwatch(&[
-        "simulate",
-        "--record",
-        record.to_str().unwrap(),
-        "--mesh",
-        wedge.to_str().unwrap(),
-        "--model",
-        "3d",
-        "--azimuth",
-        "228",
-        "--mu-s",
-        "0.8",
-    ]);
+    let text = rockwatch_bin!()
+        .run(&[
+            "simulate",
+            "--record",
+            record.to_str().unwrap(),
+            "--mesh",
+            wedge.to_str().unwrap(),
+            "--model",
+            "3d",
+            "--azimuth",
+            "228",
+            "--mu-s",
+            "0.8",
+        ])
+        .success_stdout();
     assert_short("simulate --model 3d", &text, |_| true);
 }
 
 #[test]
 fn geometry_summary_lines_print_four_significant_digits() {
     let wedge = repo("tests/data/meshes/leaning-wedge.obj");
-    let text = rockwatch(&[
-        "geometry",
-        "--mesh",
-        wedge.to_str().unwrap(),
-        "--azimuths",
-        "0:360:45",
-    ]);
+    let text = rockwatch_bin!()
+        .run(&[
+            "geometry",
+            "--mesh",
+            wedge.to_str().unwrap(),
+            "--azimuths",
+            "0:360:45",
+        ])
+        .success_stdout();
     // The summary lines; the direction and tolerance tables keep aligned fixed decimals.
     let summary = ["volume", "com ", "resting", "com height", "weakest"];
     assert_short("geometry", &text, |l| {
@@ -204,13 +199,17 @@ fn hazard_prints_four_significant_digits_and_json_keeps_them_all() {
         "--age-years",
         "12345",
     ];
-    let text = rockwatch(&args);
+    let text = rockwatch_bin!().run(&args).success_stdout();
     assert!(text.contains("median 12.1 m/s2, beta 0.4458"), "{text}");
     // The unit factor is exact (g = 9.80665 m/s² by definition) and printed whole.
     assert!(text.contains("× 9.80665 → m/s2"), "{text}");
     assert_short("hazard", &text.replace("× 9.80665", ""), |_| true);
-    let json: serde_json::Value =
-        serde_json::from_str(&rockwatch(&[&args[..], &["--format", "json"]].concat())).unwrap();
+    let json: serde_json::Value = serde_json::from_str(
+        &rockwatch_bin!()
+            .run(&[&args[..], &["--format", "json"]].concat())
+            .success_stdout(),
+    )
+    .unwrap();
     assert_eq!(json["median"], 12.09751932922565);
     assert_eq!(json["beta"], 0.4458421458288538);
 }
@@ -223,30 +222,32 @@ fn fragility_prints_four_significant_digits() {
         repo("tests/data/records/Rinaldi228.AT2").display(),
         repo("tests/data/records/RSN1084_NORTHR_SCS142.AT2").display()
     );
-    let text = rockwatch(&[
-        "fragility",
-        "--b-plus",
-        "0.1234567",
-        "--b-minus",
-        "0.2345678",
-        "--com-height",
-        "0.7654321",
-        "--rho",
-        "0.4567891",
-        "--mu-s",
-        "0.7",
-        "--records",
-        &records,
-        "--im",
-        "PGA,PGV",
-        "--scales",
-        "0.25:4:10",
-        "--bootstrap",
-        "20",
-        "--no-plots",
-        "--out",
-        dir.path().to_str().unwrap(),
-    ]);
+    let text = rockwatch_bin!()
+        .run(&[
+            "fragility",
+            "--b-plus",
+            "0.1234567",
+            "--b-minus",
+            "0.2345678",
+            "--com-height",
+            "0.7654321",
+            "--rho",
+            "0.4567891",
+            "--mu-s",
+            "0.7",
+            "--records",
+            &records,
+            "--im",
+            "PGA,PGV",
+            "--scales",
+            "0.25:4:10",
+            "--bootstrap",
+            "20",
+            "--no-plots",
+            "--out",
+            dir.path().to_str().unwrap(),
+        ])
+        .success_stdout();
     assert!(text.contains("b+ = 0.1235 m"), "{text}");
     // (The time line is the run's; the paths are the user's.)
     assert_short("fragility", &text, |l| {

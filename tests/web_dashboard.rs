@@ -12,8 +12,12 @@
 //! - a non-loopback `listen` without `token_file` is refused at start; with a token, a request
 //!   without it (or with a wrong one) gets 401, with it 200.
 
-mod ros2_util;
-use ros2_util::*;
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::netns::{reexec_in_netns, run_in_netns, text};
+use rockwatch_test_harness::node_output::{labelled_value, parse_prometheus};
+use rockwatch_test_harness::peers::peer_available;
+use rockwatch_test_harness::process::LoggedChild;
+use rockwatch_test_harness::rockwatch_bin;
 
 const ROCKS: [&str; 7] = [
     "rrs-slender-pillar",
@@ -106,7 +110,7 @@ fn the_dashboard_shows_rocks_alerts_and_stale_stations_and_survives_a_stalled_cl
         "[metrics]\nlisten = \"127.0.0.1:9464\"\n[web]\nlisten = \"127.0.0.1:8080\"\n",
     );
     let d = p.display().to_string();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let rec = repo().join("tests/data/records");
     let rec = rec.display();
     let replay = format!(
@@ -386,7 +390,7 @@ fn a_non_loopback_dashboard_needs_a_token_and_checks_it_on_every_request() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
     let d = p.display().to_string();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     // Refused at start: no token for an address open to the network.
     std::fs::create_dir(p.join("open")).unwrap();
     node_config(&p.join("open"), "[web]\nlisten = \"0.0.0.0:8080\"\n");
@@ -459,7 +463,7 @@ fn a_non_loopback_dashboard_needs_a_token_and_checks_it_on_every_request() {
 fn demo_web_serves_the_dashboard_after_the_replay_until_interrupted() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().display().to_string();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let script = format!(
         "'{bin}' demo --speed max --tail 1 --web 0.0.0.0:8080 > '{d}/open.out' 2>&1 && echo OPEN_RC=0 || echo OPEN_RC=$?
          '{bin}' demo --speed max --tail 1 --web > '{d}/demo.out' 2> '{d}/demo.err' & DEMO=$!
@@ -663,7 +667,7 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
     let up = std::time::Instant::now();
     let (mut driver, browser) = Browser::start(up);
     let node = LoggedChild::spawn(
-        std::process::Command::new(rockwatch())
+        std::process::Command::new(rockwatch_bin!())
             .arg("node")
             .arg("--config")
             .arg(p.join("node.toml")),
@@ -709,7 +713,7 @@ fn the_page_in_headless_chromium_shows_rocks_the_alert_and_stale_stations() {
 
     // The record: the overturn appears in the feed within 2 s of the replay's end.
     let rec = repo().join("tests/data/records");
-    let replay = std::process::Command::new(rockwatch())
+    let replay = std::process::Command::new(rockwatch_bin!())
         .args(["replay", "--record"])
         .arg(rec.join("Rinaldi228.AT2"))
         .arg("--vertical")
@@ -1039,7 +1043,7 @@ fn the_map_draws_slippy_map_tiles_under_the_markers_at_their_web_mercator_positi
     );
 
     let node = LoggedChild::spawn(
-        std::process::Command::new(rockwatch())
+        std::process::Command::new(rockwatch_bin!())
             .arg("node")
             .arg("--config")
             .arg(p.join("node.toml")),
@@ -1137,7 +1141,7 @@ fn status_of_a_running_node_exits_0_then_1_for_a_fallen_rock_and_a_stale_station
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
     let d = p.display().to_string();
-    let bin = rockwatch().display().to_string();
+    let bin = rockwatch_bin!().display().to_string();
     let catalogue = p.join("catalogue.toml");
     let block = |id: &str, width_m: f64, height_m: f64, mu_s: f64, mu_k: f64| {
         format!(
@@ -1331,7 +1335,7 @@ fn stream_clients_that_never_read_are_dropped_and_do_not_grow_the_node() {
     )
     .unwrap();
     let node = LoggedChild::spawn(
-        std::process::Command::new(rockwatch())
+        std::process::Command::new(rockwatch_bin!())
             .arg("node")
             .arg("--config")
             .arg(p.join("node.toml")),
@@ -1361,7 +1365,7 @@ fn stream_clients_that_never_read_are_dropped_and_do_not_grow_the_node() {
         })
         .collect();
     let rec = repo().join("tests/data/records");
-    let replay = std::process::Command::new(rockwatch())
+    let replay = std::process::Command::new(rockwatch_bin!())
         .args(["replay", "--record"])
         .arg(rec.join("Rinaldi228.AT2"))
         .args([

@@ -10,10 +10,8 @@
 //! Data: the K2 accelerograph counts of tests/data/mseed/k2_STNA_HN123_counts.mseed with the
 //! ObsPy-written inventory tests/data/stationxml/obspy_XX.STN_k2.xml; blocks slender enough
 //! for its ~0.05 m/s² to rock them, at several thresholds so alerts fall through the record.
-//! Callers run inside a network namespace (`ros2_util::reexec_in_netns`): the node and the
-//! `/pbr/ims` subscriber open DDS.
-
-#![allow(dead_code)] // each test crate uses a different subset
+//! Callers run inside a network namespace (`rockwatch_test_harness::netns::reexec_in_netns`):
+//! the node and the `/pbr/ims` subscriber open DDS.
 
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
@@ -26,7 +24,8 @@ use rockwatch::ros2::msg::{self, StationIntensity};
 use rockwatch::ros2::{network_plan, output_qos, Ros2Config, Ros2Session};
 use rockwatch_core::record::mseed::parse_mseed;
 
-use crate::ros2_util::{repo, rockwatch};
+use rockwatch_test_harness::fixtures::repo;
+use rockwatch_test_harness::rockwatch_bin;
 
 /// Blocks on XX.STN. rocking from |a| = g·B/H (0.01 to 0.06 m/s²): with this record their
 /// alerts fall from 0 to about 10 s (3 overturn), before and after the interruption at ~5 s.
@@ -47,7 +46,7 @@ fn catalogue(dir: &Path) -> PathBuf {
 
 /// The journal's alerts, without arrival times.
 fn alerts(state: &Path) -> Vec<serde_json::Value> {
-    let out = Command::new(rockwatch())
+    let out = Command::new(rockwatch_bin!())
         .args(["alerts", "--format", "json", "--state-dir"])
         .arg(state)
         .output()
@@ -74,7 +73,7 @@ pub struct Intensity {
 /// `rockwatch monitor` on the same file and inventory: its alerts and last intensity.
 fn reference(dir: &Path, catalogue: &Path, xml: &Path) -> (Vec<serde_json::Value>, Intensity) {
     let state = dir.join("monitor-state");
-    let out = Command::new(rockwatch())
+    let out = Command::new(rockwatch_bin!())
         .args(["monitor", "--catalogue"])
         .arg(catalogue)
         .arg("--mseed")
@@ -308,7 +307,7 @@ impl Rig {
         let node_log = dir.path().join("node.log");
         let node = Process::spawn(
             "node",
-            Command::new(rockwatch())
+            Command::new(rockwatch_bin!())
                 .args(["node", "--config"])
                 .arg(&node_config),
             &node_log,
@@ -361,7 +360,7 @@ impl Rig {
             .join(format!("acquire-{}.log", self.acquires));
         Process::spawn(
             "acquire",
-            Command::new(rockwatch())
+            Command::new(rockwatch_bin!())
                 .args(["acquire", "--to", to, "--config"])
                 .arg(&self.acquire_config)
                 .arg("--state-dir")

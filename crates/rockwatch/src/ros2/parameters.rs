@@ -27,7 +27,7 @@ use super::input::IntakeLog;
 use super::ros_args::ParamAssignment;
 use super::session::Ros2Session;
 use crate::ports::ControlSender;
-use rockwatch_core::engine::EngineConfig;
+use rockwatch_core::engine::{ConfigError, EngineConfig};
 
 /// ROS 2 parameter names of the run-time settings (doubles).
 pub const PARAM_IMMINENT_THETA_RATIO: &str = "alerts.imminent_theta_ratio";
@@ -149,6 +149,36 @@ pub struct ParamValues {
     pub use_sim_time: bool,
 }
 
+/// Why a parameter change was refused: the `reason` of the `set_parameters` answer, and of
+/// the start-up error for `--ros-args -p`/`--params-file`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("parameter {name} is not declared by rockwatch")]
+    Undeclared { name: String },
+    #[error("parameter {name} is read-only (set it at start with --ros-args -p)")]
+    ReadOnly { name: String },
+    #[error("parameter {name} must be a bool")]
+    NotABool { name: String },
+    #[error("parameter {name} must be a string")]
+    NotAString { name: String },
+    #[error("parameter {name} must be a double, got {got:?}")]
+    NotADouble {
+        name: String,
+        got: ros2_client::parameters::ParameterType,
+    },
+    /// Outside the descriptor's `floating_point_range` [lo, hi].
+    #[error("invalid value for {name}: {value} is out of range [{lo}, {hi}]")]
+    OutOfRange {
+        name: String,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    },
+    /// Refused by `EngineConfig::validate`.
+    #[error("invalid value for {name}: {error}")]
+    Invalid { name: String, error: ConfigError },
+}
+
 /// What an accepted change touched.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParamChange {
@@ -186,24 +216,22 @@ impl ParamValues {
         name: &str,
         value: &ParameterValue,
         at_start: bool,
-    ) -> Result<ParamChange, String> {
-        let spec = param_spec(name)
-            .ok_or_else(|| format!("parameter {name} is not declared by rockwatch"))?;
+    ) -> Result<ParamChange, ParamError> {
+        let name_owned = || name.to_owned();
+        let spec = param_spec(name).ok_or_else(|| ParamError::Undeclared { name: name_owned() })?;
         if spec.read_only && !at_start {
-            return Err(format!(
-                "parameter {name} is read-only (set it at start with --ros-args -p)"
-            ));
+            return Err(ParamError::ReadOnly { name: name_owned() });
         }
         if spec.boolean {
             let ParameterValue::Boolean(b) = value else {
-                return Err(format!("parameter {name} must be a bool"));
+                return Err(ParamError::NotABool { name: name_owned() });
             };
             self.use_sim_time = *b;
             return Ok(ParamChange::SimTime);
         }
         if spec.range.is_none() {
             let ParameterValue::String(s) = value else {
-                return Err(format!("parameter {name} must be a string"));
+                return Err(ParamError::NotAString { name: name_owned() });
             };
             match name {
                 PARAM_CATALOGUE => self.catalogue.clone_from(s),
@@ -215,23 +243,27 @@ impl ParamValues {
             ParameterValue::Double(v) => *v,
             ParameterValue::Integer(i) => *i as f64,
             other => {
-                return Err(format!(
-                    "parameter {name} must be a double, got {:?}",
-                    other.to_parameter_type()
-                ))
+                return Err(ParamError::NotADouble {
+                    name: name_owned(),
+                    got: other.to_parameter_type(),
+                })
             }
         };
         let (engine, change) = with_value(self.engine, name, v);
         if let Some((lo, hi)) = spec.range {
             if !(lo..=hi).contains(&v) {
-                return Err(format!(
-                    "invalid value for {name}: {v} is out of range [{lo}, {hi}]"
-                ));
+                return Err(ParamError::OutOfRange {
+                    name: name_owned(),
+                    value: v,
+                    lo,
+                    hi,
+                });
             }
         }
-        engine
-            .validate()
-            .map_err(|e| format!("invalid value for {name}: {e}"))?;
+        engine.validate().map_err(|error| ParamError::Invalid {
+            name: name_owned(),
+            error,
+        })?;
         self.engine = engine;
         Ok(change)
     }
@@ -479,7 +511,7 @@ impl ParamServer {
             let result = match failed {
                 Some(reason) => raw::SetParametersResult {
                     successful: false,
-                    reason,
+                    reason: reason.to_string(),
                 },
                 None => {
                     *values = copy;
@@ -548,7 +580,7 @@ fn hand_over(values: &ParamValues, change: ParamChange, controls: &ControlSender
     }
 }
 
-fn set_result(name: &str, result: Result<ParamChange, String>) -> raw::SetParametersResult {
+fn set_result(name: &str, result: Result<ParamChange, ParamError>) -> raw::SetParametersResult {
     match result {
         Ok(_) => raw::SetParametersResult {
             successful: true,
@@ -558,7 +590,7 @@ fn set_result(name: &str, result: Result<ParamChange, String>) -> raw::SetParame
             tracing::info!("ROS 2 parameter {name}: change refused: {reason}");
             raw::SetParametersResult {
                 successful: false,
-                reason,
+                reason: reason.to_string(),
             }
         }
     }
@@ -616,13 +648,15 @@ mod tests {
                 &ParameterValue::Double(1.5),
                 false,
             )
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("out of range [0, 1]"), "{e}");
         assert_eq!(v.engine.alerts.imminent_theta_ratio, 0.5);
         // The open bound at 0 is refused by the engine's check.
         let e = v
             .set(PARAM_QUIET_S, &ParameterValue::Double(0.0), false)
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("invalid value for alerts.quiet_s"), "{e}");
         assert!(v
             .set(PARAM_QUIET_S, &ParameterValue::Double(f64::NAN), false)
@@ -634,10 +668,12 @@ mod tests {
         assert!(v
             .set(PARAM_QUIET_S, &ParameterValue::String("5".into()), false)
             .unwrap_err()
+            .to_string()
             .contains("must be a double"));
         assert!(v
             .set(PARAM_CATALOGUE, &ParameterValue::String("x".into()), false)
             .unwrap_err()
+            .to_string()
             .contains("read-only"));
         assert_eq!(
             v.set(PARAM_CATALOGUE, &ParameterValue::String("x".into()), true),
@@ -646,6 +682,7 @@ mod tests {
         assert!(v
             .set("alerts.nope", &ParameterValue::Double(1.0), false)
             .unwrap_err()
+            .to_string()
             .contains("not declared"));
     }
 
@@ -725,7 +762,8 @@ mod tests {
         );
         let e = v
             .set(PARAM_USE_SIM_TIME, &ParameterValue::Double(1.0), false)
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("must be a bool"), "{e}");
         assert!(!v.use_sim_time);
     }

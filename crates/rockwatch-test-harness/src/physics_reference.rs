@@ -5,8 +5,6 @@
 //! engine against a second, differently formulated computation. The only engine items used
 //! are the driver API (`RigidBlock::advance`) and the input/event types.
 
-#![allow(dead_code)] // each test crate uses a different subset
-
 use nalgebra::{SMatrix, SVector};
 use rockwatch_core::dynamics::{BlockEvent, GroundAccel, RigidBlock};
 

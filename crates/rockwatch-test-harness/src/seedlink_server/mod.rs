@@ -2,8 +2,6 @@
 //! this process (its own tokio runtime), on loopback; and the bundled K2 records in the order
 //! a live server receives them.
 
-#![allow(dead_code)] // each test crate uses a different subset
-
 pub mod hostile;
 
 use std::net::SocketAddr;
