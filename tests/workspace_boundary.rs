@@ -478,55 +478,27 @@ fn the_core_s_public_functions_return_typed_errors() {
     );
 }
 
-/// The shell's files still allowed public functions returning `Result<_, String>`, each with
-/// why; the list only shrinks (an entry whose file no longer has one fails the test too).
-const SHELL_STRING_ERRORS_LEFT: [(&str, &str); 2] = [
-    (
-        "crates/rockwatch/src/status.rs",
-        "StatusConfig::validate, rosout: left while the ROS 2 status work edits the file (issue 19)",
-    ),
-    (
-        "crates/rockwatch/src/web/config.rs",
-        "WebConfig::validate, token, load_token: left while the web dashboard work edits the file \
-         (issue 19)",
-    ),
-];
-
 #[test]
 fn the_shell_s_public_functions_return_typed_errors() {
     let root = repo_root();
     let mut files = Vec::new();
     rust_files(&root.join("crates/rockwatch/src"), &mut files);
     assert!(files.len() > 50, "{files:?}");
-    let mut offenders = Vec::new();
-    let mut left_with_some = Vec::new();
-    for f in &files {
-        let code = std::fs::read_to_string(f).expect("source file");
-        let found = string_error_signatures(&code);
-        let relative = f.strip_prefix(&root).unwrap_or(f).display().to_string();
-        if SHELL_STRING_ERRORS_LEFT
-            .iter()
-            .any(|(file, _)| *file == relative)
-        {
-            if !found.is_empty() {
-                left_with_some.push(relative);
-            }
-            continue;
-        }
-        offenders.extend(found.into_iter().map(|s| format!("{relative}: {s}")));
-    }
+    let offenders: Vec<String> = files
+        .iter()
+        .flat_map(|f| {
+            let code = std::fs::read_to_string(f).expect("source file");
+            let relative = f.strip_prefix(&root).unwrap_or(f).display().to_string();
+            string_error_signatures(&code)
+                .into_iter()
+                .map(move |s| format!("{relative}: {s}"))
+        })
+        .collect();
     assert!(
         offenders.is_empty(),
         "public functions of the shell returning Result<_, String> (give them a thiserror \
          type): {offenders:#?}"
     );
-    for (file, why) in SHELL_STRING_ERRORS_LEFT {
-        assert!(
-            left_with_some.iter().any(|f| f == file),
-            "{file} is allowed string errors ({why}) but has none left: remove it from \
-             SHELL_STRING_ERRORS_LEFT"
-        );
-    }
 }
 
 #[test]

@@ -368,7 +368,7 @@ pub enum AcquireConfigProblem {
     Assembly(String),
     /// A `[metrics]` value is invalid (e.g. a non-loopback listen without a token).
     #[error("{0}")]
-    Metrics(String),
+    Metrics(crate::web::config::ListenerError),
 }
 
 impl AcquireConfig {

@@ -117,7 +117,7 @@ mod tests {
             listen: Some("0.0.0.0:9464".into()),
             token_file: None,
         };
-        let e = open.token().unwrap_err();
+        let e = open.token().unwrap_err().to_string();
         assert!(
             e.contains("[metrics] listen") && e.contains("[metrics] token_file"),
             "{e}"

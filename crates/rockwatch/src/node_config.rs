@@ -210,10 +210,10 @@ pub enum NodeConfigProblem {
     Notify(usize, crate::notify::NotifyConfigError),
     /// A `[status]` value is invalid.
     #[error("{0}")]
-    Status(String),
+    Status(crate::status::StatusConfigError),
     /// A `[web]` or `[metrics]` value is invalid (e.g. a non-loopback listen without a token).
     #[error("{0}")]
-    Listener(String),
+    Listener(crate::web::config::ListenerError),
     /// `[web] tiles` or `tiles_attribution` is invalid.
     #[error("{0}")]
     Tiles(crate::web::tiles::TilesConfigError),
@@ -276,7 +276,7 @@ impl NodeConfig {
             .map_err(|e| error(NodeConfigProblem::Tiles(e)))?;
         config
             .web
-            .validate()
+            .token()
             .map_err(|e| error(NodeConfigProblem::Listener(e)))?;
         config.metrics.resolve(base);
         config

@@ -915,29 +915,35 @@ impl Default for StatusConfig {
     }
 }
 
+/// Why the `[status]` section is refused (the message names the key).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StatusConfigError {
+    #[error("status.diagnostics_period_s = {0} is out of range [0.1, 3600] s")]
+    DiagnosticsPeriod(f64),
+    #[error("status.rosout_level = {0:?}: expected debug, info, warn, error or off")]
+    RosoutLevel(String),
+}
+
 impl StatusConfig {
-    /// Checks the values; the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks the values.
+    pub fn validate(&self) -> Result<(), StatusConfigError> {
         if !(self.diagnostics_period_s >= 0.1 && self.diagnostics_period_s <= 3600.0) {
-            return Err(format!(
-                "status.diagnostics_period_s = {} is out of range [0.1, 3600] s",
-                self.diagnostics_period_s
+            return Err(StatusConfigError::DiagnosticsPeriod(
+                self.diagnostics_period_s,
             ));
         }
         self.rosout().map(|_| ())
     }
 
     /// The `/rosout` level (None: off).
-    pub fn rosout(&self) -> Result<Option<tracing::Level>, String> {
+    pub fn rosout(&self) -> Result<Option<tracing::Level>, StatusConfigError> {
         match self.rosout_level.as_str() {
             "off" => Ok(None),
             "debug" => Ok(Some(tracing::Level::DEBUG)),
             "info" => Ok(Some(tracing::Level::INFO)),
             "warn" => Ok(Some(tracing::Level::WARN)),
             "error" => Ok(Some(tracing::Level::ERROR)),
-            other => Err(format!(
-                "status.rosout_level = {other:?}: expected debug, info, warn, error or off"
-            )),
+            other => Err(StatusConfigError::RosoutLevel(other.to_owned())),
         }
     }
 }

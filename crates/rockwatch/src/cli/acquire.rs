@@ -116,10 +116,7 @@ pub fn run(args: AcquireArgs) -> anyhow::Result<()> {
     }
     let inventory = Inventory::read_all(&config.inventory.stationxml)?;
     let metrics = match &config.metrics.listen {
-        Some(listen) => Some(MetricsServer::start(
-            listen,
-            config.metrics.token().map_err(anyhow::Error::msg)?,
-        )?),
+        Some(listen) => Some(MetricsServer::start(listen, config.metrics.token()?)?),
         None => None,
     };
     let mut client = SeedLinkClient::new(config.seedlink.clone(), state_dir.as_deref())?;

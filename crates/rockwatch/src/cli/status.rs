@@ -254,10 +254,7 @@ fn report(args: &StatusArgs) -> anyhow::Result<Report> {
     match (&args.node, &args.state_dir) {
         (Some(url), _) => {
             let token = match &args.token_file {
-                Some(file) => Some(
-                    rockwatch::web::config::load_token("--token-file", file)
-                        .map_err(anyhow::Error::msg)?,
-                ),
+                Some(file) => Some(rockwatch::web::config::load_token("--token-file", file)?),
                 None => None,
             };
             if !(args.timeout_s.is_finite() && args.timeout_s > 0.0) {

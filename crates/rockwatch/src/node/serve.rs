@@ -281,7 +281,7 @@ impl Reactor {
             None => None,
         };
         // The node's own log records at or above `[status] rosout_level` also go to /rosout.
-        crate::logging::enable_rosout(config.status.rosout().map_err(anyhow::Error::msg)?);
+        crate::logging::enable_rosout(config.status.rosout()?);
         let web = WebServer::start(&config.web, &config.metrics)?;
         Ok(Reactor {
             runtime,

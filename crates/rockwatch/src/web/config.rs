@@ -57,14 +57,15 @@ impl WebConfig {
     /// Checks the section: the tile keys ([`WebConfig::tiles`]); `listen` parses as
     /// `host:port`, and an address that is not loopback has a `token_file` (which must hold a
     /// token of at least [`MIN_TOKEN_BYTES`]). The error names the key.
-    pub fn validate(&self) -> Result<(), String> {
-        self.tiles().map_err(|e| e.to_string())?;
-        self.token().map(|_| ())
+    pub fn validate(&self) -> Result<(), WebConfigError> {
+        self.tiles()?;
+        self.token()?;
+        Ok(())
     }
 
-    /// The token, if `token_file` is set (read now), after the checks of
-    /// [`WebConfig::validate`].
-    pub fn token(&self) -> Result<Option<String>, String> {
+    /// The token, if `token_file` is set (read now), after the listener's checks
+    /// ([`listener_token`]).
+    pub fn token(&self) -> Result<Option<String>, ListenerError> {
         listener_token("[web]", self.listen.as_deref(), self.token_file.as_deref())
     }
 
@@ -99,7 +100,7 @@ impl MetricsConfig {
 
     /// Checks the section (the rule of [`listener_token`]) and reads the
     /// token, if `token_file` is set. The error names the key.
-    pub fn token(&self) -> Result<Option<String>, String> {
+    pub fn token(&self) -> Result<Option<String>, ListenerError> {
         listener_token(
             "[metrics]",
             self.listen.as_deref(),
@@ -108,62 +109,121 @@ impl MetricsConfig {
     }
 }
 
+/// Why the `[web]` section is refused (the message names the key).
+#[derive(Debug, thiserror::Error)]
+pub enum WebConfigError {
+    #[error(transparent)]
+    Tiles(#[from] TilesConfigError),
+    #[error(transparent)]
+    Listener(#[from] ListenerError),
+}
+
+/// Why a listener's keys (`{section} listen`, `{section} token_file`) are refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ListenerError {
+    #[error("{section} token_file is set but {section} listen is not")]
+    TokenWithoutListen { section: &'static str },
+    #[error("{section} listen = {listen:?}: not a host:port address ({error})")]
+    NotAnAddress {
+        section: &'static str,
+        listen: String,
+        error: std::io::Error,
+    },
+    #[error("{section} listen = {listen:?}: resolves to no address")]
+    NoAddress {
+        section: &'static str,
+        listen: String,
+    },
+    #[error(
+        "{section} listen = {listen:?} is not a loopback address: it would be open to the \
+         network; set {section} token_file (a bearer token checked on every request) or \
+         listen on 127.0.0.1"
+    )]
+    NotLoopback {
+        section: &'static str,
+        listen: String,
+    },
+    #[error(transparent)]
+    Token(#[from] TokenFileError),
+}
+
+/// Why a token file is refused; `key` names where it was given (`[web] token_file`,
+/// `--token-file`).
+#[derive(Debug, thiserror::Error)]
+pub enum TokenFileError {
+    #[error("{key} = {file:?}: {error}")]
+    Unreadable {
+        key: String,
+        file: String,
+        error: std::io::Error,
+    },
+    #[error(
+        "{key} = {file:?}: the token must be one word of at least {MIN_TOKEN_BYTES} characters"
+    )]
+    NotAToken { key: String, file: String },
+}
+
 /// The rule of every listener the node opens (`[web]`, `[metrics]`): `listen` parses as
 /// `host:port`; an address that is not loopback (every address it resolves to in 127.0.0.0/8
 /// or `::1`) needs `token_file`, whose token every request must then carry. Returns that
 /// token (read now); errors name `section`'s keys.
 pub fn listener_token(
-    section: &str,
+    section: &'static str,
     listen: Option<&str>,
     token_file: Option<&Path>,
-) -> Result<Option<String>, String> {
+) -> Result<Option<String>, ListenerError> {
     let Some(listen) = listen else {
         if token_file.is_some() {
-            return Err(format!(
-                "{section} token_file is set but {section} listen is not"
-            ));
+            return Err(ListenerError::TokenWithoutListen { section });
         }
         return Ok(None);
     };
     let addresses = resolve(section, listen)?;
     let loopback = addresses.iter().all(|a| a.ip().is_loopback());
     match token_file {
-        Some(file) => load_token(&format!("{section} token_file"), file).map(Some),
+        Some(file) => Ok(Some(load_token(&format!("{section} token_file"), file)?)),
         None if loopback => Ok(None),
-        None => Err(format!(
-            "{section} listen = {listen:?} is not a loopback address: it would be open to the \
-             network; set {section} token_file (a bearer token checked on every request) or \
-             listen on 127.0.0.1"
-        )),
+        None => Err(ListenerError::NotLoopback {
+            section,
+            listen: listen.to_owned(),
+        }),
     }
 }
 
-/// Every address `listen` (`host:port`) stands for; an error names `{section} listen`.
-fn resolve(section: &str, listen: &str) -> Result<Vec<SocketAddr>, String> {
+/// Every address `listen` (`host:port`) stands for.
+fn resolve(section: &'static str, listen: &str) -> Result<Vec<SocketAddr>, ListenerError> {
     let addresses: Vec<SocketAddr> = listen
         .to_socket_addrs()
-        .map_err(|e| format!("{section} listen = {listen:?}: not a host:port address ({e})"))?
+        .map_err(|error| ListenerError::NotAnAddress {
+            section,
+            listen: listen.to_owned(),
+            error,
+        })?
         .collect();
     if addresses.is_empty() {
-        return Err(format!(
-            "{section} listen = {listen:?}: resolves to no address"
-        ));
+        return Err(ListenerError::NoAddress {
+            section,
+            listen: listen.to_owned(),
+        });
     }
     Ok(addresses)
 }
 
 /// Reads a token file: its content trimmed; an error names `key` (`[web] token_file`,
 /// `--token-file`).
-pub fn load_token(key: &str, file: &Path) -> Result<String, String> {
+pub fn load_token(key: &str, file: &Path) -> Result<String, TokenFileError> {
     let text = rockwatch_core::bounded_read::read_to_string_bounded(file, MAX_TOKEN_BYTES)
-        .map_err(|e| format!("{key} = {:?}: {e}", file.display().to_string()))?;
+        .map_err(|error| TokenFileError::Unreadable {
+            key: key.to_owned(),
+            file: file.display().to_string(),
+            error,
+        })?;
     let token = text.trim();
     if token.len() < MIN_TOKEN_BYTES || token.chars().any(|c| c.is_whitespace()) {
-        return Err(format!(
-            "{key} = {:?}: the token must be one word of at least {MIN_TOKEN_BYTES} \
-             characters",
-            file.display().to_string()
-        ));
+        return Err(TokenFileError::NotAToken {
+            key: key.to_owned(),
+            file: file.display().to_string(),
+        });
     }
     Ok(token.to_string())
 }
@@ -200,12 +260,21 @@ mod tests {
         assert!(config("[::1]:0", None).validate().is_ok());
         assert!(config("localhost:0", None).validate().is_ok());
         let e = config("0.0.0.0:8080", None).validate().unwrap_err();
+        assert!(matches!(
+            e,
+            WebConfigError::Listener(ListenerError::NotLoopback { .. })
+        ));
+        let e = e.to_string();
         assert!(
             e.contains("not a loopback address") && e.contains("token_file"),
             "{e}"
         );
         let e = config("nonsense", None).validate().unwrap_err();
-        assert!(e.contains("[web] listen"), "{e}");
+        assert!(matches!(
+            e,
+            WebConfigError::Listener(ListenerError::NotAnAddress { .. })
+        ));
+        assert!(e.to_string().contains("[web] listen"), "{e}");
         assert!(WebConfig::default().validate().is_ok());
     }
 
@@ -217,7 +286,11 @@ mod tests {
         let e = config("0.0.0.0:0", Some(file.clone()))
             .validate()
             .unwrap_err();
-        assert!(e.contains("at least"), "{e}");
+        assert!(matches!(
+            e,
+            WebConfigError::Listener(ListenerError::Token(TokenFileError::NotAToken { .. }))
+        ));
+        assert!(e.to_string().contains("at least"), "{e}");
         std::fs::write(&file, "0123456789abcdef0123\n").unwrap();
         let c = config("0.0.0.0:0", Some(file));
         assert!(c.validate().is_ok());
@@ -225,7 +298,11 @@ mod tests {
         let e = config("0.0.0.0:0", Some(dir.path().join("missing")))
             .validate()
             .unwrap_err();
-        assert!(e.contains("[web] token_file"), "{e}");
+        assert!(matches!(
+            e,
+            WebConfigError::Listener(ListenerError::Token(TokenFileError::Unreadable { .. }))
+        ));
+        assert!(e.to_string().contains("[web] token_file"), "{e}");
     }
 
     #[test]

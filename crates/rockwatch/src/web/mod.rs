@@ -81,13 +81,13 @@ impl WebServer {
         let (alerts, mut alerts_rx) = mpsc::channel::<Publication>(ALERT_QUEUE);
         let mut listeners = Vec::new();
         if let Some(listen) = &web.listen {
-            let token = web.token().map_err(anyhow::Error::msg)?;
+            let token = web.token()?;
             let page = page::Page::new(web.tiles()?.as_ref());
             let router = guarded(dashboard_router(Arc::clone(&shared), page), token);
             listeners.push(Listener::bind("[web] listen", listen, router)?);
         }
         if let Some(listen) = metrics_listen {
-            let token = metrics.token().map_err(anyhow::Error::msg)?;
+            let token = metrics.token()?;
             let router = guarded(metrics_router(Arc::clone(&shared)), token);
             listeners.push(Listener::bind("[metrics] listen", listen, router)?);
         }
