@@ -6,6 +6,8 @@
 //! (rtol 1e-9, atol 1e-12) moves the peaks against a 100× tighter reference (target ≤ 1e-6
 //! relative): the speed is that of an integration whose peaks are right to that bound.
 
+mod thread_time;
+
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rockwatch_core::dynamics::{BlockOptions, BlockParams, GroundAccel, Mode, RigidBlock};
 use std::hint::black_box;
@@ -77,14 +79,9 @@ fn tolerance_effect(name: &str, block: &RigidBlock, input: &[GroundAccel]) -> f6
     d_theta.max(d_slide)
 }
 
-/// This thread's CPU time so far (ns), from `/proc/thread-self/schedstat` (None if unreadable).
+/// This thread's CPU time so far (ns), None if unreadable.
 fn thread_cpu_ns() -> Option<u64> {
-    std::fs::read_to_string("/proc/thread-self/schedstat")
-        .ok()?
-        .split_whitespace()
-        .next()?
-        .parse()
-        .ok()
+    thread_time::run_and_wait_ns().map(|(run, _)| run)
 }
 
 /// Prints the CPU time (not wall time: on a shared machine the thread also waits for a CPU)

@@ -21,6 +21,8 @@
 //!
 //! Moving blocks' cost per sample: `cargo bench --bench block_step` (b, c).
 
+mod thread_time;
+
 use std::time::Instant;
 
 use rockwatch_core::azimuth::Azimuth;
@@ -137,15 +139,11 @@ fn process_cpu_s() -> f64 {
     (fields.get(11).copied().unwrap_or(0.0) + fields.get(12).copied().unwrap_or(0.0)) / 100.0
 }
 
-/// This thread's time on a CPU and waiting for one (run queue), in s, from
-/// /proc/thread-self/schedstat (zeros if unavailable). On a shared machine the CPU time is
-/// what the engine needs of a core; the wall time also holds the waits for one.
+/// This thread's time on a CPU and waiting for one (run queue), in s (zeros if unavailable).
 fn thread_cpu_and_wait_s() -> (f64, f64) {
-    let text = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
-    let mut fields = text
-        .split_whitespace()
-        .map(|f| f.parse::<f64>().unwrap_or(0.0) * 1e-9);
-    (fields.next().unwrap_or(0.0), fields.next().unwrap_or(0.0))
+    thread_time::run_and_wait_ns().map_or((0.0, 0.0), |(run, wait)| {
+        (run as f64 * 1e-9, wait as f64 * 1e-9)
+    })
 }
 
 /// What one timed run measured.

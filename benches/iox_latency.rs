@@ -14,6 +14,7 @@
 //! station's latest packet sent before the alert arrived.
 
 mod common;
+mod thread_time;
 use common::{percentile, rinaldi, station, station_packets, write_catalogue, SendLog};
 
 use std::path::{Path, PathBuf};
@@ -209,10 +210,7 @@ fn thread_sched() -> (u64, u64, u64) {
         .find_map(|l| l.strip_prefix("nonvoluntary_ctxt_switches:"))
         .and_then(|v| v.trim().parse().ok())
         .unwrap_or(0);
-    let sched = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
-    let mut f = sched.split_whitespace().map(|v| v.parse().unwrap_or(0));
-    let run = f.next().unwrap_or(0);
-    let wait = f.next().unwrap_or(0);
+    let (run, wait) = thread_time::run_and_wait_ns().unwrap_or((0, 0));
     (involuntary, wait, run)
 }
 

@@ -25,6 +25,7 @@
 //! packet every 250 µs.
 
 mod common;
+mod thread_time;
 use common::{percentile, rinaldi, station_packets, write_catalogue, SendLog};
 
 use std::io::{BufRead, BufReader, Read, Write};
@@ -53,15 +54,9 @@ const MEDIAN_TOLERANCE_US: f64 = 3.0;
 /// (relative).
 const CPU_TOLERANCE: f64 = 0.25;
 
-/// CPU time the calling thread has run (ns): the first field of
-/// `/proc/thread-self/schedstat` (Linux), None if unreadable.
+/// This thread's CPU time so far (ns), None if unreadable.
 fn thread_cpu_ns() -> Option<u64> {
-    std::fs::read_to_string("/proc/thread-self/schedstat")
-        .ok()?
-        .split_whitespace()
-        .next()?
-        .parse()
-        .ok()
+    thread_time::run_and_wait_ns().map(|(run, _)| run)
 }
 
 /// One run's figures.
